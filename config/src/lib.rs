@@ -1,0 +1,327 @@
+//! Scenario schema of a swarm run, parsed from TOML and validated.
+//!
+//! A scenario says everything a run needs: the world (explicit trees and walls, or a generated
+//! forest), the swarm (count, start, goal, who is informed), body limits, the LIDAR, the radio,
+//! the time mode, the controller with its parameters, the localization mode and the end
+//! conditions. Every struct rejects unknown fields, and every error names the file, the field
+//! (as a dotted path) and what is wrong, so a typo never silently falls back to a default.
+//!
+//! Entry points: [`Scenario::from_file`], [`Scenario::from_toml_str`], [`builtin`] (the scenarios
+//! shipped in `scenarios/`, compiled in so `swarm run` works with no argument).
+//!
+//! Architecture invariant: this crate is pure data plus validation. It knows nothing of Zenoh,
+//! of geometry libraries or of how the world is simulated; forest generation lives in
+//! `physics-hub`, which is the only holder of ground truth.
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+mod schema;
+pub use schema::*;
+
+/// A scenario could not be read or is invalid. Always names the source, the field and the problem.
+#[derive(Debug, thiserror::Error)]
+#[error("{source_name}: field `{field}`: {message}")]
+pub struct ScenarioError {
+    /// The file (or built-in name) the scenario came from.
+    pub source_name: String,
+    /// Dotted path of the offending field, or `(file)` when the file itself is the problem.
+    pub field: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl ScenarioError {
+    fn new(source_name: &str, field: impl Into<String>, message: impl Into<String>) -> Self {
+        ScenarioError { source_name: source_name.to_string(), field: field.into(), message: message.into() }
+    }
+}
+
+/// Built-in scenarios, `(name, toml text)`: the files of `scenarios/`, compiled in.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("forest-5", include_str!("../../scenarios/forest-5.toml")),
+    ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
+    ("example", include_str!("../../scenarios/example.toml")),
+];
+
+/// The scenario `swarm run` uses when given none.
+pub const DEFAULT_SCENARIO: &str = "forest-5";
+
+/// Looks up a built-in scenario by name and parses it.
+pub fn builtin(name: &str) -> Result<Scenario, ScenarioError> {
+    let (_, text) = BUILTIN
+        .iter()
+        .find(|(n, _)| *n == name)
+        .ok_or_else(|| ScenarioError::new(name, "(file)", format!("no built-in scenario named `{name}`")))?;
+    Scenario::from_toml_str(text, &format!("builtin:{name}"))
+}
+
+impl Scenario {
+    /// Reads and validates a scenario file.
+    pub fn from_file(path: &Path) -> Result<Scenario, ScenarioError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ScenarioError::new(&name, "(file)", format!("cannot read: {e}")))?;
+        Scenario::from_toml_str(&text, &name)
+    }
+
+    /// Resolves a `swarm run` argument: a path to a TOML file, or the name of a built-in.
+    pub fn from_arg(arg: &str) -> Result<(Scenario, String), ScenarioError> {
+        let path = Path::new(arg);
+        if path.exists() {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| ScenarioError::new(arg, "(file)", format!("cannot read: {e}")))?;
+            let sc = Scenario::from_toml_str(&text, arg)?;
+            return Ok((sc, text));
+        }
+        match BUILTIN.iter().find(|(n, _)| *n == arg) {
+            Some((_, text)) => Ok((Scenario::from_toml_str(text, &format!("builtin:{arg}"))?, text.to_string())),
+            None => Err(ScenarioError::new(
+                arg,
+                "(file)",
+                format!(
+                    "no such file, and no built-in scenario of that name (built-ins: {})",
+                    BUILTIN.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+                ),
+            )),
+        }
+    }
+
+    /// Parses and validates scenario TOML; `source_name` is used in error messages.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Scenario, ScenarioError> {
+        let de = toml::Deserializer::new(text);
+        let sc: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
+            let field = e.path().to_string();
+            let field = if field == "." { "(top level)".to_string() } else { field };
+            ScenarioError::new(source_name, field, e.into_inner().message().trim().to_string())
+        })?;
+        sc.validate().map_err(|(field, msg)| ScenarioError::new(source_name, field, msg))?;
+        Ok(sc)
+    }
+
+    /// Number of UAVs.
+    pub fn count(&self) -> usize {
+        self.swarm.count as usize
+    }
+
+    /// The UAV ids of this scenario, `1..=count`.
+    pub fn uav_ids(&self) -> impl Iterator<Item = u32> {
+        1..=self.swarm.count
+    }
+
+    /// Whether UAV `id` knows the goal.
+    pub fn is_informed(&self, id: u32) -> bool {
+        match &self.swarm.informed {
+            Informed::All(_) => true,
+            Informed::Ids(ids) => ids.contains(&id),
+        }
+    }
+
+    /// Control period in seconds.
+    pub fn dt_secs(&self) -> f64 {
+        1.0 / self.time.control_hz
+    }
+}
+
+/// `informed = "all"` or `informed = [1, 3]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Informed {
+    /// Every UAV knows the goal (the string must be `"all"`).
+    All(AllMarker),
+    /// Only these UAV ids know the goal.
+    Ids(Vec<u32>),
+}
+
+/// The literal string `"all"`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AllMarker {
+    /// `"all"`
+    All,
+}
+
+type Check = Result<(), (String, String)>;
+
+fn positive(field: &str, v: f64) -> Check {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err((field.into(), format!("must be a finite number > 0, got {v}")))
+    }
+}
+
+fn non_negative(field: &str, v: f64) -> Check {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err((field.into(), format!("must be a finite number >= 0, got {v}")))
+    }
+}
+
+fn finite(field: &str, v: &[f64]) -> Check {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err((field.into(), format!("must be finite numbers, got {v:?}")))
+    }
+}
+
+impl Scenario {
+    fn validate(&self) -> Check {
+        if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+            return Err(("name".into(), format!("must be non-empty and use only [A-Za-z0-9_-], got {:?}", self.name)));
+        }
+        self.validate_world()?;
+        self.validate_swarm()?;
+        self.validate_sensors()?;
+        positive("time.control_hz", self.time.control_hz)?;
+        positive("time.realtime_factor", self.time.realtime_factor)?;
+        if self.time.tick_timeout_ms == 0 {
+            return Err(("time.tick_timeout_ms".into(), "must be > 0".into()));
+        }
+        self.controller.k21.validate("controller.k21")?;
+        self.perception.validate()?;
+        positive("end.goal_radius_m", self.end.goal_radius_m)?;
+        positive("end.time_limit_s", self.end.time_limit_s)?;
+        Ok(())
+    }
+
+    fn validate_world(&self) -> Check {
+        for (i, t) in self.world.trees.iter().enumerate() {
+            finite(&format!("world.trees[{i}]"), &[t.x, t.y])?;
+            positive(&format!("world.trees[{i}].r"), t.r)?;
+        }
+        for (i, w) in self.world.walls.iter().enumerate() {
+            finite(&format!("world.walls[{i}]"), &[w.x1, w.y1, w.x2, w.y2])?;
+            positive(&format!("world.walls[{i}].thickness"), w.thickness)?;
+            if (w.x1 - w.x2).hypot(w.y1 - w.y2) < 1e-6 {
+                return Err((format!("world.walls[{i}]"), "wall has zero length".into()));
+            }
+        }
+        if let Some(f) = &self.world.forest {
+            let r = &f.region;
+            finite("world.forest.region", &[r.x_min, r.x_max, r.y_min, r.y_max])?;
+            if r.x_min >= r.x_max || r.y_min >= r.y_max {
+                return Err(("world.forest.region".into(), "needs x_min < x_max and y_min < y_max".into()));
+            }
+            positive("world.forest.density_per_100m2", f.density_per_100m2)?;
+            non_negative("world.forest.min_spacing_m", f.min_spacing_m)?;
+            let [lo, hi] = f.trunk_radius_m;
+            if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+                return Err(("world.forest.trunk_radius_m".into(), format!("needs 0 < min <= max, got [{lo}, {hi}]")));
+            }
+            for (i, c) in f.keep_clear.iter().enumerate() {
+                finite(&format!("world.forest.keep_clear[{i}]"), &[c.x, c.y])?;
+                positive(&format!("world.forest.keep_clear[{i}].r"), c.r)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn validate_swarm(&self) -> Check {
+        let s = &self.swarm;
+        if s.count == 0 || s.count > 1000 {
+            return Err(("swarm.count".into(), format!("must be between 1 and 1000, got {}", s.count)));
+        }
+        match (&s.start_positions, &s.start_area) {
+            (Some(_), Some(_)) => {
+                return Err(("swarm.start_positions".into(), "give start_positions or start_area, not both".into()))
+            }
+            (None, None) => {
+                return Err(("swarm".into(), "needs start_positions or start_area".into()));
+            }
+            (Some(p), None) => {
+                if p.len() != s.count as usize {
+                    return Err((
+                        "swarm.start_positions".into(),
+                        format!("has {} entries but swarm.count is {}", p.len(), s.count),
+                    ));
+                }
+                for (i, xy) in p.iter().enumerate() {
+                    finite(&format!("swarm.start_positions[{i}]"), xy)?;
+                }
+            }
+            (None, Some(a)) => {
+                finite("swarm.start_area.center", &a.center)?;
+                positive("swarm.start_area.radius_m", a.radius_m)?;
+                positive("swarm.start_area.min_spacing_m", a.min_spacing_m)?;
+            }
+        }
+        finite("swarm.goal", &s.goal)?;
+        finite("swarm.start_heading_deg", &[s.start_heading_deg])?;
+        if let Informed::Ids(ids) = &s.informed {
+            if let Some(bad) = ids.iter().find(|&&i| i == 0 || i > s.count) {
+                return Err(("swarm.informed".into(), format!("UAV id {bad} is not in 1..={}", s.count)));
+            }
+        }
+        let b = &self.body;
+        positive("body.radius_m", b.radius_m)?;
+        positive("body.max_speed_mps", b.max_speed_mps)?;
+        positive("body.max_accel_mps2", b.max_accel_mps2)?;
+        positive("body.max_yaw_rate_dps", b.max_yaw_rate_dps)?;
+        Ok(())
+    }
+
+    fn validate_sensors(&self) -> Check {
+        let l = &self.lidar;
+        if l.beams < 3 || l.beams > 100_000 {
+            return Err(("lidar.beams".into(), format!("must be between 3 and 100000, got {}", l.beams)));
+        }
+        positive("lidar.max_range_m", l.max_range_m)?;
+        non_negative("lidar.noise_std_m", l.noise_std_m)?;
+        if !(0.0..1.0).contains(&l.dropout) {
+            return Err(("lidar.dropout".into(), format!("must be in [0, 1), got {}", l.dropout)));
+        }
+        positive("radio.range_m", self.radio.range_m)?;
+        non_negative("radio.hysteresis_m", self.radio.hysteresis_m)?;
+        Ok(())
+    }
+}
+
+impl K21Params {
+    fn validate(&self, at: &str) -> Check {
+        for (name, v) in [
+            ("kc", self.kc),
+            ("ks", self.ks),
+            ("ko", self.ko),
+            ("kn", self.kn),
+        ] {
+            non_negative(&format!("{at}.{name}"), v)?;
+        }
+        for (name, v) in [
+            ("kf", self.kf),
+            ("cohesion_radius_m", self.cohesion_radius_m),
+            ("separation_radius_m", self.separation_radius_m),
+            ("separation_scale_m", self.separation_scale_m),
+            ("avoidance_radius_m", self.avoidance_radius_m),
+            ("avoidance_gain_m", self.avoidance_gain_m),
+            ("obstacle_near_m", self.obstacle_near_m),
+            ("heading_gain", self.heading_gain),
+        ] {
+            positive(&format!("{at}.{name}"), v)?;
+        }
+        if !(0.0..=180.0).contains(&self.avoidance_ignore_deg) {
+            return Err((format!("{at}.avoidance_ignore_deg"), "must be in [0, 180]".into()));
+        }
+        Ok(())
+    }
+}
+
+impl PerceptionParams {
+    fn validate(&self) -> Check {
+        positive("perception.group_gap_m", self.group_gap_m)?;
+        if self.min_points < 3 {
+            return Err(("perception.min_points".into(), "must be at least 3 (a circle has 3 unknowns)".into()));
+        }
+        let [lo, hi] = self.radius_range_m;
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+            return Err(("perception.radius_range_m".into(), format!("needs 0 < min <= max, got [{lo}, {hi}]")));
+        }
+        non_negative("perception.neighbour_match_m", self.neighbour_match_m)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,109 @@
+use super::*;
+
+const MINIMAL: &str = r#"
+name = "t"
+[swarm]
+count = 2
+start_positions = [[0.0, 0.0], [1.0, 0.0]]
+goal = [10.0, 0.0]
+"#;
+
+fn err(text: &str) -> ScenarioError {
+    Scenario::from_toml_str(text, "x.toml").expect_err("scenario should be rejected")
+}
+
+#[test]
+fn every_builtin_parses() {
+    for (name, _) in BUILTIN {
+        let sc = builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(&sc.name, name, "built-in name matches its file's name field");
+    }
+}
+
+#[test]
+fn example_file_sets_every_section_away_from_nothing() {
+    let sc = builtin("example").expect("example parses");
+    assert_eq!(sc.world.trees.len(), 1);
+    assert_eq!(sc.world.walls.len(), 1);
+    assert!(sc.world.forest.is_some());
+    assert_eq!(sc.swarm.count, 3);
+    assert_eq!(sc.lidar.beams, 750);
+    assert_eq!(sc.controller.k21.kf, 0.4);
+}
+
+#[test]
+fn minimal_scenario_gets_documented_defaults() {
+    let sc = Scenario::from_toml_str(MINIMAL, "m.toml").expect("minimal parses");
+    assert_eq!(sc.body.radius_m, 0.3);
+    assert_eq!(sc.lidar.max_range_m, 12.0);
+    assert_eq!(sc.time.mode, TimeMode::Lockstep);
+    assert!(sc.is_informed(2));
+    assert_eq!(sc.uav_ids().collect::<Vec<_>>(), vec![1, 2]);
+    assert!((sc.dt_secs() - 0.1).abs() < 1e-12);
+}
+
+#[test]
+fn unknown_field_names_file_and_field() {
+    let e = err(&MINIMAL.replace("[swarm]", "[swarm]\ncuont = 3"));
+    let text = e.to_string();
+    assert_eq!(e.source_name, "x.toml");
+    assert!(text.contains("x.toml"), "{text}");
+    assert!(e.message.contains("cuont"), "{text}");
+    assert!(e.field.starts_with("swarm"), "{text}");
+}
+
+#[test]
+fn unknown_nested_field_has_dotted_path() {
+    let e = err(&format!("{MINIMAL}\n[controller.k21]\nkz = 1.0\n"));
+    assert!(e.field.starts_with("controller.k21"), "{e}");
+    assert!(e.message.contains("kz"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_field() {
+    let e = err(&format!("{MINIMAL}\n[lidar]\nbeams = \"many\"\n"));
+    assert_eq!(e.field, "lidar.beams", "{e}");
+}
+
+#[test]
+fn bad_enum_value_names_field() {
+    let e = err(&format!("{MINIMAL}\n[time]\nmode = \"fast\"\n"));
+    assert_eq!(e.field, "time.mode", "{e}");
+    assert!(e.message.contains("fast"), "{e}");
+}
+
+#[test]
+fn semantic_errors_name_field() {
+    let cases = [
+        (format!("{MINIMAL}\n[lidar]\nmax_range_m = -1.0\n"), "lidar.max_range_m"),
+        (format!("{MINIMAL}\n[time]\ncontrol_hz = 0.0\n"), "time.control_hz"),
+        (MINIMAL.replace("count = 2", "count = 3"), "swarm.start_positions"),
+        (MINIMAL.replace("goal = [10.0, 0.0]", "goal = [10.0, 0.0]\ninformed = [5]"), "swarm.informed"),
+        (format!("{MINIMAL}\n[perception]\nmin_points = 2\n"), "perception.min_points"),
+        (
+            format!("{MINIMAL}\n[world.forest]\nregion = {{ x_min = 5.0, x_max = 1.0, y_min = 0.0, y_max = 1.0 }}\ndensity_per_100m2 = 1.0\n"),
+            "world.forest.region",
+        ),
+        (format!("{MINIMAL}\n[[world.walls]]\nx1 = 0.0\ny1 = 0.0\nx2 = 0.0\ny2 = 0.0\n"), "world.walls[0]"),
+        (MINIMAL.replace("name = \"t\"", "name = \"a b\""), "name"),
+    ];
+    for (text, field) in cases {
+        let e = err(&text);
+        assert_eq!(e.field, field, "{e}");
+    }
+}
+
+#[test]
+fn missing_required_field_is_reported() {
+    let e = err(&MINIMAL.replace("goal = [10.0, 0.0]", ""));
+    assert!(e.message.contains("goal"), "{e}");
+}
+
+#[test]
+fn from_arg_resolves_builtin_and_reports_unknown() {
+    let (sc, text) = Scenario::from_arg("forest-5").expect("builtin by name");
+    assert_eq!(sc.name, "forest-5");
+    assert!(text.contains("forest-5"));
+    let e = Scenario::from_arg("no-such-thing").expect_err("unknown");
+    assert!(e.message.contains("built-ins"), "{e}");
+}
