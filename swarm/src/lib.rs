@@ -1,1 +1,19 @@
-//! placeholder
+//! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
+//!
+//! - [`cli`]: argument parsing and dispatch (`swarm run | hub | agent | record | tap | scenarios | check`).
+//! - [`launch`]: `swarm run`: starts the hub, one agent process per UAV and the recorder, shows
+//!   progress, stops at the end condition, writes the run folder.
+//! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV) and
+//!   accumulates the metrics of [`summary`].
+//! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
+//! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines.
+//!
+//! Architecture invariant: the launcher only starts processes and watches; all simulation lives
+//! in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of
+//! `truth/**` besides tools a person points at it.
+
+pub mod cli;
+pub mod launch;
+pub mod recorder;
+pub mod summary;
+pub mod tap;

@@ -1,0 +1,385 @@
+//! The hub on the network: a Zenoh router that runs [`Sim`] and speaks the lockstep protocol.
+//!
+//! One tick k in `lockstep` mode (SPEC section 2, refined):
+//! 1. publish the clock, then for every UAV its radio set, odometry, GNSS (broadcast mode) and
+//!    scan, in that order on one session, so an agent that has the scan has the rest;
+//! 2. wait until every agent holding a liveliness token has sent its command for tick k, or
+//!    `time.tick_timeout_ms` passes (a missing agent keeps its last command);
+//! 3. integrate to t_{k+1} and publish `truth/step` (the last one carries `ended`).
+//!
+//! In `realtime` mode step 2 is a wall-clock wait of dt / `realtime_factor`, and whatever
+//! commands arrived meanwhile are used. The hub holds the `alive/hub` token, which agents watch,
+//! and answers `swarm/{run}/scenario` with the scenario text so agents elsewhere need no file.
+
+use crate::sim::Sim;
+use std::collections::BTreeSet;
+use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use swarm_config::{Scenario, TimeMode};
+use swarm_wire::session::{self, Role};
+use swarm_wire::{Cmd, EndReason, Keys, Msg, TruthStep, WireError};
+use tokio::sync::{mpsc, Notify};
+use tracing::{debug, info, info_span, trace, warn, Instrument};
+use zenoh::qos::{CongestionControl, Priority};
+use zenoh::sample::SampleKind;
+use zenoh::Wait;
+
+/// Errors of the hub.
+#[derive(Debug, thiserror::Error)]
+pub enum HubError {
+    /// Zenoh or encoding trouble.
+    #[error(transparent)]
+    Wire(#[from] WireError),
+    /// Not one agent came alive before the startup timeout.
+    #[error("no agent came alive within {0:.0} s (is `swarm agent` pointed at this hub and run id?)")]
+    NoAgents(f64),
+}
+
+/// Where the hub listens and which run it serves.
+#[derive(Debug, Clone, Default)]
+pub struct HubOptions {
+    /// Run id: every key is under `swarm/{run}`.
+    pub run: String,
+    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:0`.
+    pub listen: Vec<String>,
+    /// Other routers to connect to (optional).
+    pub connect: Vec<String>,
+    /// `KEY:JSON5` Zenoh config overrides.
+    pub zenoh_cfg: Vec<String>,
+}
+
+/// What a finished run looked like from the hub.
+#[derive(Debug, Clone)]
+pub struct HubReport {
+    /// Ticks integrated.
+    pub ticks: u64,
+    /// Sim time at the end [s].
+    pub t_secs: f64,
+    /// Why it ended.
+    pub end: EndReason,
+    /// Malformed command payloads dropped.
+    pub malformed: u64,
+}
+
+type Publisher = zenoh::pubsub::Publisher<'static>;
+
+struct UavPubs {
+    radio: Publisher,
+    odom: Publisher,
+    gnss: Publisher,
+    scan: Publisher,
+}
+
+struct Net {
+    session: zenoh::Session,
+    keys: Keys,
+    clock: Publisher,
+    truth_world: Publisher,
+    truth_step: Publisher,
+    uavs: Vec<UavPubs>,
+    alive: Arc<Mutex<BTreeSet<u32>>>,
+    alive_changed: Arc<Notify>,
+    cmds: mpsc::UnboundedReceiver<(u32, Cmd)>,
+    malformed: Arc<AtomicU64>,
+}
+
+async fn publisher(s: &zenoh::Session, key: String, cc: CongestionControl) -> Result<Publisher, WireError> {
+    s.declare_publisher(key)
+        .encoding(session::encoding())
+        .congestion_control(cc)
+        .priority(Priority::Data)
+        .await
+        .map_err(WireError::zenoh)
+}
+
+async fn put(p: &Publisher, msg: &Msg) -> Result<(), WireError> {
+    p.put(msg.encode()?).await.map_err(WireError::zenoh)
+}
+
+/// Runs the hub until the scenario's end condition or `shutdown`. `on_listening` receives the
+/// locators the router listens on (with real ports) as soon as they are known.
+pub async fn run(
+    sc: Scenario,
+    scenario_text: String,
+    opts: HubOptions,
+    on_listening: impl FnOnce(&[String]),
+    shutdown: impl Future<Output = ()>,
+) -> Result<HubReport, HubError> {
+    let keys = Keys::new(&opts.run)?;
+    let s = session::open(Role::Router, &opts.listen, &opts.connect, &opts.zenoh_cfg).await?;
+    on_listening(&session::locators(&s).await);
+    let _token = s.liveliness().declare_token(keys.alive_hub()).await.map_err(WireError::zenoh)?;
+    let _scenario_q = declare_scenario_queryable(&s, &keys, scenario_text).await?;
+    let mut sim = Sim::new(&sc);
+    let _world_q = declare_world_queryable(&s, &keys, Msg::TruthWorld(sim.truth_world()).encode()?).await?;
+    let (net, _subs) = Net::declare(s, keys, &sc).await?;
+    let span = info_span!("hub", run = %opts.run);
+    let session = net.session.clone();
+    let result = net.run_loop(&sc, &mut sim, shutdown).instrument(span).await;
+    // Let the last truth step drain to the recorder before the router goes away.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    session.close().await.map_err(WireError::zenoh)?;
+    result
+}
+
+async fn declare_scenario_queryable(
+    s: &zenoh::Session,
+    keys: &Keys,
+    text: String,
+) -> Result<zenoh::query::Queryable<()>, WireError> {
+    s.declare_queryable(keys.scenario())
+        .callback(move |q| {
+            if let Err(e) = q.reply(q.key_expr().clone(), text.clone()).wait() {
+                warn!("scenario reply failed: {e}");
+            }
+        })
+        .await
+        .map_err(WireError::zenoh)
+}
+
+async fn declare_world_queryable(
+    s: &zenoh::Session,
+    keys: &Keys,
+    bytes: Vec<u8>,
+) -> Result<zenoh::query::Queryable<()>, WireError> {
+    s.declare_queryable(keys.truth_world())
+        .callback(move |q| {
+            if let Err(e) = q.reply(q.key_expr().clone(), bytes.clone()).encoding(session::encoding()).wait() {
+                warn!("world reply failed: {e}");
+            }
+        })
+        .await
+        .map_err(WireError::zenoh)
+}
+
+/// Subscriptions that must live as long as the loop.
+struct Subs {
+    _cmd: zenoh::pubsub::Subscriber<()>,
+    _alive: zenoh::pubsub::Subscriber<()>,
+}
+
+impl Net {
+    async fn declare(s: zenoh::Session, keys: Keys, sc: &Scenario) -> Result<(Net, Subs), WireError> {
+        let sensors_cc = match sc.time.mode {
+            TimeMode::Lockstep => CongestionControl::Block,
+            TimeMode::Realtime => CongestionControl::Drop,
+        };
+        let mut uavs = Vec::with_capacity(sc.count());
+        for id in sc.uav_ids() {
+            uavs.push(UavPubs {
+                radio: publisher(&s, keys.radio(id), sensors_cc).await?,
+                odom: publisher(&s, keys.odom(id), sensors_cc).await?,
+                gnss: publisher(&s, keys.gnss(id), sensors_cc).await?,
+                scan: publisher(&s, keys.scan(id), sensors_cc).await?,
+            });
+        }
+        let (cmd_tx, cmds) = mpsc::unbounded_channel();
+        let malformed = Arc::new(AtomicU64::new(0));
+        let bad = malformed.clone();
+        let cmd_sub = s
+            .declare_subscriber(keys.cmd_any())
+            .callback(move |sample| {
+                let id = Keys::uav_id_in(sample.key_expr().as_str());
+                match (id, Msg::decode(&sample.payload().to_bytes())) {
+                    (Some(id), Ok(Msg::Cmd(c))) => {
+                        let _ = cmd_tx.send((id, c));
+                    }
+                    (_, other) => {
+                        bad.fetch_add(1, Ordering::Relaxed);
+                        debug!(key = %sample.key_expr(), ?other, "dropped malformed command");
+                    }
+                }
+            })
+            .await
+            .map_err(WireError::zenoh)?;
+        let alive = Arc::new(Mutex::new(BTreeSet::new()));
+        let alive_changed = Arc::new(Notify::new());
+        let (a, n) = (alive.clone(), alive_changed.clone());
+        let alive_sub = s
+            .liveliness()
+            .declare_subscriber(keys.alive_uav_any())
+            .history(true)
+            .callback(move |sample| {
+                let Some(id) = Keys::uav_id_in(sample.key_expr().as_str()) else { return };
+                let mut set = a.lock().unwrap_or_else(|p| p.into_inner());
+                match sample.kind() {
+                    SampleKind::Put => {
+                        info!(uav_id = id, "agent alive");
+                        set.insert(id);
+                    }
+                    SampleKind::Delete => {
+                        info!(uav_id = id, "agent gone");
+                        set.remove(&id);
+                    }
+                }
+                n.notify_one();
+            })
+            .await
+            .map_err(WireError::zenoh)?;
+        let net = Net {
+            clock: publisher(&s, keys.clock(), CongestionControl::Block).await?,
+            truth_world: publisher(&s, keys.truth_world(), CongestionControl::Block).await?,
+            truth_step: publisher(&s, keys.truth_step(), CongestionControl::Block).await?,
+            session: s,
+            keys,
+            uavs,
+            alive,
+            alive_changed,
+            cmds,
+            malformed,
+        };
+        Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub }))
+    }
+
+    fn alive_now(&self) -> BTreeSet<u32> {
+        self.alive.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    async fn wait_for_agents(&self, sc: &Scenario) -> Result<(), HubError> {
+        let deadline = Instant::now() + Duration::from_secs_f64(sc.time.startup_timeout_s);
+        info!(expected = sc.count(), "waiting for agents");
+        loop {
+            let n = self.alive_now().len();
+            if n >= sc.count() {
+                info!(alive = n, "all agents alive");
+                return Ok(());
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return if n == 0 {
+                    Err(HubError::NoAgents(sc.time.startup_timeout_s))
+                } else {
+                    warn!(alive = n, expected = sc.count(), "starting without every agent");
+                    Ok(())
+                };
+            }
+            let _ = tokio::time::timeout(left.min(Duration::from_millis(200)), self.alive_changed.notified()).await;
+        }
+    }
+
+    async fn run_loop(
+        mut self,
+        sc: &Scenario,
+        sim: &mut Sim,
+        shutdown: impl Future<Output = ()>,
+    ) -> Result<HubReport, HubError> {
+        tokio::pin!(shutdown);
+        tokio::select! {
+            r = self.wait_for_agents(sc) => r?,
+            _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, Instant::now()).await,
+        }
+        put(&self.truth_world, &Msg::TruthWorld(sim.truth_world())).await?;
+        let started = Instant::now();
+        let mut scan_buf = Vec::new();
+        let mut next_wall = tokio::time::Instant::now();
+        let real_dt = Duration::from_secs_f64(sim.clock().dt_secs / sc.time.realtime_factor);
+        loop {
+            let alive = self.alive_now();
+            if alive.is_empty() {
+                warn!("no agent alive");
+                return self.finish(sim, EndReason::NoAgents, started).await;
+            }
+            self.publish_sensors(sim, &alive, &mut scan_buf).await?;
+            let cmds = match sc.time.mode {
+                TimeMode::Lockstep => {
+                    let timeout = Duration::from_millis(sc.time.tick_timeout_ms);
+                    tokio::select! {
+                        c = self.collect_lockstep(sim.tick(), sc.count(), timeout) => c,
+                        _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
+                    }
+                }
+                TimeMode::Realtime => {
+                    next_wall += real_dt;
+                    tokio::select! {
+                        _ = tokio::time::sleep_until(next_wall) => {},
+                        _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
+                    }
+                    self.collect_available(sc.count())
+                }
+            };
+            let alive = self.alive_now();
+            let alive_flags: Vec<bool> = sc.uav_ids().map(|id| alive.contains(&id)).collect();
+            let step = sim.step(&cmds, &alive_flags, started.elapsed().as_secs_f64());
+            trace!(tick = step.tick, "stepped");
+            for c in &step.collisions {
+                warn!(uav_id = c.id, other = ?c.other_uav, t = step.t_secs, "collision");
+            }
+            self.publish_step(&step).await?;
+            if let Some(end) = step.ended {
+                return self.report(sim, end);
+            }
+        }
+    }
+
+    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>, buf: &mut Vec<f32>) -> Result<(), WireError> {
+        put(&self.clock, &Msg::Clock(sim.clock())).await?;
+        for &id in alive {
+            let Some(p) = self.uavs.get((id - 1) as usize) else { continue };
+            let s = sim.sensors(id, buf);
+            put(&p.radio, &Msg::Radio(s.radio)).await?;
+            put(&p.odom, &Msg::Odom(s.odom)).await?;
+            if let Some(g) = s.gnss {
+                put(&p.gnss, &Msg::Gnss(g)).await?;
+            }
+            put(&p.scan, &Msg::Scan(s.scan)).await?;
+        }
+        Ok(())
+    }
+
+    /// Waits for the command of tick `tick` from every live agent, or the timeout.
+    async fn collect_lockstep(&mut self, tick: u64, n: usize, timeout: Duration) -> Vec<Option<Cmd>> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        let mut got: Vec<Option<Cmd>> = vec![None; n];
+        loop {
+            let alive = self.alive_now();
+            if alive.iter().all(|&id| got.get((id - 1) as usize).is_some_and(Option::is_some)) {
+                return got;
+            }
+            tokio::select! {
+                m = self.cmds.recv() => match m {
+                    Some((id, c)) if c.tick == tick && (1..=n as u32).contains(&id) => got[(id - 1) as usize] = Some(c),
+                    Some((id, c)) => trace!(uav_id = id, cmd_tick = c.tick, tick, "late command ignored"),
+                    None => return got,
+                },
+                _ = self.alive_changed.notified() => {},
+                _ = tokio::time::sleep_until(deadline) => {
+                    let missing: Vec<u32> = alive.iter().copied().filter(|&id| got[(id - 1) as usize].is_none()).collect();
+                    debug!(tick, ?missing, "tick timeout");
+                    return got;
+                }
+            }
+        }
+    }
+
+    /// Realtime: the newest command of each agent that arrived since the last tick.
+    fn collect_available(&mut self, n: usize) -> Vec<Option<Cmd>> {
+        let mut got: Vec<Option<Cmd>> = vec![None; n];
+        while let Ok((id, c)) = self.cmds.try_recv() {
+            if (1..=n as u32).contains(&id) {
+                got[(id - 1) as usize] = Some(c);
+            }
+        }
+        got
+    }
+
+    async fn publish_step(&self, step: &TruthStep) -> Result<(), WireError> {
+        put(&self.truth_step, &Msg::TruthStep(step.clone())).await
+    }
+
+    async fn finish(&self, sim: &mut Sim, end: EndReason, started: Instant) -> Result<HubReport, HubError> {
+        let alive = self.alive_now();
+        let alive_flags: Vec<bool> = (1..=sim.bodies().len() as u32).map(|id| alive.contains(&id)).collect();
+        let none = vec![None; sim.bodies().len()];
+        let mut step = sim.step(&none, &alive_flags, started.elapsed().as_secs_f64());
+        step.ended = Some(end);
+        self.publish_step(&step).await?;
+        self.report(sim, end)
+    }
+
+    fn report(&self, sim: &Sim, end: EndReason) -> Result<HubReport, HubError> {
+        info!(?end, ticks = sim.tick(), t = sim.t_secs(), keys = self.keys.prefix(), "run ended");
+        Ok(HubReport { ticks: sim.tick(), t_secs: sim.t_secs(), end, malformed: self.malformed.load(Ordering::Relaxed) })
+    }
+}

@@ -1,0 +1,338 @@
+//! The simulation state and its step, free of any IO: the hub's Zenoh loop calls
+//! [`Sim::sensors`] for each UAV, collects commands, then [`Sim::step`]. Pure and seeded, so a
+//! lockstep run with the same commands repeats exactly.
+
+use crate::body::{wrap_angle, Body, Limits};
+use crate::forest::{rng, scenario_trees, start_positions, stream};
+use crate::lidar;
+use crate::radio::Radio;
+use crate::world::World;
+use nalgebra::{Rotation2, Vector2};
+use rand_chacha::ChaCha8Rng;
+use swarm_config::{GoalRule, LocalizationMode, OnCollision, Scenario};
+use swarm_wire::{
+    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld,
+};
+
+/// Sensor messages of one UAV for the current tick.
+#[derive(Debug, Clone)]
+pub struct Sensors {
+    /// Radio set.
+    pub radio: RadioSet,
+    /// Odometry (own start frame).
+    pub odom: Odom,
+    /// World pose, only in `broadcast` localization mode.
+    pub gnss: Option<Gnss>,
+    /// LIDAR scan (body frame).
+    pub scan: Scan,
+}
+
+/// The whole simulated world.
+pub struct Sim {
+    sc: Scenario,
+    world: World,
+    bodies: Vec<Body>,
+    starts: Vec<[f64; 3]>,
+    limits: Limits,
+    radio: Radio,
+    lidar_rngs: Vec<ChaCha8Rng>,
+    last_cmds: Vec<Cmd>,
+    obstacle_contact: Vec<bool>,
+    uav_contact: Vec<Vec<bool>>,
+    tick: u64,
+    dt: f64,
+    goal_reached_at: Option<f64>,
+}
+
+impl Sim {
+    /// Builds the world and the bodies of a scenario.
+    pub fn new(sc: &Scenario) -> Sim {
+        let world = World::new(scenario_trees(sc), sc.world.walls.clone());
+        let yaw0 = sc.swarm.start_heading_deg.to_radians();
+        let starts: Vec<[f64; 3]> = start_positions(sc).iter().map(|p| [p[0], p[1], yaw0]).collect();
+        let bodies = starts.iter().map(|s| Body::at(s[0], s[1], s[2])).collect();
+        let n = sc.count();
+        let mut radio = Radio::new(sc.radio.range_m, sc.radio.hysteresis_m);
+        radio.update(&starts.iter().map(|s| [s[0], s[1]]).collect::<Vec<_>>());
+        let hover = Cmd { tick: 0, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
+        Sim {
+            world,
+            bodies,
+            starts,
+            limits: Limits {
+                max_speed_mps: sc.body.max_speed_mps,
+                max_accel_mps2: sc.body.max_accel_mps2,
+                max_yaw_rate: sc.body.max_yaw_rate_dps.to_radians(),
+            },
+            radio,
+            lidar_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::LIDAR + u64::from(id))).collect(),
+            last_cmds: vec![hover; n],
+            obstacle_contact: vec![false; n],
+            uav_contact: vec![vec![false; n]; n],
+            tick: 0,
+            dt: sc.dt_secs(),
+            goal_reached_at: None,
+            sc: sc.clone(),
+        }
+    }
+
+    /// Current tick.
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// Sim time of the current tick [s].
+    pub fn t_secs(&self) -> f64 {
+        self.tick as f64 * self.dt
+    }
+
+    /// The clock message of the current tick.
+    pub fn clock(&self) -> Clock {
+        Clock { tick: self.tick, t_secs: self.t_secs(), dt_secs: self.dt }
+    }
+
+    /// The static world.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// Bodies, index = id − 1.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// The static world as a message for the recorder.
+    pub fn truth_world(&self) -> TruthWorld {
+        TruthWorld {
+            trees: self.world.trees().iter().map(|t| [t.x, t.y, t.r]).collect(),
+            walls: self.world.walls().iter().map(|w| [w.x1, w.y1, w.x2, w.y2, w.thickness]).collect(),
+            starts: self.starts.clone(),
+            goal: self.sc.swarm.goal,
+            body_radius_m: self.sc.body.radius_m,
+        }
+    }
+
+    /// Sensor messages of UAV `id` (1-based) for the current tick.
+    pub fn sensors(&mut self, id: u32, ranges: &mut Vec<f32>) -> Sensors {
+        let i = (id - 1) as usize;
+        let (tick, t_secs) = (self.tick, self.t_secs());
+        let b = self.bodies[i];
+        let others: Vec<[f64; 3]> = (0..self.bodies.len())
+            .filter(|&j| j != i)
+            .map(|j| [self.bodies[j].pos.x, self.bodies[j].pos.y, self.sc.body.radius_m])
+            .collect();
+        lidar::scan(&self.world, [b.pos.x, b.pos.y, b.yaw], &others, &self.sc.lidar, &mut self.lidar_rngs[i], ranges);
+        let (angle_min, angle_increment) = lidar::beam_angles(&self.sc.lidar);
+        let scan = Scan {
+            tick,
+            t_secs,
+            angle_min,
+            angle_increment,
+            max_range_m: self.sc.lidar.max_range_m as f32,
+            ranges_m: ranges.clone(),
+        };
+        let s = self.starts[i];
+        let start_from_world = Rotation2::new(-s[2]);
+        let to_start = |p: Vector2<f64>| start_from_world * (p - Vector2::new(s[0], s[1]));
+        let p = to_start(b.pos);
+        let v = start_from_world * b.vel;
+        let goal = self.sc.is_informed(id).then(|| {
+            let g = to_start(Vector2::new(self.sc.swarm.goal[0], self.sc.swarm.goal[1]));
+            [g.x, g.y]
+        });
+        let odom = Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal };
+        let gnss = (self.sc.localization.mode == LocalizationMode::Broadcast).then_some(Gnss {
+            tick,
+            t_secs,
+            x: b.pos.x,
+            y: b.pos.y,
+            yaw: b.yaw,
+            vx: b.vel.x,
+            vy: b.vel.y,
+        });
+        let in_range = self.radio.in_range(i).into_iter().map(|j| j as u32 + 1).collect();
+        Sensors { radio: RadioSet { tick, id, in_range }, odom, gnss, scan }
+    }
+
+    /// Integrates one tick. `cmds[i]` is UAV i+1's command for this tick, `None` when it did not
+    /// answer in time (it keeps its last command: a frozen or dead UAV). `alive[i]` is whether its
+    /// agent holds a liveliness token.
+    pub fn step(&mut self, cmds: &[Option<Cmd>], alive: &[bool], wall_secs: f64) -> TruthStep {
+        for (i, b) in self.bodies.iter_mut().enumerate() {
+            if let Some(Some(c)) = cmds.get(i) {
+                self.last_cmds[i] = *c;
+            }
+            b.step(&self.last_cmds[i], &self.limits, self.dt);
+        }
+        self.tick += 1;
+        let t_secs = self.t_secs();
+        let positions: Vec<[f64; 2]> = self.bodies.iter().map(|b| [b.pos.x, b.pos.y]).collect();
+        self.radio.update(&positions);
+        let collisions = self.detect_collisions();
+        let bodies = self.truth_bodies(cmds, alive);
+        if self.goal_reached_at.is_none() && self.goal_met() {
+            self.goal_reached_at = Some(t_secs);
+        }
+        let ended = if self.goal_reached_at.is_some() {
+            Some(EndReason::Goal)
+        } else if t_secs >= self.sc.end.time_limit_s - 1e-9 {
+            Some(EndReason::TimeLimit)
+        } else {
+            None
+        };
+        TruthStep { tick: self.tick, t_secs, bodies, collisions, goal_reached_at: self.goal_reached_at, ended, wall_secs }
+    }
+
+    fn truth_bodies(&self, cmds: &[Option<Cmd>], alive: &[bool]) -> Vec<TruthBody> {
+        self.bodies
+            .iter()
+            .enumerate()
+            .map(|(i, b)| TruthBody {
+                id: i as u32 + 1,
+                x: b.pos.x,
+                y: b.pos.y,
+                yaw: b.yaw,
+                vx: b.vel.x,
+                vy: b.vel.y,
+                alive: alive.get(i).copied().unwrap_or(false),
+                cmd_on_time: matches!(cmds.get(i), Some(Some(_))),
+                obstacle_distance_m: self.world.clearance([b.pos.x, b.pos.y]),
+                agent_distance_m: self.nearest_agent_distance(i),
+                colliding: self.obstacle_contact[i] || self.uav_contact[i].iter().any(|&c| c),
+            })
+            .collect()
+    }
+
+    fn nearest_agent_distance(&self, i: usize) -> f64 {
+        let p = self.bodies[i].pos;
+        self.bodies
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .map(|(_, b)| (b.pos - p).norm())
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// UAV–obstacle contact when the centre is closer than r_uav to an obstacle surface; UAV–UAV
+    /// when centres are closer than 2·r_uav (SPEC section 2). Reports contacts that began now.
+    fn detect_collisions(&mut self) -> Vec<CollisionEvent> {
+        let r = self.sc.body.radius_m;
+        let n = self.bodies.len();
+        let mut events = Vec::new();
+        for i in 0..n {
+            let p = self.bodies[i].pos;
+            let hit = self.world.clearance([p.x, p.y]) < r;
+            if hit && !self.obstacle_contact[i] {
+                events.push(CollisionEvent { id: i as u32 + 1, other_uav: None, x: p.x, y: p.y });
+            }
+            self.obstacle_contact[i] = hit;
+            for j in i + 1..n {
+                let hit = (self.bodies[j].pos - p).norm() < 2.0 * r;
+                if hit && !self.uav_contact[i][j] {
+                    events.push(CollisionEvent { id: i as u32 + 1, other_uav: Some(j as u32 + 1), x: p.x, y: p.y });
+                }
+                self.uav_contact[i][j] = hit;
+                self.uav_contact[j][i] = hit;
+            }
+        }
+        if self.sc.body.on_collision == OnCollision::Stop {
+            for e in &events {
+                self.bodies[(e.id - 1) as usize].stopped = true;
+                if let Some(o) = e.other_uav {
+                    self.bodies[(o - 1) as usize].stopped = true;
+                }
+            }
+        }
+        events
+    }
+
+    fn goal_met(&self) -> bool {
+        let g = Vector2::new(self.sc.swarm.goal[0], self.sc.swarm.goal[1]);
+        let r = self.sc.end.goal_radius_m;
+        match self.sc.end.goal_rule {
+            GoalRule::All => self.bodies.iter().all(|b| (b.pos - g).norm() <= r),
+            GoalRule::Centroid => {
+                let c = self.bodies.iter().map(|b| b.pos).sum::<Vector2<f64>>() / self.bodies.len() as f64;
+                (c - g).norm() <= r
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scenario() -> Scenario {
+        Scenario::from_toml_str(
+            r#"
+name = "t"
+[world]
+trees = [{ x = 5.0, y = 0.0, r = 0.5 }]
+[swarm]
+count = 2
+start_positions = [[0.0, 0.0], [0.0, 3.0]]
+start_heading_deg = 90.0
+goal = [10.0, 0.0]
+informed = [1]
+[end]
+goal_radius_m = 1.0
+time_limit_s = 1.0
+"#,
+            "t.toml",
+        )
+        .expect("valid")
+    }
+
+    fn vel(x: f32) -> Option<Cmd> {
+        Some(Cmd { tick: 0, kind: CmdKind::Velocity, x, y: 0.0, yaw_rate: 0.0 })
+    }
+
+    #[test]
+    fn odometry_is_in_the_start_frame_and_goal_only_for_informed() {
+        let mut sim = Sim::new(&scenario());
+        let mut buf = Vec::new();
+        let s1 = sim.sensors(1, &mut buf);
+        // Start heading 90°: the world goal (10, 0) is 10 m to the right, i.e. at (0, -10).
+        let g = s1.odom.goal.expect("UAV 1 is informed");
+        assert!(g[0].abs() < 1e-9 && (g[1] + 10.0).abs() < 1e-9, "{g:?}");
+        assert_eq!(sim.sensors(2, &mut buf).odom.goal, None, "UAV 2 is not informed");
+        assert_eq!(s1.radio.in_range, vec![2]);
+        // Fly body-forward (world +y) for a while: odometry x grows, y stays.
+        for _ in 0..5 {
+            sim.step(&[vel(0.2), vel(0.0)], &[true, true], 0.0);
+        }
+        let o = sim.sensors(1, &mut buf).odom;
+        assert!(o.x > 0.0 && o.y.abs() < 1e-9 && o.yaw.abs() < 1e-12, "{o:?}");
+    }
+
+    #[test]
+    fn collisions_are_counted_once_per_contact_and_time_limit_ends() {
+        let mut sc = scenario();
+        sc.swarm.start_positions = Some(vec![[4.3, 0.0], [0.0, 3.0]]);
+        let mut sim = Sim::new(&sc);
+        let s = sim.step(&[vel(0.0), vel(0.0)], &[true, true], 0.0);
+        assert_eq!(s.collisions.len(), 1, "clearance 0.2 < r 0.3");
+        assert_eq!(s.collisions[0].other_uav, None);
+        assert!(s.bodies[0].colliding);
+        let s = sim.step(&[vel(0.0), vel(0.0)], &[true, true], 0.0);
+        assert!(s.collisions.is_empty(), "same contact is not counted twice");
+        let mut last = s;
+        while last.ended.is_none() {
+            last = sim.step(&[None, None], &[false, false], 0.0);
+        }
+        assert_eq!(last.ended, Some(EndReason::TimeLimit));
+        assert_eq!(last.tick, 10);
+    }
+
+    #[test]
+    fn missing_command_keeps_the_last_one() {
+        let mut sim = Sim::new(&scenario());
+        for _ in 0..10 {
+            sim.step(&[vel(0.5), vel(0.0)], &[true, true], 0.0);
+        }
+        let before = sim.bodies()[0].vel;
+        sim.step(&[None, vel(0.0)], &[false, true], 0.0);
+        assert!((sim.bodies()[0].vel - before).norm() < 1e-12, "keeps flying its last command");
+    }
+}

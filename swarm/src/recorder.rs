@@ -1,0 +1,313 @@
+//! The recorder: a Zenoh client that listens to `truth/step` and every agent's `state`, writes
+//! `trajectories.csv` (one row per UAV per tick) and `agent_states.csv`, and folds everything
+//! into a [`Summary`] when the hub marks the last step.
+//!
+//! Metric folding ([`Metrics`]) is pure and fed message by message, so it is tested without a
+//! network.
+
+use crate::summary::{AgentSummary, CollisionRecord, Summary, SCHEMA};
+use anyhow::{Context, Result};
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use swarm_wire::{AgentState, EndReason, Msg, TruthStep, TruthWorld};
+
+#[derive(Debug, Clone)]
+struct Acc {
+    min_obst: f64,
+    sum_obst: f64,
+    min_agent: f64,
+    sum_agent: f64,
+    n: u64,
+    path: f64,
+    last: Option<(f64, f64)>,
+    late: u64,
+    step_us_sum: f64,
+    step_us_max: f64,
+    steps: u64,
+    neighbours_sum: u64,
+    last_state: Option<AgentState>,
+}
+
+impl Default for Acc {
+    fn default() -> Self {
+        Acc {
+            min_obst: f64::INFINITY,
+            sum_obst: 0.0,
+            min_agent: f64::INFINITY,
+            sum_agent: 0.0,
+            n: 0,
+            path: 0.0,
+            last: None,
+            late: 0,
+            step_us_sum: 0.0,
+            step_us_max: 0.0,
+            steps: 0,
+            neighbours_sum: 0,
+            last_state: None,
+        }
+    }
+}
+
+/// Everything the summary needs, folded message by message.
+#[derive(Debug, Default)]
+pub struct Metrics {
+    world: Option<TruthWorld>,
+    agents: BTreeMap<u32, Acc>,
+    collisions: Vec<CollisionRecord>,
+    last_step: Option<TruthStep>,
+    ticks: u64,
+}
+
+fn finite_or_inf(v: f64) -> f64 {
+    if v.is_finite() {
+        v
+    } else {
+        f64::INFINITY
+    }
+}
+
+impl Metrics {
+    /// Notes the static world.
+    pub fn on_world(&mut self, w: TruthWorld) {
+        self.world = Some(w);
+    }
+
+    /// Folds one ground-truth step.
+    pub fn on_step(&mut self, s: &TruthStep) {
+        self.ticks += 1;
+        for b in &s.bodies {
+            let a = self.agents.entry(b.id).or_default();
+            let (od, ad) = (finite_or_inf(b.obstacle_distance_m), finite_or_inf(b.agent_distance_m));
+            a.min_obst = a.min_obst.min(od);
+            a.min_agent = a.min_agent.min(ad);
+            if od.is_finite() {
+                a.sum_obst += od;
+            }
+            if ad.is_finite() {
+                a.sum_agent += ad;
+            }
+            a.n += 1;
+            if let Some((x, y)) = a.last {
+                a.path += (b.x - x).hypot(b.y - y);
+            }
+            a.last = Some((b.x, b.y));
+            if b.alive && !b.cmd_on_time && s.ended.is_none() {
+                a.late += 1;
+            }
+        }
+        for c in &s.collisions {
+            self.collisions.push(CollisionRecord { t_s: s.t_secs, id: c.id, other_uav: c.other_uav, x_m: c.x, y_m: c.y });
+        }
+        self.last_step = Some(s.clone());
+    }
+
+    /// Folds one agent state.
+    pub fn on_state(&mut self, st: AgentState) {
+        let a = self.agents.entry(st.id).or_default();
+        let us = f64::from(st.step_time_us);
+        a.step_us_sum += us;
+        a.step_us_max = a.step_us_max.max(us);
+        a.steps += 1;
+        a.neighbours_sum += st.neighbours.len() as u64;
+        a.last_state = Some(st);
+    }
+
+    /// Whether the hub has marked the last step.
+    pub fn ended(&self) -> Option<EndReason> {
+        self.last_step.as_ref().and_then(|s| s.ended)
+    }
+
+    /// Collisions so far.
+    pub fn collision_count(&self) -> usize {
+        self.collisions.len()
+    }
+
+    /// The last step seen.
+    pub fn last_step(&self) -> Option<&TruthStep> {
+        self.last_step.as_ref()
+    }
+
+    /// The summary of what was folded so far.
+    pub fn summary(&self, run_id: &str, scenario: &swarm_config::Scenario) -> Summary {
+        let last = self.last_step.as_ref();
+        let (sim_time_s, wall_time_s) = last.map_or((0.0, 0.0), |s| (s.t_secs, s.wall_secs));
+        let end_reason = match self.ended() {
+            Some(EndReason::Goal) => "goal",
+            Some(EndReason::TimeLimit) => "time_limit",
+            Some(EndReason::NoAgents) => "no_agents",
+            Some(EndReason::Stopped) => "stopped",
+            None => "incomplete",
+        };
+        let goal_at = last.and_then(|s| s.goal_reached_at);
+        let agents: Vec<AgentSummary> = self.agents.iter().map(|(&id, a)| agent_summary(id, a)).collect();
+        let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
+        Summary {
+            schema: SCHEMA.into(),
+            run_id: run_id.into(),
+            scenario: scenario.name.clone(),
+            time_mode: format!("{:?}", scenario.time.mode).to_lowercase(),
+            uav_count: scenario.count(),
+            trees: self.world.as_ref().map_or(0, |w| w.trees.len()),
+            end_reason: end_reason.into(),
+            reached_goal: goal_at.is_some(),
+            time_to_goal_s: goal_at,
+            sim_time_s,
+            wall_time_s,
+            sim_speed: if wall_time_s > 0.0 { sim_time_s / wall_time_s } else { 0.0 },
+            ticks: self.ticks,
+            collisions: self.collisions.len(),
+            collision_events: self.collisions.clone(),
+            min_obstacle_distance_m: min(|a| a.min_obstacle_distance_m),
+            min_agent_distance_m: min(|a| a.min_agent_distance_m),
+            agents,
+        }
+    }
+}
+
+fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
+    let n = a.n.max(1) as f64;
+    let steps = a.steps.max(1) as f64;
+    let link = a.last_state.as_ref().map(|s| s.link).unwrap_or_default();
+    AgentSummary {
+        id,
+        min_obstacle_distance_m: a.min_obst,
+        mean_obstacle_distance_m: if a.min_obst.is_finite() { a.sum_obst / n } else { f64::INFINITY },
+        min_agent_distance_m: a.min_agent,
+        mean_agent_distance_m: if a.min_agent.is_finite() { a.sum_agent / n } else { f64::INFINITY },
+        path_length_m: a.path,
+        messages_sent: link.sent_msgs,
+        bytes_sent: link.sent_bytes,
+        messages_received: link.recv_msgs,
+        bytes_received: link.recv_bytes,
+        malformed_messages: link.malformed,
+        mean_step_time_ms: a.step_us_sum / steps / 1000.0,
+        max_step_time_ms: a.step_us_max / 1000.0,
+        mean_neighbours: a.neighbours_sum as f64 / steps,
+        late_ticks: a.late,
+    }
+}
+
+/// The files of a run folder that grow while the run goes.
+pub struct Files {
+    traj: BufWriter<File>,
+    states: BufWriter<File>,
+}
+
+impl Files {
+    /// Creates `trajectories.csv` and `agent_states.csv` in `dir`, with headers.
+    pub fn create(dir: &Path) -> Result<Files> {
+        let open = |name: &str| -> Result<BufWriter<File>> {
+            let p = dir.join(name);
+            Ok(BufWriter::new(File::create(&p).with_context(|| format!("cannot create {}", p.display()))?))
+        };
+        let mut traj = open("trajectories.csv")?;
+        writeln!(traj, "tick,t_s,id,x_m,y_m,yaw_rad,vx_mps,vy_mps,obstacle_distance_m,agent_distance_m,colliding,alive,cmd_on_time")?;
+        let mut states = open("agent_states.csv")?;
+        writeln!(states, "tick,t_s,id,step_time_us,obstacles,neighbours,in_radio_range,cohesion,separation,avoidance,navigation,output_mps,msgs_tx,bytes_tx,msgs_rx,bytes_rx")?;
+        Ok(Files { traj, states })
+    }
+
+    /// Appends one step's rows.
+    pub fn write_step(&mut self, s: &TruthStep) -> Result<()> {
+        for b in &s.bodies {
+            writeln!(
+                self.traj,
+                "{},{:.3},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{}",
+                s.tick, s.t_secs, b.id, b.x, b.y, b.yaw, b.vx, b.vy, b.obstacle_distance_m, b.agent_distance_m,
+                u8::from(b.colliding), u8::from(b.alive), u8::from(b.cmd_on_time)
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Appends one agent state row.
+    pub fn write_state(&mut self, st: &AgentState) -> Result<()> {
+        let v = &st.vectors;
+        let l = &st.link;
+        writeln!(
+            self.states,
+            "{},{:.3},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{}",
+            st.tick, st.t_secs, st.id, st.step_time_us, st.obstacles, st.neighbours.len(), st.in_radio_range,
+            v.cohesion, v.separation, v.avoidance, v.navigation, v.output, l.sent_msgs, l.sent_bytes, l.recv_msgs, l.recv_bytes
+        )?;
+        Ok(())
+    }
+
+    /// Flushes both files.
+    pub fn flush(&mut self) -> Result<()> {
+        self.traj.flush()?;
+        self.states.flush()?;
+        Ok(())
+    }
+}
+
+/// Decodes a recorder payload, counting what does not decode.
+pub fn decode(bytes: &[u8], malformed: &mut u64) -> Option<Msg> {
+    match Msg::decode(bytes) {
+        Ok(m) => Some(m),
+        Err(e) => {
+            *malformed += 1;
+            tracing::debug!("recorder dropped a malformed message: {e}");
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use swarm_wire::{CollisionEvent, TruthBody};
+
+    fn body(id: u32, x: f64, od: f64, ad: f64, on_time: bool) -> TruthBody {
+        TruthBody {
+            id,
+            x,
+            y: 0.0,
+            yaw: 0.0,
+            vx: 0.0,
+            vy: 0.0,
+            alive: true,
+            cmd_on_time: on_time,
+            obstacle_distance_m: od,
+            agent_distance_m: ad,
+            colliding: false,
+        }
+    }
+
+    #[test]
+    fn metrics_fold_min_mean_path_collisions_and_end() {
+        let sc = swarm_config::builtin("open-field-5").expect("builtin");
+        let mut m = Metrics::default();
+        let step = |tick, x, od, ad, ended, goal| TruthStep {
+            tick,
+            t_secs: tick as f64 * 0.1,
+            bodies: vec![body(1, x, od, ad, tick != 2)],
+            collisions: if tick == 2 {
+                vec![CollisionEvent { id: 1, other_uav: None, x, y: 0.0 }]
+            } else {
+                vec![]
+            },
+            goal_reached_at: goal,
+            ended,
+            wall_secs: tick as f64 * 0.01,
+        };
+        m.on_step(&step(1, 0.0, 2.0, 3.0, None, None));
+        m.on_step(&step(2, 3.0, 1.0, 5.0, None, None));
+        assert_eq!(m.ended(), None);
+        m.on_step(&step(3, 7.0, 3.0, 1.0, Some(EndReason::Goal), Some(0.3)));
+        let s = m.summary("r", &sc);
+        assert_eq!(s.end_reason, "goal");
+        assert!(s.reached_goal);
+        assert_eq!(s.time_to_goal_s, Some(0.3));
+        assert_eq!(s.collisions, 1);
+        assert!((s.sim_speed - 10.0).abs() < 1e-9);
+        let a = &s.agents[0];
+        assert_eq!((a.min_obstacle_distance_m, a.min_agent_distance_m), (1.0, 1.0));
+        assert!((a.mean_obstacle_distance_m - 2.0).abs() < 1e-12);
+        assert!((a.mean_agent_distance_m - 3.0).abs() < 1e-12);
+        assert!((a.path_length_m - 7.0).abs() < 1e-12);
+        assert_eq!(a.late_ticks, 1);
+    }
+}

@@ -1,0 +1,155 @@
+//! `summary.json`, schema `swarm.summary.v1`. Fields are only ever added, never renamed or
+//! removed; README.md documents each one. Distances are in metres, times in sim seconds unless
+//! a name says wall.
+
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+
+/// Schema id written into every summary.
+pub const SCHEMA: &str = "swarm.summary.v1";
+
+/// The summary of one run.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Summary {
+    /// Always [`SCHEMA`].
+    pub schema: String,
+    /// Run id (the `{run}` of every key).
+    pub run_id: String,
+    /// Scenario name.
+    pub scenario: String,
+    /// `lockstep` or `realtime`.
+    pub time_mode: String,
+    /// Number of UAVs.
+    pub uav_count: usize,
+    /// Trees in the world.
+    pub trees: usize,
+    /// `goal`, `time_limit`, `no_agents`, `stopped`, or `incomplete` if the hub vanished.
+    pub end_reason: String,
+    /// Whether the goal rule was met.
+    pub reached_goal: bool,
+    /// Sim time the goal rule was first met.
+    pub time_to_goal_s: Option<f64>,
+    /// Sim time at the end.
+    pub sim_time_s: f64,
+    /// Wall time from tick 0 to the end.
+    pub wall_time_s: f64,
+    /// Sim seconds per wall second.
+    pub sim_speed: f64,
+    /// Ticks recorded.
+    pub ticks: u64,
+    /// Collisions (contacts begun), UAV–obstacle plus UAV–UAV.
+    pub collisions: usize,
+    /// Each collision.
+    pub collision_events: Vec<CollisionRecord>,
+    /// Smallest distance from any UAV centre to an obstacle surface.
+    pub min_obstacle_distance_m: f64,
+    /// Smallest centre-to-centre distance between two UAVs.
+    pub min_agent_distance_m: f64,
+    /// Per UAV.
+    pub agents: Vec<AgentSummary>,
+}
+
+/// One collision.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CollisionRecord {
+    /// Sim time.
+    pub t_s: f64,
+    /// UAV id.
+    pub id: u32,
+    /// Other UAV, or null for an obstacle.
+    pub other_uav: Option<u32>,
+    /// World x.
+    pub x_m: f64,
+    /// World y.
+    pub y_m: f64,
+}
+
+/// Per-UAV metrics.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct AgentSummary {
+    /// UAV id.
+    pub id: u32,
+    /// Minimum distance from its centre to an obstacle surface.
+    pub min_obstacle_distance_m: f64,
+    /// Mean over ticks of that distance.
+    pub mean_obstacle_distance_m: f64,
+    /// Minimum distance to the nearest other UAV (centre to centre).
+    pub min_agent_distance_m: f64,
+    /// Mean over ticks of that distance.
+    pub mean_agent_distance_m: f64,
+    /// Length of its path.
+    pub path_length_m: f64,
+    /// Share messages it published.
+    pub messages_sent: u64,
+    /// Bytes of those.
+    pub bytes_sent: u64,
+    /// Share messages it received from neighbours.
+    pub messages_received: u64,
+    /// Bytes of those.
+    pub bytes_received: u64,
+    /// Payloads it dropped as malformed.
+    pub malformed_messages: u64,
+    /// Mean wall time of its control step (perception + localization + control).
+    pub mean_step_time_ms: f64,
+    /// Longest control step.
+    pub max_step_time_ms: f64,
+    /// Mean number of neighbours it had an estimate of.
+    pub mean_neighbours: f64,
+    /// Ticks its command missed (hub timeout) while it was alive.
+    pub late_ticks: u64,
+}
+
+fn f(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.2}")
+    } else {
+        "-".into()
+    }
+}
+
+impl Summary {
+    /// A human rendering for the terminal.
+    pub fn human(&self) -> String {
+        let mut s = String::new();
+        let goal = match (self.reached_goal, self.time_to_goal_s) {
+            (true, Some(t)) => format!("reached in {t:.1} s"),
+            _ => format!("NOT reached ({})", self.end_reason),
+        };
+        let _ = writeln!(s, "run {}  scenario {}  ({} UAVs, {} trees, {})", self.run_id, self.scenario, self.uav_count, self.trees, self.time_mode);
+        let _ = writeln!(s, "goal: {goal}");
+        let _ = writeln!(s, "collisions: {}", self.collisions);
+        let _ = writeln!(
+            s,
+            "sim {:.1} s in {:.1} s wall: {:.1}x real time ({} ticks)",
+            self.sim_time_s, self.wall_time_s, self.sim_speed, self.ticks
+        );
+        let _ = writeln!(
+            s,
+            "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>8}",
+            "uav", "obst min", "obst mean", "uav min", "uav mean", "path m", "msgs tx", "bytes tx", "msgs rx", "step ms"
+        );
+        for a in &self.agents {
+            let _ = writeln!(
+                s,
+                "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8.1} {:>8} {:>9} {:>9} {:>8.3}",
+                a.id,
+                f(a.min_obstacle_distance_m),
+                f(a.mean_obstacle_distance_m),
+                f(a.min_agent_distance_m),
+                f(a.mean_agent_distance_m),
+                a.path_length_m,
+                a.messages_sent,
+                a.bytes_sent,
+                a.messages_received,
+                a.mean_step_time_ms
+            );
+        }
+        let _ = write!(
+            s,
+            "min distance to obstacles {} m, to other UAVs {} m",
+            f(self.min_obstacle_distance_m),
+            f(self.min_agent_distance_m)
+        );
+        s
+    }
+}

@@ -1,0 +1,191 @@
+//! One control step of the onboard stack, with no IO: sensors and delivered neighbour messages
+//! in; a command, a share message and diagnostics out. The Zenoh loop in `node` feeds it; tests
+//! and benchmarks call it directly.
+//!
+//! Architecture invariant: an agent sees the world only through its own sensor messages and its
+//! neighbours' shares. Nothing here can reach ground truth.
+
+use crate::k21;
+use crate::localization::{BroadcastTable, Estimate};
+use crate::perception;
+use nalgebra::Vector2;
+use std::time::Instant;
+use swarm_config::{LocalizationMode, Scenario};
+use swarm_wire::{
+    AgentState, Cmd, CmdKind, Gnss, LinkCounters, NeighbourEstimate, Odom, PoseShare, Scan, VectorMagnitudes,
+};
+
+/// What one step produces.
+#[derive(Debug, Clone)]
+pub struct StepOutput {
+    /// The command for the hub.
+    pub cmd: Cmd,
+    /// The message to share with neighbours (broadcast mode), if any.
+    pub share: Option<PoseShare>,
+    /// Diagnostics (link counters are filled in by the caller).
+    pub state: AgentState,
+}
+
+/// The onboard state of one UAV between steps.
+pub struct Agent {
+    id: u32,
+    sc: Scenario,
+    table: BroadcastTable,
+}
+
+fn wrap(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+impl Agent {
+    /// The agent of UAV `id` under scenario `sc`.
+    pub fn new(id: u32, sc: Scenario) -> Agent {
+        Agent { id, sc, table: BroadcastTable::default() }
+    }
+
+    /// Takes a neighbour's broadcast pose that the link has delivered.
+    pub fn on_pose(&mut self, p: PoseShare) {
+        if p.from != self.id {
+            self.table.update(p);
+        }
+    }
+
+    /// Runs perception, localization and control for one tick.
+    pub fn step(&mut self, scan: &Scan, odom: &Odom, gnss: Option<&Gnss>) -> StepOutput {
+        let started = Instant::now();
+        let circles = perception::extract_obstacles(scan, &self.sc.perception);
+        let estimates = self.localize(gnss);
+        let neighbours: Vec<k21::Neighbour> =
+            estimates.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
+        let obstacles = self.trees_only(&circles, &estimates);
+        let goal_heading = odom.goal.map(|g| wrap((g[1] - odom.y).atan2(g[0] - odom.x) - odom.yaw));
+        let out = k21::step(
+            &self.sc.controller.k21,
+            &k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading },
+        );
+        let cmd = Cmd {
+            tick: scan.tick,
+            kind: CmdKind::Velocity,
+            x: out.velocity.x as f32,
+            y: out.velocity.y as f32,
+            yaw_rate: out.yaw_rate as f32,
+        };
+        let share = match (self.sc.localization.mode, gnss) {
+            (LocalizationMode::Broadcast, Some(g)) => Some(PoseShare {
+                from: self.id,
+                tick: g.tick,
+                t_secs: g.t_secs,
+                x: g.x,
+                y: g.y,
+                yaw: g.yaw,
+                vx: g.vx,
+                vy: g.vy,
+            }),
+            _ => None,
+        };
+        let state = AgentState {
+            id: self.id,
+            tick: scan.tick,
+            t_secs: scan.t_secs,
+            step_time_us: started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32,
+            obstacles: obstacles.len() as u32,
+            neighbours: estimates
+                .iter()
+                .map(|e| NeighbourEstimate {
+                    id: e.id,
+                    x: e.pos_in_body.x as f32,
+                    y: e.pos_in_body.y as f32,
+                    heading: e.heading as f32,
+                    age_secs: e.age_secs as f32,
+                })
+                .collect(),
+            in_radio_range: 0,
+            vectors: VectorMagnitudes {
+                cohesion: out.cohesion.norm() as f32,
+                separation: out.separation.norm() as f32,
+                avoidance: out.avoidance.norm() as f32,
+                navigation: out.navigation.norm() as f32,
+                output: out.velocity.norm() as f32,
+            },
+            link: LinkCounters::default(),
+        };
+        StepOutput { cmd, share, state }
+    }
+
+    fn localize(&mut self, gnss: Option<&Gnss>) -> Vec<Estimate> {
+        match (self.sc.localization.mode, gnss) {
+            (LocalizationMode::Broadcast, Some(g)) => self.table.estimates(g, self.sc.localization.stale_after_s),
+            // Without its own fix a broadcast agent cannot place anyone: fly on obstacles alone.
+            (LocalizationMode::Broadcast, None) => Vec::new(),
+        }
+    }
+
+    /// Obstacle centres minus those that are a localized neighbour seen by the LIDAR.
+    fn trees_only(&self, circles: &[perception::Circle], estimates: &[Estimate]) -> Vec<Vector2<f64>> {
+        let m = self.sc.perception.neighbour_match_m;
+        circles
+            .iter()
+            .map(|c| c.center.coords)
+            .filter(|c| estimates.iter().all(|e| (e.pos_in_body - c).norm() > m))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scenario() -> Scenario {
+        swarm_config::builtin("open-field-5").expect("builtin")
+    }
+
+    fn empty_scan(tick: u64) -> Scan {
+        Scan {
+            tick,
+            t_secs: tick as f64 * 0.1,
+            angle_min: 0.0,
+            angle_increment: std::f32::consts::TAU / 8.0,
+            max_range_m: 12.0,
+            ranges_m: vec![f32::INFINITY; 8],
+        }
+    }
+
+    fn odom(goal: Option<[f64; 2]>) -> Odom {
+        Odom { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal }
+    }
+
+    #[test]
+    fn alone_in_open_field_an_informed_agent_flies_at_kf_toward_the_goal() {
+        let mut a = Agent::new(1, scenario());
+        let g = Gnss { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 };
+        let out = a.step(&empty_scan(1), &odom(Some([30.0, 0.0])), Some(&g));
+        assert_eq!(out.cmd.tick, 1);
+        assert!((out.cmd.x - 0.4).abs() < 1e-6 && out.cmd.y.abs() < 1e-6, "{:?}", out.cmd);
+        assert!(out.cmd.yaw_rate.abs() < 1e-6);
+        let share = out.share.expect("broadcast mode shares its pose");
+        assert_eq!(share.from, 1);
+    }
+
+    #[test]
+    fn goal_to_the_left_turns_left() {
+        let mut a = Agent::new(1, scenario());
+        let out = a.step(&empty_scan(1), &odom(Some([0.0, 10.0])), None);
+        assert!(out.cmd.yaw_rate > 0.0, "{:?}", out.cmd);
+    }
+
+    #[test]
+    fn a_neighbour_seen_by_lidar_is_not_an_obstacle_and_own_pose_is_ignored() {
+        let mut a = Agent::new(1, scenario());
+        a.on_pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 });
+        a.on_pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 });
+        let g = Gnss { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 };
+        let out = a.step(&empty_scan(1), &odom(None), Some(&g));
+        assert_eq!(out.state.neighbours.len(), 1, "own echo ignored");
+        assert_eq!(out.state.neighbours[0].id, Some(2));
+        let circle = perception::Circle { center: nalgebra::Point2::new(3.05, 0.0), radius: 0.3 };
+        let tree = perception::Circle { center: nalgebra::Point2::new(0.0, 5.0), radius: 0.3 };
+        let est = a.localize(Some(&g));
+        let left = a.trees_only(&[circle, tree], &est);
+        assert_eq!(left, vec![Vector2::new(0.0, 5.0)]);
+    }
+}

@@ -1,0 +1,367 @@
+//! The agent on the network: a Zenoh client of the hub that feeds [`Agent`] and publishes what
+//! it decides.
+//!
+//! - It fetches the scenario from the hub (`swarm/{run}/scenario`) unless given one, so an agent
+//!   on another machine needs only the hub's endpoint, the run id and its UAV id.
+//! - It subscribes to its own `sense/**` and `radio/{id}` keys, and to the `share/pose` key of
+//!   exactly the UAVs in its radio set, declaring and undeclaring as the set changes.
+//! - Determinism in lockstep: all subscriptions feed one channel, so messages are handled in
+//!   wire order; and a neighbour's share counts only if it was sent inside the neighbour's
+//!   window: from the tick after its subscription was declared (every later share is sure to be
+//!   routed to us, since the declaration reached the router before our command did) to the tick
+//!   before it left radio range. Which shares arrive no longer depends on timing.
+//! - Every share message in or out passes the [`netem::Link`] seam; incoming ones wait in an
+//!   [`netem::Inbox`] until their sim-time delivery instant.
+//! - It declares its `alive/uav/{id}` token after its subscriptions (so the hub, seeing the
+//!   token, knows the agent will get tick 0) and watches `alive/hub`: when the hub goes, the agent
+//!   commands hover and exits cleanly.
+
+use crate::agent::Agent;
+use std::collections::BTreeMap;
+use std::future::Future;
+use std::time::Duration;
+use swarm_config::{LocalizationMode, Scenario, ScenarioError, TimeMode};
+use swarm_wire::session::{self, Role};
+use swarm_wire::{Cmd, CmdKind, Gnss, Keys, Msg, Odom, PoseShare, Scan, WireError};
+use tokio::sync::{mpsc, watch};
+use tracing::{debug, info, info_span, trace, warn, Instrument};
+use zenoh::qos::{CongestionControl, Priority};
+use zenoh::sample::SampleKind;
+
+/// Errors of an agent.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// Zenoh or encoding trouble.
+    #[error(transparent)]
+    Wire(#[from] WireError),
+    /// The scenario the hub served (or the one given) is invalid.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// No hub answered in time.
+    #[error("no hub for run `{0}` answered within {1} s")]
+    NoHub(String, u64),
+    /// The UAV id is not in the scenario.
+    #[error("UAV id {0} is not in this scenario (ids 1..={1})")]
+    BadId(u32, u32),
+}
+
+/// Which UAV, which run, which hub.
+#[derive(Debug, Clone, Default)]
+pub struct AgentOptions {
+    /// Run id.
+    pub run: String,
+    /// UAV id, 1-based.
+    pub id: u32,
+    /// Hub endpoints, e.g. `tcp/10.0.0.5:7447`.
+    pub connect: Vec<String>,
+    /// `KEY:JSON5` Zenoh config overrides.
+    pub zenoh_cfg: Vec<String>,
+    /// Use this scenario instead of fetching it from the hub.
+    pub scenario: Option<Scenario>,
+}
+
+/// How an agent's run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AgentExit {
+    /// The hub's liveliness token went away.
+    HubGone,
+    /// Asked to stop.
+    Stopped,
+}
+
+/// Runs the agent until the hub goes away or `shutdown` resolves.
+pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Result<AgentExit, AgentError> {
+    let keys = Keys::new(&opts.run)?;
+    let s = session::open(Role::Client, &[], &opts.connect, &opts.zenoh_cfg).await?;
+    let span = info_span!("agent", uav_id = opts.id, run = %opts.run);
+    let result = async {
+        let sc = match opts.scenario.clone() {
+            Some(sc) => sc,
+            None => fetch_scenario(&s, &keys, &opts.run).await?,
+        };
+        if opts.id == 0 || opts.id > sc.swarm.count {
+            return Err(AgentError::BadId(opts.id, sc.swarm.count));
+        }
+        Node::start(s.clone(), keys, opts.id, sc).await?.run_loop(shutdown).await
+    }
+    .instrument(span)
+    .await;
+    let _ = s.close().await;
+    result
+}
+
+async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -> Result<Scenario, AgentError> {
+    const WAIT_SECS: u64 = 30;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(WAIT_SECS);
+    while tokio::time::Instant::now() < deadline {
+        let replies = s
+            .get(keys.scenario())
+            .timeout(Duration::from_secs(2))
+            .await
+            .map_err(WireError::zenoh)?;
+        while let Ok(reply) = replies.recv_async().await {
+            if let Ok(sample) = reply.result() {
+                let text = String::from_utf8_lossy(&sample.payload().to_bytes()).into_owned();
+                return Ok(Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?);
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    Err(AgentError::NoHub(run.to_string(), WAIT_SECS))
+}
+
+type Publisher = zenoh::pubsub::Publisher<'static>;
+
+/// Everything the subscriptions deliver, in one channel so wire order is kept.
+enum Incoming {
+    /// A sensor or radio message (`None`: malformed).
+    Sense(Option<Msg>),
+    /// A neighbour's share: sender id and raw payload.
+    Share(u32, Vec<u8>),
+}
+
+struct Node {
+    s: zenoh::Session,
+    keys: Keys,
+    id: u32,
+    dt: f64,
+    agent: Agent,
+    link: netem::Link,
+    inbox: netem::Inbox<PoseShare>,
+    malformed: u64,
+    tx: mpsc::UnboundedSender<Incoming>,
+    rx: mpsc::UnboundedReceiver<Incoming>,
+    /// First tick whose share is accepted, per neighbour in radio range.
+    windows: BTreeMap<u32, u64>,
+    hub_alive: watch::Receiver<bool>,
+    neighbour_subs: BTreeMap<u32, zenoh::pubsub::Subscriber<()>>,
+    cmd_pub: Publisher,
+    share_pub: Publisher,
+    state_pub: Publisher,
+    odom: Option<Odom>,
+    gnss: Option<Gnss>,
+    scan: Option<Scan>,
+    needs_gnss: bool,
+    last_tick: u64,
+    _sense_sub: zenoh::pubsub::Subscriber<()>,
+    _radio_sub: zenoh::pubsub::Subscriber<()>,
+    _hub_watch: zenoh::pubsub::Subscriber<()>,
+    _token: Option<zenoh::liveliness::LivelinessToken>,
+}
+
+async fn publisher(s: &zenoh::Session, key: String, cc: CongestionControl) -> Result<Publisher, WireError> {
+    s.declare_publisher(key)
+        .encoding(session::encoding())
+        .congestion_control(cc)
+        .priority(Priority::Data)
+        .await
+        .map_err(WireError::zenoh)
+}
+
+impl Node {
+    async fn start(s: zenoh::Session, keys: Keys, id: u32, sc: Scenario) -> Result<Node, AgentError> {
+        let cc = match sc.time.mode {
+            TimeMode::Lockstep => CongestionControl::Block,
+            TimeMode::Realtime => CongestionControl::Drop,
+        };
+        let (tx, rx) = mpsc::unbounded_channel();
+        let (sense_tx, radio_tx) = (tx.clone(), tx.clone());
+        let decode = |bytes: &[u8]| Incoming::Sense(Msg::decode(bytes).ok());
+        let sense_sub = s
+            .declare_subscriber(keys.sense_all(id))
+            .callback(move |sample| {
+                let _ = sense_tx.send(decode(&sample.payload().to_bytes()));
+            })
+            .await
+            .map_err(WireError::zenoh)?;
+        let radio_sub = s
+            .declare_subscriber(keys.radio(id))
+            .callback(move |sample| {
+                let _ = radio_tx.send(decode(&sample.payload().to_bytes()));
+            })
+            .await
+            .map_err(WireError::zenoh)?;
+        let (hub_tx, hub_alive) = watch::channel(false);
+        let hub_watch = s
+            .liveliness()
+            .declare_subscriber(keys.alive_hub())
+            .history(true)
+            .callback(move |sample| {
+                let _ = hub_tx.send(sample.kind() == SampleKind::Put);
+            })
+            .await
+            .map_err(WireError::zenoh)?;
+        let node = Node {
+            cmd_pub: publisher(&s, keys.cmd(id), CongestionControl::Block).await?,
+            share_pub: publisher(&s, keys.share_pose(id), cc).await?,
+            state_pub: publisher(&s, keys.state(id), cc).await?,
+            needs_gnss: sc.localization.mode == LocalizationMode::Broadcast,
+            dt: sc.dt_secs(),
+            agent: Agent::new(id, sc),
+            link: netem::Link::new(),
+            inbox: netem::Inbox::new(),
+            malformed: 0,
+            tx,
+            rx,
+            windows: BTreeMap::new(),
+            hub_alive,
+            neighbour_subs: BTreeMap::new(),
+            odom: None,
+            gnss: None,
+            scan: None,
+            last_tick: 0,
+            _sense_sub: sense_sub,
+            _radio_sub: radio_sub,
+            _hub_watch: hub_watch,
+            _token: None,
+            s,
+            keys,
+            id,
+        };
+        Ok(node)
+    }
+
+    async fn run_loop(mut self, shutdown: impl Future<Output = ()>) -> Result<AgentExit, AgentError> {
+        tokio::pin!(shutdown);
+        // Subscriptions are in place: now tell the hub we are here.
+        let token = self.s.liveliness().declare_token(self.keys.alive_uav(self.id)).await.map_err(WireError::zenoh)?;
+        self._token = Some(token);
+        info!("agent up");
+        let hub_deadline = tokio::time::sleep(Duration::from_secs(30));
+        tokio::pin!(hub_deadline);
+        let mut hub_seen = *self.hub_alive.borrow();
+        loop {
+            tokio::select! {
+                m = self.rx.recv() => match m {
+                    Some(Incoming::Sense(Some(msg))) => self.on_sense(msg).await?,
+                    Some(Incoming::Sense(None)) => { self.malformed += 1; debug!("dropped malformed sensor message"); }
+                    Some(Incoming::Share(from, bytes)) => self.on_share(from, &bytes),
+                    None => return Ok(AgentExit::Stopped),
+                },
+                changed = self.hub_alive.changed() => {
+                    let up = changed.is_ok() && *self.hub_alive.borrow();
+                    if up { hub_seen = true; }
+                    else if hub_seen || changed.is_err() { return self.hub_gone().await; }
+                },
+                _ = &mut hub_deadline, if !hub_seen => return Err(AgentError::NoHub(self.keys.prefix().to_string(), 30)),
+                _ = &mut shutdown => { self.hover().await; return Ok(AgentExit::Stopped); }
+            }
+        }
+    }
+
+    async fn hub_gone(&mut self) -> Result<AgentExit, AgentError> {
+        warn!("hub gone: hovering and exiting");
+        self.hover().await;
+        Ok(AgentExit::HubGone)
+    }
+
+    async fn hover(&mut self) {
+        let cmd = Cmd { tick: self.last_tick + 1, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
+        if let Ok(b) = Msg::Cmd(cmd).encode() {
+            let _ = self.cmd_pub.put(b).await;
+        }
+    }
+
+    /// A share message arrived from `from`: count it, keep it only inside the neighbour's
+    /// window, let the link decide, hold it in the inbox.
+    fn on_share(&mut self, from: u32, bytes: &[u8]) {
+        let pose = match Msg::decode(bytes) {
+            Ok(Msg::Pose(p)) if p.from == from => p,
+            other => {
+                self.malformed += 1;
+                debug!(from, ?other, "dropped malformed share");
+                return;
+            }
+        };
+        if self.windows.get(&from).is_none_or(|&first| pose.tick < first) {
+            trace!(from, tick = pose.tick, "share outside the neighbour's window");
+            return;
+        }
+        let now = self.last_tick as f64 * self.dt;
+        if let netem::Verdict::DeliverAt(at) = self.link.on_receive(from, pose.t_secs, now, self.dt, bytes.len()) {
+            self.inbox.push(at, pose);
+        }
+    }
+
+    async fn on_sense(&mut self, msg: Msg) -> Result<(), AgentError> {
+        match msg {
+            Msg::Radio(r) => self.update_neighbour_subscriptions(r.tick, &r.in_range).await?,
+            Msg::Odom(o) => self.odom = Some(o),
+            Msg::Gnss(g) => self.gnss = Some(g),
+            Msg::Scan(s) => self.scan = Some(s),
+            other => trace!(kind = other.kind(), "ignored"),
+        }
+        self.try_step().await
+    }
+
+    /// Steps once the scan, odometry (and GNSS in broadcast mode) of the same tick are in.
+    async fn try_step(&mut self) -> Result<(), AgentError> {
+        let Some(scan) = &self.scan else { return Ok(()) };
+        let tick = scan.tick;
+        let odom_ready = self.odom.as_ref().is_some_and(|o| o.tick == tick);
+        let gnss_ready = !self.needs_gnss || self.gnss.as_ref().is_some_and(|g| g.tick == tick);
+        if !(odom_ready && gnss_ready) {
+            return Ok(());
+        }
+        let Some(scan) = self.scan.take() else { return Ok(()) };
+        self.last_tick = tick;
+        let due = self.inbox.take_due(scan.t_secs);
+        self.link.on_delivered(due.len());
+        for p in due {
+            self.agent.on_pose(p);
+        }
+        let Some(odom) = self.odom else { return Ok(()) };
+        let gnss = self.gnss.filter(|g| g.tick == tick);
+        let mut out = self.agent.step(&scan, &odom, gnss.as_ref());
+        if let Some(share) = out.share {
+            let bytes = Msg::Pose(share).encode()?;
+            if self.link.on_send(bytes.len()) {
+                self.share_pub.put(bytes).await.map_err(WireError::zenoh)?;
+            }
+        }
+        self.cmd_pub.put(Msg::Cmd(out.cmd).encode()?).await.map_err(WireError::zenoh)?;
+        let c = self.link.counters();
+        out.state.in_radio_range = self.neighbour_subs.len() as u32;
+        out.state.link = swarm_wire::LinkCounters {
+            sent_msgs: c.sent_msgs,
+            sent_bytes: c.sent_bytes,
+            recv_msgs: c.recv_msgs,
+            recv_bytes: c.recv_bytes,
+            delivered_msgs: c.delivered_msgs,
+            malformed: self.malformed,
+        };
+        self.state_pub.put(Msg::State(out.state).encode()?).await.map_err(WireError::zenoh)?;
+        trace!(tick, "stepped");
+        Ok(())
+    }
+
+    /// Subscribes to the share keys of exactly the UAVs in radio range at `tick`, and moves their
+    /// acceptance windows (see the module doc).
+    async fn update_neighbour_subscriptions(&mut self, tick: u64, in_range: &[u32]) -> Result<(), AgentError> {
+        let gone: Vec<u32> = self.neighbour_subs.keys().copied().filter(|id| !in_range.contains(id)).collect();
+        for id in gone {
+            self.neighbour_subs.remove(&id);
+            self.windows.remove(&id);
+            self.inbox.retain(|p| !(p.from == id && p.tick >= tick));
+            debug!(neighbour = id, "unsubscribed");
+        }
+        for &id in in_range {
+            if id == self.id || self.neighbour_subs.contains_key(&id) {
+                continue;
+            }
+            let tx = self.tx.clone();
+            let sub = self
+                .s
+                .declare_subscriber(self.keys.share_pose(id))
+                .callback(move |sample| {
+                    let _ = tx.send(Incoming::Share(id, sample.payload().to_bytes().into_owned()));
+                })
+                .await
+                .map_err(WireError::zenoh)?;
+            debug!(neighbour = id, "subscribed");
+            self.neighbour_subs.insert(id, sub);
+            self.windows.insert(id, tick + 1);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,162 @@
+//! The key-expression space of one run. ARCHITECTURE.md carries the same table; change both.
+//!
+//! ```text
+//! swarm/{run}/clock                        Clock        hub -> all
+//! swarm/{run}/scenario                     (queryable)  hub answers with the scenario TOML
+//! swarm/{run}/uav/{id}/sense/scan          Scan         hub -> agent {id}
+//! swarm/{run}/uav/{id}/sense/odom          Odom         hub -> agent {id}
+//! swarm/{run}/uav/{id}/sense/gnss          Gnss         hub -> agent {id} (broadcast mode only)
+//! swarm/{run}/uav/{id}/cmd                 Cmd          agent {id} -> hub
+//! swarm/{run}/uav/{id}/share/pose          PoseShare    agent {id} -> neighbours (broadcast mode)
+//! swarm/{run}/uav/{id}/share/obstacles     (reserved for icp mode)
+//! swarm/{run}/uav/{id}/state               AgentState   agent {id} -> recorder, tools
+//! swarm/{run}/radio/{id}                   RadioSet     hub -> agent {id}
+//! swarm/{run}/truth/world                  TruthWorld   hub -> recorder (once, at tick 0)
+//! swarm/{run}/truth/step                   TruthStep    hub -> recorder (every tick)
+//! swarm/{run}/alive/hub                    liveliness token of the hub
+//! swarm/{run}/alive/uav/{id}               liveliness token of agent {id}
+//! swarm/{run}/netem/**                     (reserved for fault rules)
+//! ```
+
+use crate::WireError;
+
+/// Builds every key of run `run`.
+#[derive(Debug, Clone)]
+pub struct Keys {
+    prefix: String,
+}
+
+/// Checks a run id or key component: non-empty, `[A-Za-z0-9_-]` only.
+pub fn check_component(s: &str) -> Result<(), WireError> {
+    if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+        Ok(())
+    } else {
+        Err(WireError::BadKey(s.to_string()))
+    }
+}
+
+impl Keys {
+    /// Keys of run `run`; the id must be `[A-Za-z0-9_-]`.
+    pub fn new(run: &str) -> Result<Keys, WireError> {
+        check_component(run)?;
+        Ok(Keys { prefix: format!("swarm/{run}") })
+    }
+
+    /// `swarm/{run}`
+    pub fn prefix(&self) -> &str {
+        &self.prefix
+    }
+    /// `swarm/{run}/clock`
+    pub fn clock(&self) -> String {
+        format!("{}/clock", self.prefix)
+    }
+    /// `swarm/{run}/scenario`
+    pub fn scenario(&self) -> String {
+        format!("{}/scenario", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/sense/scan`
+    pub fn scan(&self, id: u32) -> String {
+        format!("{}/uav/{id}/sense/scan", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/sense/odom`
+    pub fn odom(&self, id: u32) -> String {
+        format!("{}/uav/{id}/sense/odom", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/sense/gnss`
+    pub fn gnss(&self, id: u32) -> String {
+        format!("{}/uav/{id}/sense/gnss", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/sense/**`
+    pub fn sense_all(&self, id: u32) -> String {
+        format!("{}/uav/{id}/sense/**", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/cmd`
+    pub fn cmd(&self, id: u32) -> String {
+        format!("{}/uav/{id}/cmd", self.prefix)
+    }
+    /// `swarm/{run}/uav/*/cmd`
+    pub fn cmd_any(&self) -> String {
+        format!("{}/uav/*/cmd", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/share/pose`
+    pub fn share_pose(&self, id: u32) -> String {
+        format!("{}/uav/{id}/share/pose", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/state`
+    pub fn state(&self, id: u32) -> String {
+        format!("{}/uav/{id}/state", self.prefix)
+    }
+    /// `swarm/{run}/uav/*/state`
+    pub fn state_any(&self) -> String {
+        format!("{}/uav/*/state", self.prefix)
+    }
+    /// `swarm/{run}/radio/{id}`
+    pub fn radio(&self, id: u32) -> String {
+        format!("{}/radio/{id}", self.prefix)
+    }
+    /// `swarm/{run}/truth/world`
+    pub fn truth_world(&self) -> String {
+        format!("{}/truth/world", self.prefix)
+    }
+    /// `swarm/{run}/truth/step`
+    pub fn truth_step(&self) -> String {
+        format!("{}/truth/step", self.prefix)
+    }
+    /// `swarm/{run}/truth/**`
+    pub fn truth_all(&self) -> String {
+        format!("{}/truth/**", self.prefix)
+    }
+    /// `swarm/{run}/alive/hub`
+    pub fn alive_hub(&self) -> String {
+        format!("{}/alive/hub", self.prefix)
+    }
+    /// `swarm/{run}/alive/uav/{id}`
+    pub fn alive_uav(&self, id: u32) -> String {
+        format!("{}/alive/uav/{id}", self.prefix)
+    }
+    /// `swarm/{run}/alive/uav/*`
+    pub fn alive_uav_any(&self) -> String {
+        format!("{}/alive/uav/*", self.prefix)
+    }
+
+    /// The UAV id in a key `swarm/{run}/.../uav/{id}/...` or `.../alive/uav/{id}`.
+    pub fn uav_id_in(key: &str) -> Option<u32> {
+        let mut parts = key.split('/');
+        while let Some(p) = parts.next() {
+            if p == "uav" {
+                return parts.next()?.parse().ok();
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_are_under_the_run_prefix() {
+        let k = Keys::new("r-1_a").expect("valid run id");
+        assert_eq!(k.scan(3), "swarm/r-1_a/uav/3/sense/scan");
+        assert_eq!(k.cmd_any(), "swarm/r-1_a/uav/*/cmd");
+        assert_eq!(k.truth_step(), "swarm/r-1_a/truth/step");
+        assert_eq!(k.alive_uav(7), "swarm/r-1_a/alive/uav/7");
+    }
+
+    #[test]
+    fn bad_run_ids_are_refused() {
+        for bad in ["", "a/b", "a*", "x y", "$x", "a#"] {
+            assert!(Keys::new(bad).is_err(), "{bad:?} should be refused");
+        }
+    }
+
+    #[test]
+    fn uav_id_is_read_back_from_keys() {
+        let k = Keys::new("r").expect("valid");
+        assert_eq!(Keys::uav_id_in(&k.cmd(12)), Some(12));
+        assert_eq!(Keys::uav_id_in(&k.alive_uav(4)), Some(4));
+        assert_eq!(Keys::uav_id_in(&k.clock()), None);
+        assert_eq!(Keys::uav_id_in("swarm/r/uav/x/cmd"), None);
+    }
+}

@@ -1,0 +1,395 @@
+//! Every payload of a run, in one postcard-encoded envelope.
+//!
+//! Postcard is positional and not self-describing, so the rules are: variants of [`Msg`] are only
+//! ever appended; a struct may only grow at its end. The golden-bytes test below pins the
+//! encoding of each message so an accidental reorder fails CI. Times are sim seconds; frames are
+//! named in field docs (world, odom = the UAV's own start frame, body = the UAV's rotational
+//! frame, seed 000 section 2.4).
+
+use crate::WireError;
+use serde::{Deserialize, Serialize};
+
+/// Schema name put into the Zenoh encoding of every payload.
+pub const SCHEMA: &str = "swarm.Msg.v1";
+
+/// The envelope of every payload on a `swarm/**` key.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Msg {
+    /// `swarm/{run}/clock`
+    Clock(Clock),
+    /// `.../sense/scan`
+    Scan(Scan),
+    /// `.../sense/odom`
+    Odom(Odom),
+    /// `.../sense/gnss`
+    Gnss(Gnss),
+    /// `swarm/{run}/radio/{id}`
+    Radio(RadioSet),
+    /// `.../cmd`
+    Cmd(Cmd),
+    /// `.../share/pose`
+    Pose(PoseShare),
+    /// `.../state`
+    State(AgentState),
+    /// `swarm/{run}/truth/world`
+    TruthWorld(TruthWorld),
+    /// `swarm/{run}/truth/step`
+    TruthStep(TruthStep),
+}
+
+impl Msg {
+    /// Postcard bytes of this message.
+    pub fn encode(&self) -> Result<Vec<u8>, WireError> {
+        postcard::to_allocvec(self).map_err(WireError::Encode)
+    }
+
+    /// Decodes a payload; a malformed one is an error to count and drop, never a panic.
+    pub fn decode(bytes: &[u8]) -> Result<Msg, WireError> {
+        postcard::from_bytes(bytes).map_err(|source| WireError::Decode { len: bytes.len(), source })
+    }
+
+    /// Short name of the variant, for logs and counters.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Msg::Clock(_) => "clock",
+            Msg::Scan(_) => "scan",
+            Msg::Odom(_) => "odom",
+            Msg::Gnss(_) => "gnss",
+            Msg::Radio(_) => "radio",
+            Msg::Cmd(_) => "cmd",
+            Msg::Pose(_) => "pose",
+            Msg::State(_) => "state",
+            Msg::TruthWorld(_) => "truth_world",
+            Msg::TruthStep(_) => "truth_step",
+        }
+    }
+}
+
+/// Sim clock at tick `tick`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Clock {
+    /// Tick number, from 0.
+    pub tick: u64,
+    /// Sim time of this tick [s].
+    pub t_secs: f64,
+    /// Tick length [s].
+    pub dt_secs: f64,
+}
+
+/// One 360° LIDAR scan in the body frame. Beam `i` points at `angle_min + i·angle_increment`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Scan {
+    /// Tick of the scan.
+    pub tick: u64,
+    /// Sim time [s].
+    pub t_secs: f64,
+    /// Angle of beam 0 [rad], body frame.
+    pub angle_min: f32,
+    /// Angle between beams [rad].
+    pub angle_increment: f32,
+    /// Maximum range [m].
+    pub max_range_m: f32,
+    /// Range of each beam [m]; `+inf` (JSON `null`) where nothing was hit.
+    pub ranges_m: Vec<f32>,
+}
+
+/// Own pose and velocity in the UAV's odometry frame (its start pose).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Odom {
+    /// Tick.
+    pub tick: u64,
+    /// Sim time [s].
+    pub t_secs: f64,
+    /// Position x in the odom frame [m].
+    pub x: f64,
+    /// Position y in the odom frame [m].
+    pub y: f64,
+    /// Heading in the odom frame [rad].
+    pub yaw: f64,
+    /// Velocity x in the odom frame [m/s].
+    pub vx: f64,
+    /// Velocity y in the odom frame [m/s].
+    pub vy: f64,
+    /// The goal in the odom frame, for informed UAVs (a mission waypoint from the ground station).
+    pub goal: Option<[f64; 2]>,
+}
+
+/// A GNSS-like pose in the shared world frame; published only in `broadcast` localization mode.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Gnss {
+    /// Tick.
+    pub tick: u64,
+    /// Sim time [s].
+    pub t_secs: f64,
+    /// World x [m].
+    pub x: f64,
+    /// World y [m].
+    pub y: f64,
+    /// World heading [rad].
+    pub yaw: f64,
+    /// World velocity x [m/s].
+    pub vx: f64,
+    /// World velocity y [m/s].
+    pub vy: f64,
+}
+
+/// The UAVs that UAV `id` can hear now (radio range with hysteresis).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RadioSet {
+    /// Tick.
+    pub tick: u64,
+    /// Whose set this is.
+    pub id: u32,
+    /// UAV ids in radio range, sorted.
+    pub in_range: Vec<u32>,
+}
+
+/// What a command asks of the body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CmdKind {
+    /// `x, y` are a desired velocity [m/s], body frame.
+    Velocity,
+    /// `x, y` are a desired acceleration [m/s²], body frame.
+    Acceleration,
+    /// Hold position (the agent has lost its hub or is shutting down).
+    Hover,
+}
+
+/// An agent's command for tick `tick`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Cmd {
+    /// The tick this command answers.
+    pub tick: u64,
+    /// Velocity, acceleration or hover.
+    pub kind: CmdKind,
+    /// Body-frame x component.
+    pub x: f32,
+    /// Body-frame y component.
+    pub y: f32,
+    /// Yaw rate [rad/s].
+    pub yaw_rate: f32,
+}
+
+/// `broadcast` mode: a UAV's own pose in the shared (GNSS-like) frame, sent to its neighbours.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoseShare {
+    /// Sender id (routing and metrics; K21 agents stay anonymous in `icp` mode).
+    pub from: u32,
+    /// Tick the pose belongs to.
+    pub tick: u64,
+    /// Sim time of the pose [s].
+    pub t_secs: f64,
+    /// World x [m].
+    pub x: f64,
+    /// World y [m].
+    pub y: f64,
+    /// World heading [rad].
+    pub yaw: f64,
+    /// World velocity x [m/s].
+    pub vx: f64,
+    /// World velocity y [m/s].
+    pub vy: f64,
+}
+
+/// One neighbour as an agent believes it to be, in the agent's body frame.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct NeighbourEstimate {
+    /// The neighbour's id where known (its key), for metrics only.
+    pub id: Option<u32>,
+    /// Relative position x [m], body frame.
+    pub x: f32,
+    /// Relative position y [m], body frame.
+    pub y: f32,
+    /// Relative heading [rad].
+    pub heading: f32,
+    /// Age of the information [s].
+    pub age_secs: f32,
+}
+
+/// Message and byte counts of one agent's inter-agent link (the netem seam).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkCounters {
+    /// Messages published to neighbours.
+    pub sent_msgs: u64,
+    /// Bytes published to neighbours.
+    pub sent_bytes: u64,
+    /// Messages received from neighbours.
+    pub recv_msgs: u64,
+    /// Bytes received from neighbours.
+    pub recv_bytes: u64,
+    /// Messages delivered to the controller (after netem).
+    pub delivered_msgs: u64,
+    /// Received payloads that failed to decode (counted and dropped).
+    pub malformed: u64,
+}
+
+/// Magnitudes of the K21 vectors of one step (seed 000 eq. 4.1), for plots and diagnostics.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct VectorMagnitudes {
+    /// |v_c|
+    pub cohesion: f32,
+    /// |v_s|
+    pub separation: f32,
+    /// |v_o|
+    pub avoidance: f32,
+    /// |v_n|
+    pub navigation: f32,
+    /// |v_f|, the command [m/s]
+    pub output: f32,
+}
+
+/// An agent's diagnostics for one step.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AgentState {
+    /// Agent id.
+    pub id: u32,
+    /// Tick of the step.
+    pub tick: u64,
+    /// Sim time [s].
+    pub t_secs: f64,
+    /// Wall time the step took (perception + localization + control) [µs].
+    pub step_time_us: u32,
+    /// Obstacles extracted from this scan.
+    pub obstacles: u32,
+    /// Current neighbour estimates.
+    pub neighbours: Vec<NeighbourEstimate>,
+    /// UAVs in radio range (subscribed to).
+    pub in_radio_range: u32,
+    /// Controller vector magnitudes.
+    pub vectors: VectorMagnitudes,
+    /// Link counters since start.
+    pub link: LinkCounters,
+}
+
+/// The static world, published once by the hub for the recorder.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthWorld {
+    /// Trees `[x, y, r]` [m].
+    pub trees: Vec<[f64; 3]>,
+    /// Walls `[x1, y1, x2, y2, thickness]` [m].
+    pub walls: Vec<[f64; 5]>,
+    /// Start poses `[x, y, yaw]`, index = id − 1.
+    pub starts: Vec<[f64; 3]>,
+    /// The goal [m].
+    pub goal: [f64; 2],
+    /// Body radius [m].
+    pub body_radius_m: f64,
+}
+
+/// Ground truth of one body after a tick.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TruthBody {
+    /// UAV id.
+    pub id: u32,
+    /// World x [m].
+    pub x: f64,
+    /// World y [m].
+    pub y: f64,
+    /// World heading [rad].
+    pub yaw: f64,
+    /// World velocity x [m/s].
+    pub vx: f64,
+    /// World velocity y [m/s].
+    pub vy: f64,
+    /// Its agent holds a liveliness token.
+    pub alive: bool,
+    /// Its command for this tick arrived before the tick closed.
+    pub cmd_on_time: bool,
+    /// Distance from the UAV centre to the nearest obstacle surface [m].
+    pub obstacle_distance_m: f64,
+    /// Distance to the nearest other UAV, centre to centre [m].
+    pub agent_distance_m: f64,
+    /// In collision now.
+    pub colliding: bool,
+}
+
+/// Why a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum EndReason {
+    /// The goal rule was met.
+    Goal,
+    /// The sim-time limit passed.
+    TimeLimit,
+    /// No agent was alive any more.
+    NoAgents,
+    /// The hub was told to stop.
+    Stopped,
+}
+
+/// A collision that started this tick.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CollisionEvent {
+    /// The UAV.
+    pub id: u32,
+    /// The other UAV, or `None` for an obstacle.
+    pub other_uav: Option<u32>,
+    /// World position [m].
+    pub x: f64,
+    /// World position [m].
+    pub y: f64,
+}
+
+/// Ground truth after tick `tick`, for the recorder.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthStep {
+    /// Tick just integrated.
+    pub tick: u64,
+    /// Sim time at the end of the tick [s].
+    pub t_secs: f64,
+    /// Every body.
+    pub bodies: Vec<TruthBody>,
+    /// Collisions that began this tick.
+    pub collisions: Vec<CollisionEvent>,
+    /// Sim time the goal rule was first met, if it was.
+    pub goal_reached_at: Option<f64>,
+    /// Set on the last step of the run.
+    pub ended: Option<EndReason>,
+    /// Wall seconds since tick 0.
+    pub wall_secs: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn samples() -> Vec<Msg> {
+        vec![
+            Msg::Clock(Clock { tick: 3, t_secs: 0.3, dt_secs: 0.1 }),
+            Msg::Scan(Scan {
+                tick: 1,
+                t_secs: 0.1,
+                angle_min: 0.0,
+                angle_increment: 0.5,
+                max_range_m: 12.0,
+                ranges_m: vec![1.0, f32::INFINITY],
+            }),
+            Msg::Cmd(Cmd { tick: 2, kind: CmdKind::Velocity, x: 0.25, y: -0.5, yaw_rate: 0.0 }),
+            Msg::Radio(RadioSet { tick: 4, id: 2, in_range: vec![1, 3] }),
+        ]
+    }
+
+    #[test]
+    fn roundtrip() {
+        for m in samples() {
+            let b = m.encode().expect("encodes");
+            assert_eq!(Msg::decode(&b).expect("decodes"), m);
+        }
+    }
+
+    /// Pins the layout: a reordered variant or field changes these bytes.
+    #[test]
+    fn golden_bytes() {
+        let b: Vec<Vec<u8>> = samples().iter().map(|m| m.encode().expect("encodes")).collect();
+        assert_eq!(b[0][0], 0, "Clock is variant 0");
+        assert_eq!(b[0][1], 3, "tick varint");
+        assert_eq!(b[2], vec![5, 2, 0, 0, 0, 128, 62, 0, 0, 0, 191, 0, 0, 0, 0]);
+        assert_eq!(b[3], vec![4, 4, 2, 2, 1, 3]);
+    }
+
+    #[test]
+    fn malformed_payloads_are_errors_not_panics() {
+        for bad in [&[][..], &[200u8][..], &[1, 1][..], &[5, 2, 9][..], &[255; 64][..]] {
+            assert!(Msg::decode(bad).is_err(), "{bad:?}");
+        }
+    }
+}

@@ -1,0 +1,63 @@
+//! How every process opens its Zenoh session (see `../shared/ZENOH.md` section 1).
+//!
+//! The hub is a router and everyone else a client of it: routing is deterministic, and the hub is
+//! the one place where access control can be enforced. Multicast scouting is off in every
+//! process (it is what makes parallel test runs cross-talk), and so is gossip autoconnect, so
+//! traffic cannot route around the hub.
+
+use crate::WireError;
+use zenoh::bytes::Encoding;
+
+/// Role of a process in the run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The physics hub: a Zenoh router.
+    Router,
+    /// Agents, recorder, tools: Zenoh clients of the hub.
+    Client,
+}
+
+/// Builds the Zenoh config of a process. `extra` are `KEY:JSON5` overrides (`--cfg`), applied last.
+pub fn config(role: Role, listen: &[String], connect: &[String], extra: &[String]) -> Result<zenoh::Config, WireError> {
+    let mut c = zenoh::Config::default();
+    let set = |c: &mut zenoh::Config, k: &str, v: &str| c.insert_json5(k, v).map_err(|e| WireError::zenoh(format!("{k}: {e}")));
+    let mode = match role {
+        Role::Router => "\"router\"",
+        Role::Client => "\"client\"",
+    };
+    set(&mut c, "mode", mode)?;
+    set(&mut c, "scouting/multicast/enabled", "false")?;
+    set(&mut c, "scouting/gossip/enabled", "false")?;
+    set(&mut c, "scouting/delay", "0")?;
+    let json = |v: &[String]| serde_json::to_string(v).map_err(|e| WireError::zenoh(e.to_string()));
+    set(&mut c, "listen/endpoints", &json(listen)?)?;
+    set(&mut c, "connect/endpoints", &json(connect)?)?;
+    if role == Role::Client {
+        // Wait for a hub that is not up yet, retrying, rather than failing at once.
+        set(&mut c, "connect/timeout_ms", "30000")?;
+        set(&mut c, "connect/retry", "{period_init_ms: 100, period_max_ms: 1000, period_increase_factor: 2}")?;
+    }
+    for kv in extra {
+        let (k, v) = kv
+            .split_once(':')
+            .ok_or_else(|| WireError::zenoh(format!("--cfg {kv:?}: expected KEY:JSON5_VALUE")))?;
+        set(&mut c, k, v)?;
+    }
+    Ok(c)
+}
+
+/// Opens a session with [`config`].
+pub async fn open(role: Role, listen: &[String], connect: &[String], extra: &[String]) -> Result<zenoh::Session, WireError> {
+    let c = config(role, listen, connect, extra)?;
+    zenoh::open(c).await.map_err(WireError::zenoh)
+}
+
+/// The Zenoh encoding of every payload: octet stream with our schema name.
+pub fn encoding() -> Encoding {
+    Encoding::APPLICATION_OCTET_STREAM.with_schema(crate::msg::SCHEMA)
+}
+
+/// The locators a router session listens on (with the real port when it was asked for port 0).
+pub async fn locators(session: &zenoh::Session) -> Vec<String> {
+    session.info().locators().await.iter().map(|l| l.to_string()).collect()
+}
