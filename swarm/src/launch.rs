@@ -162,6 +162,7 @@ struct Recording {
     truth: mpsc::UnboundedReceiver<Vec<u8>>,
     states: mpsc::UnboundedReceiver<Vec<u8>>,
     _subs: [zenoh::pubsub::Subscriber<()>; 2],
+    _token: zenoh::liveliness::LivelinessToken,
 }
 
 impl Recording {
@@ -185,7 +186,9 @@ impl Recording {
             })
             .await
             .map_err(z)?;
-        Ok(Recording { session, keys, run_id: run_id.to_string(), truth, states, _subs: [t_sub, s_sub] })
+        // Subscribed: say so, for whoever starts agents by hand and wants the whole run recorded.
+        let token = session.liveliness().declare_token(keys.alive_recorder()).await.map_err(z)?;
+        Ok(Recording { session, keys, run_id: run_id.to_string(), truth, states, _subs: [t_sub, s_sub], _token: token })
     }
 
     async fn fetch_scenario(&self) -> Result<Scenario> {

@@ -15,6 +15,7 @@
 //! swarm/{run}/truth/step                   TruthStep    hub -> recorder (every tick)
 //! swarm/{run}/alive/hub                    liveliness token of the hub
 //! swarm/{run}/alive/uav/{id}               liveliness token of agent {id}
+//! swarm/{run}/alive/recorder               liveliness token of the recorder
 //! swarm/{run}/netem/**                     (reserved for fault rules)
 //! ```
 
@@ -113,6 +114,10 @@ impl Keys {
     /// `swarm/{run}/alive/uav/{id}`
     pub fn alive_uav(&self, id: u32) -> String {
         format!("{}/alive/uav/{id}", self.prefix)
+    }
+    /// `swarm/{run}/alive/recorder`
+    pub fn alive_recorder(&self) -> String {
+        format!("{}/alive/recorder", self.prefix)
     }
     /// `swarm/{run}/alive/uav/*`
     pub fn alive_uav_any(&self) -> String {

@@ -1,0 +1,79 @@
+//! End to end over real Zenoh and real processes: `swarm run` flies the built-in scenarios.
+
+mod common;
+
+use common::{run_id, summary, swarm_run};
+
+/// Seed 000 section 6.1 (forest-5, lockstep, broadcast localization): goal, no collision, safe
+/// distances, a complete run folder.
+#[test]
+fn forest5_reaches_goal_without_collision() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("forest5");
+    let out = swarm_run(&["--out", dir.path().to_str().expect("utf8"), "--run", &run]);
+    assert!(out.status.success(), "swarm run failed: {}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(dir.path());
+    assert_eq!(s["schema"], "swarm.summary.v1");
+    assert_eq!(s["scenario"], "forest-5");
+    assert_eq!(s["run_id"], run.as_str());
+    assert_eq!(s["end_reason"], "goal", "{s:#}");
+    assert_eq!(s["reached_goal"], true);
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    let min_obst = s["min_obstacle_distance_m"].as_f64().expect("number");
+    let min_uav = s["min_agent_distance_m"].as_f64().expect("number");
+    assert!(min_obst > 0.5, "min obstacle distance {min_obst}");
+    assert!(min_uav > 0.5, "min agent distance {min_uav}");
+    assert!(s["trees"].as_u64().expect("number") > 10, "a forest was flown through");
+    let agents = s["agents"].as_array().expect("agents");
+    assert_eq!(agents.len(), 5);
+    for a in agents {
+        assert!(a["messages_sent"].as_u64().expect("n") > 100, "{a:#}");
+        assert!(a["messages_received"].as_u64().expect("n") > 100, "every agent heard its neighbours: {a:#}");
+        assert!(a["bytes_sent"].as_u64().expect("n") > a["messages_sent"].as_u64().expect("n"));
+        assert_eq!(a["late_ticks"], 0, "lockstep: every command on time: {a:#}");
+        assert!(a["path_length_m"].as_f64().expect("n") > 25.0, "{a:#}");
+    }
+    // The human summary is printed.
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("goal: reached"), "{stdout}");
+    assert!(stdout.contains("collisions: 0"), "{stdout}");
+    // Per-step trajectories: a header plus one row per UAV per tick.
+    let traj = std::fs::read_to_string(dir.path().join("trajectories.csv")).expect("trajectories.csv");
+    let rows = traj.lines().count() - 1;
+    assert_eq!(rows as u64, 5 * s["ticks"].as_u64().expect("ticks"));
+    let states = std::fs::read_to_string(dir.path().join("agent_states.csv")).expect("agent_states.csv");
+    assert!(states.lines().count() > rows / 2);
+}
+
+/// Lockstep is deterministic: the same scenario flies the same trajectories, byte for byte.
+#[test]
+fn lockstep_runs_repeat_exactly() {
+    let a = tempfile::tempdir().expect("tempdir");
+    let b = tempfile::tempdir().expect("tempdir");
+    for d in [&a, &b] {
+        let out = swarm_run(&["open-field-5", "--out", d.path().to_str().expect("utf8"), "--run", &run_id("det")]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let ta = std::fs::read(a.path().join("trajectories.csv")).expect("a");
+    let tb = std::fs::read(b.path().join("trajectories.csv")).expect("b");
+    assert!(ta.len() > 1000);
+    assert!(ta == tb, "two lockstep runs of one scenario differ");
+    let s = summary(a.path());
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0);
+}
+
+/// A malformed scenario is refused before anything starts, naming the file and the field.
+#[test]
+fn bad_scenario_names_file_and_field() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, "name = \"bad\"\n[swarm]\ncount = 2\nstart_positions = [[0.0, 0.0], [1.0, 0.0]]\ngoal = [1.0, 0.0]\n[lidar]\nbeams = -3\n")
+        .expect("write");
+    let out = swarm_run(&[path.to_str().expect("utf8"), "--out", dir.path().join("o").to_str().expect("utf8")]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.toml"), "{err}");
+    assert!(err.contains("lidar.beams"), "{err}");
+    assert!(!dir.path().join("o").exists(), "nothing started");
+}

@@ -1,0 +1,106 @@
+//! End to end: the pieces started by hand, as on several machines (hub with `--listen`, agents
+//! and recorder with `--connect`), `swarm tap` on the key space, and agents that outlive their
+//! hub exiting cleanly.
+
+mod common;
+
+use common::{run_id, start_hub, Proc, SWARM};
+use std::process::Command;
+use std::time::Duration;
+
+fn tap(args: &[&str]) -> String {
+    let out = Command::new(SWARM).arg("tap").args(args).output().expect("tap runs");
+    assert!(out.status.success(), "tap failed: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("utf8")
+}
+
+#[test]
+fn pieces_by_hand_fly_and_tap_decodes_the_key_space() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("hand");
+    let (mut hub, loc) = start_hub("open-field-5", &run, dir.path());
+
+    // The scenario queryable answers the TOML text, printed as text.
+    let got = tap(&[&format!("swarm/{run}/scenario"), "--get", "--connect", &loc, "--count", "1"]);
+    let v: serde_json::Value = serde_json::from_str(got.lines().next().expect("a line")).expect("json line");
+    assert!(v["text"].as_str().expect("text").contains("open-field-5"), "{v}");
+
+    // Recorder first (it must see tick 0), then the five agents, each with only --connect.
+    let out = dir.path().join("rec");
+    let mut rec = Proc::start(
+        &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc],
+        &dir.path().join("rec.log"),
+    );
+    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
+    // A tap on the truth of the run, decoding postcard into JSON lines, while the swarm flies.
+    let truth_tap = Command::new(SWARM)
+        .args(["tap", &format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", "3", "--duration", "60"])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("tap");
+    std::thread::sleep(Duration::from_millis(300));
+    let mut agents: Vec<Proc> = (1..=5)
+        .map(|id| {
+            Proc::start(
+                &["agent", "--run", &run, "--id", &id.to_string(), "--connect", &loc, "--exit-with-stdin"],
+                &dir.path().join(format!("agent-{id}.log")),
+            )
+        })
+        .collect();
+
+    let tapped = truth_tap.wait_with_output().expect("tap output");
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&tapped.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each line is JSON"))
+        .collect();
+    assert_eq!(lines.len(), 3, "tap stops after --count");
+    assert_eq!(lines[0]["kind"], "truth_step");
+    assert_eq!(lines[0]["msg"]["TruthStep"]["bodies"].as_array().expect("bodies").len(), 5);
+
+    let status = rec.wait_for(Duration::from_secs(120)).expect("recorder finishes with the run");
+    assert!(status.success());
+    let s = common::summary(&out);
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0);
+
+    // The hub ends the run by itself; every agent sees its token go and exits cleanly.
+    assert!(hub.wait_for(Duration::from_secs(20)).expect("hub exits after the run").success());
+    for a in &mut agents {
+        let st = a.wait_for(Duration::from_secs(20)).expect("agent exits when its hub is gone");
+        assert!(st.success(), "agent exit status {st:?}");
+    }
+}
+
+#[test]
+fn agent_whose_hub_dies_hovers_and_exits_cleanly() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("hubdies");
+    let (mut hub, loc) = start_hub("forest-5", &run, dir.path());
+    let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
+    // The agent is alive when a liveliness tap sees its token.
+    let alive = tap(&[&format!("swarm/{run}/alive/uav/1"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    assert!(alive.contains("\"alive\":true"), "{alive}");
+    assert!(agent.child.try_wait().expect("try_wait").is_none(), "agent still running");
+    // Close the hub's stdin: it stops; the agent must notice and exit with success.
+    drop(hub.stdin.take());
+    assert!(hub.wait_for(Duration::from_secs(20)).is_some(), "hub stops when told");
+    let st = agent.wait_for(Duration::from_secs(20)).expect("agent exits instead of hanging");
+    assert!(st.success(), "{st:?}");
+    let log = std::fs::read_to_string(dir.path().join("agent.log")).expect("log");
+    assert!(log.contains("hub gone"), "{log}");
+}
+
+#[test]
+fn agent_with_an_id_outside_the_scenario_is_refused() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("badid");
+    let (_hub, loc) = start_hub("forest-5", &run, dir.path());
+    let out = Command::new(SWARM)
+        .args(["agent", "--run", &run, "--id", "9", "--connect", &loc])
+        .output()
+        .expect("agent runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("UAV id 9 is not in this scenario"), "{err}");
+}
