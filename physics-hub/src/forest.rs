@@ -13,7 +13,7 @@ pub(crate) mod stream {
     /// Forest generation.
     pub const FOREST: u64 = 0x466f_7265_7374;
     /// Start positions.
-    pub const START: u64 = 0x5374_6172_74;
+    pub const START: u64 = 0x0053_7461_7274;
     /// LIDAR noise of UAV `id` is `LIDAR + id`.
     pub const LIDAR: u64 = 0x4c69_6461_7200;
 }

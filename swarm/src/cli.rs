@@ -3,7 +3,6 @@
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
-use std::future::Future;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use swarm_config::Scenario;
@@ -152,8 +151,8 @@ fn init_tracing() {
 }
 
 /// Resolves when Ctrl-C arrives or, with `watch_stdin`, when standard input closes.
-pub fn shutdown_signal(watch_stdin: bool) -> impl Future<Output = ()> {
-    async move {
+pub async fn shutdown_signal(watch_stdin: bool) {
+    {
         let stdin_closed = async {
             if watch_stdin {
                 use tokio::io::AsyncReadExt;
