@@ -66,6 +66,9 @@ pub struct RunArgs {
     /// Override the scenario's time mode (`lockstep` or `realtime`).
     #[arg(long)]
     pub time_mode: Option<String>,
+    /// Override the scenario's master seed (forest, start area, sensor noise).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Do not draw a progress bar.
     #[arg(long)]
     pub quiet: bool,

@@ -38,6 +38,15 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
             "realtime" => TimeMode::Realtime,
             other => bail!("--time-mode: expected `lockstep` or `realtime`, got `{other}`"),
         };
+    }
+    if let Some(seed) = a.seed {
+        sc.seed = seed;
+        if let Some(f) = sc.world.forest.as_mut() {
+            f.seed = None;
+        }
+    }
+    if a.time_mode.is_some() || a.seed.is_some() {
+        // The hub serves this text to the agents, so overrides must be in it.
         text = toml::to_string(&sc).context("cannot re-serialize the scenario")?;
     }
     let run_id = a.run.unwrap_or_else(|| default_run_id(&sc.name));
@@ -256,6 +265,17 @@ impl Recording {
         let summary = m.summary(&self.run_id, sc);
         let path = out.join("summary.json");
         std::fs::write(&path, serde_json::to_string_pretty(&summary)?).with_context(|| format!("cannot write {}", path.display()))?;
+        let title = format!(
+            "{} ({}): {}, {} collisions",
+            sc.name,
+            self.run_id,
+            summary.time_to_goal_s.map_or_else(|| format!("goal not reached ({})", summary.end_reason), |t| format!("goal in {t:.1} s")),
+            summary.collisions
+        );
+        if let Some(svg) = m.svg(&title, sc.end.goal_radius_m) {
+            let path = out.join("run.svg");
+            std::fs::write(&path, svg).with_context(|| format!("cannot write {}", path.display()))?;
+        }
         if malformed > 0 {
             warn!(malformed, "recorder dropped malformed messages");
         }

@@ -5,6 +5,7 @@
 //!   progress, stops at the end condition, writes the run folder.
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV) and
 //!   accumulates the metrics of [`summary`].
+//! - [`plot`]: `run.svg`, the map of the run and distances over time.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines.
 //!
@@ -14,6 +15,7 @@
 
 pub mod cli;
 pub mod launch;
+pub mod plot;
 pub mod recorder;
 pub mod summary;
 pub mod tap;

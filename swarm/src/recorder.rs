@@ -5,6 +5,7 @@
 //! Metric folding ([`Metrics`]) is pure and fed message by message, so it is tested without a
 //! network.
 
+use crate::plot::{run_svg, Track};
 use crate::summary::{AgentSummary, CollisionRecord, Summary, SCHEMA};
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
@@ -58,6 +59,7 @@ pub struct Metrics {
     collisions: Vec<CollisionRecord>,
     last_step: Option<TruthStep>,
     ticks: u64,
+    tracks: BTreeMap<u32, Track>,
 }
 
 fn finite_or_inf(v: f64) -> f64 {
@@ -96,6 +98,8 @@ impl Metrics {
             if b.alive && !b.cmd_on_time && s.ended.is_none() {
                 a.late += 1;
             }
+            let t = self.tracks.entry(b.id).or_insert_with(|| Track { id: b.id, samples: Vec::new() });
+            t.samples.push([s.t_secs, b.x, b.y, b.obstacle_distance_m, b.agent_distance_m]);
         }
         for c in &s.collisions {
             self.collisions.push(CollisionRecord { t_s: s.t_secs, id: c.id, other_uav: c.other_uav, x_m: c.x, y_m: c.y });
@@ -117,6 +121,14 @@ impl Metrics {
     /// Whether the hub has marked the last step.
     pub fn ended(&self) -> Option<EndReason> {
         self.last_step.as_ref().and_then(|s| s.ended)
+    }
+
+    /// The picture of the run (`run.svg`), once the world is known.
+    pub fn svg(&self, title: &str, goal_radius_m: f64) -> Option<String> {
+        let world = self.world.as_ref()?;
+        let tracks: Vec<Track> = self.tracks.values().cloned().collect();
+        let hits: Vec<[f64; 2]> = self.collisions.iter().map(|c| [c.x_m, c.y_m]).collect();
+        Some(run_svg(title, world, &tracks, &hits, goal_radius_m))
     }
 
     /// Collisions so far.

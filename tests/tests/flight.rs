@@ -45,6 +45,21 @@ fn forest5_reaches_goal_without_collision() {
     assert!(states.lines().count() > rows / 2);
 }
 
+/// Not one lucky forest: forest-5 re-seeded (other trees, other noise) still flies through.
+#[test]
+fn forest5_other_seeds_fly_without_collision() {
+    for seed in [1, 7, 10] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = swarm_run(&["--seed", &seed.to_string(), "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("seeds")]);
+        assert!(out.status.success(), "seed {seed}: {}", String::from_utf8_lossy(&out.stderr));
+        let s = summary(dir.path());
+        assert_eq!(s["reached_goal"], true, "seed {seed}: {s:#}");
+        assert_eq!(s["collisions"], 0, "seed {seed}: {:#}", s["collision_events"]);
+        assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5, "seed {seed}");
+        assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5, "seed {seed}");
+    }
+}
+
 /// Lockstep is deterministic: the same scenario flies the same trajectories, byte for byte.
 #[test]
 fn lockstep_runs_repeat_exactly() {

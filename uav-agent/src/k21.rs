@@ -16,7 +16,7 @@
 //! Choices where seed 000 is silent (each is documented at its function):
 //! - separation's "desired direction of movement" is the body x axis, the direction the
 //!   navigation vector propels (section 4.5); N of eq. 4.9 counts the neighbours that pass the
-//!   180° sector test;
+//!   180° sector test and are inside the separation radius;
 //! - avoidance first discards obstacles beyond the avoidance radius or more than
 //!   `avoidance_ignore_deg` from the desired direction, then takes the closest remaining one, so
 //!   a passed obstacle behind cannot mask one ahead;
@@ -130,9 +130,9 @@ pub fn cohesion(p: &K21Params, neighbours: &[Neighbour], obstacle_near: bool) ->
 /// Only neighbours in the 180° sector around `desired_dir` count (x_i·d ≥ 0; a neighbour exactly
 /// abeam counts). For each, k_i = max(−1, 1 − separation_scale_m/|x_i|) and
 /// v_i = k_i·x_i/|x_i| if |x_i| ≤ separation_radius_m, else 0. v_s is the mean of the v_i over the
-/// neighbours that passed the sector test — N of eq. 4.9 ("the number of all agents used to
-/// calculate v_s") is read as the neighbours the sector test kept, including those beyond the
-/// radius whose v_i is 0. No neighbour in the sector gives zero.
+/// neighbours in the sector and inside the radius — N of eq. 4.9 ("the number of all agents used
+/// to calculate v_s") is read as the agents that contribute. Counting those beyond the radius
+/// would let far neighbours dilute the push of a close one. No such neighbour gives zero.
 ///
 /// `step` passes the body x axis as `desired_dir`: it is the direction the navigation vector
 /// propels the UAV (section 4.5), and the heading is aligned with the group and the goal.
@@ -153,12 +153,15 @@ pub fn separation(
         if x.dot(&d) < 0.0 {
             continue;
         }
-        count += 1;
         let dist = x.norm();
         // seed 000, eq. 4.8: v_i = 0 if |x_i| > 2 (2 = separation_radius_m).
         if dist > p.separation_radius_m {
             continue;
         }
+        // N of eq. 4.9 counts the agents used to calculate v_s: those inside the radius. Counting
+        // the far ones too would dilute the push of a close neighbour (one at 0.6 m among three
+        // beyond 2 m gave |v_s| = 1/4, left navigation at 3/4 and flew into it).
+        count += 1;
         let v_i = if dist > EPS {
             // seed 000, eq. 4.7: k_i = max(−1, 1 − 3/|x_i|), 3 = separation_scale_m.
             let k_i = (1.0 - p.separation_scale_m / dist).max(-1.0);
@@ -431,8 +434,11 @@ mod tests {
     fn separation_mean_over_sector_neighbours() {
         let p = params();
         let x = v(1.0, 0.0);
-        // (2,0) → (−0.5,0); (2.5,0) in the sector but beyond 2 m → 0; N = 2 → (−0.25,0).
-        close(separation(&p, &[nb(2.0, 0.0), nb(2.5, 0.0)], x), v(-0.25, 0.0), 1e-12);
+        // (2,0) → (−0.5,0); (2.5,0) in the sector but beyond 2 m is not used: N = 1 → (−0.5,0).
+        close(separation(&p, &[nb(2.0, 0.0), nb(2.5, 0.0)], x), v(-0.5, 0.0), 1e-12);
+        // One neighbour at 0.6 m among three beyond 2 m: full push, k = max(−1, 1 − 3/0.6) = −1.
+        let crowd = [nb(0.6, 0.0), nb(3.0, 1.0), nb(4.0, -1.0), nb(2.5, 0.5)];
+        close(separation(&p, &crowd, x), v(-1.0, 0.0), 1e-12);
         // (1,0) → (−1,0); (0,−2) → k = −0.5, (0,0.5); (−1,0) ignored; N = 2 → (−0.5,0.25).
         close(
             separation(&p, &[nb(1.0, 0.0), nb(0.0, -2.0), nb(-1.0, 0.0)], x),
