@@ -1,0 +1,78 @@
+//! End to end: the two time modes. Realtime paces the hub by the wall clock; in lockstep, an
+//! agent that dies mid-run cannot stall the swarm.
+
+mod common;
+
+use common::{run_id, start_hub, summary, swarm_run, Proc, SWARM};
+use std::process::Command;
+use std::time::Duration;
+
+fn write_scenario(dir: &std::path::Path, name: &str, body: &str) -> String {
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, format!("name = \"{name}\"\n{body}")).expect("write scenario");
+    path.to_str().expect("utf8").to_string()
+}
+
+const TWO_UAVS: &str = r#"
+[swarm]
+count = 2
+start_positions = [[0.0, 0.0], [0.0, 2.0]]
+goal = [6.0, 1.0]
+[end]
+goal_radius_m = 2.5
+goal_rule = "centroid"
+"#;
+
+/// Realtime mode flies to the goal, and the hub never runs ahead of the wall clock: it sleeps
+/// until each tick's instant, so sim speed cannot exceed the requested factor.
+#[test]
+fn realtime_mode_flies_and_never_outruns_its_factor() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let sc = write_scenario(dir.path(), "rt", &format!("{TWO_UAVS}\ntime_limit_s = 60.0\n[time]\nmode = \"realtime\"\nrealtime_factor = 8.0\n"));
+    let out = swarm_run(&[&sc, "--out", dir.path().join("o").to_str().expect("utf8"), "--run", &run_id("rt")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(&dir.path().join("o"));
+    assert_eq!(s["time_mode"], "realtime");
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0);
+    let speed = s["sim_speed"].as_f64().expect("number");
+    assert!(speed > 0.0 && speed <= 8.0 * 1.02, "sim speed {speed} vs factor 8");
+}
+
+/// Lockstep waits only for live agents: kill one mid-run and the hub keeps ticking to the time
+/// limit; the dead UAV is marked not alive and keeps its last command (it drifts on, an obstacle).
+#[test]
+fn lockstep_goes_on_when_an_agent_dies() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // A goal out of reach in 15 s: the run must end by its time limit, tick after tick.
+    let far = TWO_UAVS.replace("goal = [6.0, 1.0]", "goal = [60.0, 1.0]");
+    let sc = write_scenario(dir.path(), "die", &format!("{far}\ntime_limit_s = 15.0\n"));
+    let run = run_id("die");
+    let (mut hub, loc) = start_hub(&sc, &run, dir.path());
+    let out = dir.path().join("rec");
+    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
+    let tap = |args: &[&str]| {
+        let o = Command::new(SWARM).arg("tap").args(args).output().expect("tap");
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let mut a1 = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("a1.log"));
+    let a2 = Proc::start(&["agent", "--run", &run, "--id", "2", "--connect", &loc], &dir.path().join("a2.log"));
+    // Let the swarm fly a few ticks, then kill agent 2 outright.
+    let ticks = tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]);
+    assert_eq!(ticks.lines().count(), 20, "the hub ticks with both agents");
+    drop(a2);
+
+    assert!(rec.wait_for(Duration::from_secs(120)).expect("the run ends").success());
+    let s = summary(&out);
+    assert_eq!(s["end_reason"], "time_limit", "{s:#}");
+    assert_eq!(s["ticks"], 150, "every tick of 15 s at 10 Hz was integrated");
+    let traj = std::fs::read_to_string(out.join("trajectories.csv")).expect("csv");
+    let last: Vec<&str> = traj.lines().rev().take(2).collect();
+    // Columns: ...,colliding,alive,cmd_on_time
+    let alive = |row: &str, id: &str| row.starts_with("150,") && row.split(',').nth(2) == Some(id) && row.split(',').nth(11) == Some("1");
+    assert!(last.iter().any(|r| alive(r, "1")), "UAV 1 alive to the end: {last:?}");
+    assert!(!last.iter().any(|r| alive(r, "2")), "UAV 2 marked dead: {last:?}");
+    assert!(hub.wait_for(Duration::from_secs(20)).is_some());
+    assert!(a1.wait_for(Duration::from_secs(20)).expect("agent 1 exits with its hub").success());
+}
