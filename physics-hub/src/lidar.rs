@@ -263,6 +263,7 @@ fn wrap_pi(a: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::world::tests::{tree, wall};
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -277,19 +278,6 @@ mod tests {
         }
     }
 
-    fn tree(x: f64, y: f64, r: f64) -> swarm_config::Tree {
-        swarm_config::Tree { x, y, r }
-    }
-
-    fn wall(x1: f64, y1: f64, x2: f64, y2: f64, thickness: f64) -> swarm_config::Wall {
-        swarm_config::Wall {
-            x1,
-            y1,
-            x2,
-            y2,
-            thickness,
-        }
-    }
 
     fn run(
         world: &World,

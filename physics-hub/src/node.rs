@@ -22,7 +22,8 @@ use swarm_wire::session::{self, Role};
 use swarm_wire::{Cmd, EndReason, Keys, Msg, TruthStep, WireError};
 use tokio::sync::{mpsc, Notify};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
-use zenoh::qos::{CongestionControl, Priority};
+use swarm_wire::session::publisher;
+use zenoh::qos::CongestionControl;
 use zenoh::sample::SampleKind;
 use zenoh::Wait;
 
@@ -83,15 +84,6 @@ struct Net {
     alive_changed: Arc<Notify>,
     cmds: mpsc::UnboundedReceiver<(u32, Cmd)>,
     malformed: Arc<AtomicU64>,
-}
-
-async fn publisher(s: &zenoh::Session, key: String, cc: CongestionControl) -> Result<Publisher, WireError> {
-    s.declare_publisher(key)
-        .encoding(session::encoding())
-        .congestion_control(cc)
-        .priority(Priority::Data)
-        .await
-        .map_err(WireError::zenoh)
 }
 
 async fn put(p: &Publisher, msg: &Msg) -> Result<(), WireError> {

@@ -357,7 +357,7 @@ impl World {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use parry2d::math::Isometry;
     use parry2d::query::RayCast;
@@ -365,18 +365,17 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn tree(x: f64, y: f64, r: f64) -> swarm_config::Tree {
+    pub(crate) fn tree(x: f64, y: f64, r: f64) -> swarm_config::Tree {
         swarm_config::Tree { x, y, r }
     }
 
-    fn wall(x1: f64, y1: f64, x2: f64, y2: f64, thickness: f64) -> swarm_config::Wall {
-        swarm_config::Wall {
-            x1,
-            y1,
-            x2,
-            y2,
-            thickness,
-        }
+    pub(crate) fn wall(x1: f64, y1: f64, x2: f64, y2: f64, thickness: f64) -> swarm_config::Wall {
+        swarm_config::Wall { x1, y1, x2, y2, thickness }
+    }
+
+    /// Clearance by brute force over every obstacle (the reference for the fast query).
+    fn brute_clearance(w: &World, p: [f64; 2]) -> f64 {
+        w.obstacles().iter().map(|o| sdf_reference(o, p)).fold(f64::INFINITY, f64::min)
     }
 
     /// A random forest with a few random walls, in the square [0, side]².
@@ -551,22 +550,14 @@ mod tests {
                 rng.gen_range(-5.0..side + 5.0),
             ];
             let fast = w.clearance(p);
-            let brute = w
-                .obstacles()
-                .iter()
-                .map(|o| sdf_reference(o, p))
-                .fold(f64::INFINITY, f64::min);
+            let brute = brute_clearance(&w, p);
             assert!((fast - brute).abs() < 1e-9, "at {p:?}: {fast} vs {brute}");
         }
         // Points inside trees, including overlapping ones, give the deepest penetration.
         for t in w.trees().iter().take(200) {
             let p = [t.x + 0.3 * t.r, t.y - 0.2 * t.r];
             let fast = w.clearance(p);
-            let brute = w
-                .obstacles()
-                .iter()
-                .map(|o| sdf_reference(o, p))
-                .fold(f64::INFINITY, f64::min);
+            let brute = brute_clearance(&w, p);
             assert!(fast < 0.0);
             assert!((fast - brute).abs() < 1e-9, "at {p:?}: {fast} vs {brute}");
         }

@@ -25,7 +25,8 @@ use swarm_wire::session::{self, Role};
 use swarm_wire::{Cmd, CmdKind, Gnss, Keys, Msg, Odom, PoseShare, Scan, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
-use zenoh::qos::{CongestionControl, Priority};
+use swarm_wire::session::publisher;
+use zenoh::qos::CongestionControl;
 use zenoh::sample::SampleKind;
 
 /// Errors of an agent.
@@ -147,15 +148,6 @@ struct Node {
     _radio_sub: zenoh::pubsub::Subscriber<()>,
     _hub_watch: zenoh::pubsub::Subscriber<()>,
     _token: Option<zenoh::liveliness::LivelinessToken>,
-}
-
-async fn publisher(s: &zenoh::Session, key: String, cc: CongestionControl) -> Result<Publisher, WireError> {
-    s.declare_publisher(key)
-        .encoding(session::encoding())
-        .congestion_control(cc)
-        .priority(Priority::Data)
-        .await
-        .map_err(WireError::zenoh)
 }
 
 impl Node {

@@ -7,6 +7,7 @@
 
 use crate::WireError;
 use zenoh::bytes::Encoding;
+use zenoh::qos::{CongestionControl, Priority};
 
 /// Role of a process in the run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,4 +61,20 @@ pub fn encoding() -> Encoding {
 /// The locators a router session listens on (with the real port when it was asked for port 0).
 pub async fn locators(session: &zenoh::Session) -> Vec<String> {
     session.info().locators().await.iter().map(|l| l.to_string()).collect()
+}
+
+/// A publisher of our payloads on `key`. Every publisher of a run uses one priority, so the
+/// router forwards each session's messages in the order they were put (the lockstep protocol
+/// relies on that); `cc` chooses back-pressure (`Block`) or dropping (`Drop`) under congestion.
+pub async fn publisher(
+    s: &zenoh::Session,
+    key: String,
+    cc: CongestionControl,
+) -> Result<zenoh::pubsub::Publisher<'static>, WireError> {
+    s.declare_publisher(key)
+        .encoding(encoding())
+        .congestion_control(cc)
+        .priority(Priority::Data)
+        .await
+        .map_err(WireError::zenoh)
 }
