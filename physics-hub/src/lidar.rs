@@ -263,7 +263,7 @@ fn wrap_pi(a: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::tests::{tree, wall};
+    use crate::world::tests::{random_walls, tree, wall};
     use proptest::prelude::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
@@ -495,20 +495,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(42);
         let (mut w, side) = forest(&mut rng, 1000);
         // Add a few walls so rectangles are covered too.
-        let walls: Vec<_> = (0..20)
-            .map(|_| {
-                let (x, y) = (rng.gen_range(0.0..side), rng.gen_range(0.0..side));
-                let a: f64 = rng.gen_range(0.0..TAU);
-                let len = rng.gen_range(0.5..10.0);
-                wall(
-                    x,
-                    y,
-                    x + len * a.cos(),
-                    y + len * a.sin(),
-                    rng.gen_range(0.05..0.5),
-                )
-            })
-            .collect();
+        let walls = random_walls(&mut rng, 20, side, 10.0);
         w = World::new(w.trees().to_vec(), walls);
         for _ in 0..20 {
             let pose = [

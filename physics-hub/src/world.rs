@@ -379,6 +379,18 @@ pub(crate) mod tests {
     }
 
     /// A random forest with a few random walls, in the square [0, side]².
+    /// `n` walls with random ends inside a `side` square, lengths up to `max_len`.
+    pub(crate) fn random_walls(rng: &mut ChaCha8Rng, n: usize, side: f64, max_len: f64) -> Vec<swarm_config::Wall> {
+        (0..n)
+            .map(|_| {
+                let (x, y) = (rng.gen_range(0.0..side), rng.gen_range(0.0..side));
+                let a: f64 = rng.gen_range(0.0..std::f64::consts::TAU);
+                let len = rng.gen_range(0.5..max_len);
+                wall(x, y, x + len * a.cos(), y + len * a.sin(), rng.gen_range(0.05..0.5))
+            })
+            .collect()
+    }
+
     fn random_world(rng: &mut ChaCha8Rng, n_trees: usize, n_walls: usize, side: f64) -> World {
         let trees = (0..n_trees)
             .map(|_| {
@@ -389,20 +401,7 @@ pub(crate) mod tests {
                 )
             })
             .collect();
-        let walls = (0..n_walls)
-            .map(|_| {
-                let (x, y) = (rng.gen_range(0.0..side), rng.gen_range(0.0..side));
-                let a: f64 = rng.gen_range(0.0..std::f64::consts::TAU);
-                let len = rng.gen_range(0.5..8.0);
-                wall(
-                    x,
-                    y,
-                    x + len * a.cos(),
-                    y + len * a.sin(),
-                    rng.gen_range(0.05..0.5),
-                )
-            })
-            .collect();
+        let walls = random_walls(rng, n_walls, side, 8.0);
         World::new(trees, walls)
     }
 
