@@ -104,3 +104,43 @@ fn agent_with_an_id_outside_the_scenario_is_refused() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("UAV id 9 is not in this scenario"), "{err}");
 }
+
+/// Processes whose command line mentions `needle` (Linux /proc), other than this test process.
+#[cfg(target_os = "linux")]
+fn processes_with(needle: &str) -> usize {
+    let me = std::process::id().to_string();
+    std::fs::read_dir("/proc")
+        .expect("procfs")
+        .filter_map(Result::ok)
+        .filter(|e| e.file_name().to_string_lossy().chars().all(|c| c.is_ascii_digit()) && e.file_name() != me.as_str())
+        .filter_map(|e| std::fs::read(e.path().join("cmdline")).ok())
+        .filter(|cmd| String::from_utf8_lossy(cmd).contains(needle))
+        .count()
+}
+
+/// Kill the launcher outright (SIGKILL: no cleanup code runs) and its hub and agents still go:
+/// each watches the stdin pipe the launcher held.
+#[cfg(target_os = "linux")]
+#[test]
+fn children_die_with_a_killed_launcher() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("orphans");
+    let mut launcher = Command::new(SWARM)
+        .args(["run", "forest-5", "--time-mode", "realtime", "--quiet", "--run", &run, "--out", dir.path().to_str().expect("utf8")])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("launcher");
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    while processes_with(&run) < 7 {
+        assert!(std::time::Instant::now() < deadline, "launcher, hub and 5 agents never all ran");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    launcher.kill().expect("SIGKILL");
+    launcher.wait().expect("reaped");
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    while processes_with(&run) > 0 {
+        assert!(std::time::Instant::now() < deadline, "{} children outlived the launcher", processes_with(&run));
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
