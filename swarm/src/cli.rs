@@ -43,6 +43,8 @@ pub enum Cmd {
     Record(RecordArgs),
     /// Print every message on a key expression as JSON lines.
     Tap(crate::tap::TapArgs),
+    /// Publish one message (as JSON, or raw hex) on a key.
+    Put(crate::tap::PutArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -150,7 +152,12 @@ pub fn main() -> ExitCode {
 fn init_tracing() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn,zenoh_transport=warn"));
-    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
+    use std::io::IsTerminal;
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .try_init();
 }
 
 /// Resolves when Ctrl-C arrives or, with `watch_stdin`, when standard input closes.
@@ -196,6 +203,7 @@ async fn dispatch(cli: Cli) -> Result<ExitCode> {
         Cmd::Agent(a) => agent(a).await,
         Cmd::Record(a) => crate::launch::record_only(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,
+        Cmd::Put(a) => crate::tap::put(a).await,
         Cmd::Scenarios => {
             for (name, text) in swarm_config::BUILTIN {
                 let desc = Scenario::from_toml_str(text, name).map(|s| s.description).unwrap_or_default();

@@ -1,13 +1,14 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
-//! - [`cli`]: argument parsing and dispatch (`swarm run | hub | agent | record | tap | scenarios | check`).
+//! - [`cli`]: argument parsing and dispatch (`swarm run | hub | agent | record | tap | put | scenarios | check`).
 //! - [`launch`]: `swarm run`: starts the hub, one agent process per UAV and the recorder, shows
 //!   progress, stops at the end condition, writes the run folder.
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV) and
 //!   accumulates the metrics of [`summary`].
 //! - [`plot`]: `run.svg`, the map of the run and distances over time.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
-//! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines.
+//! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
+//!   `swarm put` publishes one.
 //!
 //! Architecture invariant: the launcher only starts processes and watches; all simulation lives
 //! in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of

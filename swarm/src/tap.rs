@@ -2,6 +2,10 @@
 //! postcard, so people inspecting the key space need none of our code. Payloads that are not a
 //! [`Msg`] are printed as text when they are UTF-8 (the scenario queryable answers TOML), else as
 //! a byte count with the decode error.
+//!
+//! `swarm put KEY`: the other direction, for poking a live run: publish a message written as the
+//! JSON that `tap` prints (`{"Cmd": {...}}`), or raw bytes in hex (to see a malformed payload
+//! counted and dropped).
 
 use anyhow::{anyhow, Result};
 use clap::Args;
@@ -31,6 +35,48 @@ pub struct TapArgs {
     /// Watch liveliness tokens instead of data, e.g. `swarm/{run}/alive/**`.
     #[arg(long)]
     pub alive: bool,
+}
+
+/// `swarm put`.
+#[derive(Args, Debug, Clone)]
+pub struct PutArgs {
+    /// Key, e.g. `swarm/my-run/uav/3/cmd`.
+    pub key: String,
+    /// The message as JSON, in the shape `tap` prints under "msg", e.g. `{"Cmd": {...}}`.
+    #[arg(long, conflicts_with = "hex", required_unless_present = "hex")]
+    pub json: Option<String>,
+    /// Raw payload bytes in hex, sent as they are.
+    #[arg(long)]
+    pub hex: Option<String>,
+    /// Endpoints.
+    #[command(flatten)]
+    pub zenoh: crate::cli::ZenohArgs,
+}
+
+fn parse_hex(h: &str) -> Result<Vec<u8>> {
+    let h: String = h.chars().filter(|c| !c.is_whitespace()).collect();
+    anyhow::ensure!(h.len() % 2 == 0, "--hex: odd number of digits");
+    (0..h.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&h[i..i + 2], 16).map_err(|e| anyhow!("--hex: {e} at digit {i}")))
+        .collect()
+}
+
+/// Runs `swarm put`.
+pub async fn put(a: PutArgs) -> Result<ExitCode> {
+    anyhow::ensure!(!a.zenoh.connect.is_empty(), "put needs --connect <hub endpoint>");
+    let bytes = match (&a.json, &a.hex) {
+        (Some(j), _) => {
+            let m: Msg = serde_json::from_str(j).map_err(|e| anyhow!("--json is not a message: {e}"))?;
+            m.encode()?
+        }
+        (None, Some(h)) => parse_hex(h)?,
+        (None, None) => anyhow::bail!("give --json or --hex"),
+    };
+    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
+    s.put(&a.key, bytes).encoding(session::encoding()).await.map_err(|e| anyhow!("zenoh: {e}"))?;
+    let _ = s.close().await;
+    Ok(ExitCode::SUCCESS)
 }
 
 /// Decodes one payload into a JSON value (never fails: undecodable payloads are described).
@@ -114,5 +160,15 @@ mod tests {
         let v = describe("k", "e", &[0xff, 0xfe, 0x80]);
         assert_eq!(v["bytes"], 3);
         assert!(v["error"].is_string());
+    }
+
+    #[test]
+    fn json_written_like_tap_output_is_a_message() {
+        let m: Msg = serde_json::from_str(r#"{"Cmd": {"tick": 3, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#)
+            .expect("parses");
+        assert_eq!(m.kind(), "cmd");
+        assert_eq!(parse_hex("ff 00 1a").expect("hex"), vec![0xff, 0x00, 0x1a]);
+        assert!(parse_hex("abc").is_err());
+        assert!(parse_hex("zz").is_err());
     }
 }

@@ -144,3 +144,43 @@ fn children_die_with_a_killed_launcher() {
         std::thread::sleep(Duration::from_millis(50));
     }
 }
+
+/// Garbage on the wire is counted and dropped, never a panic: malformed payloads on an agent's
+/// sensor key and on the hub's command keys (including id 0, which has no body), mid-flight.
+#[test]
+fn malformed_messages_are_counted_and_dropped() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("garbage");
+    let sc = dir.path().join("g.toml");
+    std::fs::write(
+        &sc,
+        // Realtime at 4x: the run lasts 5 s of wall time, so the garbage surely lands mid-flight.
+        "name = \"g\"\n[swarm]\ncount = 1\nstart_positions = [[0.0, 0.0]]\ngoal = [100.0, 0.0]\n[end]\ntime_limit_s = 20.0\n[time]\nmode = \"realtime\"\nrealtime_factor = 4.0\n",
+    )
+    .expect("scenario");
+    let (mut hub, loc) = start_hub(sc.to_str().expect("utf8"), &run, dir.path());
+    let out = dir.path().join("rec");
+    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
+    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
+    assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "5", "--duration", "60"]).lines().count(), 5);
+    let put = |key: String, payload: &[&str]| {
+        let o = Command::new(SWARM).args(["put", &key, "--connect", &loc]).args(payload).output().expect("put");
+        assert!(o.status.success(), "put: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    put(format!("swarm/{run}/uav/1/sense/scan"), &["--hex", "ff ff ff ff 01"]);
+    put(format!("swarm/{run}/uav/1/sense/odom"), &["--hex", "01"]);
+    put(format!("swarm/{run}/uav/1/cmd"), &["--hex", "05 02"]);
+    put(format!("swarm/{run}/uav/0/cmd"), &["--json", r#"{"Cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#]);
+    put(format!("swarm/{run}/uav/77/cmd"), &["--json", r#"{"Cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#]);
+
+    assert!(rec.wait_for(Duration::from_secs(120)).expect("the run ends").success());
+    let s = common::summary(&out);
+    assert_eq!(s["end_reason"], "time_limit", "the run went on to its end: {s:#}");
+    assert_eq!(s["agents"][0]["malformed_messages"], 2, "scan and odom garbage counted: {s:#}");
+    assert!(s["agents"][0]["path_length_m"].as_f64().expect("n") > 5.0, "the agent kept flying: {s:#}");
+    assert!(hub.wait_for(Duration::from_secs(20)).expect("hub exits").success(), "hub did not panic");
+    assert!(agent.wait_for(Duration::from_secs(20)).expect("agent exits").success(), "agent did not panic");
+    let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");
+    assert!(hub_log.contains("malformed_cmds=1"), "the bad command was counted: {hub_log}");
+}
