@@ -151,6 +151,14 @@ fn positive(field: &str, v: f64) -> Check {
     }
 }
 
+fn within(field: &str, v: f64, lo: f64, hi: f64) -> Check {
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err((field.into(), format!("must be between {lo} and {hi}, got {v}")))
+    }
+}
+
 fn non_negative(field: &str, v: f64) -> Check {
     if v.is_finite() && v >= 0.0 {
         Ok(())
@@ -175,8 +183,9 @@ impl Scenario {
         self.validate_world()?;
         self.validate_swarm()?;
         self.validate_sensors()?;
-        positive("time.control_hz", self.time.control_hz)?;
-        positive("time.realtime_factor", self.time.realtime_factor)?;
+        within("time.control_hz", self.time.control_hz, 0.1, 1000.0)?;
+        within("time.realtime_factor", self.time.realtime_factor, 1e-3, 1e4)?;
+        within("time.startup_timeout_s", self.time.startup_timeout_s, 1e-3, 1e6)?;
         if self.time.tick_timeout_ms == 0 {
             return Err(("time.tick_timeout_ms".into(), "must be > 0".into()));
         }

@@ -77,6 +77,9 @@ fn semantic_errors_name_field() {
     let cases = [
         (format!("{MINIMAL}\n[lidar]\nmax_range_m = -1.0\n"), "lidar.max_range_m"),
         (format!("{MINIMAL}\n[time]\ncontrol_hz = 0.0\n"), "time.control_hz"),
+        (format!("{MINIMAL}\n[time]\ncontrol_hz = 1e-9\n"), "time.control_hz"),
+        (format!("{MINIMAL}\n[time]\nstartup_timeout_s = -1.0\n"), "time.startup_timeout_s"),
+        (format!("{MINIMAL}\n[time]\nrealtime_factor = 1e9\n"), "time.realtime_factor"),
         (MINIMAL.replace("count = 2", "count = 3"), "swarm.start_positions"),
         (MINIMAL.replace("goal = [10.0, 0.0]", "goal = [10.0, 0.0]\ninformed = [5]"), "swarm.informed"),
         (format!("{MINIMAL}\n[perception]\nmin_points = 2\n"), "perception.min_points"),

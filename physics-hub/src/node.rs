@@ -12,14 +12,14 @@
 //! and answers `swarm/{run}/scenario` with the scenario text so agents elsewhere need no file.
 
 use crate::sim::Sim;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use swarm_config::{Scenario, TimeMode};
 use swarm_wire::session::{self, Role};
-use swarm_wire::{Cmd, EndReason, Keys, Msg, TruthStep, WireError};
+use swarm_wire::{Cmd, CmdKind, EndReason, Keys, Msg, TruthStep, WireError};
 use tokio::sync::{mpsc, Notify};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
 use swarm_wire::session::publisher;
@@ -167,17 +167,22 @@ impl Net {
                 scan: publisher(&s, keys.scan(id), sensors_cc).await?,
             });
         }
+        // Ids are checked at the door: only 1..=count ever reach the loop.
+        let n = sc.swarm.count;
+        let valid_id = move |k: &Keys, key: &str| k.uav_id_of(key).filter(|&id| id <= n);
         let (cmd_tx, cmds) = mpsc::unbounded_channel();
         let malformed = Arc::new(AtomicU64::new(0));
         let bad = malformed.clone();
+        let k = keys.clone();
         let cmd_sub = s
             .declare_subscriber(keys.cmd_any())
             .callback(move |sample| {
-                let id = Keys::uav_id_in(sample.key_expr().as_str());
+                let id = valid_id(&k, sample.key_expr().as_str());
                 match (id, Msg::decode(&sample.payload().to_bytes())) {
                     (Some(id), Ok(Msg::Cmd(c))) => {
                         let _ = cmd_tx.send((id, c));
                     }
+                    (None, _) => debug!(key = %sample.key_expr(), "command for a UAV not in this scenario ignored"),
                     (_, other) => {
                         bad.fetch_add(1, Ordering::Relaxed);
                         debug!(key = %sample.key_expr(), ?other, "dropped malformed command");
@@ -188,13 +193,16 @@ impl Net {
             .map_err(WireError::zenoh)?;
         let alive = Arc::new(Mutex::new(BTreeSet::new()));
         let alive_changed = Arc::new(Notify::new());
-        let (a, n) = (alive.clone(), alive_changed.clone());
+        let (a, changed, k) = (alive.clone(), alive_changed.clone(), keys.clone());
         let alive_sub = s
             .liveliness()
             .declare_subscriber(keys.alive_uav_any())
             .history(true)
             .callback(move |sample| {
-                let Some(id) = Keys::uav_id_in(sample.key_expr().as_str()) else { return };
+                let Some(id) = valid_id(&k, sample.key_expr().as_str()) else {
+                    warn!(key = %sample.key_expr(), "liveliness token of a UAV not in this scenario ignored");
+                    return;
+                };
                 let mut set = a.lock().unwrap_or_else(|p| p.into_inner());
                 match sample.kind() {
                     SampleKind::Put => {
@@ -206,7 +214,7 @@ impl Net {
                         set.remove(&id);
                     }
                 }
-                n.notify_one();
+                changed.notify_one();
             })
             .await
             .map_err(WireError::zenoh)?;
@@ -268,29 +276,32 @@ impl Net {
         let mut next_wall = tokio::time::Instant::now();
         let real_dt = Duration::from_secs_f64(sim.clock().dt_secs / sc.time.realtime_factor);
         loop {
-            let alive = self.alive_now();
-            if alive.is_empty() {
+            let sent = self.alive_now();
+            if sent.is_empty() {
                 warn!("no agent alive");
                 return self.finish(sim, EndReason::NoAgents, started).await;
             }
-            self.publish_sensors(sim, &alive, &mut scan_buf).await?;
-            let cmds = match sc.time.mode {
+            self.publish_sensors(sim, &sent, &mut scan_buf).await?;
+            let got = match sc.time.mode {
                 TimeMode::Lockstep => {
                     let timeout = Duration::from_millis(sc.time.tick_timeout_ms);
                     tokio::select! {
-                        c = self.collect_lockstep(sim.tick(), sc.count(), timeout) => c,
+                        c = self.collect_lockstep(sim.tick(), &sent, timeout) => c,
                         _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
                     }
                 }
                 TimeMode::Realtime => {
                     next_wall += real_dt;
+                    // After a stall, start pacing again from now instead of bursting the missed ticks.
+                    next_wall = next_wall.max(tokio::time::Instant::now());
                     tokio::select! {
                         _ = tokio::time::sleep_until(next_wall) => {},
                         _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
                     }
-                    self.collect_available(sc.count())
+                    self.collect_available()
                 }
             };
+            let cmds: Vec<Option<Cmd>> = sc.uav_ids().map(|id| got.get(&id).copied()).collect();
             let alive = self.alive_now();
             let alive_flags: Vec<bool> = sc.uav_ids().map(|id| alive.contains(&id)).collect();
             let step = sim.step(&cmds, &alive_flags, started.elapsed().as_secs_f64());
@@ -308,7 +319,7 @@ impl Net {
     async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>, buf: &mut Vec<f32>) -> Result<(), WireError> {
         put(&self.clock, &Msg::Clock(sim.clock())).await?;
         for &id in alive {
-            let Some(p) = self.uavs.get((id - 1) as usize) else { continue };
+            let Some(p) = (id as usize).checked_sub(1).and_then(|i| self.uavs.get(i)) else { continue };
             let s = sim.sensors(id, buf);
             put(&p.radio, &Msg::Radio(s.radio)).await?;
             put(&p.odom, &Msg::Odom(s.odom)).await?;
@@ -320,25 +331,37 @@ impl Net {
         Ok(())
     }
 
-    /// Waits for the command of tick `tick` from every live agent, or the timeout.
-    async fn collect_lockstep(&mut self, tick: u64, n: usize, timeout: Duration) -> Vec<Option<Cmd>> {
+    /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors
+    /// and is still alive, or the timeout. Commands already queued are taken before each check,
+    /// so an agent's last word (its hover) is never lost to the liveliness change that follows it.
+    async fn collect_lockstep(&mut self, tick: u64, sent: &BTreeSet<u32>, timeout: Duration) -> BTreeMap<u32, Cmd> {
         let deadline = tokio::time::Instant::now() + timeout;
-        let mut got: Vec<Option<Cmd>> = vec![None; n];
+        let mut got = BTreeMap::new();
+        let take = |got: &mut BTreeMap<u32, Cmd>, (id, c): (u32, Cmd)| {
+            // A hover is an agent's last word before it leaves: it counts whatever its tick.
+            if c.tick == tick || (c.kind == CmdKind::Hover && c.tick > tick) {
+                got.insert(id, c);
+            } else {
+                trace!(uav_id = id, cmd_tick = c.tick, tick, "late command ignored");
+            }
+        };
         loop {
+            while let Ok(m) = self.cmds.try_recv() {
+                take(&mut got, m);
+            }
             let alive = self.alive_now();
-            if alive.iter().all(|&id| got.get((id - 1) as usize).is_some_and(Option::is_some)) {
+            let waiting: Vec<u32> = sent.intersection(&alive).copied().filter(|id| !got.contains_key(id)).collect();
+            if waiting.is_empty() {
                 return got;
             }
             tokio::select! {
                 m = self.cmds.recv() => match m {
-                    Some((id, c)) if c.tick == tick && (1..=n as u32).contains(&id) => got[(id - 1) as usize] = Some(c),
-                    Some((id, c)) => trace!(uav_id = id, cmd_tick = c.tick, tick, "late command ignored"),
+                    Some(m) => take(&mut got, m),
                     None => return got,
                 },
                 _ = self.alive_changed.notified() => {},
                 _ = tokio::time::sleep_until(deadline) => {
-                    let missing: Vec<u32> = alive.iter().copied().filter(|&id| got[(id - 1) as usize].is_none()).collect();
-                    debug!(tick, ?missing, "tick timeout");
+                    debug!(tick, missing = ?waiting, "tick timeout");
                     return got;
                 }
             }
@@ -346,12 +369,10 @@ impl Net {
     }
 
     /// Realtime: the newest command of each agent that arrived since the last tick.
-    fn collect_available(&mut self, n: usize) -> Vec<Option<Cmd>> {
-        let mut got: Vec<Option<Cmd>> = vec![None; n];
+    fn collect_available(&mut self) -> BTreeMap<u32, Cmd> {
+        let mut got = BTreeMap::new();
         while let Ok((id, c)) = self.cmds.try_recv() {
-            if (1..=n as u32).contains(&id) {
-                got[(id - 1) as usize] = Some(c);
-            }
+            got.insert(id, c);
         }
         got
     }
@@ -360,11 +381,11 @@ impl Net {
         put(&self.truth_step, &Msg::TruthStep(step.clone())).await
     }
 
+    /// Ends the run where it stands: the last truth step is the current state, not integrated.
     async fn finish(&self, sim: &mut Sim, end: EndReason, started: Instant) -> Result<HubReport, HubError> {
         let alive = self.alive_now();
         let alive_flags: Vec<bool> = (1..=sim.bodies().len() as u32).map(|id| alive.contains(&id)).collect();
-        let none = vec![None; sim.bodies().len()];
-        let mut step = sim.step(&none, &alive_flags, started.elapsed().as_secs_f64());
+        let mut step = sim.observe(&[], &alive_flags, Vec::new(), started.elapsed().as_secs_f64());
         step.ended = Some(end);
         self.publish_step(&step).await?;
         self.report(sim, end)

@@ -169,18 +169,32 @@ impl Sim {
         let positions: Vec<[f64; 2]> = self.bodies.iter().map(|b| [b.pos.x, b.pos.y]).collect();
         self.radio.update(&positions);
         let collisions = self.detect_collisions();
-        let bodies = self.truth_bodies(cmds, alive);
         if self.goal_reached_at.is_none() && self.goal_met() {
             self.goal_reached_at = Some(t_secs);
         }
-        let ended = if self.goal_reached_at.is_some() {
+        let mut step = self.observe(cmds, alive, collisions, wall_secs);
+        step.ended = if self.goal_reached_at.is_some() {
             Some(EndReason::Goal)
         } else if t_secs >= self.sc.end.time_limit_s - 1e-9 {
             Some(EndReason::TimeLimit)
         } else {
             None
         };
-        TruthStep { tick: self.tick, t_secs, bodies, collisions, goal_reached_at: self.goal_reached_at, ended, wall_secs }
+        step
+    }
+
+    /// Ground truth of the current state, without integrating (the hub's last word when a run is
+    /// stopped). `ended` is left for the caller.
+    pub fn observe(&self, cmds: &[Option<Cmd>], alive: &[bool], collisions: Vec<CollisionEvent>, wall_secs: f64) -> TruthStep {
+        TruthStep {
+            tick: self.tick,
+            t_secs: self.t_secs(),
+            bodies: self.truth_bodies(cmds, alive),
+            collisions,
+            goal_reached_at: self.goal_reached_at,
+            ended: None,
+            wall_secs,
+        }
     }
 
     fn truth_bodies(&self, cmds: &[Option<Cmd>], alive: &[bool]) -> Vec<TruthBody> {

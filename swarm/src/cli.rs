@@ -71,6 +71,9 @@ pub struct RunArgs {
     /// Override the scenario's master seed (forest, start area, sensor noise).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Zenoh config override `KEY:JSON5` for every piece of the run (repeatable).
+    #[arg(long)]
+    pub cfg: Vec<String>,
     /// Do not draw a progress bar.
     #[arg(long)]
     pub quiet: bool,

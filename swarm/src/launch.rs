@@ -17,7 +17,7 @@ use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, Msg};
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, ChildStdin, Command};
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 
 /// How long the launcher waits for the hub to print its locator.
@@ -59,42 +59,48 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     eprintln!("run {run_id}: scenario {} ({} UAVs), folder {}", sc.name, sc.count(), out.display());
 
     let exe = std::env::current_exe().context("cannot find my own executable")?;
-    let mut hub = spawn(&exe, &logs.join("hub.log"), |c| {
+    let mut hub = spawn(&exe, &logs.join("hub.log"), true, |c| {
         c.arg("hub").arg(&scenario_path).args(["--run", &run_id, "--listen", "tcp/127.0.0.1:0", "--exit-with-stdin"]);
+        for kv in &a.cfg {
+            c.args(["--cfg", kv]);
+        }
     })?;
     let locators = read_locators(&mut hub.child, &logs).await?;
     info!(?locators, "hub up");
 
-    let rec = Recording::start(&run_id, &locators).await?;
+    let rec = Recording::start(&run_id, &locators, &a.cfg).await?;
     let mut agents = Vec::new();
     for id in sc.uav_ids() {
-        agents.push(spawn(&exe, &logs.join(format!("agent-{id}.log")), |c| {
+        agents.push(spawn(&exe, &logs.join(format!("agent-{id}.log")), false, |c| {
             c.arg("agent").args(["--run", &run_id, "--id", &id.to_string(), "--exit-with-stdin"]);
             for l in &locators {
                 c.args(["--connect", l]);
+            }
+            for kv in &a.cfg {
+                c.args(["--cfg", kv]);
             }
         })?);
     }
     let progress = progress_bar(&sc, a.quiet);
     let summary = rec.record(&out, &sc, &progress, Some(&mut hub.child)).await?;
     progress.finish_and_clear();
-    stop_children(hub, agents).await;
+    let hub_ok = stop_children(hub, agents).await;
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
-    Ok(ExitCode::SUCCESS)
+    Ok(exit_code(&summary, hub_ok))
 }
 
 /// `swarm record`: the recorder alone, for a run whose pieces were started by hand.
 pub async fn record_only(a: RecordArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "the recorder needs --connect <hub endpoint>");
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
-    let rec = Recording::start(&a.run, &a.zenoh.connect).await?;
+    let rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.cfg).await?;
     let sc = rec.fetch_scenario().await?;
     let progress = progress_bar(&sc, false);
     let summary = rec.record(&a.out, &sc, &progress, None).await?;
     progress.finish_and_clear();
     println!("{}", summary.human());
-    Ok(ExitCode::SUCCESS)
+    Ok(exit_code(&summary, true))
 }
 
 /// A child process and the write end of its stdin. The handle is kept apart from the [`Child`]
@@ -104,11 +110,22 @@ struct Piece {
     _stdin: Option<ChildStdin>,
 }
 
-fn spawn(exe: &Path, log: &Path, args: impl FnOnce(&mut Command)) -> Result<Piece> {
+/// The exit status of `swarm run` / `swarm record`: 0 for a run that ended by its own rule (goal
+/// or time limit), 130 for one stopped by Ctrl-C, 1 otherwise (hub failed, vanished, no agents).
+fn exit_code(summary: &Summary, hub_ok: bool) -> ExitCode {
+    match summary.end_reason.as_str() {
+        "goal" | "time_limit" if hub_ok => ExitCode::SUCCESS,
+        "stopped" => ExitCode::from(130),
+        _ => ExitCode::FAILURE,
+    }
+}
+
+fn spawn(exe: &Path, log: &Path, pipe_stdout: bool, args: impl FnOnce(&mut Command)) -> Result<Piece> {
     let log_file = std::fs::File::create(log).with_context(|| format!("cannot create {}", log.display()))?;
     let mut c = Command::new(exe);
     args(&mut c);
-    c.stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::from(log_file)).kill_on_drop(true);
+    let stdout = if pipe_stdout { Stdio::piped() } else { Stdio::null() };
+    c.stdin(Stdio::piped()).stdout(stdout).stderr(Stdio::from(log_file)).kill_on_drop(true);
     let mut child = c.spawn().with_context(|| format!("cannot start {}", exe.display()))?;
     let stdin = child.stdin.take();
     Ok(Piece { child, _stdin: stdin })
@@ -134,12 +151,17 @@ async fn read_locators(hub: &mut Child, logs: &Path) -> Result<Vec<String>> {
     }
 }
 
-async fn stop_children(mut hub: Piece, agents: Vec<Piece>) {
+/// Waits for the children to exit (killing stragglers); returns whether the hub exited cleanly.
+async fn stop_children(mut hub: Piece, agents: Vec<Piece>) -> bool {
     let grace = Duration::from_secs(5);
-    if tokio::time::timeout(grace, hub.child.wait()).await.is_err() {
-        warn!("hub did not exit; killing it");
-        let _ = hub.child.kill().await;
-    }
+    let hub_ok = match tokio::time::timeout(grace, hub.child.wait()).await {
+        Ok(Ok(status)) => status.success(),
+        _ => {
+            warn!("hub did not exit; killing it");
+            let _ = hub.child.kill().await;
+            false
+        }
+    };
     for mut a in agents {
         // Agents exit on their own once the hub's token is gone.
         if tokio::time::timeout(grace, a.child.wait()).await.is_err() {
@@ -147,6 +169,7 @@ async fn stop_children(mut hub: Piece, agents: Vec<Piece>) {
             let _ = a.child.kill().await;
         }
     }
+    hub_ok
 }
 
 fn progress_bar(sc: &Scenario, quiet: bool) -> ProgressBar {
@@ -170,58 +193,137 @@ struct Recording {
     run_id: String,
     truth: mpsc::UnboundedReceiver<Vec<u8>>,
     states: mpsc::UnboundedReceiver<Vec<u8>>,
-    _subs: [zenoh::pubsub::Subscriber<()>; 2],
+    hub_alive: watch::Receiver<bool>,
+    _subs: [zenoh::pubsub::Subscriber<()>; 3],
     _token: zenoh::liveliness::LivelinessToken,
 }
 
+/// How long a stopping run may take to deliver the hub's last step.
+const STOP_GRACE: Duration = Duration::from_secs(5);
+
+fn zerr(e: zenoh::Error) -> anyhow::Error {
+    anyhow::anyhow!("zenoh: {e}")
+}
+
+/// What the recorder writes as it goes.
+struct Sink<'a> {
+    files: Files,
+    m: Metrics,
+    malformed: u64,
+    sc: &'a Scenario,
+    pb: &'a ProgressBar,
+}
+
+impl Sink<'_> {
+    /// Takes one truth payload; returns true on the run's last step.
+    fn truth(&mut self, b: &[u8]) -> Result<bool> {
+        match decode(b, &mut self.malformed) {
+            Some(Msg::TruthStep(s)) => {
+                self.files.write_step(&s)?;
+                self.m.on_step(&s);
+                let g = self.sc.swarm.goal;
+                let d = s.bodies.iter().map(|b| (b.x - g[0]).hypot(b.y - g[1])).fold(0.0, f64::max);
+                self.pb.set_position(s.tick);
+                self.pb.set_message(format!(
+                    "t={:.1}s  farthest UAV {d:.1} m from goal  collisions {}",
+                    s.t_secs,
+                    self.m.collision_count()
+                ));
+                Ok(self.m.ended().is_some())
+            }
+            Some(Msg::TruthWorld(w)) => {
+                self.m.on_world(w);
+                Ok(false)
+            }
+            _ => Ok(false),
+        }
+    }
+
+    /// Takes one agent state payload (states of ids outside the scenario are dropped).
+    fn state(&mut self, b: &[u8]) -> Result<()> {
+        if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
+            if (1..=self.sc.swarm.count).contains(&st.id) {
+                self.files.write_state(&st)?;
+                self.m.on_state(st);
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Recording {
-    async fn start(run_id: &str, connect: &[String]) -> Result<Recording> {
+    async fn start(run_id: &str, connect: &[String], cfg: &[String]) -> Result<Recording> {
         let keys = Keys::new(run_id)?;
-        let session = session::open(Role::Client, &[], connect, &[]).await?;
+        let session = session::open(Role::Client, &[], connect, cfg).await?;
         let (ttx, truth) = mpsc::unbounded_channel();
         let (stx, states) = mpsc::unbounded_channel();
-        let z = |e: zenoh::Error| anyhow::anyhow!("zenoh: {e}");
         let t_sub = session
             .declare_subscriber(keys.truth_all())
             .callback(move |s| {
                 let _ = ttx.send(s.payload().to_bytes().into_owned());
             })
             .await
-            .map_err(z)?;
+            .map_err(zerr)?;
         let s_sub = session
             .declare_subscriber(keys.state_any())
             .callback(move |s| {
                 let _ = stx.send(s.payload().to_bytes().into_owned());
             })
             .await
-            .map_err(z)?;
+            .map_err(zerr)?;
+        let (htx, hub_alive) = watch::channel(false);
+        let h_sub = session
+            .liveliness()
+            .declare_subscriber(keys.alive_hub())
+            .history(true)
+            .callback(move |s| {
+                let _ = htx.send(s.kind() == zenoh::sample::SampleKind::Put);
+            })
+            .await
+            .map_err(zerr)?;
         // Subscribed: say so, for whoever starts agents by hand and wants the whole run recorded.
-        let token = session.liveliness().declare_token(keys.alive_recorder()).await.map_err(z)?;
-        Ok(Recording { session, keys, run_id: run_id.to_string(), truth, states, _subs: [t_sub, s_sub], _token: token })
+        let token = session.liveliness().declare_token(keys.alive_recorder()).await.map_err(zerr)?;
+        Ok(Recording {
+            session,
+            keys,
+            run_id: run_id.to_string(),
+            truth,
+            states,
+            hub_alive,
+            _subs: [t_sub, s_sub, h_sub],
+            _token: token,
+        })
+    }
+
+    /// Asks the hub for a reply on `key` (a queryable of the run).
+    async fn ask(&self, key: String) -> Result<Vec<u8>> {
+        let replies = self.session.get(&key).timeout(Duration::from_secs(5)).await.map_err(zerr)?;
+        while let Ok(r) = replies.recv_async().await {
+            if let Ok(s) = r.result() {
+                return Ok(s.payload().to_bytes().into_owned());
+            }
+        }
+        bail!("no hub answered {key}")
     }
 
     async fn fetch_scenario(&self) -> Result<Scenario> {
-        let replies = self
-            .session
-            .get(self.keys.scenario())
-            .timeout(Duration::from_secs(5))
-            .await
-            .map_err(|e| anyhow::anyhow!("zenoh: {e}"))?;
-        while let Ok(r) = replies.recv_async().await {
-            if let Ok(s) = r.result() {
-                let text = String::from_utf8_lossy(&s.payload().to_bytes()).into_owned();
-                return Ok(Scenario::from_toml_str(&text, "hub")?);
-            }
-        }
-        bail!("no hub answered {}", self.keys.scenario())
+        let text = String::from_utf8_lossy(&self.ask(self.keys.scenario()).await?).into_owned();
+        Ok(Scenario::from_toml_str(&text, "hub")?)
     }
 
-    /// Records until the hub marks the last step (or the hub process exits, or Ctrl-C).
+    /// Records until the hub marks the last step, the hub goes away, or a Ctrl-C (after which it
+    /// waits up to [`STOP_GRACE`] for the hub's `stopped` step).
     async fn record(mut self, out: &Path, sc: &Scenario, pb: &ProgressBar, mut hub: Option<&mut Child>) -> Result<Summary> {
-        let mut files = Files::create(out)?;
-        let mut m = Metrics::default();
-        let mut malformed = 0u64;
-        let goal = sc.swarm.goal;
+        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), malformed: 0, sc, pb };
+        // The world is published once; ask for it too, in case that was before we subscribed.
+        match self.ask(self.keys.truth_world()).await {
+            Ok(b) => {
+                sink.truth(&b)?;
+            }
+            Err(e) => warn!("no world from the hub yet: {e}"),
+        }
+        let mut hub_seen = *self.hub_alive.borrow();
+        let mut stop_at: Option<tokio::time::Instant> = None;
         loop {
             let hub_exit = async {
                 match hub.as_mut() {
@@ -229,38 +331,38 @@ impl Recording {
                     None => std::future::pending().await,
                 }
             };
-            tokio::select! {
-                Some(b) = self.truth.recv() => match decode(&b, &mut malformed) {
-                    Some(Msg::TruthStep(s)) => {
-                        files.write_step(&s)?;
-                        m.on_step(&s);
-                        let d = s.bodies.iter().map(|b| (b.x - goal[0]).hypot(b.y - goal[1])).fold(0.0, f64::max);
-                        pb.set_position(s.tick);
-                        pb.set_message(format!("t={:.1}s  farthest UAV {d:.1} m from goal  collisions {}", s.t_secs, m.collision_count()));
-                        if m.ended().is_some() { break; }
-                    }
-                    Some(Msg::TruthWorld(w)) => m.on_world(w),
-                    _ => {}
-                },
-                Some(b) = self.states.recv() => if let Some(Msg::State(st)) = decode(&b, &mut malformed) {
-                    files.write_state(&st)?;
-                    m.on_state(st);
-                },
-                status = hub_exit => {
-                    warn!(?status, "hub exited before the end of the run");
-                    break;
+            let stop = async {
+                match stop_at {
+                    Some(t) => tokio::time::sleep_until(t).await,
+                    None => std::future::pending().await,
                 }
-                _ = tokio::signal::ctrl_c() => { warn!("interrupted"); break; }
+            };
+            // Biased: every queued truth step is taken before the hub's exit is noticed.
+            tokio::select! {
+                biased;
+                Some(b) = self.truth.recv() => if sink.truth(&b)? { break },
+                Some(b) = self.states.recv() => sink.state(&b)?,
+                changed = self.hub_alive.changed() => {
+                    let up = changed.is_ok() && *self.hub_alive.borrow();
+                    if up { hub_seen = true; } else if hub_seen || changed.is_err() { warn!("hub gone before the end of the run"); break; }
+                },
+                status = hub_exit => { warn!(?status, "hub exited before the end of the run"); break; }
+                _ = tokio::signal::ctrl_c(), if stop_at.is_none() => {
+                    warn!("interrupted: waiting for the hub's last step");
+                    stop_at = Some(tokio::time::Instant::now() + STOP_GRACE);
+                }
+                _ = stop => { warn!("the hub's last step did not come"); break; }
             }
+        }
+        while let Ok(b) = self.truth.try_recv() {
+            sink.truth(&b)?;
         }
         // States of the last tick may still be in flight.
         let drain_until = tokio::time::Instant::now() + Duration::from_millis(200);
         while let Ok(Some(b)) = tokio::time::timeout_at(drain_until, self.states.recv()).await {
-            if let Some(Msg::State(st)) = decode(&b, &mut malformed) {
-                files.write_state(&st)?;
-                m.on_state(st);
-            }
+            sink.state(&b)?;
         }
+        let Sink { mut files, m, malformed, .. } = sink;
         files.flush()?;
         let summary = m.summary(&self.run_id, sc);
         let path = out.join("summary.json");

@@ -71,8 +71,14 @@ fn finite_or_inf(v: f64) -> f64 {
 }
 
 impl Metrics {
-    /// Notes the static world.
+    /// Notes the static world; paths are measured from the start poses.
     pub fn on_world(&mut self, w: TruthWorld) {
+        for (i, s) in w.starts.iter().enumerate() {
+            let a = self.agents.entry(i as u32 + 1).or_default();
+            if a.last.is_none() {
+                a.last = Some((s[0], s[1]));
+            }
+        }
         self.world = Some(w);
     }
 

@@ -2,8 +2,23 @@
 //! removed; README.md documents each one. Distances are in metres, times in sim seconds unless
 //! a name says wall.
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::fmt::Write as _;
+
+/// Distances that can be infinite (no obstacle in the world, no other UAV) are `null` in JSON.
+mod inf_as_null {
+    use super::*;
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_finite() {
+            s.serialize_f64(*v)
+        } else {
+            s.serialize_none()
+        }
+    }
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::INFINITY))
+    }
+}
 
 /// Schema id written into every summary.
 pub const SCHEMA: &str = "swarm.summary.v1";
@@ -42,8 +57,10 @@ pub struct Summary {
     /// Each collision.
     pub collision_events: Vec<CollisionRecord>,
     /// Smallest distance from any UAV centre to an obstacle surface.
+    #[serde(with = "inf_as_null")]
     pub min_obstacle_distance_m: f64,
     /// Smallest centre-to-centre distance between two UAVs.
+    #[serde(with = "inf_as_null")]
     pub min_agent_distance_m: f64,
     /// Per UAV.
     pub agents: Vec<AgentSummary>,
@@ -70,12 +87,16 @@ pub struct AgentSummary {
     /// UAV id.
     pub id: u32,
     /// Minimum distance from its centre to an obstacle surface.
+    #[serde(with = "inf_as_null")]
     pub min_obstacle_distance_m: f64,
     /// Mean over ticks of that distance.
+    #[serde(with = "inf_as_null")]
     pub mean_obstacle_distance_m: f64,
     /// Minimum distance to the nearest other UAV (centre to centre).
+    #[serde(with = "inf_as_null")]
     pub min_agent_distance_m: f64,
     /// Mean over ticks of that distance.
+    #[serde(with = "inf_as_null")]
     pub mean_agent_distance_m: f64,
     /// Length of its path.
     pub path_length_m: f64,
@@ -151,5 +172,21 @@ impl Summary {
             f(self.min_agent_distance_m)
         );
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn infinite_distances_are_null_and_read_back() {
+        let a = AgentSummary { id: 1, min_obstacle_distance_m: f64::INFINITY, min_agent_distance_m: 1.5, ..Default::default() };
+        let json = serde_json::to_value(&a).expect("serializes");
+        assert!(json["min_obstacle_distance_m"].is_null());
+        assert_eq!(json["min_agent_distance_m"], 1.5);
+        let back: AgentSummary = serde_json::from_value(json).expect("reads back");
+        assert_eq!(back.min_obstacle_distance_m, f64::INFINITY);
+        assert_eq!(back.min_agent_distance_m, 1.5);
     }
 }

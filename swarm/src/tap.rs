@@ -55,7 +55,7 @@ pub struct PutArgs {
 
 fn parse_hex(h: &str) -> Result<Vec<u8>> {
     let h: String = h.chars().filter(|c| !c.is_whitespace()).collect();
-    anyhow::ensure!(h.len() % 2 == 0, "--hex: odd number of digits");
+    anyhow::ensure!(h.len().is_multiple_of(2), "--hex: odd number of digits");
     (0..h.len())
         .step_by(2)
         .map(|i| u8::from_str_radix(&h[i..i + 2], 16).map_err(|e| anyhow!("--hex: {e} at digit {i}")))
@@ -98,8 +98,13 @@ pub async fn tap(a: TapArgs) -> Result<ExitCode> {
     let deadline = a.duration.map(|d| tokio::time::Instant::now() + Duration::from_secs_f64(d));
     let limit = a.count.unwrap_or(u64::MAX);
     let mut printed = 0u64;
+    // Stop quietly when the reader goes away (`swarm tap ... | head`): no panic on a broken pipe.
     let mut print = |v: Value| {
-        println!("{v}");
+        use std::io::Write;
+        let mut out = std::io::stdout().lock();
+        if writeln!(out, "{v}").and_then(|()| out.flush()).is_err() {
+            return false;
+        }
         printed += 1;
         printed < limit
     };
@@ -115,10 +120,13 @@ pub async fn tap(a: TapArgs) -> Result<ExitCode> {
             }
         }
     } else {
+        // A ring buffer never pushes back: a tap whose reader stalls (a pager, a full pipe) drops
+        // its oldest samples instead of stalling a lockstep run, whose publishers block.
+        let ring = || zenoh::handlers::RingChannel::new(4096);
         let sub = if a.alive {
-            s.liveliness().declare_subscriber(&a.keyexpr).history(true).await.map_err(z)?
+            s.liveliness().declare_subscriber(&a.keyexpr).history(true).with(ring()).await.map_err(z)?
         } else {
-            s.declare_subscriber(&a.keyexpr).await.map_err(z)?
+            s.declare_subscriber(&a.keyexpr).with(ring()).await.map_err(z)?
         };
         loop {
             let next = async {

@@ -184,3 +184,74 @@ fn malformed_messages_are_counted_and_dropped() {
     let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");
     assert!(hub_log.contains("malformed_cmds=1"), "the bad command was counted: {hub_log}");
 }
+
+/// An agent that claims an id the hub's scenario does not have (it was given its own scenario
+/// file) is ignored by the hub: no crash, no waiting for it; the real agent flies the run.
+#[test]
+fn a_foreign_uav_id_is_ignored_by_the_hub() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("foreign");
+    let one = dir.path().join("one.toml");
+    let body = |n: u32| {
+        let starts: Vec<String> = (0..n).map(|i| format!("[0.0, {}.0]", 2 * i)).collect();
+        format!("name = \"n{n}\"\n[swarm]\ncount = {n}\nstart_positions = [{}]\ngoal = [100.0, 0.0]\n[end]\ntime_limit_s = 10.0\n", starts.join(", "))
+    };
+    std::fs::write(&one, body(1)).expect("write");
+    let two = dir.path().join("two.toml");
+    std::fs::write(&two, body(2)).expect("write");
+    let (mut hub, loc) = start_hub(one.to_str().expect("utf8"), &run, dir.path());
+    let mut foreign = Proc::start(
+        &["agent", "--run", &run, "--id", "2", "--scenario", two.to_str().expect("utf8"), "--connect", &loc],
+        &dir.path().join("foreign.log"),
+    );
+    let alive = tap(&[&format!("swarm/{run}/alive/uav/2"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    assert!(alive.contains("true"), "the foreign agent is up: {alive}");
+    let out = dir.path().join("rec");
+    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
+    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
+    assert!(rec.wait_for(Duration::from_secs(60)).expect("run ends").success());
+    let s = common::summary(&out);
+    assert_eq!(s["end_reason"], "time_limit", "{s:#}");
+    assert_eq!(s["ticks"], 100);
+    assert_eq!(s["agents"].as_array().expect("agents").len(), 1, "no phantom agent: {s:#}");
+    assert!(hub.wait_for(Duration::from_secs(20)).expect("hub exits").success(), "hub did not crash");
+    assert!(agent.wait_for(Duration::from_secs(20)).expect("agent exits").success());
+    assert!(foreign.wait_for(Duration::from_secs(20)).is_some(), "the foreign agent leaves with the hub");
+}
+
+/// A run named `uav` (a word of the key space) flies like any other.
+#[test]
+fn a_run_named_uav_flies() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = common::swarm_run(&["open-field-5", "--run", "uav", "--out", dir.path().to_str().expect("utf8")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = common::summary(dir.path());
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+}
+
+/// A hub that vanishes mid-run (SIGKILL: no last step) is noticed by the recorder through the
+/// hub's liveliness token: it writes what it has, marked `incomplete`, and exits with failure.
+#[test]
+fn recorder_notices_a_vanished_hub() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("vanish");
+    let sc = dir.path().join("long.toml");
+    std::fs::write(
+        &sc,
+        "name = \"long\"\n[swarm]\ncount = 1\nstart_positions = [[0.0, 0.0]]\ngoal = [100.0, 0.0]\n[time]\nmode = \"realtime\"\n[end]\ntime_limit_s = 1000.0\n",
+    )
+    .expect("write");
+    let (hub, loc) = start_hub(sc.to_str().expect("utf8"), &run, dir.path());
+    let out = dir.path().join("rec");
+    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
+    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let _agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
+    assert_eq!(tap(&[&format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", "3", "--duration", "30"]).lines().count(), 3);
+    drop(hub); // SIGKILL
+    let st = rec.wait_for(Duration::from_secs(20)).expect("the recorder does not hang");
+    assert!(!st.success(), "an incomplete run is a failure: {st:?}");
+    let s = common::summary(&out);
+    assert_eq!(s["end_reason"], "incomplete", "{s:#}");
+    assert!(s["ticks"].as_u64().expect("n") >= 3);
+}

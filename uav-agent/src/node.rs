@@ -44,6 +44,9 @@ pub enum AgentError {
     /// The UAV id is not in the scenario.
     #[error("UAV id {0} is not in this scenario (ids 1..={1})")]
     BadId(u32, u32),
+    /// The hub's ticks went backwards: another hub run took over the keys.
+    #[error("tick went back from {0} to {1}: the hub restarted; start the agent again for the new run")]
+    TickWentBack(u64, u64),
 }
 
 /// Which UAV, which run, which hub.
@@ -143,7 +146,8 @@ struct Node {
     gnss: Option<Gnss>,
     scan: Option<Scan>,
     needs_gnss: bool,
-    last_tick: u64,
+    /// Last tick stepped, `None` before the first.
+    last_tick: Option<u64>,
     _sense_sub: zenoh::pubsub::Subscriber<()>,
     _radio_sub: zenoh::pubsub::Subscriber<()>,
     _hub_watch: zenoh::pubsub::Subscriber<()>,
@@ -201,7 +205,7 @@ impl Node {
             odom: None,
             gnss: None,
             scan: None,
-            last_tick: 0,
+            last_tick: None,
             _sense_sub: sense_sub,
             _radio_sub: radio_sub,
             _hub_watch: hub_watch,
@@ -248,7 +252,8 @@ impl Node {
     }
 
     async fn hover(&mut self) {
-        let cmd = Cmd { tick: self.last_tick + 1, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
+        let tick = self.last_tick.map_or(0, |t| t.saturating_add(1));
+        let cmd = Cmd { tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
         if let Ok(b) = Msg::Cmd(cmd).encode() {
             let _ = self.cmd_pub.put(b).await;
         }
@@ -269,7 +274,7 @@ impl Node {
             trace!(from, tick = pose.tick, "share outside the neighbour's window");
             return;
         }
-        let now = self.last_tick as f64 * self.dt;
+        let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
         if let netem::Verdict::DeliverAt(at) = self.link.on_receive(from, pose.t_secs, now, self.dt, bytes.len()) {
             self.inbox.push(at, pose);
         }
@@ -296,7 +301,10 @@ impl Node {
             return Ok(());
         }
         let Some(scan) = self.scan.take() else { return Ok(()) };
-        self.last_tick = tick;
+        if let Some(last) = self.last_tick.filter(|&last| tick <= last) {
+            return Err(AgentError::TickWentBack(last, tick));
+        }
+        self.last_tick = Some(tick);
         let due = self.inbox.take_due(scan.t_secs);
         self.link.on_delivered(due.len());
         for p in due {
@@ -352,7 +360,7 @@ impl Node {
                 .map_err(WireError::zenoh)?;
             debug!(neighbour = id, "subscribed");
             self.neighbour_subs.insert(id, sub);
-            self.windows.insert(id, tick + 1);
+            self.windows.insert(id, tick.saturating_add(1));
         }
         Ok(())
     }

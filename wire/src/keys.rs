@@ -124,15 +124,16 @@ impl Keys {
         format!("{}/alive/uav/*", self.prefix)
     }
 
-    /// The UAV id in a key `swarm/{run}/.../uav/{id}/...` or `.../alive/uav/{id}`.
-    pub fn uav_id_in(key: &str) -> Option<u32> {
-        let mut parts = key.split('/');
-        while let Some(p) = parts.next() {
-            if p == "uav" {
-                return parts.next()?.parse().ok();
-            }
-        }
-        None
+    /// The UAV id in a key of this run: `swarm/{run}/uav/{id}/...` or `swarm/{run}/alive/uav/{id}`,
+    /// read by position after the run prefix (so a run named `uav` cannot confuse it). Ids are
+    /// 1-based: 0, non-numbers and other keys give `None`.
+    pub fn uav_id_of(&self, key: &str) -> Option<u32> {
+        let rest = key.strip_prefix(self.prefix.as_str())?.strip_prefix('/')?;
+        let id = match rest.split('/').collect::<Vec<_>>().as_slice() {
+            ["uav", id, ..] | ["alive", "uav", id] => id.parse::<u32>().ok()?,
+            _ => return None,
+        };
+        (id > 0).then_some(id)
     }
 }
 
@@ -159,9 +160,19 @@ mod tests {
     #[test]
     fn uav_id_is_read_back_from_keys() {
         let k = Keys::new("r").expect("valid");
-        assert_eq!(Keys::uav_id_in(&k.cmd(12)), Some(12));
-        assert_eq!(Keys::uav_id_in(&k.alive_uav(4)), Some(4));
-        assert_eq!(Keys::uav_id_in(&k.clock()), None);
-        assert_eq!(Keys::uav_id_in("swarm/r/uav/x/cmd"), None);
+        assert_eq!(k.uav_id_of(&k.cmd(12)), Some(12));
+        assert_eq!(k.uav_id_of(&k.alive_uav(4)), Some(4));
+        assert_eq!(k.uav_id_of(&k.clock()), None);
+        assert_eq!(k.uav_id_of("swarm/r/uav/x/cmd"), None);
+        assert_eq!(k.uav_id_of("swarm/r/uav/0/cmd"), None, "ids are 1-based");
+        assert_eq!(k.uav_id_of("swarm/other/uav/3/cmd"), None, "another run");
+    }
+
+    #[test]
+    fn a_run_named_uav_parses() {
+        let k = Keys::new("uav").expect("valid");
+        assert_eq!(k.uav_id_of(&k.alive_uav(1)), Some(1));
+        assert_eq!(k.uav_id_of(&k.cmd(2)), Some(2));
+        assert_eq!(k.uav_id_of(&k.alive_hub()), None);
     }
 }
