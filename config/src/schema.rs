@@ -326,7 +326,8 @@ pub struct Time {
     /// Control (and simulation) rate [Hz].
     #[serde(default = "d_hz")]
     pub control_hz: f64,
-    /// Lockstep: how long the hub waits for a live agent's command before moving on [ms].
+    /// Lockstep: how long the hub waits for a live agent's command before moving on [ms]. Killed
+    /// agents are noticed at once through liveliness; this bounds the wait for a hung one.
     #[serde(default = "d_tick_timeout")]
     pub tick_timeout_ms: u64,
     /// Realtime: sim seconds per wall second.
@@ -343,7 +344,7 @@ fn d_hz() -> f64 {
     10.0
 }
 fn d_tick_timeout() -> u64 {
-    1000
+    5000
 }
 fn d_factor() -> f64 {
     1.0
