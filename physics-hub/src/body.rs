@@ -30,6 +30,7 @@ pub struct Body {
 }
 
 /// Wraps an angle to (−π, π].
+#[inline]
 pub fn wrap_angle(a: f64) -> f64 {
     let w = a.rem_euclid(std::f64::consts::TAU);
     if w > std::f64::consts::PI {

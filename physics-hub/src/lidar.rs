@@ -23,6 +23,7 @@
 //! so the RNG stream a scan consumes depends only on the spec, and a given RNG state always
 //! gives the same ranges.
 
+use crate::body::wrap_angle;
 use crate::world::{ray_circle, Obstacle, World};
 use rand_distr::StandardNormal;
 use std::f64::consts::TAU;
@@ -194,7 +195,7 @@ impl Raster {
         let (mut lo, mut hi) = (0.0_f64, 0.0_f64);
         for k in corners {
             let bearing = (k[1] - self.origin[1]).atan2(k[0] - self.origin[0]);
-            let rel = wrap_pi(bearing - centre);
+            let rel = wrap_angle(bearing - centre);
             lo = lo.min(rel);
             hi = hi.max(rel);
         }
@@ -249,16 +250,6 @@ impl Raster {
     }
 }
 
-/// Wraps an angle into (−π, π].
-#[inline]
-fn wrap_pi(a: f64) -> f64 {
-    let w = a.rem_euclid(TAU);
-    if w > std::f64::consts::PI {
-        w - TAU
-    } else {
-        w
-    }
-}
 
 #[cfg(test)]
 mod tests {

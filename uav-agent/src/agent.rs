@@ -6,7 +6,7 @@
 //! neighbours' shares. Nothing here can reach ground truth.
 
 use crate::k21;
-use crate::localization::{BroadcastTable, Estimate};
+use crate::localization::{wrap, BroadcastTable, Estimate};
 use crate::perception;
 use nalgebra::Vector2;
 use std::time::Instant;
@@ -31,10 +31,6 @@ pub struct Agent {
     id: u32,
     sc: Scenario,
     table: BroadcastTable,
-}
-
-fn wrap(a: f64) -> f64 {
-    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
 
 impl Agent {

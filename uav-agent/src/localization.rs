@@ -28,7 +28,8 @@ pub struct BroadcastTable {
     poses: BTreeMap<u32, PoseShare>,
 }
 
-fn wrap(a: f64) -> f64 {
+/// Wraps an angle to [−π, π).
+pub(crate) fn wrap(a: f64) -> f64 {
     (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
 
