@@ -191,6 +191,8 @@ impl Scenario {
         }
         self.controller.k21.validate("controller.k21")?;
         self.perception.validate()?;
+        positive("localization.stale_after_s", self.localization.stale_after_s)?;
+        self.localization.icp.validate()?;
         positive("end.goal_radius_m", self.end.goal_radius_m)?;
         positive("end.time_limit_s", self.end.time_limit_s)?;
         Ok(())
@@ -312,6 +314,36 @@ impl K21Params {
         }
         if !(0.0..=180.0).contains(&self.avoidance_ignore_deg) {
             return Err((format!("{at}.avoidance_ignore_deg"), "must be in [0, 180]".into()));
+        }
+        Ok(())
+    }
+}
+
+impl IcpParams {
+    fn validate(&self) -> Check {
+        let at = "localization.icp";
+        for (name, v) in [
+            ("lambda", self.lambda),
+            ("tolerance_m", self.tolerance_m),
+            ("grid_spacing_m", self.grid_spacing_m),
+            ("match_frmsd", self.match_frmsd),
+            ("suspend_s", self.suspend_s),
+            ("long_every_s", self.long_every_s),
+            ("step_budget_ms", self.step_budget_ms),
+        ] {
+            positive(&format!("{at}.{name}"), v)?;
+        }
+        if self.max_iterations == 0 || self.max_iterations > 1000 {
+            return Err((format!("{at}.max_iterations"), format!("must be between 1 and 1000, got {}", self.max_iterations)));
+        }
+        if self.grid_half_cells > 50 {
+            return Err((format!("{at}.grid_half_cells"), format!("must be at most 50, got {}", self.grid_half_cells)));
+        }
+        if self.grid_headings == 0 || self.grid_headings > 360 {
+            return Err((format!("{at}.grid_headings"), format!("must be between 1 and 360, got {}", self.grid_headings)));
+        }
+        if self.min_points < 3 {
+            return Err((format!("{at}.min_points"), "must be at least 3 (a rigid 2D transform needs 3 points)".into()));
         }
         Ok(())
     }

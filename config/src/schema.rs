@@ -529,6 +529,18 @@ impl Default for PerceptionParams {
 pub enum LocalizationMode {
     /// Each agent broadcasts its pose in a shared global frame (GNSS-like, seed 001 3.4).
     Broadcast,
+    /// Agents share their obstacle centres and align them by ICP (seed 000 chapters 3 and 5).
+    Icp,
+}
+
+/// How the neighbour database tells neighbours apart in `icp` mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Identify {
+    /// By the obstacle set itself: agents stay anonymous (seed 000 5.2).
+    Scan,
+    /// By the sender id in the key, for comparison.
+    Key,
 }
 
 /// Localization settings.
@@ -538,9 +550,12 @@ pub struct Localization {
     /// The mode.
     #[serde(default = "d_loc")]
     pub mode: LocalizationMode,
-    /// A neighbour estimate older than this is dropped [s].
+    /// A neighbour estimate older than this is dropped [s] (seed 000 5.3: 0.5 s).
     #[serde(default = "d_stale")]
     pub stale_after_s: f64,
+    /// ICP parameters (`icp` mode).
+    #[serde(default)]
+    pub icp: IcpParams,
 }
 fn d_loc() -> LocalizationMode {
     LocalizationMode::Broadcast
@@ -550,7 +565,107 @@ fn d_stale() -> f64 {
 }
 impl Default for Localization {
     fn default() -> Self {
-        Localization { mode: d_loc(), stale_after_s: d_stale() }
+        Localization { mode: d_loc(), stale_after_s: d_stale(), icp: IcpParams::default() }
+    }
+}
+
+/// ICP with FRMSD outlier rejection and the neighbour database (seed 000 3.1, 3.3, 5.1–5.3).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IcpParams {
+    /// FRMSD exponent λ (eq. 3.16; 1.3 in 2D).
+    #[serde(default = "d_lambda")]
+    pub lambda: f64,
+    /// Iteration cap of one ICP run.
+    #[serde(default = "d_iters")]
+    pub max_iterations: u32,
+    /// Stop when the error falls below this [m].
+    #[serde(default = "d_icp_tol")]
+    pub tolerance_m: f64,
+    /// Initial-estimate grid: (2·half_cells + 1)² points (seed 000 5.1: 21×21) ...
+    #[serde(default = "d_half_cells")]
+    pub grid_half_cells: u32,
+    /// ... spaced this far apart [m] (0.5).
+    #[serde(default = "d_grid_spacing")]
+    pub grid_spacing_m: f64,
+    /// Relative headings tried at every grid point.
+    #[serde(default = "d_headings")]
+    pub grid_headings: u32,
+    /// A received set matches an entry when FRMSD ≤ this (seed 000 5.3: 1).
+    #[serde(default = "one_f")]
+    pub match_frmsd: f64,
+    /// An entry whose neighbour could not be placed is left alone this long [s] (5).
+    #[serde(default = "d_five")]
+    pub suspend_s: f64,
+    /// An entry gets a long ICP (full grid) this often [s] (5).
+    #[serde(default = "d_five")]
+    pub long_every_s: f64,
+    /// At most this many long or initial ICPs per control step (seed 000 6.2: 2).
+    #[serde(default = "d_max_long")]
+    pub max_long_per_step: u32,
+    /// Failsafe: no further long or initial ICP once the step has taken this long [ms].
+    #[serde(default = "d_budget")]
+    pub step_budget_ms: f64,
+    /// Fewer shared obstacles than this give no estimate.
+    #[serde(default = "d_min_points_icp")]
+    pub min_points: u32,
+    /// How neighbours are told apart.
+    #[serde(default = "d_identify")]
+    pub identify: Identify,
+}
+fn d_lambda() -> f64 {
+    1.3
+}
+fn d_iters() -> u32 {
+    30
+}
+fn d_icp_tol() -> f64 {
+    1e-4
+}
+fn d_half_cells() -> u32 {
+    10
+}
+fn d_grid_spacing() -> f64 {
+    0.5
+}
+fn d_headings() -> u32 {
+    16
+}
+fn one_f() -> f64 {
+    1.0
+}
+fn d_five() -> f64 {
+    5.0
+}
+fn d_max_long() -> u32 {
+    2
+}
+fn d_budget() -> f64 {
+    20.0
+}
+fn d_min_points_icp() -> u32 {
+    3
+}
+fn d_identify() -> Identify {
+    Identify::Scan
+}
+impl Default for IcpParams {
+    fn default() -> Self {
+        IcpParams {
+            lambda: d_lambda(),
+            max_iterations: d_iters(),
+            tolerance_m: d_icp_tol(),
+            grid_half_cells: d_half_cells(),
+            grid_spacing_m: d_grid_spacing(),
+            grid_headings: d_headings(),
+            match_frmsd: 1.0,
+            suspend_s: 5.0,
+            long_every_s: 5.0,
+            max_long_per_step: d_max_long(),
+            step_budget_ms: d_budget(),
+            min_points: d_min_points_icp(),
+            identify: d_identify(),
+        }
     }
 }
 

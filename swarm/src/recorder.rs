@@ -6,13 +6,13 @@
 //! network.
 
 use crate::plot::{run_svg, Track};
-use crate::summary::{AgentSummary, CollisionRecord, Summary, SCHEMA};
+use crate::summary::{AgentSummary, CollisionRecord, LocalizationSummary, Summary, SCHEMA};
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
-use swarm_wire::{AgentState, EndReason, Msg, TruthStep, TruthWorld};
+use swarm_wire::{AgentState, EndReason, Msg, TruthBody, TruthStep, TruthWorld};
 
 #[derive(Debug, Clone)]
 struct Acc {
@@ -29,6 +29,10 @@ struct Acc {
     steps: u64,
     neighbours_sum: u64,
     last_state: Option<AgentState>,
+    /// Distance between each neighbour estimate and the truth at the same tick [m].
+    loc_errors: Vec<f64>,
+    /// How many steps had each neighbour count.
+    neighbour_counts: BTreeMap<usize, u64>,
 }
 
 impl Default for Acc {
@@ -47,6 +51,8 @@ impl Default for Acc {
             steps: 0,
             neighbours_sum: 0,
             last_state: None,
+            loc_errors: Vec::new(),
+            neighbour_counts: BTreeMap::new(),
         }
     }
 }
@@ -60,6 +66,30 @@ pub struct Metrics {
     last_step: Option<TruthStep>,
     ticks: u64,
     tracks: BTreeMap<u32, Track>,
+    /// Recent ground truth by tick, to score agents' estimates against.
+    truth: BTreeMap<u64, Vec<TruthBody>>,
+    /// States whose tick's truth has not arrived yet.
+    pending: Vec<AgentState>,
+}
+
+/// Ticks of truth kept for scoring states that arrive late.
+const TRUTH_KEPT: u64 = 200;
+
+/// Where neighbour `j` truly is in `i`'s body frame.
+fn true_relative(i: &TruthBody, j: &TruthBody) -> (f64, f64) {
+    let (dx, dy) = (j.x - i.x, j.y - i.y);
+    let (s, c) = i.yaw.sin_cos();
+    (c * dx + s * dy, -s * dx + c * dy)
+}
+
+/// The `q`-quantile (nearest rank) of unsorted values.
+fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((q * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1]
 }
 
 fn finite_or_inf(v: f64) -> f64 {
@@ -110,7 +140,33 @@ impl Metrics {
         for c in &s.collisions {
             self.collisions.push(CollisionRecord { t_s: s.t_secs, id: c.id, other_uav: c.other_uav, x_m: c.x, y_m: c.y });
         }
+        self.truth.insert(s.tick, s.bodies.clone());
+        while self.truth.len() as u64 > TRUTH_KEPT {
+            self.truth.pop_first();
+        }
+        let (ready, waiting): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending).into_iter().partition(|st| st.tick <= s.tick);
+        self.pending = waiting;
+        for st in ready {
+            self.score(&st);
+        }
         self.last_step = Some(s.clone());
+    }
+
+    /// Scores a state's neighbour estimates against the truth of its tick (estimates without a
+    /// sender id cannot be scored). Tick 0 has no truth step: its states are not scored.
+    fn score(&mut self, st: &AgentState) {
+        let Some(bodies) = self.truth.get(&st.tick) else { return };
+        let Some(me) = bodies.iter().find(|b| b.id == st.id) else { return };
+        let errors: Vec<f64> = st
+            .neighbours
+            .iter()
+            .filter_map(|e| {
+                let other = bodies.iter().find(|b| Some(b.id) == e.id)?;
+                let (x, y) = true_relative(me, other);
+                Some((f64::from(e.x) - x).hypot(f64::from(e.y) - y))
+            })
+            .collect();
+        self.agents.entry(st.id).or_default().loc_errors.extend(errors);
     }
 
     /// Folds one agent state.
@@ -121,7 +177,15 @@ impl Metrics {
         a.step_us_max = a.step_us_max.max(us);
         a.steps += 1;
         a.neighbours_sum += st.neighbours.len() as u64;
-        a.last_state = Some(st);
+        *a.neighbour_counts.entry(st.neighbours.len()).or_default() += 1;
+        if self.truth.contains_key(&st.tick) {
+            self.score(&st);
+        } else if self.last_step.as_ref().is_none_or(|s| st.tick > s.tick) {
+            self.pending.push(st.clone());
+        }
+        if let Some(a) = self.agents.get_mut(&st.id) {
+            a.last_state = Some(st);
+        }
     }
 
     /// Whether the hub has marked the last step.
@@ -160,6 +224,16 @@ impl Metrics {
         };
         let goal_at = last.and_then(|s| s.goal_reached_at);
         let agents: Vec<AgentSummary> = self.agents.iter().map(|(&id, a)| agent_summary(id, a)).collect();
+        let all_errors: Vec<f64> = self.agents.values().flat_map(|a| a.loc_errors.iter().copied()).collect();
+        let (sent_msgs, sent_bytes) = agents.iter().fold((0, 0), |(m, b), a| (m + a.messages_sent, b + a.bytes_sent));
+        let localization = LocalizationSummary {
+            mode: format!("{:?}", scenario.localization.mode).to_lowercase(),
+            estimates_scored: all_errors.len() as u64,
+            mean_error_m: if all_errors.is_empty() { f64::NAN } else { all_errors.iter().sum::<f64>() / all_errors.len() as f64 },
+            p95_error_m: quantile(&all_errors, 0.95),
+            stable_neighbour_share: agents.iter().map(|a| a.stable_neighbour_share).sum::<f64>() / agents.len().max(1) as f64,
+            bytes_per_share_message: if sent_msgs > 0 { sent_bytes as f64 / sent_msgs as f64 } else { f64::NAN },
+        };
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
         Summary {
             schema: SCHEMA.into(),
@@ -179,6 +253,7 @@ impl Metrics {
             collision_events: self.collisions.clone(),
             min_obstacle_distance_m: min(|a| a.min_obstacle_distance_m),
             min_agent_distance_m: min(|a| a.min_agent_distance_m),
+            localization,
             agents,
         }
     }
@@ -204,6 +279,13 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         max_step_time_ms: a.step_us_max / 1000.0,
         mean_neighbours: a.neighbours_sum as f64 / steps,
         late_ticks: a.late,
+        mean_localization_error_m: if a.loc_errors.is_empty() {
+            f64::NAN
+        } else {
+            a.loc_errors.iter().sum::<f64>() / a.loc_errors.len() as f64
+        },
+        p95_localization_error_m: quantile(&a.loc_errors, 0.95),
+        stable_neighbour_share: a.neighbour_counts.values().max().map_or(f64::NAN, |&m| m as f64 / steps),
     }
 }
 
@@ -276,7 +358,7 @@ pub fn decode(bytes: &[u8], malformed: &mut u64) -> Option<Msg> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use swarm_wire::{CollisionEvent, TruthBody};
+    use swarm_wire::{CollisionEvent, NeighbourEstimate};
 
     fn body(id: u32, x: f64, od: f64, ad: f64, on_time: bool) -> TruthBody {
         TruthBody {
@@ -327,5 +409,40 @@ mod tests {
         assert!((a.mean_agent_distance_m - 3.0).abs() < 1e-12);
         assert!((a.path_length_m - 7.0).abs() < 1e-12);
         assert_eq!(a.late_ticks, 1);
+    }
+
+    #[test]
+    fn estimates_are_scored_against_truth_of_their_tick_in_the_body_frame() {
+        let sc = swarm_config::builtin("open-field-5").expect("builtin");
+        let mut m = Metrics::default();
+        // UAV 1 at the origin facing +y; UAV 2 two metres to its front (world (0, 2)).
+        let mut b1 = body(1, 0.0, 5.0, 2.0, true);
+        b1.yaw = std::f64::consts::FRAC_PI_2;
+        let mut b2 = body(2, 0.0, 5.0, 2.0, true);
+        b2.y = 2.0;
+        let truth = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0 };
+        let state = |tick, x: f32, n: usize| AgentState {
+            id: 1,
+            tick,
+            t_secs: 0.0,
+            step_time_us: 10,
+            obstacles: 0,
+            neighbours: vec![NeighbourEstimate { id: Some(2), x, y: 0.0, heading: 0.0, age_secs: 0.0 }; n],
+            in_radio_range: 1,
+            vectors: Default::default(),
+            link: Default::default(),
+            icp: Default::default(),
+        };
+        m.on_step(&truth(1));
+        m.on_state(state(1, 2.1, 1)); // truth first: scored at once, error 0.1
+        m.on_state(state(2, 1.7, 1)); // before its truth: held
+        m.on_step(&truth(2)); // now scored, error 0.3
+        m.on_state(state(3, 2.0, 2)); // a step with two estimates (the count changes)
+        m.on_step(&truth(3));
+        let s = m.summary("r", &sc);
+        assert_eq!(s.localization.estimates_scored, 4);
+        assert!((s.localization.mean_error_m - 0.1).abs() < 1e-6, "{}", s.localization.mean_error_m);
+        assert!((s.localization.p95_error_m - 0.3).abs() < 1e-6);
+        assert!((s.agents[0].stable_neighbour_share - 2.0 / 3.0).abs() < 1e-12);
     }
 }

@@ -104,6 +104,7 @@ impl Agent {
                 output: out.velocity.norm() as f32,
             },
             link: LinkCounters::default(),
+            icp: swarm_wire::IcpCounts::default(),
         };
         StepOutput { cmd, share, state }
     }
@@ -113,6 +114,8 @@ impl Agent {
             (LocalizationMode::Broadcast, Some(g)) => self.table.estimates(g, self.sc.localization.stale_after_s),
             // Without its own fix a broadcast agent cannot place anyone: fly on obstacles alone.
             (LocalizationMode::Broadcast, None) => Vec::new(),
+            // Wired to the neighbour database in the ICP change that follows.
+            (LocalizationMode::Icp, _) => Vec::new(),
         }
     }
 

@@ -11,6 +11,7 @@
 //! sensor keys and its neighbours' shares; it never reads `truth/**`.
 
 pub mod agent;
+pub mod icp;
 pub mod k21;
 pub mod localization;
 pub mod node;

@@ -8,7 +8,7 @@
 //! swarm/{run}/uav/{id}/sense/gnss          Gnss         hub -> agent {id} (broadcast mode only)
 //! swarm/{run}/uav/{id}/cmd                 Cmd          agent {id} -> hub
 //! swarm/{run}/uav/{id}/share/pose          PoseShare    agent {id} -> neighbours (broadcast mode)
-//! swarm/{run}/uav/{id}/share/obstacles     (reserved for icp mode)
+//! swarm/{run}/uav/{id}/share/obstacles     ObstacleShare agent {id} -> neighbours (icp mode)
 //! swarm/{run}/uav/{id}/state               AgentState   agent {id} -> recorder, tools
 //! swarm/{run}/radio/{id}                   RadioSet     hub -> agent {id}
 //! swarm/{run}/truth/world                  TruthWorld   hub -> recorder (once, at tick 0)
@@ -82,6 +82,10 @@ impl Keys {
     /// `swarm/{run}/uav/{id}/share/pose`
     pub fn share_pose(&self, id: u32) -> String {
         format!("{}/uav/{id}/share/pose", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/share/obstacles`
+    pub fn share_obstacles(&self, id: u32) -> String {
+        format!("{}/uav/{id}/share/obstacles", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/state`
     pub fn state(&self, id: u32) -> String {

@@ -35,6 +35,8 @@ pub enum Msg {
     TruthWorld(TruthWorld),
     /// `swarm/{run}/truth/step`
     TruthStep(TruthStep),
+    /// `.../share/obstacles`
+    Obstacles(ObstacleShare),
 }
 
 impl Msg {
@@ -61,6 +63,7 @@ impl Msg {
             Msg::State(_) => "state",
             Msg::TruthWorld(_) => "truth_world",
             Msg::TruthStep(_) => "truth_step",
+            Msg::Obstacles(_) => "obstacles",
         }
     }
 }
@@ -191,6 +194,51 @@ pub struct PoseShare {
     pub vy: f64,
 }
 
+/// `icp` mode: a UAV's obstacle centres in its body frame, sent to its neighbours (seed 000 3.2:
+/// "only lower tens of coordinates"). Coordinates are whole centimetres (postcard varints: about
+/// 4 bytes a point); the rounding (≤ 5 mm) is well below the circle fit's own error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObstacleShare {
+    /// Sender id (routing and metrics; identity only with `identify = "key"`).
+    pub from: u32,
+    /// Tick of the scan the centres come from.
+    pub tick: u64,
+    /// Sim time of that scan [s].
+    pub t_secs: f64,
+    /// Obstacle centres `[x, y]` in the sender's body frame [cm].
+    pub centres_cm: Vec<[i16; 2]>,
+}
+
+impl ObstacleShare {
+    /// Rounds body-frame centres in metres to the wire's centimetres (saturating at ±327 m).
+    pub fn quantize(points_m: impl IntoIterator<Item = [f64; 2]>) -> Vec<[i16; 2]> {
+        let cm = |v: f64| (v * 100.0).round().clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16;
+        points_m.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).map(|p| [cm(p[0]), cm(p[1])]).collect()
+    }
+
+    /// The centres in metres.
+    pub fn centres_m(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        self.centres_cm.iter().map(|c| [f64::from(c[0]) / 100.0, f64::from(c[1]) / 100.0])
+    }
+}
+
+/// ICP work of one control step and the size of the neighbour database (seed 000 5.1, 6.2).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct IcpCounts {
+    /// Short ICPs (from the last estimate).
+    pub short: u32,
+    /// Long ICPs (full grid, periodic check).
+    pub long: u32,
+    /// Initial ICPs (full grid, new entry).
+    pub initial: u32,
+    /// Long or initial ICPs deferred by the per-step cap or the step-time failsafe.
+    pub deferred: u32,
+    /// Entries in the database.
+    pub entries: u32,
+    /// Of those, suspended (neighbour out of ICP range).
+    pub suspended: u32,
+}
+
 /// One neighbour as an agent believes it to be, in the agent's body frame.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct NeighbourEstimate {
@@ -259,6 +307,8 @@ pub struct AgentState {
     pub vectors: VectorMagnitudes,
     /// Link counters since start.
     pub link: LinkCounters,
+    /// ICP work of this step (`icp` mode; zero otherwise). Appended in v1: old readers skip it.
+    pub icp: IcpCounts,
 }
 
 /// The static world, published once by the hub for the recorder.
@@ -384,6 +434,18 @@ mod tests {
         assert_eq!(b[0][1], 3, "tick varint");
         assert_eq!(b[2], vec![5, 2, 0, 0, 0, 128, 62, 0, 0, 0, 191, 0, 0, 0, 0]);
         assert_eq!(b[3], vec![4, 4, 2, 2, 1, 3]);
+    }
+
+    #[test]
+    fn obstacle_shares_are_compact_and_round_to_centimetres() {
+        let pts: Vec<[f64; 2]> = (0..20).map(|i| [f64::from(i) * 0.5 - 5.0, 7.123 - f64::from(i) * 0.3]).collect();
+        let share = ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: ObstacleShare::quantize(pts.clone()) };
+        let bytes = Msg::Obstacles(share.clone()).encode().expect("encodes");
+        assert!(bytes.len() < 110, "20 centres in {} bytes", bytes.len());
+        for (a, b) in share.centres_m().zip(&pts) {
+            assert!((a[0] - b[0]).abs() <= 0.005 && (a[1] - b[1]).abs() <= 0.005);
+        }
+        assert_eq!(ObstacleShare::quantize([[f64::NAN, 1.0], [1e9, -1e9]]), vec![[i16::MAX, i16::MIN]]);
     }
 
     #[test]
