@@ -40,6 +40,7 @@ impl ScenarioError {
 /// Built-in scenarios, `(name, toml text)`: the files of `scenarios/`, compiled in.
 pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5", include_str!("../../scenarios/forest-5.toml")),
+    ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
 ];
@@ -107,6 +108,11 @@ impl Scenario {
     /// The UAV ids of this scenario, `1..=count`.
     pub fn uav_ids(&self) -> impl Iterator<Item = u32> {
         1..=self.swarm.count
+    }
+
+    /// The ids that get an agent: every UAV but the failed ones.
+    pub fn agent_ids(&self) -> impl Iterator<Item = u32> + '_ {
+        self.uav_ids().filter(|id| !self.swarm.failed.contains(id))
     }
 
     /// Whether UAV `id` knows the goal.
@@ -260,6 +266,12 @@ impl Scenario {
             }
         }
         finite("swarm.goal", &s.goal)?;
+        if let Some(bad) = s.failed.iter().find(|&&i| i == 0 || i > s.count) {
+            return Err(("swarm.failed".into(), format!("UAV id {bad} is not in 1..={}", s.count)));
+        }
+        if s.failed.len() >= s.count as usize {
+            return Err(("swarm.failed".into(), "at least one UAV must have an agent".into()));
+        }
         finite("swarm.start_heading_deg", &[s.start_heading_deg])?;
         if let Informed::Ids(ids) = &s.informed {
             if let Some(bad) = ids.iter().find(|&&i| i == 0 || i > s.count) {

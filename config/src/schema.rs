@@ -156,6 +156,10 @@ pub struct Swarm {
     /// Which UAVs know the goal: `"all"` or a list of ids.
     #[serde(default = "d_informed")]
     pub informed: Informed,
+    /// UAVs that have failed before the start (seed 000 6.2): their bodies hover where they
+    /// start, obstacles to the others, and no agent runs for them.
+    #[serde(default)]
+    pub failed: Vec<u32>,
 }
 fn d_informed() -> Informed {
     Informed::All(crate::AllMarker::All)

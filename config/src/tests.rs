@@ -83,6 +83,8 @@ fn semantic_errors_name_field() {
         (MINIMAL.replace("count = 2", "count = 3"), "swarm.start_positions"),
         (MINIMAL.replace("goal = [10.0, 0.0]", "goal = [10.0, 0.0]\ninformed = [5]"), "swarm.informed"),
         (format!("{MINIMAL}\n[perception]\nmin_points = 2\n"), "perception.min_points"),
+        (MINIMAL.replace("goal = [10.0, 0.0]", "goal = [10.0, 0.0]\nfailed = [3]"), "swarm.failed"),
+        (MINIMAL.replace("goal = [10.0, 0.0]", "goal = [10.0, 0.0]\nfailed = [1, 2]"), "swarm.failed"),
         (format!("{MINIMAL}\n[localization.icp]\nlambda = 0.0\n"), "localization.icp.lambda"),
         (format!("{MINIMAL}\n[localization.icp]\ngrid_headings = 0\n"), "localization.icp.grid_headings"),
         (

@@ -239,10 +239,11 @@ impl Net {
 
     async fn wait_for_agents(&self, sc: &Scenario) -> Result<(), HubError> {
         let deadline = Instant::now() + Duration::from_secs_f64(sc.time.startup_timeout_s);
-        info!(expected = sc.count(), "waiting for agents");
+        let expected = sc.agent_ids().count();
+        info!(expected, "waiting for agents");
         loop {
             let n = self.alive_now().len();
-            if n >= sc.count() {
+            if n >= expected {
                 info!(alive = n, "all agents alive");
                 return Ok(());
             }
@@ -251,7 +252,7 @@ impl Net {
                 return if n == 0 {
                     Err(HubError::NoAgents(sc.time.startup_timeout_s))
                 } else {
-                    warn!(alive = n, expected = sc.count(), "starting without every agent");
+                    warn!(alive = n, expected, "starting without every agent");
                     Ok(())
                 };
             }

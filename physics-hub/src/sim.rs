@@ -263,10 +263,12 @@ impl Sim {
     fn goal_met(&self) -> bool {
         let g = Vector2::new(self.sc.swarm.goal[0], self.sc.swarm.goal[1]);
         let r = self.sc.end.goal_radius_m;
+        // Failed UAVs (no agent) are not part of the swarm that has to arrive.
+        let flying: Vec<Vector2<f64>> = self.sc.agent_ids().map(|id| self.bodies[(id - 1) as usize].pos).collect();
         match self.sc.end.goal_rule {
-            GoalRule::All => self.bodies.iter().all(|b| (b.pos - g).norm() <= r),
+            GoalRule::All => flying.iter().all(|p| (p - g).norm() <= r),
             GoalRule::Centroid => {
-                let c = self.bodies.iter().map(|b| b.pos).sum::<Vector2<f64>>() / self.bodies.len() as f64;
+                let c = flying.iter().sum::<Vector2<f64>>() / flying.len().max(1) as f64;
                 (c - g).norm() <= r
             }
         }

@@ -70,7 +70,7 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
 
     let rec = Recording::start(&run_id, &locators, &a.cfg).await?;
     let mut agents = Vec::new();
-    for id in sc.uav_ids() {
+    for id in sc.agent_ids() {
         agents.push(spawn(&exe, &logs.join(format!("agent-{id}.log")), false, |c| {
             c.arg("agent").args(["--run", &run_id, "--id", &id.to_string(), "--exit-with-stdin"]);
             for l in &locators {

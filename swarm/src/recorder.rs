@@ -6,7 +6,7 @@
 //! network.
 
 use crate::plot::{run_svg, Track};
-use crate::summary::{AgentSummary, CollisionRecord, LocalizationSummary, Summary, SCHEMA};
+use crate::summary::{AgentSummary, CollisionRecord, ContactEvent, LocalizationSummary, Summary, SCHEMA};
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -33,6 +33,12 @@ struct Acc {
     loc_errors: Vec<f64>,
     /// How many steps had each neighbour count.
     neighbour_counts: BTreeMap<usize, u64>,
+    /// Estimates farther than [`FALSE_ESTIMATE_M`] from the truth.
+    false_estimates: u64,
+    /// Neighbour count at the last scored state.
+    last_count: Option<usize>,
+    /// Times it lost all neighbours or found one again.
+    contacts: Vec<ContactEvent>,
 }
 
 impl Default for Acc {
@@ -53,6 +59,9 @@ impl Default for Acc {
             last_state: None,
             loc_errors: Vec::new(),
             neighbour_counts: BTreeMap::new(),
+            false_estimates: 0,
+            last_count: None,
+            contacts: Vec::new(),
         }
     }
 }
@@ -71,6 +80,9 @@ pub struct Metrics {
     /// States whose tick's truth has not arrived yet.
     pending: Vec<AgentState>,
 }
+
+/// An estimate farther than this from the truth places a neighbour where none is.
+pub const FALSE_ESTIMATE_M: f64 = 1.0;
 
 /// Ticks of truth kept for scoring states that arrive late.
 const TRUTH_KEPT: u64 = 200;
@@ -166,7 +178,18 @@ impl Metrics {
                 Some((f64::from(e.x) - x).hypot(f64::from(e.y) - y))
             })
             .collect();
-        self.agents.entry(st.id).or_default().loc_errors.extend(errors);
+        // Contact lost (some neighbours -> none) or regained, with the true distance to the
+        // nearest other UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at ~6.3 m).
+        let count = st.neighbours.len();
+        let a = self.agents.entry(st.id).or_default();
+        if let Some(prev) = a.last_count {
+            if (prev > 0) != (count > 0) {
+                a.contacts.push(ContactEvent { t_s: st.t_secs, regained: count > 0, nearest_uav_m: me.agent_distance_m });
+            }
+        }
+        a.last_count = Some(count);
+        a.false_estimates += errors.iter().filter(|&&e| e > FALSE_ESTIMATE_M).count() as u64;
+        a.loc_errors.extend(errors);
     }
 
     /// Folds one agent state.
@@ -233,6 +256,7 @@ impl Metrics {
             p95_error_m: quantile(&all_errors, 0.95),
             stable_neighbour_share: agents.iter().map(|a| a.stable_neighbour_share).sum::<f64>() / agents.len().max(1) as f64,
             bytes_per_share_message: if sent_msgs > 0 { sent_bytes as f64 / sent_msgs as f64 } else { f64::NAN },
+            false_estimates: agents.iter().map(|a| a.false_estimates).sum(),
         };
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
         Summary {
@@ -286,6 +310,8 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         },
         p95_localization_error_m: quantile(&a.loc_errors, 0.95),
         stable_neighbour_share: a.neighbour_counts.values().max().map_or(f64::NAN, |&m| m as f64 / steps),
+        false_estimates: a.false_estimates,
+        contact_events: a.contacts.clone(),
     }
 }
 
@@ -444,5 +470,17 @@ mod tests {
         assert!((s.localization.mean_error_m - 0.1).abs() < 1e-6, "{}", s.localization.mean_error_m);
         assert!((s.localization.p95_error_m - 0.3).abs() < 1e-6);
         assert!((s.agents[0].stable_neighbour_share - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(s.localization.false_estimates, 0);
+        // Alone at tick 4, with a wildly wrong estimate at tick 5: one loss, one regain, one false.
+        m.on_step(&truth(4));
+        m.on_state(state(4, 0.0, 0));
+        m.on_step(&truth(5));
+        m.on_state(state(5, -8.0, 1));
+        let s = m.summary("r", &sc);
+        let c = &s.agents[0].contact_events;
+        assert_eq!(c.len(), 2);
+        assert!(!c[0].regained && c[1].regained);
+        assert_eq!(c[0].nearest_uav_m, 2.0, "true distance at that moment");
+        assert_eq!(s.localization.false_estimates, 1);
     }
 }

@@ -90,6 +90,20 @@ pub struct LocalizationSummary {
     /// Mean size of an inter-agent share message [bytes].
     #[serde(with = "inf_as_null")]
     pub bytes_per_share_message: f64,
+    /// Estimates more than 1 m from the truth: neighbours placed where none is.
+    pub false_estimates: u64,
+}
+
+/// A UAV lost all its neighbours (`regained` false) or found one again.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ContactEvent {
+    /// Sim time.
+    pub t_s: f64,
+    /// Found again (true) or lost (false).
+    pub regained: bool,
+    /// True distance to the nearest other UAV at that moment.
+    #[serde(with = "inf_as_null")]
+    pub nearest_uav_m: f64,
 }
 
 /// One collision.
@@ -153,6 +167,10 @@ pub struct AgentSummary {
     /// Share of its steps at which its neighbour count was at its most common value.
     #[serde(with = "inf_as_null")]
     pub stable_neighbour_share: f64,
+    /// Its estimates more than 1 m from the truth.
+    pub false_estimates: u64,
+    /// Each time it lost all neighbours or found one again.
+    pub contact_events: Vec<ContactEvent>,
 }
 
 fn f3(v: f64) -> String {
