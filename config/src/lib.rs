@@ -339,6 +339,8 @@ impl IcpParams {
             ("tolerance_m", self.tolerance_m),
             ("grid_spacing_m", self.grid_spacing_m),
             ("match_frmsd", self.match_frmsd),
+            ("match_shift_m", self.match_shift_m),
+            ("match_turn_deg", self.match_turn_deg),
             ("suspend_s", self.suspend_s),
             ("long_every_s", self.long_every_s),
             ("step_budget_ms", self.step_budget_ms),

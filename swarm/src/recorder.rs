@@ -94,6 +94,16 @@ fn true_relative(i: &TruthBody, j: &TruthBody) -> (f64, f64) {
     (c * dx + s * dy, -s * dx + c * dy)
 }
 
+/// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
+fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = v.filter(|x| x.is_finite()).fold((0.0, 0u32), |(s, n), x| (s + x, n + 1));
+    if n == 0 {
+        f64::NAN
+    } else {
+        sum / f64::from(n)
+    }
+}
+
 /// The `q`-quantile (nearest rank) of unsorted values.
 fn quantile(v: &[f64], q: f64) -> f64 {
     if v.is_empty() {
@@ -182,9 +192,13 @@ impl Metrics {
         // nearest other UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at ~6.3 m).
         let count = st.neighbours.len();
         let a = self.agents.entry(st.id).or_default();
+        // The first acquisition at start is not a regain: only a contact lost can be regained.
+        let lost_before = a.contacts.last().is_some_and(|c| !c.regained);
         if let Some(prev) = a.last_count {
-            if (prev > 0) != (count > 0) {
-                a.contacts.push(ContactEvent { t_s: st.t_secs, regained: count > 0, nearest_uav_m: me.agent_distance_m });
+            let lost = prev > 0 && count == 0;
+            let regained = prev == 0 && count > 0 && lost_before;
+            if lost || regained {
+                a.contacts.push(ContactEvent { t_s: st.t_secs, regained, nearest_uav_m: me.agent_distance_m });
             }
         }
         a.last_count = Some(count);
@@ -254,7 +268,7 @@ impl Metrics {
             estimates_scored: all_errors.len() as u64,
             mean_error_m: if all_errors.is_empty() { f64::NAN } else { all_errors.iter().sum::<f64>() / all_errors.len() as f64 },
             p95_error_m: quantile(&all_errors, 0.95),
-            stable_neighbour_share: agents.iter().map(|a| a.stable_neighbour_share).sum::<f64>() / agents.len().max(1) as f64,
+            stable_neighbour_share: mean_finite(agents.iter().map(|a| a.stable_neighbour_share)),
             bytes_per_share_message: if sent_msgs > 0 { sent_bytes as f64 / sent_msgs as f64 } else { f64::NAN },
             false_estimates: agents.iter().map(|a| a.false_estimates).sum(),
         };
@@ -331,7 +345,7 @@ impl Files {
         let mut traj = open("trajectories.csv")?;
         writeln!(traj, "tick,t_s,id,x_m,y_m,yaw_rad,vx_mps,vy_mps,obstacle_distance_m,agent_distance_m,colliding,alive,cmd_on_time")?;
         let mut states = open("agent_states.csv")?;
-        writeln!(states, "tick,t_s,id,step_time_us,obstacles,neighbours,in_radio_range,cohesion,separation,avoidance,navigation,output_mps,msgs_tx,bytes_tx,msgs_rx,bytes_rx")?;
+        writeln!(states, "tick,t_s,id,step_time_us,obstacles,neighbours,in_radio_range,cohesion,separation,avoidance,navigation,output_mps,msgs_tx,bytes_tx,msgs_rx,bytes_rx,icp_short,icp_long,icp_initial,icp_deferred,db_entries,db_suspended")?;
         Ok(Files { traj, states })
     }
 
@@ -352,11 +366,13 @@ impl Files {
     pub fn write_state(&mut self, st: &AgentState) -> Result<()> {
         let v = &st.vectors;
         let l = &st.link;
+        let c = &st.icp;
         writeln!(
             self.states,
-            "{},{:.3},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{}",
+            "{},{:.3},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{}",
             st.tick, st.t_secs, st.id, st.step_time_us, st.obstacles, st.neighbours.len(), st.in_radio_range,
-            v.cohesion, v.separation, v.avoidance, v.navigation, v.output, l.sent_msgs, l.sent_bytes, l.recv_msgs, l.recv_bytes
+            v.cohesion, v.separation, v.avoidance, v.navigation, v.output, l.sent_msgs, l.sent_bytes, l.recv_msgs, l.recv_bytes,
+            c.short, c.long, c.initial, c.deferred, c.entries, c.suspended
         )?;
         Ok(())
     }

@@ -4,8 +4,8 @@ mod common;
 
 use common::{run_id, summary, swarm_run};
 
-/// Seed 000 section 6.1 (forest-5, lockstep, broadcast localization): goal, no collision, safe
-/// distances, a complete run folder.
+/// Seed 000 section 6.1 (forest-5, lockstep, ICP localization): goal, no collision, safe
+/// distances, neighbours localized, a complete run folder.
 #[test]
 fn forest5_reaches_goal_without_collision() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -24,6 +24,14 @@ fn forest5_reaches_goal_without_collision() {
     assert!(min_obst > 0.5, "min obstacle distance {min_obst}");
     assert!(min_uav > 0.5, "min agent distance {min_uav}");
     assert!(s["trees"].as_u64().expect("number") > 10, "a forest was flown through");
+    // ICP localization (seed 000 6.1: mean error 0.052 m, neighbour count stable 89 % of the time).
+    let l = &s["localization"];
+    assert_eq!(l["mode"], "icp");
+    assert!(l["estimates_scored"].as_u64().expect("n") > 5000, "{l:#}");
+    assert!(l["mean_error_m"].as_f64().expect("n") < 0.15, "{l:#}");
+    assert!(l["p95_error_m"].as_f64().expect("n") < 0.15, "{l:#}");
+    assert!(l["stable_neighbour_share"].as_f64().expect("n") > 0.6, "{l:#}");
+    assert!(l["bytes_per_share_message"].as_f64().expect("n") < 150.0, "obstacle sets are compact: {l:#}");
     let agents = s["agents"].as_array().expect("agents");
     assert_eq!(agents.len(), 5);
     for a in agents {
@@ -91,4 +99,28 @@ fn bad_scenario_names_file_and_field() {
     assert!(err.contains("bad.toml"), "{err}");
     assert!(err.contains("lidar.beams"), "{err}");
     assert!(!dir.path().join("o").exists(), "nothing started");
+}
+
+/// Seed 000 section 6.2: seven UAVs in ICP mode fly past a failed eighth that hovers near their
+/// path with no agent: no collision, goal reached, the failed UAV says nothing.
+#[test]
+fn seven_uavs_pass_a_failed_one() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = swarm_run(&["forest-7-failed", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("f7")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(dir.path());
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
+    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let agents = s["agents"].as_array().expect("agents");
+    assert_eq!(agents.len(), 8);
+    let failed = &agents[7];
+    assert_eq!(failed["messages_sent"], 0, "no agent runs for the failed UAV");
+    assert!(failed["path_length_m"].as_f64().expect("n") < 0.01, "it hovers where it failed");
+    for a in &agents[..7] {
+        assert!(a["contact_events"].is_array());
+        assert!(a["mean_localization_error_m"].as_f64().expect("n") < 0.2, "{a:#}");
+    }
+    assert!(s["localization"]["mean_error_m"].as_f64().expect("n") < 0.15);
 }

@@ -5,7 +5,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use swarm_wire::{Gnss, Odom, PoseShare, Scan};
-use uav_agent::agent::Agent;
+use uav_agent::agent::{Agent, Share};
 
 /// A scan of circles at fixed places, computed analytically (no dependency on the hub).
 fn forest_scan(beams: usize) -> Scan {
@@ -40,7 +40,7 @@ fn bench_step(c: &mut Criterion) {
             b.iter(|| {
                 for j in 0..n {
                     let a = f64::from(j) * 0.8;
-                    agent.on_pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0 });
+                    agent.on_share(Share::Pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0 }));
                 }
                 black_box(agent.step(black_box(&scan), &odom, Some(&gnss)))
             })

@@ -5,25 +5,81 @@
 //! Architecture invariant: an agent sees the world only through its own sensor messages and its
 //! neighbours' shares. Nothing here can reach ground truth.
 
+use crate::icp::{self, Match, Transform};
 use crate::k21;
 use crate::localization::{wrap, BroadcastTable, Estimate};
+use crate::neighbours::{Database, Matcher, Received};
 use crate::perception;
-use nalgebra::Vector2;
+use nalgebra::{Point2, Vector2};
+use std::collections::BTreeMap;
 use std::time::Instant;
-use swarm_config::{LocalizationMode, Scenario};
+use swarm_config::{IcpParams, LocalizationMode, Scenario};
 use swarm_wire::{
-    AgentState, Cmd, CmdKind, Gnss, LinkCounters, NeighbourEstimate, Odom, PoseShare, Scan, VectorMagnitudes,
+    AgentState, Cmd, CmdKind, Gnss, IcpCounts, LinkCounters, Msg, NeighbourEstimate, ObstacleShare, Odom, PoseShare,
+    Scan, VectorMagnitudes,
 };
+
+/// What agents tell their neighbours: a pose (`broadcast`) or an obstacle set (`icp`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Share {
+    /// Broadcast mode.
+    Pose(PoseShare),
+    /// ICP mode.
+    Obstacles(ObstacleShare),
+}
+
+impl Share {
+    /// Sender id.
+    pub fn from(&self) -> u32 {
+        match self {
+            Share::Pose(p) => p.from,
+            Share::Obstacles(o) => o.from,
+        }
+    }
+    /// Tick it was sent at.
+    pub fn tick(&self) -> u64 {
+        match self {
+            Share::Pose(p) => p.tick,
+            Share::Obstacles(o) => o.tick,
+        }
+    }
+    /// Sim time it was sent at [s].
+    pub fn t_secs(&self) -> f64 {
+        match self {
+            Share::Pose(p) => p.t_secs,
+            Share::Obstacles(o) => o.t_secs,
+        }
+    }
+    /// The wire message.
+    pub fn into_msg(self) -> Msg {
+        match self {
+            Share::Pose(p) => Msg::Pose(p),
+            Share::Obstacles(o) => Msg::Obstacles(o),
+        }
+    }
+}
 
 /// What one step produces.
 #[derive(Debug, Clone)]
 pub struct StepOutput {
     /// The command for the hub.
     pub cmd: Cmd,
-    /// The message to share with neighbours (broadcast mode), if any.
-    pub share: Option<PoseShare>,
+    /// The message to share with neighbours, if any.
+    pub share: Option<Share>,
     /// Diagnostics (link counters are filled in by the caller).
     pub state: AgentState,
+}
+
+/// The real ICP behind the neighbour database.
+struct IcpMatcher<'a>(&'a IcpParams);
+
+impl Matcher for IcpMatcher<'_> {
+    fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: Transform) -> Option<Match> {
+        icp::icp(reference, source, initial, self.0).ok()
+    }
+    fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
+        icp::initial_icp(reference, source, self.0).ok()
+    }
 }
 
 /// The onboard state of one UAV between steps.
@@ -31,18 +87,28 @@ pub struct Agent {
     id: u32,
     sc: Scenario,
     table: BroadcastTable,
+    db: Database,
+    /// The newest obstacle set from each neighbour, handed to the database every step (it
+    /// ignores sets older than `stale_after_s`).
+    received: BTreeMap<u32, Received>,
 }
 
 impl Agent {
     /// The agent of UAV `id` under scenario `sc`.
     pub fn new(id: u32, sc: Scenario) -> Agent {
-        Agent { id, sc, table: BroadcastTable::default() }
+        let db = Database::new(sc.localization.icp.clone(), sc.localization.stale_after_s);
+        Agent { id, sc, table: BroadcastTable::default(), db, received: BTreeMap::new() }
     }
 
-    /// Takes a neighbour's broadcast pose that the link has delivered.
-    pub fn on_pose(&mut self, p: PoseShare) {
-        if p.from != self.id {
-            self.table.update(p);
+    /// Takes a neighbour's share that the link has delivered (our own echo is ignored).
+    pub fn on_share(&mut self, share: Share) {
+        match share {
+            Share::Pose(p) if p.from != self.id => self.table.update(p),
+            Share::Obstacles(o) if o.from != self.id && self.received.get(&o.from).is_none_or(|r| o.t_secs > r.t_secs) => {
+                let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
+                self.received.insert(o.from, Received { from: o.from, t_secs: o.t_secs, points });
+            }
+            _ => {}
         }
     }
 
@@ -50,7 +116,7 @@ impl Agent {
     pub fn step(&mut self, scan: &Scan, odom: &Odom, gnss: Option<&Gnss>) -> StepOutput {
         let started = Instant::now();
         let circles = perception::extract_obstacles(scan, &self.sc.perception);
-        let estimates = self.localize(gnss);
+        let (estimates, icp_counts) = self.localize(scan.t_secs, &circles, gnss, started);
         let neighbours: Vec<k21::Neighbour> =
             estimates.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
         let obstacles = self.trees_only(&circles, &estimates);
@@ -67,7 +133,7 @@ impl Agent {
             yaw_rate: out.yaw_rate as f32,
         };
         let share = match (self.sc.localization.mode, gnss) {
-            (LocalizationMode::Broadcast, Some(g)) => Some(PoseShare {
+            (LocalizationMode::Broadcast, Some(g)) => Some(Share::Pose(PoseShare {
                 from: self.id,
                 tick: g.tick,
                 t_secs: g.t_secs,
@@ -76,8 +142,15 @@ impl Agent {
                 yaw: g.yaw,
                 vx: g.vx,
                 vy: g.vy,
-            }),
-            _ => None,
+            })),
+            (LocalizationMode::Broadcast, None) => None,
+            // seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
+            (LocalizationMode::Icp, _) => Some(Share::Obstacles(ObstacleShare {
+                from: self.id,
+                tick: scan.tick,
+                t_secs: scan.t_secs,
+                centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
+            })),
         };
         let state = AgentState {
             id: self.id,
@@ -104,18 +177,43 @@ impl Agent {
                 output: out.velocity.norm() as f32,
             },
             link: LinkCounters::default(),
-            icp: swarm_wire::IcpCounts::default(),
+            icp: icp_counts,
         };
         StepOutput { cmd, share, state }
     }
 
-    fn localize(&mut self, gnss: Option<&Gnss>) -> Vec<Estimate> {
+    /// Neighbour estimates for this step, and the ICP work it took (`icp` mode).
+    fn localize(
+        &mut self,
+        now: f64,
+        circles: &[perception::Circle],
+        gnss: Option<&Gnss>,
+        started: Instant,
+    ) -> (Vec<Estimate>, IcpCounts) {
         match (self.sc.localization.mode, gnss) {
-            (LocalizationMode::Broadcast, Some(g)) => self.table.estimates(g, self.sc.localization.stale_after_s),
+            (LocalizationMode::Broadcast, Some(g)) => {
+                (self.table.estimates(g, self.sc.localization.stale_after_s), IcpCounts::default())
+            }
             // Without its own fix a broadcast agent cannot place anyone: fly on obstacles alone.
-            (LocalizationMode::Broadcast, None) => Vec::new(),
-            // Wired to the neighbour database in the ICP change that follows.
-            (LocalizationMode::Icp, _) => Vec::new(),
+            (LocalizationMode::Broadcast, None) => (Vec::new(), IcpCounts::default()),
+            (LocalizationMode::Icp, _) => {
+                let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
+                let stale = self.sc.localization.stale_after_s;
+                self.received.retain(|_, r| now - r.t_secs <= stale + 1e-9);
+                let received: Vec<Received> = self.received.values().cloned().collect();
+                let mut elapsed_ms = || started.elapsed().as_secs_f64() * 1e3;
+                let c = self.db.step(now, &own, &received, &mut IcpMatcher(&self.sc.localization.icp), &mut elapsed_ms);
+                let estimates = self.db.estimates(now).into_iter().map(Into::into).collect();
+                let counts = IcpCounts {
+                    short: c.short,
+                    long: c.long,
+                    initial: c.initial,
+                    deferred: c.skipped_long,
+                    entries: self.db.len() as u32,
+                    suspended: self.db.suspended_len() as u32,
+                };
+                (estimates, counts)
+            }
         }
     }
 
@@ -162,7 +260,7 @@ mod tests {
         assert!((out.cmd.x - 0.4).abs() < 1e-6 && out.cmd.y.abs() < 1e-6, "{:?}", out.cmd);
         assert!(out.cmd.yaw_rate.abs() < 1e-6);
         let share = out.share.expect("broadcast mode shares its pose");
-        assert_eq!(share.from, 1);
+        assert_eq!(share.from(), 1);
     }
 
     #[test]
@@ -175,15 +273,15 @@ mod tests {
     #[test]
     fn a_neighbour_seen_by_lidar_is_not_an_obstacle_and_own_pose_is_ignored() {
         let mut a = Agent::new(1, scenario());
-        a.on_pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 });
-        a.on_pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 });
+        a.on_share(Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
+        a.on_share(Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
         let g = Gnss { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 };
         let out = a.step(&empty_scan(1), &odom(None), Some(&g));
         assert_eq!(out.state.neighbours.len(), 1, "own echo ignored");
         assert_eq!(out.state.neighbours[0].id, Some(2));
         let circle = perception::Circle { center: nalgebra::Point2::new(3.05, 0.0), radius: 0.3 };
         let tree = perception::Circle { center: nalgebra::Point2::new(0.0, 5.0), radius: 0.3 };
-        let est = a.localize(Some(&g));
+        let (est, _) = a.localize(0.1, &[], Some(&g), Instant::now());
         let left = a.trees_only(&[circle, tree], &est);
         assert_eq!(left, vec![Vector2::new(0.0, 5.0)]);
     }

@@ -1,6 +1,45 @@
-//! Types shared by the ICP code and the neighbour database (being written).
+//! ICP relative localization core of seed 000 ("K21", sections 3.1, 3.3 and 5.1).
+//!
+//! Why this module exists: in `icp` localization mode (SPEC section 5) agents are anonymous and
+//! share only the obstacle centres they see, in their own body frame. To know where a neighbour
+//! is and where it is heading, the receiver aligns the received set S to its own set R. This
+//! module is that alignment, as pure functions with no IO and no clock, so the neighbour database
+//! (seed 000 5.2–5.3) can call it freely and it can be tested and benchmarked in isolation.
+//!
+//! - [`icp`] is the ICP of Algorithm 1 (the "short ICP" of seed 000 5.1): nearest-neighbour
+//!   pairing, FRMSD outlier rejection (eq. 3.16–3.17, Algorithm 3), rigid transform from the kept
+//!   pairs by centroids + SVD of the cross-covariance with the reflection fix (eq. 3.1–3.12),
+//!   composed onto the running estimate.
+//! - [`initial_icp`] is the initial estimate of seed 000 5.1: ICP from every point of a
+//!   (2·h+1)² grid around the agent at every one of `grid_headings` relative headings, keeping
+//!   the lowest FRMSD.
+//!
+//! Choices where seed 000 is silent:
+//! - The error E of Algorithm 1 is the FRMSD of the current pairing (the quantity the outlier
+//!   rejection minimises). The loop stops when E < `tolerance_m`, when E grows (the previous
+//!   estimate and its pairing are kept), at `max_iterations`, or — the fixed point — when the
+//!   update moves the kept source points by less than `tolerance_m` (RMS). The returned FRMSD is
+//!   the one of the pairing at the returned transform.
+//! - Algorithm 3 initialises `best_frmsd = 0` and tests `<`, which would never select anything;
+//!   we start from +∞, and on ties keep the longer prefix (with exact data every prefix has
+//!   FRMSD 0, and all pairs should be kept). Prefixes shorter than max(3, `min_points`) are not
+//!   candidates: fewer pairs cannot pin down a 2D rigid transform robustly, and a "shared
+//!   obstacles" count below `min_points` gives no estimate by the configuration's definition.
+//! - Degenerate input gives `Err`, never a confident guess: too few points, non-finite values,
+//!   a side whose points are all coincident or collinear (a line slides along itself, so the
+//!   alignment is not unique), or a final kept set that is collinear on either side.
+//! - Speed of [`initial_icp`] (441 positions × 16 headings = 7056 starts): a full ICP from every
+//!   start would cost tens of milliseconds. Instead a cheap first pass scores every start by the
+//!   FRMSD of its *initial* pairing only (source pre-rotated once per heading, distance-only
+//!   nearest neighbour, squared FRMSD from a precomputed weight table, so no allocation, no
+//!   `sqrt` and no `powf` in the inner loop); the best few starts, at least one per heading and a
+//!   shortlist overall, are then run through the full ICP, and the lowest final FRMSD wins.
+//!   Nearest-neighbour search is brute force on squared distances: with ≈ 20–40 points this is
+//!   faster than any spatial index.
 
-use nalgebra::Vector2;
+use nalgebra::{Matrix2, Point2, Vector2};
+use std::cmp::Ordering;
+use swarm_config::IcpParams;
 
 /// A rigid transform that maps points from the neighbour's body frame (the source set S) into
 /// this agent's body frame (the reference set R): `p_R = Rot(rotation) · p_S + translation`.
@@ -22,4 +61,955 @@ pub struct Match {
     pub frmsd: f64,
     /// Pairs kept after FRMSD outlier rejection.
     pub pairs: usize,
+}
+
+/// Why no estimate could be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum NoEstimate {
+    /// A side has fewer than max(3, `min_points`) points (an empty set included).
+    #[error("too few points for an ICP estimate")]
+    TooFewPoints,
+    /// A coordinate, the initial transform or a parameter is NaN or infinite.
+    #[error("non-finite point, transform or parameter")]
+    NonFinite,
+    /// The points cannot pin down a 2D rigid transform: a side is all coincident or collinear,
+    /// or the pairs kept at the end are.
+    #[error("degenerate (coincident or collinear) point set")]
+    Degenerate,
+}
+
+/// Below this RMS spread along the major axis a point set is "coincident" [m].
+const MIN_SPREAD_M: f64 = 1e-6;
+
+/// A point set is "collinear" when the RMS spread across its major axis is below this fraction of
+/// the spread along it (a 20 m line with 3 cm noise is a line; three trees 5 m apart with one
+/// 0.3 m off the line between the other two are not).
+const MAX_COLLINEAR_RATIO: f64 = 1e-2;
+
+/// FRMSD values closer than this are a tie, won by the longer prefix [m]: with exact data every
+/// inlier distance is rounding noise (≈ 1e-15 m), and a prefix of exact zeros must not beat it.
+const TIE_M: f64 = 1e-9;
+
+/// Starts of the initial grid refined by a full ICP: the best this many of the first pass overall
+/// (in addition to the best start of every heading).
+const SHORTLIST: usize = 24;
+
+/// Non-maximum suppression radius of the shortlist, in grid cells (see [`offer`]).
+const SUPPRESS_CELLS: f64 = 2.0;
+
+/// Stop rule that ended an ICP run (exposed to the tests).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Stop {
+    /// E < `tolerance_m`.
+    Tolerance,
+    /// The update moved the kept points by less than `tolerance_m` (RMS).
+    Converged,
+    /// E grew; the previous estimate was kept.
+    Increase,
+    /// `max_iterations` reached.
+    MaxIterations,
+}
+
+/// One pair of the nearest-neighbour pairing (seed 000 eq. 3.17).
+#[derive(Debug, Clone, Copy)]
+struct Pair {
+    /// Squared distance d² between the transformed source point and its reference point.
+    d2: f64,
+    /// Index into the source set.
+    s: usize,
+    /// Index into the reference set.
+    r: usize,
+}
+
+/// The FRMSD of one pairing, after rejection.
+#[derive(Debug, Clone, Copy)]
+struct Eval {
+    /// FRMSD of the best prefix (eq. 3.16); +∞ when no prefix qualifies.
+    frmsd: f64,
+    /// Length of the best prefix (the kept pairs).
+    kept: usize,
+}
+
+/// Reusable buffers, so the ICP loop allocates nothing.
+struct Workspace {
+    /// The source set under the current transform.
+    moved: Vec<Point2<f64>>,
+    /// Pairing at the current estimate, sorted by distance.
+    cur: Vec<Pair>,
+    /// Pairing at the candidate estimate.
+    next: Vec<Pair>,
+    /// FRMSD² weights: `weights[i−1] = f^(−2λ) / i`, f = i/|D| (eq. 3.16 squared).
+    weights: Vec<f64>,
+    /// Smallest prefix that may be kept: max(3, `min_points`).
+    k_min: usize,
+    /// First-pass scratch: the source rotated by one grid heading.
+    rotated: Vec<Vector2<f64>>,
+    /// First-pass scratch: nearest squared distances of one start.
+    d2: Vec<f64>,
+}
+
+impl Workspace {
+    fn new(n_source: usize, lambda: f64, k_min: usize) -> Self {
+        let n = n_source as f64;
+        let weights = (1..=n_source)
+            .map(|i| {
+                let i = i as f64;
+                // seed 000, eq. 3.16 squared: FRMSD_i² = f^(−2λ) · (1/|D_f|) Σ d², f = i/|D|, |D_f| = i.
+                (i / n).powf(-2.0 * lambda) / i
+            })
+            .collect();
+        Workspace {
+            moved: Vec::with_capacity(n_source),
+            cur: Vec::with_capacity(n_source),
+            next: Vec::with_capacity(n_source),
+            weights,
+            k_min,
+            rotated: Vec::with_capacity(n_source),
+            d2: Vec::with_capacity(n_source),
+        }
+    }
+}
+
+/// Wraps an angle to [−π, π).
+fn wrap(a: f64) -> f64 {
+    let w = (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    if w >= std::f64::consts::PI {
+        w - std::f64::consts::TAU
+    } else {
+        w
+    }
+}
+
+/// The rotation matrix of angle `a`.
+fn rot(a: f64) -> Matrix2<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix2::new(c, -s, s, c)
+}
+
+/// Checks the counts and finiteness of both sides; returns max(3, `min_points`).
+fn validate(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpParams) -> Result<usize, NoEstimate> {
+    let k_min = (p.min_points as usize).max(3);
+    if reference.len() < k_min || source.len() < k_min {
+        return Err(NoEstimate::TooFewPoints);
+    }
+    let finite = |s: &[Point2<f64>]| s.iter().all(|q| q.x.is_finite() && q.y.is_finite());
+    if !finite(reference) || !finite(source) || !p.lambda.is_finite() {
+        return Err(NoEstimate::NonFinite);
+    }
+    if degenerate(reference.iter().copied()) || degenerate(source.iter().copied()) {
+        return Err(NoEstimate::Degenerate);
+    }
+    Ok(k_min)
+}
+
+/// True when the points are (numerically) coincident or collinear: from the eigenvalues of their
+/// 2×2 covariance, the major-axis RMS spread is < [`MIN_SPREAD_M`] or the minor/major spread
+/// ratio is < [`MAX_COLLINEAR_RATIO`].
+fn degenerate(points: impl Iterator<Item = Point2<f64>> + Clone) -> bool {
+    let mut n = 0.0;
+    let mut c = Vector2::zeros();
+    for q in points.clone() {
+        c += q.coords;
+        n += 1.0;
+    }
+    if n < 1.0 {
+        return true;
+    }
+    c /= n;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for q in points {
+        let d = q.coords - c;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
+    }
+    let (sxx, sxy, syy) = (sxx / n, sxy / n, syy / n);
+    // Not in seed 000 (degeneracy test): eigenvalues of the 2×2 covariance [[sxx, sxy], [sxy, syy]]:
+    // λ± = (sxx + syy)/2 ± sqrt(((sxx − syy)/2)² + sxy²).
+    let mean = 0.5 * (sxx + syy);
+    let rad = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
+    let major = mean + rad;
+    let minor = (mean - rad).max(0.0);
+    !(major >= MIN_SPREAD_M * MIN_SPREAD_M && minor >= MAX_COLLINEAR_RATIO * MAX_COLLINEAR_RATIO * major)
+}
+
+/// Writes `t(source)` into `moved`.
+fn apply(t: &Transform, source: &[Point2<f64>], moved: &mut Vec<Point2<f64>>) {
+    let r = rot(t.rotation);
+    moved.clear();
+    // seed 000, eq. 3.12 form (tranSource): p_R = Rot(rotation) · p_S + translation.
+    moved.extend(source.iter().map(|q| Point2::from(r * q.coords + t.translation)));
+}
+
+/// Pairs every moved source point with its nearest reference point and sorts the pairs by
+/// distance (seed 000, Algorithm 1 `pairing`, Algorithm 3 `QuickSort(D)`).
+fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &mut Vec<Pair>) {
+    out.clear();
+    for (s, q) in moved.iter().enumerate() {
+        let mut best = f64::INFINITY;
+        let mut r_best = 0;
+        for (r, a) in reference.iter().enumerate() {
+            // seed 000, eq. 3.17 squared: d² = ‖p − µ(p)‖².
+            let (dx, dy) = (a.x - q.x, a.y - q.y);
+            let d2 = dx * dx + dy * dy;
+            if d2 < best {
+                best = d2;
+                r_best = r;
+            }
+        }
+        out.push(Pair { d2: best, s, r: r_best });
+    }
+    out.sort_unstable_by(|a, b| a.d2.total_cmp(&b.d2));
+}
+
+/// FRMSD outlier rejection on squared distances sorted ascending (seed 000, Algorithm 3): the
+/// prefix of length ≥ `k_min` with the smallest FRMSD, the longest on ties (within [`TIE_M`]).
+/// Returns `(kept, FRMSD²)`, or `(0, +∞)` when no prefix qualifies (too few pairs, or NaN).
+fn best_prefix(sorted_d2: impl Iterator<Item = f64>, weights: &[f64], k_min: usize) -> (usize, f64) {
+    let mut cum = 0.0;
+    let mut best = (0, f64::INFINITY);
+    for (i, (d2, w)) in sorted_d2.zip(weights).enumerate() {
+        cum += d2;
+        if i + 1 >= k_min {
+            // seed 000, eq. 3.16 squared: FRMSD_i² = f^(−2λ)/i · Σ_{k≤i} d_k².
+            let f2 = w * cum;
+            // Ties (to within TIE_M, i.e. rounding noise on exact data) go to the longer prefix.
+            if f2 <= best.1 + TIE_M * TIE_M {
+                best = (i + 1, f2);
+            }
+        }
+    }
+    best
+}
+
+/// Transforms the source by `t`, pairs, rejects; leaves the sorted pairing in `pairs`.
+fn evaluate(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    t: &Transform,
+    moved: &mut Vec<Point2<f64>>,
+    pairs: &mut Vec<Pair>,
+    weights: &[f64],
+    k_min: usize,
+) -> Eval {
+    apply(t, source, moved);
+    pair_into(reference, moved, pairs);
+    let (kept, f2) = best_prefix(pairs.iter().map(|q| q.d2), weights, k_min);
+    Eval { frmsd: f2.sqrt(), kept }
+}
+
+/// The rigid transform that best maps the kept moved source points onto their reference points
+/// (seed 000, eq. 3.1–3.12): `(Rot, t)` with `a ↦ Rot·a + t`. `None` if the SVD fails.
+fn estimate(reference: &[Point2<f64>], moved: &[Point2<f64>], kept: &[Pair]) -> Option<(Matrix2<f64>, Vector2<f64>)> {
+    if kept.is_empty() {
+        return None;
+    }
+    let k = kept.len() as f64;
+    // seed 000, eq. 3.1: c_S = (1/N) Σ a_i, a_i ∈ S (the kept, currently transformed, source points).
+    let c_s = kept.iter().fold(Vector2::zeros(), |acc, q| acc + moved[q.s].coords) / k;
+    // seed 000, eq. 3.2: c_R = (1/N) Σ a_i, a_i ∈ R (their reference partners).
+    let c_r = kept.iter().fold(Vector2::zeros(), |acc, q| acc + reference[q.r].coords) / k;
+    // seed 000, eq. 3.3–3.9: W = R S'ᵀ with both sets centred, S' = S − c_S, R − c_R.
+    let w = kept.iter().fold(Matrix2::zeros(), |acc: Matrix2<f64>, q| {
+        acc + (reference[q.r].coords - c_r) * (moved[q.s].coords - c_s).transpose()
+    });
+    // seed 000, eq. 3.10: W = U Σ Vᵀ.
+    let svd = w.try_svd(true, true, f64::EPSILON, 100)?;
+    let u = svd.u?;
+    let mut v_t = svd.v_t?;
+    // seed 000, eq. 3.11: Rot = U Vᵀ.
+    let mut r = u * v_t;
+    if r.determinant() < 0.0 {
+        // seed 000, 3.1 (after eq. 3.11): det = −1 is a reflection; negate the last column of V
+        // (the last row of Vᵀ) to get the best proper rotation.
+        v_t.row_mut(1).neg_mut();
+        r = u * v_t;
+    }
+    if !r.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    // seed 000, eq. 3.12: a_i ↦ Rot (a_i − c_S) + c_R = Rot a_i + (c_R − Rot c_S).
+    Some((r, c_r - r * c_s))
+}
+
+/// Result of one ICP run (with the stop rule, for the tests).
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    m: Match,
+    #[cfg_attr(not(test), allow(dead_code))] // read by the tests
+    iterations: u32,
+    #[cfg_attr(not(test), allow(dead_code))] // read by the tests
+    stop: Stop,
+}
+
+/// ICP (seed 000, Algorithm 1) from `initial` on validated input, with `ws.weights` and
+/// `ws.k_min` prepared for `source.len()`.
+fn icp_core(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    initial: Transform,
+    p: &IcpParams,
+    ws: &mut Workspace,
+) -> Result<Run, NoEstimate> {
+    let Workspace { moved, cur, next, weights, k_min, .. } = ws;
+    let k_min = *k_min;
+    let mut t = initial;
+    let mut e = evaluate(reference, source, &t, moved, cur, weights, k_min);
+    if !e.frmsd.is_finite() {
+        return Err(NoEstimate::NonFinite);
+    }
+    let mut iterations = 0;
+    let stop = loop {
+        // seed 000, Algorithm 1: while E > threshold and i < iter.
+        if e.frmsd < p.tolerance_m {
+            break Stop::Tolerance;
+        }
+        if iterations >= p.max_iterations {
+            break Stop::MaxIterations;
+        }
+        // `moved` still holds the source under `t`, `cur` its pairing.
+        let kept = &cur[..e.kept];
+        let (r, tr) = estimate(reference, moved, kept).ok_or(NoEstimate::Degenerate)?;
+        // Not in seed 000: mean squared displacement of the kept points by this update,
+        // (1/N) Σ ‖ΔRot a + Δt − a‖², for the fixed-point stop.
+        let step2 = kept.iter().map(|q| (r * moved[q.s].coords + tr - moved[q.s].coords).norm_squared()).sum::<f64>()
+            / kept.len() as f64;
+        let d_rot = r[(1, 0)].atan2(r[(0, 0)]);
+        // seed 000, eq. 3.12 (tranSource) composed onto the estimate: p_R = ΔRot (Rot p_S + t) + Δt.
+        let candidate = Transform { rotation: wrap(t.rotation + d_rot), translation: rot(d_rot) * t.translation + tr };
+        iterations += 1;
+        let e_next = evaluate(reference, source, &candidate, moved, next, weights, k_min);
+        if !matches!(e_next.frmsd.partial_cmp(&e.frmsd), Some(Ordering::Less | Ordering::Equal)) {
+            // seed 000, 3.1: stop "when the error in step k + 1 is higher than in step k"; keep
+            // step k. `cur` still holds its pairing; `moved` is stale but no longer needed.
+            break Stop::Increase;
+        }
+        t = candidate;
+        e = e_next;
+        std::mem::swap(cur, next);
+        if step2 < p.tolerance_m * p.tolerance_m {
+            break Stop::Converged;
+        }
+    };
+    let kept = &cur[..e.kept];
+    if degenerate(kept.iter().map(|q| reference[q.r])) || degenerate(kept.iter().map(|q| source[q.s])) {
+        return Err(NoEstimate::Degenerate);
+    }
+    Ok(Run { m: Match { transform: t, frmsd: e.frmsd, pairs: e.kept }, iterations, stop })
+}
+
+/// ICP from an initial transform (the "short ICP" of seed 000 5.1): pair every point of `source`
+/// (transformed) with its nearest point of `reference`; FRMSD outlier rejection on the pairs
+/// sorted by distance (best prefix by FRMSD = (1/f^λ)·sqrt(mean d²), f = i/|D|, eq. 3.16–3.17,
+/// Algorithm 3), estimate the rigid transform from the kept pairs (centroids + SVD of the
+/// cross-covariance, det = −1 → negate the last column of V), compose it onto the current
+/// estimate; stop on error < tolerance, error increase (keep the previous estimate), a fixed
+/// point (update below tolerance) or `max_iterations`. The returned frmsd is that of the final
+/// pairing.
+///
+/// Errors: [`NoEstimate::TooFewPoints`] when a side has fewer than max(3, `min_points`) points,
+/// [`NoEstimate::NonFinite`] for NaN/∞ in the points, `initial` or `lambda`,
+/// [`NoEstimate::Degenerate`] when a side, or the final kept pairs, are coincident or collinear.
+pub fn icp(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    initial: Transform,
+    p: &IcpParams,
+) -> Result<Match, NoEstimate> {
+    let k_min = validate(reference, source, p)?;
+    if !initial.rotation.is_finite() || !initial.translation.iter().all(|x| x.is_finite()) {
+        return Err(NoEstimate::NonFinite);
+    }
+    let mut ws = Workspace::new(source.len(), p.lambda, k_min);
+    icp_core(reference, source, initial, p, &mut ws).map(|run| run.m)
+}
+
+/// A start of the initial grid with its first-pass score (FRMSD² of its initial pairing).
+#[derive(Debug, Clone, Copy)]
+struct Start {
+    score: f64,
+    transform: Transform,
+}
+
+/// Inserts `s` into `list` (kept ≤ `cap` long, best first) if it ranks, with non-maximum
+/// suppression: of two starts at the same heading with squared distance ≤ `suppress2` only the
+/// better is kept, so the shortlist covers distinct basins instead of neighbouring cells of one.
+fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
+    // Scores compare by `total_cmp`, so a NaN score (only from absurd λ) ranks last.
+    if list.len() == cap && list.last().is_none_or(|w| s.score.total_cmp(&w.score).is_ge()) {
+        return;
+    }
+    let near = |q: &Start| {
+        q.transform.rotation == s.transform.rotation
+            && (q.transform.translation - s.transform.translation).norm_squared() <= suppress2
+    };
+    if let Some(i) = list.iter().position(near) {
+        if s.score.total_cmp(&list[i].score).is_ge() {
+            return;
+        }
+        list.remove(i);
+    }
+    let at = list.partition_point(|q| q.score.total_cmp(&s.score).is_le());
+    if list.len() == cap {
+        list.pop();
+    }
+    list.insert(at, s);
+}
+
+/// First-pass score of one start: FRMSD² (seed 000 eq. 3.16 squared) of the initial pairing of the
+/// pre-rotated source shifted by `g`. Distances only, no indices, no allocation.
+fn first_pass_score(
+    reference: &[Point2<f64>],
+    rotated: &[Vector2<f64>],
+    g: Vector2<f64>,
+    d2: &mut Vec<f64>,
+    weights: &[f64],
+    k_min: usize,
+) -> f64 {
+    d2.clear();
+    for q in rotated {
+        let (qx, qy) = (q.x + g.x, q.y + g.y);
+        let mut best = f64::INFINITY;
+        for a in reference {
+            // seed 000, eq. 3.17 squared.
+            let (dx, dy) = (a.x - qx, a.y - qy);
+            let d = dx * dx + dy * dy;
+            best = if d < best { d } else { best };
+        }
+        d2.push(best);
+    }
+    d2.sort_unstable_by(f64::total_cmp);
+    best_prefix(d2.iter().copied(), weights, k_min).1
+}
+
+/// Initial estimate (seed 000 5.1): ICP from every point of the (2·`grid_half_cells`+1)² grid with
+/// `grid_spacing_m` spacing centred on the agent, at `grid_headings` evenly spaced relative
+/// headings (0, 2π/H, …); keep the lowest FRMSD.
+///
+/// For speed every start is first scored by the FRMSD of its initial pairing; the best start of
+/// each heading and the best few overall get the full ICP (see the module documentation).
+/// Errors as for [`icp`]; a non-finite `grid_spacing_m` is [`NoEstimate::NonFinite`]; when no
+/// refined start gives an estimate, the error of the best-ranked one.
+pub fn initial_icp(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpParams) -> Result<Match, NoEstimate> {
+    let k_min = validate(reference, source, p)?;
+    if !p.grid_spacing_m.is_finite() {
+        return Err(NoEstimate::NonFinite);
+    }
+    let mut ws = Workspace::new(source.len(), p.lambda, k_min);
+    let h = i64::from(p.grid_half_cells);
+    let headings = p.grid_headings.max(1);
+    // Within SUPPRESS_CELLS cells (with a margin for rounding).
+    let suppress2 = (SUPPRESS_CELLS * p.grid_spacing_m).powi(2) * (1.0 + 1e-9);
+
+    // First pass: score all starts, keep the best of each heading and a shortlist overall.
+    let mut shortlist: Vec<Start> = Vec::with_capacity(SHORTLIST + 1);
+    let mut per_heading: Vec<Start> = Vec::with_capacity(headings as usize);
+    for k in 0..headings {
+        // seed 000, 5.1 ("all relative headings"): θ_k = 2π·k/H, evenly spaced.
+        let heading = wrap(std::f64::consts::TAU * f64::from(k) / f64::from(headings));
+        let r = rot(heading);
+        ws.rotated.clear();
+        ws.rotated.extend(source.iter().map(|q| r * q.coords));
+        let mut best_here: Option<Start> = None;
+        for i in -h..=h {
+            for j in -h..=h {
+                // seed 000, 5.1 and Figure 5.1: grid point g = (i, j)·spacing, centred on the agent.
+                let g = Vector2::new(i as f64, j as f64) * p.grid_spacing_m;
+                let score = first_pass_score(reference, &ws.rotated, g, &mut ws.d2, &ws.weights, k_min);
+                let s = Start { score, transform: Transform { rotation: heading, translation: g } };
+                if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
+                    best_here = Some(s);
+                }
+                offer(&mut shortlist, SHORTLIST, suppress2, s);
+            }
+        }
+        // The best start of this heading, unless the shortlist already has it.
+        per_heading.extend(best_here.filter(|b| !shortlist.iter().any(|q| q.transform == b.transform)));
+    }
+
+    // Second pass: full ICP from the shortlist and the per-heading bests; lowest FRMSD wins.
+    let mut best: Option<Match> = None;
+    let mut first_err = None;
+    for s in shortlist.iter().chain(per_heading.iter()) {
+        match icp_core(reference, source, s.transform, p, &mut ws) {
+            Ok(run) => {
+                if best.is_none_or(|b| run.m.frmsd < b.frmsd) {
+                    best = Some(run.m);
+                }
+            }
+            Err(e) => {
+                first_err.get_or_insert(e);
+            }
+        }
+    }
+    best.ok_or(first_err.unwrap_or(NoEstimate::Degenerate))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use proptest::test_runner::RngSeed;
+    use std::f64::consts::PI;
+
+    /// SplitMix64: a tiny deterministic PRNG for the tests.
+    struct Rng(u64);
+    impl Rng {
+        fn next_u64(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        /// Uniform in [0, 1).
+        fn unit(&mut self) -> f64 {
+            (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        }
+        fn range(&mut self, lo: f64, hi: f64) -> f64 {
+            lo + (hi - lo) * self.unit()
+        }
+        /// Standard normal (Box–Muller).
+        fn gauss(&mut self) -> f64 {
+            let u1 = 1.0 - self.unit();
+            let u2 = self.unit();
+            (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        }
+    }
+
+    /// `n` points in the square [c − half, c + half]², at least `spacing` from each other and
+    /// from `avoid` (tree centres).
+    fn scatter(
+        rng: &mut Rng,
+        n: usize,
+        c: Vector2<f64>,
+        half: f64,
+        spacing: f64,
+        avoid: &[Point2<f64>],
+    ) -> Vec<Point2<f64>> {
+        let mut out: Vec<Point2<f64>> = Vec::with_capacity(n);
+        while out.len() < n {
+            let q = Point2::new(c.x + rng.range(-half, half), c.y + rng.range(-half, half));
+            if out.iter().chain(avoid).all(|a| (a - q).norm() >= spacing) {
+                out.push(q);
+            }
+        }
+        out
+    }
+
+    /// Expresses reference-frame points in the neighbour's frame: p_S = Rot(θ)ᵀ (p_R − t).
+    fn to_source(t: &Transform, pts: &[Point2<f64>]) -> Vec<Point2<f64>> {
+        let r = rot(t.rotation).transpose();
+        pts.iter().map(|q| Point2::from(r * (q.coords - t.translation))).collect()
+    }
+
+    fn random_transform(rng: &mut Rng, max_t: f64) -> Transform {
+        Transform {
+            rotation: rng.range(-PI, PI),
+            translation: Vector2::new(rng.range(-max_t, max_t), rng.range(-max_t, max_t)),
+        }
+    }
+
+    /// `t` perturbed by up to `dt` metres per axis and `da` radians.
+    fn perturb(rng: &mut Rng, t: &Transform, dt: f64, da: f64) -> Transform {
+        Transform {
+            rotation: t.rotation + rng.range(-da, da),
+            translation: t.translation + Vector2::new(rng.range(-dt, dt), rng.range(-dt, dt)),
+        }
+    }
+
+    fn angle_err(a: f64, b: f64) -> f64 {
+        wrap(a - b).abs()
+    }
+
+    fn close(m: &Match, truth: &Transform, tol_m: f64, tol_rad: f64) -> bool {
+        (m.transform.translation - truth.translation).norm() < tol_m
+            && angle_err(m.transform.rotation, truth.rotation) < tol_rad
+    }
+
+    /// The scenario of the acceptance test: 20 reference points (trees, ≥ 1.5 m apart) in a 20 m ×
+    /// 20 m square around us; the neighbour at a random pose (heading in [−π, π), translation
+    /// within ±5 m); its set is 14 of the reference points in its frame plus 6 trees only it sees
+    /// (in the 20 m square around it, ≥ 1.5 m from every tree), all with Gaussian noise `sigma`,
+    /// shuffled. So 30 % of each side is one-sided.
+    fn scenario(rng: &mut Rng, sigma: f64) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, Transform) {
+        let reference = scatter(rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
+        let truth = random_transform(rng, 5.0);
+        let mut seen = reference[..14].to_vec();
+        seen.extend(scatter(rng, 6, truth.translation, 10.0, 1.5, &reference));
+        let mut source = to_source(&truth, &seen);
+        for q in &mut source {
+            q.x += sigma * rng.gauss();
+            q.y += sigma * rng.gauss();
+        }
+        // Fisher–Yates, so the shared points are not the first ones.
+        for i in (1..source.len()).rev() {
+            let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+            source.swap(i, j);
+        }
+        (reference, source, truth)
+    }
+
+    /// Runs the internal ICP with a fresh workspace (validation included).
+    fn run(
+        reference: &[Point2<f64>],
+        source: &[Point2<f64>],
+        initial: Transform,
+        p: &IcpParams,
+    ) -> Result<Run, NoEstimate> {
+        let k_min = validate(reference, source, p)?;
+        let mut ws = Workspace::new(source.len(), p.lambda, k_min);
+        icp_core(reference, source, initial, p, &mut ws)
+    }
+
+    /// FRMSD (eq. 3.16) and the pairing at `t`, plus the transform one ICP step further.
+    fn eval_and_step(
+        reference: &[Point2<f64>],
+        source: &[Point2<f64>],
+        t: &Transform,
+        p: &IcpParams,
+    ) -> (Eval, Option<Transform>) {
+        let k_min = validate(reference, source, p).expect("valid");
+        let mut ws = Workspace::new(source.len(), p.lambda, k_min);
+        let e = evaluate(reference, source, t, &mut ws.moved, &mut ws.cur, &ws.weights, k_min);
+        let step = estimate(reference, &ws.moved, &ws.cur[..e.kept]).map(|(r, tr)| {
+            let d = r[(1, 0)].atan2(r[(0, 0)]);
+            Transform { rotation: wrap(t.rotation + d), translation: rot(d) * t.translation + tr }
+        });
+        (e, step)
+    }
+
+    fn square_ish() -> Vec<Point2<f64>> {
+        vec![
+            Point2::new(0.0, 0.0),
+            Point2::new(4.0, 0.5),
+            Point2::new(1.0, 3.0),
+            Point2::new(-2.0, 2.0),
+            Point2::new(3.0, -3.0),
+        ]
+    }
+
+    #[test]
+    fn exact_transform_recovered_from_nearby_estimate() {
+        let p = IcpParams::default();
+        let mut rng = Rng(1);
+        for _ in 0..100 {
+            let reference = scatter(&mut rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
+            let truth = random_transform(&mut rng, 5.0);
+            let source = to_source(&truth, &reference);
+            let start = perturb(&mut rng, &truth, 0.3, 5f64.to_radians());
+            let m = icp(&reference, &source, start, &p).expect("estimate");
+            assert!(close(&m, &truth, 1e-9, 1e-9), "{m:?} vs {truth:?}");
+            assert_eq!(m.pairs, 20);
+            assert!(m.frmsd < 1e-9);
+        }
+    }
+
+    #[test]
+    fn exact_data_stops_on_tolerance() {
+        let p = IcpParams::default();
+        let mut rng = Rng(2);
+        let reference = scatter(&mut rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
+        let truth = random_transform(&mut rng, 5.0);
+        let source = to_source(&truth, &reference);
+        let r = run(&reference, &source, perturb(&mut rng, &truth, 0.3, 0.05), &p).expect("estimate");
+        assert_eq!(r.stop, Stop::Tolerance);
+        assert!(r.iterations >= 1 && r.iterations <= 3, "{r:?}");
+    }
+
+    #[test]
+    fn reflection_fix_yields_proper_rotation() {
+        // The moved source is the mirror image (x ↦ −x) of the reference, so det W < 0 and the
+        // plain U Vᵀ is a reflection; the fix must give the best *proper* rotation instead.
+        let reference = square_ish();
+        let moved: Vec<Point2<f64>> = reference.iter().map(|q| Point2::new(-q.x, q.y)).collect();
+        let kept: Vec<Pair> = (0..reference.len()).map(|i| Pair { d2: 0.0, s: i, r: i }).collect();
+        let n = reference.len() as f64;
+        let c_s = moved.iter().fold(Vector2::zeros(), |a, q| a + q.coords) / n;
+        let c_r = reference.iter().fold(Vector2::zeros(), |a, q| a + q.coords) / n;
+        let w = reference
+            .iter()
+            .zip(&moved)
+            .fold(Matrix2::zeros(), |a: Matrix2<f64>, (r, s)| a + (r.coords - c_r) * (s.coords - c_s).transpose());
+        let svd = w.svd(true, true);
+        let plain = svd.u.expect("u") * svd.v_t.expect("v_t");
+        assert!(plain.determinant() < 0.0, "the case must need the fix");
+
+        let (r, t) = estimate(&reference, &moved, &kept).expect("estimate");
+        assert!((r.determinant() - 1.0).abs() < 1e-12);
+        assert!((r.transpose() * r - Matrix2::identity()).norm() < 1e-12);
+        // Optimal among proper rotations: the closed form θ* = atan2(Σ s'×r', Σ s'·r').
+        let (mut cross, mut dot) = (0.0, 0.0);
+        for (a, b) in moved.iter().zip(&reference) {
+            let (s, q) = (a.coords - c_s, b.coords - c_r);
+            cross += s.x * q.y - s.y * q.x;
+            dot += s.dot(&q);
+        }
+        let theta = r[(1, 0)].atan2(r[(0, 0)]);
+        assert!(angle_err(theta, cross.atan2(dot)) < 1e-12, "{theta} vs {}", cross.atan2(dot));
+        // eq. 3.12: the centroids map onto each other.
+        assert!((r * c_s + t - c_r).norm() < 1e-12);
+        // And ICP on the mirrored set still returns a proper (finite) transform or an error.
+        if let Ok(m) =
+            icp(&reference, &moved, Transform { rotation: 0.0, translation: Vector2::zeros() }, &IcpParams::default())
+        {
+            assert!(m.transform.rotation.is_finite() && m.frmsd.is_finite());
+        }
+    }
+
+    #[test]
+    fn frmsd_prefix_matches_eq_3_16() {
+        let lambda = 1.3;
+        let ws = Workspace::new(6, lambda, 3);
+        let d = [0.01, 0.02, 0.02, 0.03, 2.0, 3.5];
+        let direct = |i: usize| {
+            let f = i as f64 / d.len() as f64;
+            f.powf(-lambda) * (d[..i].iter().map(|x| x * x).sum::<f64>() / i as f64).sqrt()
+        };
+        let (kept, f2) = best_prefix(d.iter().map(|x| x * x), &ws.weights, 3);
+        let best = (3..=6).min_by(|&a, &b| direct(a).total_cmp(&direct(b))).expect("some");
+        assert_eq!(kept, best);
+        assert_eq!(kept, 4, "the two far pairs are outliers");
+        assert!((f2.sqrt() - direct(4)).abs() < 1e-12);
+        // Exact data: every prefix has FRMSD 0 and all pairs are kept.
+        assert_eq!(best_prefix([0.0; 6].into_iter(), &ws.weights, 3), (6, 0.0));
+        // Never fewer than k_min, even when the first two pairs are perfect.
+        let (kept, _) = best_prefix([0.0, 0.0, 4.0, 4.0, 4.0, 4.0].into_iter(), &ws.weights, 3);
+        assert!(kept >= 3);
+        // NaN gives no prefix.
+        assert_eq!(best_prefix([f64::NAN; 6].into_iter(), &ws.weights, 3).0, 0);
+    }
+
+    #[test]
+    fn frmsd_rejects_30_percent_outliers() {
+        let p = IcpParams::default();
+        let mut rng = Rng(3);
+        for _ in 0..100 {
+            // Noise-free: the 14 shared points pair exactly, the 6 one-sided ones are ≥ 1.5 m off.
+            let (reference, source, truth) = scenario(&mut rng, 0.0);
+            let start = perturb(&mut rng, &truth, 0.3, 5f64.to_radians());
+            let m = icp(&reference, &source, start, &p).expect("estimate");
+            assert!(close(&m, &truth, 1e-9, 1e-9), "{m:?} vs {truth:?}");
+            assert_eq!(m.pairs, 14);
+        }
+        // With noise σ = 0.03 m: still recovered to a few centimetres.
+        for _ in 0..100 {
+            let (reference, source, truth) = scenario(&mut rng, 0.03);
+            let start = perturb(&mut rng, &truth, 0.3, 5f64.to_radians());
+            let m = icp(&reference, &source, start, &p).expect("estimate");
+            assert!(close(&m, &truth, 0.1, 2f64.to_radians()), "{m:?} vs {truth:?}");
+        }
+    }
+
+    #[test]
+    fn stops_on_error_increase_and_keeps_previous_estimate() {
+        // Error increases happen from poor starts among outliers; find one deterministically.
+        let p = IcpParams { tolerance_m: 0.0, ..IcpParams::default() };
+        let mut rng = Rng(4);
+        let mut found = 0;
+        for _ in 0..500 {
+            let (reference, source, truth) = scenario(&mut rng, 0.03);
+            let start = perturb(&mut rng, &truth, 3.0, 0.6);
+            let Ok(r) = run(&reference, &source, start, &p) else { continue };
+            if r.stop != Stop::Increase {
+                continue;
+            }
+            found += 1;
+            // The returned FRMSD is that of the pairing at the returned transform ...
+            let (e, next) = eval_and_step(&reference, &source, &r.m.transform, &p);
+            assert_eq!(e.frmsd, r.m.frmsd);
+            assert_eq!(e.kept, r.m.pairs);
+            // ... and one more step would have raised it: that step was refused.
+            let next = next.expect("step");
+            let (e_next, _) = eval_and_step(&reference, &source, &next, &p);
+            assert!(e_next.frmsd > r.m.frmsd, "{} ≤ {}", e_next.frmsd, r.m.frmsd);
+            assert!(r.iterations >= 1);
+        }
+        assert!(found >= 5, "only {found} increase stops found");
+    }
+
+    #[test]
+    fn iteration_cap_is_respected() {
+        let mut rng = Rng(5);
+        let reference = scatter(&mut rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
+        let truth = random_transform(&mut rng, 5.0);
+        let source = to_source(&truth, &reference);
+        let start = perturb(&mut rng, &truth, 0.5, 0.1);
+        // Cap 0: the initial transform comes back, with the FRMSD of its pairing.
+        let p0 = IcpParams { max_iterations: 0, ..IcpParams::default() };
+        let m = icp(&reference, &source, start, &p0).expect("estimate");
+        assert_eq!(m.transform, start);
+        assert_eq!(m.frmsd, eval_and_step(&reference, &source, &start, &p0).0.frmsd);
+        // Cap 1: exactly one step, stopped by the cap, equal to the step computed by hand.
+        let p1 = IcpParams { max_iterations: 1, tolerance_m: 0.0, ..IcpParams::default() };
+        let r = run(&reference, &source, start, &p1).expect("estimate");
+        assert_eq!((r.iterations, r.stop), (1, Stop::MaxIterations));
+        assert_eq!(Some(r.m.transform), eval_and_step(&reference, &source, &start, &p1).1);
+        // Any cap: never more iterations than the cap, over random noisy runs from poor starts.
+        for cap in [1, 2, 3, 5, 8] {
+            let p = IcpParams { max_iterations: cap, tolerance_m: 0.0, ..IcpParams::default() };
+            for _ in 0..20 {
+                let (reference, source, truth) = scenario(&mut rng, 0.03);
+                if let Ok(r) = run(&reference, &source, perturb(&mut rng, &truth, 2.0, 0.4), &p) {
+                    assert!(r.iterations <= cap);
+                    assert!(r.stop != Stop::MaxIterations || r.iterations == cap);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_inputs_are_rejected() {
+        let p = IcpParams::default();
+        let id = Transform { rotation: 0.0, translation: Vector2::zeros() };
+        let good = square_ish();
+        let both = |r: &[Point2<f64>], s: &[Point2<f64>]| (icp(r, s, id, &p).err(), initial_icp(r, s, &p).err());
+        let expect = |r: &[Point2<f64>], s: &[Point2<f64>], e: NoEstimate| {
+            assert_eq!(both(r, s), (Some(e), Some(e)), "{r:?} / {s:?}");
+            assert_eq!(both(s, r), (Some(e), Some(e)), "{s:?} / {r:?}");
+        };
+        expect(&[], &good, NoEstimate::TooFewPoints);
+        expect(&good[..1], &good, NoEstimate::TooFewPoints);
+        expect(&good[..2], &good, NoEstimate::TooFewPoints);
+        let p9 = IcpParams { min_points: 9, ..IcpParams::default() };
+        assert_eq!(icp(&good, &good, id, &p9), Err(NoEstimate::TooFewPoints));
+        assert_eq!(initial_icp(&good, &good, &p9), Err(NoEstimate::TooFewPoints));
+
+        let line: Vec<Point2<f64>> = (0..8).map(|i| Point2::new(i as f64 * 2.0, 1.0 + i as f64 * 0.5)).collect();
+        expect(&line, &good, NoEstimate::Degenerate);
+        let same = vec![Point2::new(1.0, 2.0); 6];
+        expect(&same, &good, NoEstimate::Degenerate);
+
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut s = good.clone();
+            s[2].y = bad;
+            expect(&s, &good, NoEstimate::NonFinite);
+            let t = Transform { rotation: bad, translation: Vector2::zeros() };
+            assert_eq!(icp(&good, &good, t, &p), Err(NoEstimate::NonFinite));
+            let t = Transform { rotation: 0.0, translation: Vector2::new(0.0, bad) };
+            assert_eq!(icp(&good, &good, t, &p), Err(NoEstimate::NonFinite));
+            let pl = IcpParams { lambda: bad, ..IcpParams::default() };
+            assert_eq!(icp(&good, &good, id, &pl), Err(NoEstimate::NonFinite));
+            let pg = IcpParams { grid_spacing_m: bad, ..IcpParams::default() };
+            assert_eq!(initial_icp(&good, &good, &pg), Err(NoEstimate::NonFinite));
+        }
+        // Sane sets pass the checks.
+        assert!(icp(&good, &good, id, &p).is_ok());
+    }
+
+    #[test]
+    fn collinear_kept_set_is_degenerate() {
+        // Both sets are 2D, but the only pairs that agree lie on a line: the 3 off-line points of
+        // the source are far from everything and are rejected, leaving a collinear kept set that
+        // could slide along the line.
+        let mut reference: Vec<Point2<f64>> = (0..6).map(|i| Point2::new(i as f64 * 2.0, 0.0)).collect();
+        reference.extend([Point2::new(1.0, 6.0), Point2::new(5.0, -7.0)]);
+        let mut source: Vec<Point2<f64>> = (0..6).map(|i| Point2::new(i as f64 * 2.0, 0.0)).collect();
+        source.extend([Point2::new(30.0, 30.0), Point2::new(-30.0, 25.0), Point2::new(20.0, -30.0)]);
+        let id = Transform { rotation: 0.0, translation: Vector2::zeros() };
+        assert_eq!(icp(&reference, &source, id, &IcpParams::default()), Err(NoEstimate::Degenerate));
+    }
+
+    #[test]
+    fn initial_icp_exact_without_noise() {
+        let p = IcpParams::default();
+        let mut rng = Rng(6);
+        for _ in 0..20 {
+            let (reference, source, truth) = scenario(&mut rng, 0.0);
+            let m = initial_icp(&reference, &source, &p).expect("estimate");
+            assert!(close(&m, &truth, 1e-9, 1e-9), "{m:?} vs {truth:?}");
+            assert_eq!(m.pairs, 14);
+        }
+    }
+
+    /// The acceptance test (SPEC section 5, seed 000 5.1): 20 trees in 20 m × 20 m, a neighbour
+    /// at a random heading in [−π, π) and within ±5 m, σ = 0.03 m, 30 % of each side one-sided;
+    /// `initial_icp` must place it within 0.1 m and 2° in ≥ 95 % of the cases.
+    /// Measured with this seed: 500/500 (100 %); the same seed over 2000 cases: 1999/2000
+    /// (99.95 %; the miss is a neighbour 12° off the nearest grid heading at the grid's edge, from
+    /// where no start converges).
+    #[test]
+    fn initial_icp_recovery_rate() {
+        let p = IcpParams::default();
+        let mut rng = Rng(0x000C_1CF0);
+        let cases = 500;
+        let mut ok = 0;
+        for _ in 0..cases {
+            let (reference, source, truth) = scenario(&mut rng, 0.03);
+            if initial_icp(&reference, &source, &p).is_ok_and(|m| close(&m, &truth, 0.1, 2f64.to_radians())) {
+                ok += 1;
+            }
+        }
+        eprintln!("initial_icp success rate: {ok}/{cases}");
+        assert!(ok as f64 >= 0.95 * cases as f64, "success {ok}/{cases}");
+    }
+
+    fn config(cases: u32) -> ProptestConfig {
+        ProptestConfig {
+            cases,
+            rng_seed: RngSeed::Fixed(0x000C_1CF0),
+            failure_persistence: None,
+            ..ProptestConfig::default()
+        }
+    }
+
+    /// A coordinate: mostly ordinary, sometimes NaN/±∞ or a repeated value.
+    fn coord() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            20 => -15.0..15.0f64,
+            1 => Just(f64::NAN),
+            1 => Just(f64::INFINITY),
+            1 => Just(f64::NEG_INFINITY),
+            2 => Just(1.0),
+        ]
+    }
+
+    fn points(max: usize) -> impl Strategy<Value = Vec<Point2<f64>>> {
+        prop::collection::vec((coord(), coord()).prop_map(|(x, y)| Point2::new(x, y)), 0..max)
+    }
+
+    proptest! {
+        #![proptest_config(config(256))]
+
+        /// Whatever comes in, ICP returns an error or a finite, sane match; it never panics.
+        #[test]
+        fn prop_icp_is_total(reference in points(12), source in points(12), a in -10.0..10.0f64, x in -10.0..10.0f64, y in -10.0..10.0f64) {
+            let p = IcpParams::default();
+            match icp(&reference, &source, Transform { rotation: a, translation: Vector2::new(x, y) }, &p) {
+                Ok(m) => {
+                    prop_assert!(m.frmsd.is_finite() && m.frmsd >= 0.0);
+                    prop_assert!(m.transform.rotation.is_finite() && (-PI..PI).contains(&m.transform.rotation));
+                    prop_assert!(m.transform.translation.iter().all(|v| v.is_finite()));
+                    prop_assert!(m.pairs >= 3 && m.pairs <= source.len());
+                }
+                Err(e) => prop_assert!(matches!(e, NoEstimate::TooFewPoints | NoEstimate::NonFinite | NoEstimate::Degenerate)),
+            }
+        }
+
+        /// A rigid motion of a 2D set is recovered exactly from a nearby start.
+        #[test]
+        fn prop_icp_recovers_rigid_motion(seed in any::<u64>(), a in -PI..PI, x in -5.0..5.0f64, y in -5.0..5.0f64, n in 5usize..25) {
+            let mut rng = Rng(seed);
+            let reference = scatter(&mut rng, n, Vector2::zeros(), 10.0, 1.5, &[]);
+            let truth = Transform { rotation: a, translation: Vector2::new(x, y) };
+            let source = to_source(&truth, &reference);
+            let start = perturb(&mut rng, &truth, 0.3, 3f64.to_radians());
+            let m = icp(&reference, &source, start, &IcpParams::default());
+            prop_assert!(m.is_ok_and(|m| close(&m, &truth, 1e-9, 1e-9)), "{m:?} vs {truth:?}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(config(32))]
+
+        /// The initial estimate finds any pose within the grid on noise-free data with 30 %
+        /// one-sided points, and reports the 14 shared pairs.
+        #[test]
+        fn prop_initial_icp_recovers_pose(seed in any::<u64>()) {
+            let mut rng = Rng(seed);
+            let (reference, source, truth) = scenario(&mut rng, 0.0);
+            let m = initial_icp(&reference, &source, &IcpParams::default());
+            prop_assert!(m.is_ok_and(|m| close(&m, &truth, 1e-6, 1e-6) && m.pairs == 14), "{m:?} vs {truth:?}");
+        }
+    }
 }

@@ -14,6 +14,7 @@ pub mod agent;
 pub mod icp;
 pub mod k21;
 pub mod localization;
+pub mod neighbours;
 pub mod node;
 pub mod perception;
 

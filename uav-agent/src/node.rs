@@ -3,8 +3,9 @@
 //!
 //! - It fetches the scenario from the hub (`swarm/{run}/scenario`) unless given one, so an agent
 //!   on another machine needs only the hub's endpoint, the run id and its UAV id.
-//! - It subscribes to its own `sense/**` and `radio/{id}` keys, and to the `share/pose` key of
-//!   exactly the UAVs in its radio set, declaring and undeclaring as the set changes.
+//! - It subscribes to its own `sense/**` and `radio/{id}` keys, and to the share key of its
+//!   localization mode (`share/pose` or `share/obstacles`) of exactly the UAVs in its radio set,
+//!   declaring and undeclaring as the set changes.
 //! - Determinism in lockstep: all subscriptions feed one channel, so messages are handled in
 //!   wire order; and a neighbour's share counts only if it was sent inside the neighbour's
 //!   window: from the tick after its subscription was declared (every later share is sure to be
@@ -16,13 +17,13 @@
 //!   token, knows the agent will get tick 0) and watches `alive/hub`: when the hub goes, the agent
 //!   commands hover and exits cleanly.
 
-use crate::agent::Agent;
+use crate::agent::{Agent, Share};
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::time::Duration;
 use swarm_config::{LocalizationMode, Scenario, ScenarioError, TimeMode};
 use swarm_wire::session::{self, Role};
-use swarm_wire::{Cmd, CmdKind, Gnss, Keys, Msg, Odom, PoseShare, Scan, WireError};
+use swarm_wire::{Cmd, CmdKind, Gnss, Keys, Msg, Odom, Scan, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
 use swarm_wire::session::publisher;
@@ -131,7 +132,8 @@ struct Node {
     dt: f64,
     agent: Agent,
     link: netem::Link,
-    inbox: netem::Inbox<PoseShare>,
+    inbox: netem::Inbox<Share>,
+    mode: LocalizationMode,
     malformed: u64,
     tx: mpsc::UnboundedSender<Incoming>,
     rx: mpsc::UnboundedReceiver<Incoming>,
@@ -189,9 +191,13 @@ impl Node {
             .map_err(WireError::zenoh)?;
         let node = Node {
             cmd_pub: publisher(&s, keys.cmd(id), CongestionControl::Block).await?,
-            share_pub: publisher(&s, keys.share_pose(id), cc).await?,
+            share_pub: match sc.localization.mode {
+                LocalizationMode::Broadcast => publisher(&s, keys.share_pose(id), cc).await?,
+                LocalizationMode::Icp => publisher(&s, keys.share_obstacles(id), cc).await?,
+            },
             state_pub: publisher(&s, keys.state(id), cc).await?,
             needs_gnss: sc.localization.mode == LocalizationMode::Broadcast,
+            mode: sc.localization.mode,
             dt: sc.dt_secs(),
             agent: Agent::new(id, sc),
             link: netem::Link::new(),
@@ -262,21 +268,22 @@ impl Node {
     /// A share message arrived from `from`: count it, keep it only inside the neighbour's
     /// window, let the link decide, hold it in the inbox.
     fn on_share(&mut self, from: u32, bytes: &[u8]) {
-        let pose = match Msg::decode(bytes) {
-            Ok(Msg::Pose(p)) if p.from == from => p,
+        let share = match Msg::decode(bytes) {
+            Ok(Msg::Pose(p)) if p.from == from => Share::Pose(p),
+            Ok(Msg::Obstacles(o)) if o.from == from => Share::Obstacles(o),
             other => {
                 self.malformed += 1;
                 debug!(from, ?other, "dropped malformed share");
                 return;
             }
         };
-        if self.windows.get(&from).is_none_or(|&first| pose.tick < first) {
-            trace!(from, tick = pose.tick, "share outside the neighbour's window");
+        if self.windows.get(&from).is_none_or(|&first| share.tick() < first) {
+            trace!(from, tick = share.tick(), "share outside the neighbour's window");
             return;
         }
         let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
-        if let netem::Verdict::DeliverAt(at) = self.link.on_receive(from, pose.t_secs, now, self.dt, bytes.len()) {
-            self.inbox.push(at, pose);
+        if let netem::Verdict::DeliverAt(at) = self.link.on_receive(from, share.t_secs(), now, self.dt, bytes.len()) {
+            self.inbox.push(at, share);
         }
     }
 
@@ -307,14 +314,14 @@ impl Node {
         self.last_tick = Some(tick);
         let due = self.inbox.take_due(scan.t_secs);
         self.link.on_delivered(due.len());
-        for p in due {
-            self.agent.on_pose(p);
+        for share in due {
+            self.agent.on_share(share);
         }
         let Some(odom) = self.odom else { return Ok(()) };
         let gnss = self.gnss.filter(|g| g.tick == tick);
         let mut out = self.agent.step(&scan, &odom, gnss.as_ref());
         if let Some(share) = out.share {
-            let bytes = Msg::Pose(share).encode()?;
+            let bytes = share.into_msg().encode()?;
             if self.link.on_send(bytes.len()) {
                 self.share_pub.put(bytes).await.map_err(WireError::zenoh)?;
             }
@@ -342,7 +349,7 @@ impl Node {
         for id in gone {
             self.neighbour_subs.remove(&id);
             self.windows.remove(&id);
-            self.inbox.retain(|p| !(p.from == id && p.tick >= tick));
+            self.inbox.retain(|m| !(m.from() == id && m.tick() >= tick));
             debug!(neighbour = id, "unsubscribed");
         }
         for &id in in_range {
@@ -350,9 +357,13 @@ impl Node {
                 continue;
             }
             let tx = self.tx.clone();
+            let key = match self.mode {
+                LocalizationMode::Broadcast => self.keys.share_pose(id),
+                LocalizationMode::Icp => self.keys.share_obstacles(id),
+            };
             let sub = self
                 .s
-                .declare_subscriber(self.keys.share_pose(id))
+                .declare_subscriber(key)
                 .callback(move |sample| {
                     let _ = tx.send(Incoming::Share(id, sample.payload().to_bytes().into_owned()));
                 })

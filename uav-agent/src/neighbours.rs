@@ -1,0 +1,1023 @@
+//! The neighbour database of the `icp` localization mode (seed 000 "K21" chapter 5, Algorithms 5
+//! and 6, with the scheduling of section 6.2).
+//!
+//! # Why a database
+//!
+//! Running a full-grid ICP (seed 000 5.1: 21×21 positions × all headings) on every received
+//! obstacle set in every step does not scale with the swarm (seed 000 chapter 5 intro). The
+//! database remembers, per neighbour, where it was last found, so most updates are a cheap short
+//! ICP (sICP) seeded by that estimate; the expensive full-grid ICP runs only for a new neighbour
+//! (iICP), as a periodic check against drift (lICP, every `long_every_s`), and as the retry of a
+//! neighbour that could not be placed (every `suspend_s`). Section 6.2 then caps the expensive
+//! ones per control step so the 5 s peaks are spread over several steps.
+//!
+//! Agents are anonymous (seed 000 5.2): an entry is identified by the obstacle set its neighbour
+//! sent last (its "ID"), not by a number. `identify = Key` uses the sender id instead, for
+//! comparison only. The sender id is otherwise kept for metrics ([`Estimate::id`]).
+//!
+//! The ICP itself is not here: the database calls a [`Matcher`], so it is tested with scripted
+//! matchers and driven by the real ICP (`crate::icp`) in the agent.
+//!
+//! # One control step ([`Database::step`])
+//!
+//! 1. Every entry's `chosen` is cleared (Algorithm 6, first loop).
+//! 2. The received sets are filtered: a set older than `stale_after_s`, or with fewer than
+//!    `min_points` points (it can neither be matched nor placed), is ignored; of several sets
+//!    from one sender (one link) only the newest is kept.
+//! 3. Identification. `Scan` (findBestMatch, Algorithm 6): a short ICP of the received set
+//!    against every entry's ID set, from the identity (two scans of the same neighbour at nearby
+//!    times); an entry matches when FRMSD ≤ `match_frmsd`. Each entry takes at most one set per
+//!    step; conflicts are settled globally by lowest FRMSD, so the result does not depend on the
+//!    order the sets arrived in. `Key`: the entry whose last sender id equals the set's.
+//!    A set with no match creates a new, not yet placed, entry (addNewEntry). Every entry that
+//!    got a set: ID := the set, `last_used` := now, `chosen` := true.
+//! 4. Planning, per entry that got a set (Algorithm 6):
+//!    - never placed and not suspended (new): wants an iICP;
+//!    - suspended for less than `suspend_s`: left alone;
+//!    - suspended for `suspend_s` or more: wants a full-grid retry;
+//!    - else `now − last_long ≥ long_every_s`: wants an lICP, otherwise an sICP from the entry's
+//!      transform.
+//! 5. The sICPs run. Then the wanted full-grid ICPs run most stale first (priority
+//!    `now − last_long`; never placed = infinitely stale; ties: oldest entry first), at most
+//!    `max_long_per_step` of them, and none once `elapsed_ms() > step_budget_ms` (the failsafe of
+//!    6.2). Each one deferred is counted in [`StepCounts::skipped_long`] and falls back to an
+//!    sICP if the entry has a usable (placed, unsuspended) estimate; otherwise it waits and, being
+//!    the most stale, goes first in a later step.
+//! 6. Any ICP that fails, or gives FRMSD > `match_frmsd`, suspends its entry at `now` (the
+//!    neighbour is out of ICP range); a successful full-grid ICP stamps `last_long`.
+//! 7. Entries unused for more than `stale_after_s` are dropped (end of 5.3).
+//!
+//! Contract with the caller: pass, every step, the newest set held from each neighbour (a set
+//! may be passed again in later steps; it is ignored once older than `stale_after_s`).
+//! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
+//! suspended.
+
+use crate::icp::{Match, Transform};
+use nalgebra::{Point2, Vector2};
+use std::cmp::Ordering;
+use std::collections::BTreeMap;
+use swarm_config::{IcpParams, Identify};
+
+/// The ICP variants the database needs (seed 000 5.1). Implemented by the real ICP, and by
+/// scripted matchers in tests. Both return a transform mapping `source` into `reference`'s frame.
+pub trait Matcher {
+    /// Short ICP from an initial estimate (sICP; also used by findBestMatch).
+    fn short(
+        &mut self,
+        reference: &[Point2<f64>],
+        source: &[Point2<f64>],
+        initial: Transform,
+    ) -> Option<Match>;
+    /// Full-grid ICP (iICP for a new entry, lICP for a periodic check).
+    fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match>;
+}
+
+/// One obstacle set received from a neighbour.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Received {
+    /// Sender id from the key: routing and metrics, and identity only when `identify = Key`.
+    pub from: u32,
+    /// When the sender produced the set (sim time) [s].
+    pub t_secs: f64,
+    /// The sender's obstacle centres, in its body frame [m].
+    pub points: Vec<Point2<f64>>,
+}
+
+/// One neighbour as the database places it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Internal entry number (stable while the entry lives; metrics and debugging only).
+    pub entry: u64,
+    /// Sender id of the last set matched to the entry (metrics only). Always `Some` today.
+    pub id: Option<u32>,
+    /// Relative position of the neighbour, in this agent's body frame [m].
+    pub pos_in_body: Vector2<f64>,
+    /// Relative heading of the neighbour [rad], wrapped to [−π, π).
+    pub heading: f64,
+    /// `now` minus the time stamp of the set that produced the estimate [s].
+    pub age_secs: f64,
+    /// FRMSD of the ICP that produced the estimate.
+    pub frmsd: f64,
+}
+
+impl From<Estimate> for crate::localization::Estimate {
+    fn from(e: Estimate) -> Self {
+        crate::localization::Estimate {
+            id: e.id,
+            pos_in_body: e.pos_in_body,
+            heading: e.heading,
+            age_secs: e.age_secs,
+        }
+    }
+}
+
+/// What one [`Database::step`] did (for metrics: seed 000 Figures 5.2, 6.10, 6.11).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StepCounts {
+    /// Short ICPs that updated an entry (sICP, including fallbacks for deferred lICPs).
+    pub short: u32,
+    /// Full-grid ICPs on an entry that had been placed before (lICP, or retry after suspension).
+    pub long: u32,
+    /// Full-grid ICPs on an entry never placed yet (iICP: new entry, or its retry).
+    pub initial: u32,
+    /// Short ICPs of findBestMatch (received set against an entry's ID set).
+    pub matching: u32,
+    /// Entries suspended in this step (an ICP failed or gave FRMSD > `match_frmsd`).
+    pub suspended: u32,
+    /// Full-grid ICPs wanted but deferred by the per-step cap or the failsafe (seed 000 6.2).
+    pub skipped_long: u32,
+    /// Entries created in this step.
+    pub created: u32,
+    /// Entries dropped in this step for being unused longer than `stale_after_s`.
+    pub expired: u32,
+    /// Received sets ignored (too old, too few points, or superseded by a newer one).
+    pub ignored: u32,
+}
+
+/// One neighbour: seed 000 Algorithm 5, plus what the scheduling and metrics need.
+#[derive(Debug, Clone)]
+struct Entry {
+    /// Internal number, in creation order: the stable iteration order and the priority tie-break.
+    key: u64,
+    /// Algorithm 5 `rotation` + `translation`; `None` until an iICP has placed the neighbour.
+    transform: Option<Transform>,
+    /// Algorithm 5 `last long`: last successful full-grid ICP; −∞ if never.
+    last_long: f64,
+    /// Algorithm 5 `ID`: the obstacle set received last, used to recognise the next one.
+    id_set: Vec<Point2<f64>>,
+    /// Algorithm 5 `suspended`: the last ICP could not place the neighbour.
+    suspended: bool,
+    /// Algorithm 5 `suspension time`.
+    suspension_time: f64,
+    /// Algorithm 5 `last used`.
+    last_used: f64,
+    /// Algorithm 5 `chosen`: a received set was matched to this entry in the last step.
+    chosen: bool,
+    /// Sender id of the set received last (metrics; identity only for `identify = Key`).
+    sender: u32,
+    /// FRMSD of the ICP that produced `transform`.
+    frmsd: f64,
+    /// Time stamp of the set that produced `transform`.
+    estimate_t: f64,
+}
+
+/// What Algorithm 6 wants done for one entry in this step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Want {
+    /// Suspended for less than `suspend_s`: left alone.
+    Nothing,
+    /// sICP from the entry's transform.
+    Short,
+    /// Full-grid ICP (iICP or lICP) with this priority (seconds since `last_long`).
+    Long(f64),
+}
+
+/// The neighbour database of one agent (seed 000 5.2–5.3, 6.2).
+#[derive(Debug, Clone)]
+pub struct Database {
+    params: IcpParams,
+    stale_after_s: f64,
+    entries: Vec<Entry>,
+    next_key: u64,
+}
+
+/// Slack on time comparisons, so that steps on a 0.1 s grid hit 5 s and 0.5 s thresholds.
+const EPS: f64 = 1e-9;
+
+const IDENTITY: Transform = Transform { rotation: 0.0, translation: Vector2::new(0.0, 0.0) };
+
+impl Database {
+    /// An empty database. `stale_after_s` is `Localization::stale_after_s` (seed 000 5.3: 0.5 s).
+    pub fn new(params: IcpParams, stale_after_s: f64) -> Self {
+        Database { params, stale_after_s, entries: Vec::new(), next_key: 0 }
+    }
+
+    /// One control step at sim time `now`: Algorithm 6 over every received set, the scheduling
+    /// cap and failsafe of 6.2, then expiry of entries unused for `stale_after_s` (see the module
+    /// doc for the exact order). `own` = this agent's obstacle centres (the reference set R).
+    /// `elapsed_ms` returns the wall time spent in this step so far (for the failsafe; tests pass
+    /// a fake); it is called only before a full-grid ICP.
+    pub fn step(
+        &mut self,
+        now: f64,
+        own: &[Point2<f64>],
+        received: &[Received],
+        m: &mut impl Matcher,
+        elapsed_ms: &mut dyn FnMut() -> f64,
+    ) -> StepCounts {
+        let mut counts = StepCounts::default();
+
+        // Algorithm 6, first loop: nothing is chosen yet.
+        for e in &mut self.entries {
+            e.chosen = false;
+        }
+
+        let sets = self.usable_sets(now, received, &mut counts);
+
+        // Algorithm 6 findBestMatch / addNewEntry: which entry each set belongs to.
+        let assigned = match self.params.identify {
+            Identify::Scan => self.assign_by_scan(&sets, m, &mut counts),
+            Identify::Key => self.assign_by_key(&sets),
+        };
+        // (entry index, set) for every entry that got a set, in set order.
+        let mut work: Vec<(usize, &Received)> = Vec::with_capacity(sets.len());
+        for (set, slot) in sets.iter().zip(assigned) {
+            let idx = match slot {
+                Some(idx) => idx,
+                None => {
+                    counts.created += 1;
+                    self.push_new_entry(now, set)
+                }
+            };
+            let e = &mut self.entries[idx];
+            e.id_set.clone_from(&set.points);
+            e.sender = set.from;
+            e.last_used = now;
+            e.chosen = true;
+            work.push((idx, *set));
+        }
+
+        // Algorithm 6 body: suspension check, then lICP or sICP.
+        let mut longs: Vec<(f64, usize, &Received)> = Vec::new();
+        for &(idx, set) in &work {
+            match self.plan(now, idx) {
+                Want::Nothing => {}
+                Want::Short => self.run_short(now, own, idx, set, m, &mut counts),
+                Want::Long(priority) => longs.push((priority, idx, set)),
+            }
+        }
+
+        // Seed 000 6.2: at most `max_long_per_step` full-grid ICPs, most stale first, and none
+        // once the step is over budget; the rest fall back to sICP or wait.
+        longs.sort_by(|a, b| {
+            b.0.partial_cmp(&a.0)
+                .unwrap_or(Ordering::Equal)
+                .then(self.entries[a.1].key.cmp(&self.entries[b.1].key))
+        });
+        let mut ran = 0u32;
+        let mut over_budget = false;
+        for (_, idx, set) in longs {
+            let mut allowed = ran < self.params.max_long_per_step && !over_budget;
+            if allowed && elapsed_ms() > self.params.step_budget_ms {
+                over_budget = true;
+                allowed = false;
+            }
+            if allowed {
+                ran += 1;
+                self.run_long(now, own, idx, set, m, &mut counts);
+            } else {
+                counts.skipped_long += 1;
+                let e = &self.entries[idx];
+                if e.transform.is_some() && !e.suspended {
+                    self.run_short(now, own, idx, set, m, &mut counts);
+                }
+            }
+        }
+
+        // End of seed 000 5.3: entries not used for `stale_after_s` are discarded.
+        let before = self.entries.len();
+        let stale = self.stale_after_s;
+        self.entries.retain(|e| now - e.last_used <= stale + EPS);
+        counts.expired = u32::try_from(before - self.entries.len()).unwrap_or(u32::MAX);
+        counts
+    }
+
+    /// Current estimates of the entries that are chosen (got a set in the last step), placed and
+    /// not suspended, for the controller; in entry order.
+    pub fn estimates(&self, now: f64) -> Vec<Estimate> {
+        self.entries
+            .iter()
+            .filter(|e| e.chosen && !e.suspended)
+            .filter_map(|e| {
+                let t = e.transform?;
+                Some(Estimate {
+                    entry: e.key,
+                    id: Some(e.sender),
+                    pos_in_body: t.translation,
+                    heading: crate::localization::wrap(t.rotation),
+                    age_secs: (now - e.estimate_t).max(0.0),
+                    frmsd: e.frmsd,
+                })
+            })
+            .collect()
+    }
+
+    /// Number of entries (placed or not, suspended or not).
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// True when the database holds no entry.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Number of entries currently suspended (metrics).
+    pub fn suspended_len(&self) -> usize {
+        self.entries.iter().filter(|e| e.suspended).count()
+    }
+
+    /// The received sets this step uses, in sender order: not older than `stale_after_s`, at
+    /// least `min_points` points, the newest per sender (a link delivers one neighbour's sets).
+    fn usable_sets<'a>(
+        &self,
+        now: f64,
+        received: &'a [Received],
+        counts: &mut StepCounts,
+    ) -> Vec<&'a Received> {
+        let min_points = usize::try_from(self.params.min_points).unwrap_or(usize::MAX);
+        let mut newest: BTreeMap<u32, &Received> = BTreeMap::new();
+        for r in received {
+            let fresh = now - r.t_secs <= self.stale_after_s + EPS;
+            if !fresh || r.points.len() < min_points {
+                counts.ignored += 1;
+                continue;
+            }
+            match newest.get(&r.from) {
+                Some(old) if old.t_secs > r.t_secs => counts.ignored += 1,
+                Some(_) => {
+                    counts.ignored += 1;
+                    newest.insert(r.from, r);
+                }
+                None => {
+                    newest.insert(r.from, r);
+                }
+            }
+        }
+        newest.into_values().collect()
+    }
+
+    /// findBestMatch of Algorithm 6 for every set at once: a short ICP of the set against each
+    /// entry's ID set from the identity; pairs with FRMSD ≤ `match_frmsd` whose alignment is a
+    /// plausible motion (shift ≤ `match_shift_m`, turn ≤ `match_turn_deg`) are assigned greedily,
+    /// smallest shift first (then lowest FRMSD), one set per entry. `None` = no match: a new entry.
+    fn assign_by_scan(
+        &self,
+        sets: &[&Received],
+        m: &mut impl Matcher,
+        counts: &mut StepCounts,
+    ) -> Vec<Option<usize>> {
+        // Two neighbours flying together see the same trees from a metre or two apart, so ICP
+        // aligns either's set with the other's almost as well as with its own: a low FRMSD alone
+        // does not identify a neighbour. What does is the motion the alignment implies: its own
+        // previous set is reached by a small shift and turn (its motion since), another's only by
+        // their separation. So a match must also be plausible motion, and the smallest wins.
+        let max_turn = self.params.match_turn_deg.to_radians();
+        let mut candidates: Vec<(f64, f64, usize, usize)> = Vec::new();
+        for (s, set) in sets.iter().enumerate() {
+            for (idx, e) in self.entries.iter().enumerate() {
+                counts.matching += 1;
+                if let Some(found) = m.short(&e.id_set, &set.points, IDENTITY) {
+                    let shift = found.transform.translation.norm();
+                    let plausible = shift <= self.params.match_shift_m && found.transform.rotation.abs() <= max_turn;
+                    if found.frmsd <= self.params.match_frmsd && plausible {
+                        candidates.push((shift, found.frmsd, s, idx));
+                    }
+                }
+            }
+        }
+        candidates.sort_by(|a, b| {
+            a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)).then(a.3.cmp(&b.3))
+        });
+        let mut by_set = vec![None; sets.len()];
+        let mut taken = vec![false; self.entries.len()];
+        for (_, _, s, idx) in candidates {
+            if by_set[s].is_none() && !taken[idx] {
+                by_set[s] = Some(idx);
+                taken[idx] = true;
+            }
+        }
+        by_set
+    }
+
+    /// `identify = Key`: the entry whose last sender id is the set's.
+    fn assign_by_key(&self, sets: &[&Received]) -> Vec<Option<usize>> {
+        sets.iter().map(|set| self.entries.iter().position(|e| e.sender == set.from)).collect()
+    }
+
+    /// addNewEntry of Algorithm 6, without its iICP (that is scheduled like an lICP, 6.2): an
+    /// entry not placed yet. Returns its index.
+    fn push_new_entry(&mut self, now: f64, set: &Received) -> usize {
+        self.entries.push(Entry {
+            key: self.next_key,
+            transform: None,
+            last_long: f64::NEG_INFINITY,
+            id_set: Vec::new(),
+            suspended: false,
+            suspension_time: f64::NEG_INFINITY,
+            last_used: now,
+            chosen: false,
+            sender: set.from,
+            frmsd: f64::INFINITY,
+            estimate_t: set.t_secs,
+        });
+        self.next_key += 1;
+        self.entries.len() - 1
+    }
+
+    /// The body of Algorithm 6 for one matched entry: what it wants this step.
+    fn plan(&self, now: f64, idx: usize) -> Want {
+        let e = &self.entries[idx];
+        let staleness = now - e.last_long; // +∞ if never placed
+        if e.suspended {
+            if now - e.suspension_time + EPS < self.params.suspend_s {
+                Want::Nothing
+            } else {
+                Want::Long(staleness)
+            }
+        } else if e.transform.is_none() || staleness + EPS >= self.params.long_every_s {
+            Want::Long(staleness)
+        } else {
+            Want::Short
+        }
+    }
+
+    /// sICP: short ICP of the set against `own`, from the entry's transform.
+    fn run_short(
+        &mut self,
+        now: f64,
+        own: &[Point2<f64>],
+        idx: usize,
+        set: &Received,
+        m: &mut impl Matcher,
+        counts: &mut StepCounts,
+    ) {
+        let initial = self.entries[idx].transform.unwrap_or(IDENTITY);
+        counts.short += 1;
+        let found = m.short(own, &set.points, initial);
+        self.apply(now, idx, set, found, false, counts);
+    }
+
+    /// iICP or lICP: full-grid ICP of the set against `own`.
+    fn run_long(
+        &mut self,
+        now: f64,
+        own: &[Point2<f64>],
+        idx: usize,
+        set: &Received,
+        m: &mut impl Matcher,
+        counts: &mut StepCounts,
+    ) {
+        if self.entries[idx].transform.is_some() {
+            counts.long += 1;
+        } else {
+            counts.initial += 1;
+        }
+        let found = m.long(own, &set.points);
+        self.apply(now, idx, set, found, true, counts);
+    }
+
+    /// Stores an ICP outcome: accepted when FRMSD ≤ `match_frmsd` (seed 000 5.3, "acquired
+    /// experimentally"); otherwise the entry is suspended (the neighbour is out of ICP range).
+    fn apply(
+        &mut self,
+        now: f64,
+        idx: usize,
+        set: &Received,
+        found: Option<Match>,
+        full_grid: bool,
+        counts: &mut StepCounts,
+    ) {
+        let threshold = self.params.match_frmsd;
+        let e = &mut self.entries[idx];
+        match found {
+            Some(found) if found.frmsd <= threshold => {
+                e.transform = Some(found.transform);
+                e.frmsd = found.frmsd;
+                e.estimate_t = set.t_secs;
+                e.suspended = false;
+                if full_grid {
+                    e.last_long = now;
+                }
+            }
+            _ => {
+                if !e.suspended {
+                    counts.suspended += 1;
+                }
+                tracing::debug!(
+                    from = set.from,
+                    full_grid,
+                    frmsd = ?found.map(|f| f.frmsd),
+                    pairs = ?found.map(|f| f.pairs),
+                    points = set.points.len(),
+                    "entry suspended"
+                );
+                e.suspended = true;
+                e.suspension_time = now;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Neighbour `k`'s obstacle set at time `t`: its first point tags the neighbour (x = 100·k)
+    /// and the time (y = t), so the scripted matcher can tell sets apart.
+    fn set_of(k: u32, t: f64) -> Vec<Point2<f64>> {
+        let x = 100.0 * f64::from(k);
+        vec![Point2::new(x, t), Point2::new(x + 1.0, 0.0), Point2::new(x + 2.0, 0.0)]
+    }
+
+    fn own_set() -> Vec<Point2<f64>> {
+        vec![Point2::new(-5.0, 0.0), Point2::new(-6.0, 0.0), Point2::new(-7.0, 0.0)]
+    }
+
+    fn tag(set: &[Point2<f64>]) -> (u32, f64) {
+        ((set[0].x / 100.0).round() as u32, set[0].y)
+    }
+
+    fn is_own(set: &[Point2<f64>]) -> bool {
+        set[0].x < 0.0
+    }
+
+    fn recv(from: u32, k: u32, t: f64) -> Received {
+        Received { from, t_secs: t, points: set_of(k, t) }
+    }
+
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    enum Kind {
+        /// findBestMatch: against an entry's ID set.
+        Match,
+        /// sICP against own.
+        Short,
+        /// Full grid against own.
+        Long,
+    }
+
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    struct Call {
+        kind: Kind,
+        neighbour: u32,
+        initial: Option<Transform>,
+    }
+
+    /// Scripted ICP. findBestMatch: FRMSD = |Δt| for two sets of one neighbour, 5 otherwise (so
+    /// sets more than 1 s apart no longer match). Against own: neighbour k sits at (k, 0.5k) with
+    /// heading 0.1k, FRMSD 0.2, unless it is out of range (no match) or `frmsd_own` says otherwise.
+    #[derive(Default)]
+    struct Scripted {
+        calls: Vec<Call>,
+        out_of_range: Vec<u32>,
+        frmsd_own: BTreeMap<u32, f64>,
+        /// Shift the answered position by this much (to tell ICP results apart).
+        shift: f64,
+    }
+
+    impl Scripted {
+        fn answer(&self, k: u32) -> Option<Match> {
+            if self.out_of_range.contains(&k) {
+                return None;
+            }
+            let kf = f64::from(k);
+            Some(Match {
+                transform: Transform {
+                    rotation: 0.1 * kf,
+                    translation: Vector2::new(kf + self.shift, 0.5 * kf),
+                },
+                frmsd: self.frmsd_own.get(&k).copied().unwrap_or(0.2),
+                pairs: 3,
+            })
+        }
+        fn count(&self, kind: Kind) -> usize {
+            self.calls.iter().filter(|c| c.kind == kind).count()
+        }
+        fn neighbours(&self, kind: Kind) -> Vec<u32> {
+            self.calls.iter().filter(|c| c.kind == kind).map(|c| c.neighbour).collect()
+        }
+    }
+
+    impl Matcher for Scripted {
+        fn short(
+            &mut self,
+            reference: &[Point2<f64>],
+            source: &[Point2<f64>],
+            initial: Transform,
+        ) -> Option<Match> {
+            let (k, t) = tag(source);
+            if is_own(reference) {
+                self.calls.push(Call { kind: Kind::Short, neighbour: k, initial: Some(initial) });
+                return self.answer(k);
+            }
+            self.calls.push(Call { kind: Kind::Match, neighbour: k, initial: Some(initial) });
+            let (k_ref, t_ref) = tag(reference);
+            let frmsd = if k_ref == k { (t - t_ref).abs() } else { 5.0 };
+            Some(Match { transform: IDENTITY, frmsd, pairs: 3 })
+        }
+
+        fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
+            assert!(is_own(reference), "full-grid ICP is always against own");
+            let (k, _) = tag(source);
+            self.calls.push(Call { kind: Kind::Long, neighbour: k, initial: None });
+            self.answer(k)
+        }
+    }
+
+    fn params() -> IcpParams {
+        IcpParams { min_points: 3, step_budget_ms: 50.0, ..IcpParams::default() }
+    }
+
+    fn db() -> Database {
+        Database::new(params(), 0.5)
+    }
+
+    fn step(d: &mut Database, m: &mut Scripted, now: f64, received: &[Received]) -> StepCounts {
+        d.step(now, &own_set(), received, m, &mut || 0.0)
+    }
+
+    /// Steps from `from` to `to` (inclusive) every 0.1 s, neighbours `ks` sending each step.
+    fn run(d: &mut Database, m: &mut Scripted, ks: &[u32], from: f64, to: f64) -> Vec<StepCounts> {
+        let n = ((to - from) / 0.1).round() as u32;
+        (0..=n)
+            .map(|i| {
+                let now = from + 0.1 * f64::from(i);
+                let sets: Vec<Received> = ks.iter().map(|&k| recv(k, k, now)).collect();
+                step(d, m, now, &sets)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn defaults_match_the_seed() {
+        let p = IcpParams::default();
+        assert_eq!(p.match_frmsd, 1.0);
+        assert_eq!(p.suspend_s, 5.0);
+        assert_eq!(p.long_every_s, 5.0);
+        assert_eq!(p.max_long_per_step, 2);
+        assert_eq!(p.identify, Identify::Scan);
+    }
+
+    #[test]
+    fn first_set_creates_an_entry_placed_by_initial_icp() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        assert!(d.is_empty());
+        let c = step(&mut d, &mut m, 0.0, &[recv(7, 1, 0.0)]);
+        assert_eq!(d.len(), 1);
+        assert_eq!((c.created, c.initial, c.long, c.short, c.matching), (1, 1, 0, 0, 0));
+        let est = d.estimates(0.05);
+        assert_eq!(est.len(), 1);
+        assert_eq!(est[0].id, Some(7));
+        assert_eq!(est[0].pos_in_body, Vector2::new(1.0, 0.5));
+        assert!((est[0].heading - 0.1).abs() < 1e-12);
+        assert!((est[0].age_secs - 0.05).abs() < 1e-12);
+        assert_eq!(est[0].frmsd, 0.2);
+    }
+
+    #[test]
+    fn the_same_neighbours_next_set_matches_its_entry_with_a_short_icp() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        m.calls.clear();
+        m.shift = 0.3;
+        let c = step(&mut d, &mut m, 0.1, &[recv(1, 1, 0.1)]);
+        assert_eq!(d.len(), 1);
+        assert_eq!((c.created, c.matching, c.short, c.long, c.initial), (0, 1, 1, 0, 0));
+        // findBestMatch from the identity; the sICP from the entry's transform.
+        assert_eq!(m.calls[0].initial, Some(IDENTITY));
+        let first = Transform { rotation: 0.1, translation: Vector2::new(1.0, 0.5) };
+        assert_eq!(m.calls[1], Call { kind: Kind::Short, neighbour: 1, initial: Some(first) });
+        assert_eq!(d.estimates(0.1)[0].pos_in_body, Vector2::new(1.3, 0.5));
+    }
+
+    #[test]
+    fn two_neighbours_with_distinct_sets_go_to_distinct_entries() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        // Sender ids deliberately unrelated to the neighbours: identity comes from the scans.
+        for i in 0..10 {
+            let now = 0.1 * f64::from(i);
+            step(&mut d, &mut m, now, &[recv(50, 2, now), recv(40, 3, now)]);
+        }
+        assert_eq!(d.len(), 2);
+        let est = d.estimates(0.9);
+        assert_eq!(est.len(), 2);
+        let mut pos: Vec<(Option<u32>, f64)> =
+            est.iter().map(|e| (e.id, e.pos_in_body.x)).collect();
+        pos.sort_by(|a, b| a.1.total_cmp(&b.1));
+        assert_eq!(pos, vec![(Some(50), 2.0), (Some(40), 3.0)]);
+        assert_eq!(m.count(Kind::Long), 2, "one iICP each, then sICPs");
+    }
+
+    #[test]
+    fn the_id_set_follows_the_neighbour() {
+        // Sets more than 1 s apart do not match (scripted FRMSD = Δt), so one entry over 3 s
+        // proves the ID is replaced by each matched set.
+        let (mut d, mut m) = (db(), Scripted::default());
+        let counts = run(&mut d, &mut m, &[4], 0.0, 3.0);
+        assert_eq!(d.len(), 1);
+        assert_eq!(counts.iter().map(|c| c.created).sum::<u32>(), 1);
+    }
+
+    #[test]
+    fn matching_does_not_depend_on_arrival_order() {
+        let mut results = Vec::new();
+        for order in [[1u32, 2, 3], [3, 1, 2]] {
+            let (mut d, mut m) = (db(), Scripted::default());
+            for i in 0..4 {
+                let now = 0.1 * f64::from(i);
+                let sets: Vec<Received> = order.iter().map(|&k| recv(k, k, now)).collect();
+                step(&mut d, &mut m, now, &sets);
+            }
+            let est: Vec<(u64, Option<u32>, f64)> =
+                d.estimates(0.3).iter().map(|e| (e.entry, e.id, e.pos_in_body.x)).collect();
+            results.push(est);
+        }
+        assert_eq!(results[0], results[1]);
+        assert_eq!(results[0].len(), 3);
+    }
+
+    #[test]
+    fn each_entry_takes_one_set_per_step_lowest_frmsd_wins() {
+        // Two sets of neighbour 1 from two senders (e.g. a relay): the closer in time to the
+        // entry's ID wins the entry; the other makes a new entry.
+        let (mut d, mut m) = (db(), Scripted::default());
+        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        let c = step(&mut d, &mut m, 0.4, &[recv(8, 1, 0.35), recv(9, 1, 0.1)]);
+        assert_eq!(c.created, 1);
+        assert_eq!(d.len(), 2);
+        let ids: Vec<Option<u32>> = d.estimates(0.4).iter().map(|e| e.id).collect();
+        assert_eq!(ids, vec![Some(9), Some(8)], "old entry (key 0) took the set from 9");
+    }
+
+    /// Aligns every set with identity FRMSD 0.1, but a set tagged as neighbour k reaches a
+    /// stored set of neighbour j only by their separation, |k − j| metres.
+    struct Shifted;
+    impl Matcher for Shifted {
+        fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], _: Transform) -> Option<Match> {
+            let (k, _) = tag(source);
+            let offset = if is_own(reference) { 0.0 } else { (f64::from(k) - f64::from(tag(reference).0)).abs() };
+            let frmsd = if offset > 0.0 { 0.05 } else { 0.1 }; // the wrong entry even aligns better
+            Some(Match { transform: Transform { rotation: 0.0, translation: Vector2::new(offset, 0.0) }, frmsd, pairs: 5 })
+        }
+        fn long(&mut self, _: &[Point2<f64>], _: &[Point2<f64>]) -> Option<Match> {
+            Some(Match { transform: IDENTITY, frmsd: 0.1, pairs: 5 })
+        }
+    }
+
+    #[test]
+    fn a_set_matches_the_entry_it_reaches_by_plausible_motion_not_the_lowest_frmsd() {
+        let mut d = db();
+        d.step(0.0, &own_set(), &[recv(1, 1, 0.0), recv(2, 3, 0.0)], &mut Shifted, &mut || 0.0);
+        assert_eq!(d.len(), 2);
+        // Neighbour 3's next set aligns with neighbour 1's entry at FRMSD 0.05 but only by a 2 m
+        // shift (beyond match_shift_m), and with its own at 0.1 with no shift: its own entry wins.
+        let c = d.step(0.1, &own_set(), &[recv(2, 3, 0.1)], &mut Shifted, &mut || 0.0);
+        assert_eq!(c.created, 0, "no new entry");
+        let entries: Vec<u64> = d.estimates(0.1).iter().map(|e| e.entry).collect();
+        assert_eq!(entries, vec![1], "the set went to the second entry, made from sender 2's set");
+    }
+
+    #[test]
+    fn identify_key_uses_the_sender_id_without_matching() {
+        let p = IcpParams { identify: Identify::Key, ..params() };
+        let (mut d, mut m) = (Database::new(p, 0.5), Scripted::default());
+        step(&mut d, &mut m, 0.0, &[recv(5, 1, 0.0)]);
+        // Sender 5 now sends a set that would never scan-match (another neighbour's tag).
+        let c = step(&mut d, &mut m, 0.1, &[recv(5, 2, 0.1), recv(6, 3, 0.1)]);
+        assert_eq!(c.matching, 0);
+        assert_eq!(m.count(Kind::Match), 0);
+        assert_eq!((c.created, c.short, c.initial), (1, 1, 1));
+        assert_eq!(d.len(), 2);
+        let ids: Vec<Option<u32>> = d.estimates(0.1).iter().map(|e| e.id).collect();
+        assert_eq!(ids, vec![Some(5), Some(6)]);
+    }
+
+    #[test]
+    fn newest_set_per_sender_is_used_and_old_or_small_sets_are_ignored() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        let small = Received { from: 3, t_secs: 1.0, points: set_of(3, 1.0)[..2].to_vec() };
+        let c = step(
+            &mut d,
+            &mut m,
+            1.0,
+            &[recv(1, 1, 0.9), recv(1, 1, 0.95), recv(1, 1, 0.8), recv(2, 2, 0.4), small],
+        );
+        assert_eq!(c.ignored, 4);
+        assert_eq!(d.len(), 1);
+        assert!((d.estimates(1.0)[0].age_secs - 0.05).abs() < 1e-12, "the set of t = 0.95");
+    }
+
+    #[test]
+    fn out_of_range_neighbour_is_suspended_and_retried_after_suspend_s_not_before() {
+        let (mut d, mut m) = (db(), Scripted { out_of_range: vec![2], ..Scripted::default() });
+        let c = step(&mut d, &mut m, 0.0, &[recv(2, 2, 0.0)]);
+        assert_eq!((c.initial, c.suspended), (1, 1));
+        assert_eq!(d.len(), 1, "created suspended");
+        assert_eq!(d.suspended_len(), 1);
+        assert!(d.estimates(0.0).is_empty());
+        m.calls.clear();
+        // Its sets keep matching the suspended entry, which is left alone until 5 s.
+        let counts = run(&mut d, &mut m, &[2], 0.1, 4.9);
+        assert_eq!(d.len(), 1);
+        assert!(counts.iter().all(|c| c.short + c.long + c.initial + c.created == 0));
+        assert_eq!(m.count(Kind::Short) + m.count(Kind::Long), 0);
+        assert!(d.estimates(4.9).is_empty());
+        // In range now; the retry at 5 s places it (never placed: counted as initial).
+        m.out_of_range.clear();
+        let c = step(&mut d, &mut m, 5.0, &[recv(2, 2, 5.0)]);
+        assert_eq!((c.initial, c.long, c.short), (1, 0, 0));
+        assert_eq!(d.suspended_len(), 0);
+        assert_eq!(d.estimates(5.0)[0].pos_in_body, Vector2::new(2.0, 1.0));
+        // Placed at 5 s: next lICP at 10 s.
+        let c = step(&mut d, &mut m, 5.1, &[recv(2, 2, 5.1)]);
+        assert_eq!((c.short, c.long), (1, 0));
+    }
+
+    #[test]
+    fn failed_retry_stays_suspended_for_another_suspend_s() {
+        let (mut d, mut m) = (db(), Scripted { out_of_range: vec![2], ..Scripted::default() });
+        let counts = run(&mut d, &mut m, &[2], 0.0, 10.0);
+        let fulls: Vec<u32> = counts.iter().map(|c| c.initial).collect();
+        let at: Vec<usize> =
+            fulls.iter().enumerate().filter(|(_, &n)| n > 0).map(|(i, _)| i).collect();
+        assert_eq!(at, vec![0, 50, 100], "iICP at 0 s, then retries at 5 s and 10 s");
+        assert_eq!(d.len(), 1);
+    }
+
+    #[test]
+    fn lost_neighbour_is_suspended_then_retried_with_a_long_icp() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        run(&mut d, &mut m, &[1], 0.0, 1.0);
+        m.frmsd_own.insert(1, 1.5); // sICP now fails the FRMSD test
+        let c = step(&mut d, &mut m, 1.1, &[recv(1, 1, 1.1)]);
+        assert_eq!((c.short, c.suspended), (1, 1));
+        assert!(d.estimates(1.1).is_empty());
+        m.frmsd_own.clear();
+        m.calls.clear();
+        run(&mut d, &mut m, &[1], 1.2, 6.0);
+        assert_eq!(m.count(Kind::Short), 0);
+        assert_eq!(m.count(Kind::Long), 0);
+        let c = step(&mut d, &mut m, 6.1, &[recv(1, 1, 6.1)]);
+        assert_eq!((c.long, c.initial, c.short), (1, 0, 0), "placed before: an lICP");
+        assert_eq!(d.estimates(6.1).len(), 1);
+    }
+
+    #[test]
+    fn long_icp_every_long_every_s_short_otherwise() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        let counts = run(&mut d, &mut m, &[1], 0.0, 12.0);
+        let full: Vec<usize> = counts
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.long + c.initial > 0)
+            .map(|(i, _)| i)
+            .collect();
+        assert_eq!(full, vec![0, 50, 100]);
+        assert_eq!(counts[0].initial, 1);
+        assert_eq!(counts[50].long, 1);
+        assert_eq!(counts.iter().map(|c| c.short).sum::<u32>(), 121 - 3);
+        assert!(counts.iter().all(|c| c.skipped_long == 0 && c.suspended == 0));
+    }
+
+    #[test]
+    fn entries_unused_for_stale_after_s_expire() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        let c = step(&mut d, &mut m, 0.3, &[]);
+        assert_eq!((d.len(), c.expired), (1, 0));
+        assert!(d.estimates(0.3).is_empty(), "not chosen in a step without its set");
+        let c = step(&mut d, &mut m, 0.5, &[]);
+        assert_eq!((d.len(), c.expired), (1, 0), "exactly 0.5 s is kept");
+        let c = step(&mut d, &mut m, 0.6, &[]);
+        assert_eq!((d.len(), c.expired), (0, 1));
+    }
+
+    #[test]
+    fn suspended_entries_expire_when_their_sets_stop() {
+        let (mut d, mut m) = (db(), Scripted { out_of_range: vec![1], ..Scripted::default() });
+        run(&mut d, &mut m, &[1], 0.0, 1.0);
+        assert_eq!(d.len(), 1);
+        run(&mut d, &mut m, &[], 1.1, 1.6);
+        assert!(d.is_empty());
+    }
+
+    /// Five neighbours created 2 per step (the cap applies to iICPs too), so their `last_long`
+    /// are 0, 0, 0.1, 0.1, 0.2: new entries wait and go first, oldest entry first.
+    fn five_entries(m: &mut Scripted) -> Database {
+        let mut d = db();
+        let ks = [1, 2, 3, 4, 5];
+        let sets = |now: f64| -> Vec<Received> { ks.iter().map(|&k| recv(k, k, now)).collect() };
+        let c = step(&mut d, m, 0.0, &sets(0.0));
+        assert_eq!((c.created, c.initial, c.skipped_long), (5, 2, 3));
+        assert_eq!(d.estimates(0.0).len(), 2);
+        let c = step(&mut d, m, 0.1, &sets(0.1));
+        assert_eq!((c.created, c.initial, c.short, c.skipped_long), (0, 2, 2, 1));
+        let c = step(&mut d, m, 0.2, &sets(0.2));
+        assert_eq!((c.initial, c.short, c.skipped_long), (1, 4, 0));
+        assert_eq!(m.neighbours(Kind::Long), vec![1, 2, 3, 4, 5]);
+        assert_eq!(d.len(), 5);
+        d
+    }
+
+    #[test]
+    fn at_most_max_long_per_step_full_grid_icps_most_stale_first() {
+        let mut m = Scripted::default();
+        let mut d = five_entries(&mut m);
+        run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.3, 4.9);
+        m.calls.clear();
+        // No step between 4.9 s and 5.2 s, so at 5.2 s all five are due at once (staleness 5.2,
+        // 5.2, 5.1, 5.1, 5.0): the 5 s peak of seed 000 Figure 6.10.
+        let sets = |now: f64| -> Vec<Received> { (1..=5).map(|k| recv(k, k, now)).collect() };
+        let c = step(&mut d, &mut m, 5.2, &sets(5.2));
+        assert_eq!((c.long, c.short, c.skipped_long), (2, 3, 3));
+        assert_eq!(m.neighbours(Kind::Long), vec![1, 2]);
+        assert_eq!(m.neighbours(Kind::Short), vec![3, 4, 5]);
+        assert_eq!(d.estimates(5.2).len(), 5, "skipped ones still updated by sICP");
+        m.calls.clear();
+        let c = step(&mut d, &mut m, 5.3, &sets(5.3));
+        assert_eq!((c.long, c.skipped_long), (2, 1));
+        assert_eq!(m.neighbours(Kind::Long), vec![3, 4]);
+        m.calls.clear();
+        let c = step(&mut d, &mut m, 5.4, &sets(5.4));
+        assert_eq!((c.long, c.skipped_long), (1, 0));
+        assert_eq!(m.neighbours(Kind::Long), vec![5]);
+        m.calls.clear();
+        let c = step(&mut d, &mut m, 5.5, &sets(5.5));
+        assert_eq!((c.long, c.short, c.skipped_long), (0, 5, 0));
+    }
+
+    #[test]
+    fn failsafe_over_budget_runs_no_full_grid_icp() {
+        let mut m = Scripted::default();
+        let mut d = five_entries(&mut m);
+        run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.3, 4.9);
+        m.calls.clear();
+        let sets: Vec<Received> = (1..=6).map(|k| recv(k, k, 5.2)).collect();
+        let c = d.step(5.2, &own_set(), &sets, &mut m, &mut || 80.0);
+        assert_eq!((c.long, c.initial, c.created), (0, 0, 1));
+        assert_eq!(c.skipped_long, 6, "five lICPs and one iICP deferred");
+        assert_eq!(c.short, 5, "placed entries fall back to sICP; the new one waits");
+        assert_eq!(m.count(Kind::Long), 0);
+        assert_eq!(d.estimates(5.2).len(), 5);
+    }
+
+    #[test]
+    fn failsafe_stops_once_the_budget_is_spent() {
+        let mut m = Scripted::default();
+        let mut d = five_entries(&mut m);
+        run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.3, 4.9);
+        m.calls.clear();
+        let sets: Vec<Received> = (1..=5).map(|k| recv(k, k, 5.2)).collect();
+        // Each call reports 30 ms more: 30 (ok), 60 (> 50: stop).
+        let mut spent = 0.0;
+        let mut calls = 0;
+        let mut clock = || {
+            calls += 1;
+            spent += 30.0;
+            spent
+        };
+        let c = d.step(5.2, &own_set(), &sets, &mut m, &mut clock);
+        assert_eq!((c.long, c.short, c.skipped_long), (1, 4, 4));
+        assert_eq!(m.neighbours(Kind::Long), vec![1]);
+        assert_eq!(calls, 2, "the clock is not read again once over budget");
+    }
+
+    #[test]
+    fn estimates_list_only_chosen_unsuspended_entries() {
+        let (mut d, mut m) = (db(), Scripted { out_of_range: vec![2], ..Scripted::default() });
+        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0), recv(2, 2, 0.0), recv(3, 3, 0.0)]);
+        // 0.1 s: 3 is silent (not chosen), 2 suspended, 1 chosen and placed.
+        step(&mut d, &mut m, 0.1, &[recv(1, 1, 0.05), recv(2, 2, 0.1)]);
+        assert_eq!(d.len(), 3);
+        assert_eq!(d.suspended_len(), 1);
+        let est = d.estimates(0.15);
+        assert_eq!(est.len(), 1);
+        let e = est[0];
+        assert_eq!((e.entry, e.id), (0, Some(1)));
+        assert_eq!(e.pos_in_body, Vector2::new(1.0, 0.5));
+        assert!((e.heading - 0.1).abs() < 1e-12);
+        assert!((e.age_secs - 0.1).abs() < 1e-12);
+        let as_loc: crate::localization::Estimate = e.into();
+        assert_eq!(as_loc.pos_in_body, e.pos_in_body);
+    }
+
+    #[test]
+    fn heading_is_wrapped() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        step(&mut d, &mut m, 0.0, &[recv(40, 40, 0.0)]); // rotation 4.0 rad
+        let h = d.estimates(0.0)[0].heading;
+        assert!((h - (4.0 - std::f64::consts::TAU)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn frmsd_above_match_frmsd_makes_a_new_entry_suspended() {
+        let (mut d, mut m) = (db(), Scripted::default());
+        m.frmsd_own.insert(1, 1.0 + 1e-6);
+        let c = step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        assert_eq!((c.created, c.initial, c.suspended), (1, 1, 1));
+        assert!(d.estimates(0.0).is_empty());
+        m.frmsd_own.insert(1, 1.0); // exactly the threshold is accepted
+        run(&mut d, &mut m, &[1], 0.1, 5.0);
+        assert_eq!(d.estimates(5.0).len(), 1);
+    }
+
+    #[test]
+    fn zero_cap_never_runs_a_full_grid_icp() {
+        let p = IcpParams { max_long_per_step: 0, ..params() };
+        let (mut d, mut m) = (Database::new(p, 0.5), Scripted::default());
+        let counts = run(&mut d, &mut m, &[1], 0.0, 1.0);
+        assert_eq!(m.count(Kind::Long) + m.count(Kind::Short), 0);
+        assert!(counts.iter().all(|c| c.skipped_long == 1));
+        assert_eq!(d.len(), 1, "waits, unplaced");
+    }
+}
