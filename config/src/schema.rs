@@ -613,7 +613,8 @@ pub struct IcpParams {
     /// At most this many long or initial ICPs per control step (seed 000 6.2: 2).
     #[serde(default = "d_max_long")]
     pub max_long_per_step: u32,
-    /// Failsafe: no further long or initial ICP once the step has taken this long [ms].
+    /// Failsafe: no further long or initial ICP once the step has taken this long [ms]. Realtime
+    /// mode only: in lockstep the hub waits, and a wall-clock decision would break repeatability.
     #[serde(default = "d_budget")]
     pub step_budget_ms: f64,
     /// Fewer points on either side, or fewer pairs kept by FRMSD, give no estimate. 3 is the

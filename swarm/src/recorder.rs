@@ -39,6 +39,10 @@ struct Acc {
     last_count: Option<usize>,
     /// Times it lost all neighbours or found one again.
     contacts: Vec<ContactEvent>,
+    /// Neighbours it reported while alone (no live UAV within [`ALONE_M`]).
+    reported_while_alone: u64,
+    /// Steps it spent alone.
+    steps_alone: u64,
 }
 
 impl Default for Acc {
@@ -62,6 +66,8 @@ impl Default for Acc {
             false_estimates: 0,
             last_count: None,
             contacts: Vec::new(),
+            reported_while_alone: 0,
+            steps_alone: 0,
         }
     }
 }
@@ -83,6 +89,10 @@ pub struct Metrics {
 
 /// An estimate farther than this from the truth places a neighbour where none is.
 pub const FALSE_ESTIMATE_M: f64 = 1.0;
+
+/// A UAV with no live UAV closer than this is alone: any neighbour it reports is false (seed 000
+/// 6.2: the separated UAV lost its last neighbour at about 6.7 m and then reported none).
+pub const ALONE_M: f64 = 8.0;
 
 /// Ticks of truth kept for scoring states that arrive late.
 const TRUTH_KEPT: u64 = 200;
@@ -189,16 +199,26 @@ impl Metrics {
             })
             .collect();
         // Contact lost (some neighbours -> none) or regained, with the true distance to the
-        // nearest other UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at ~6.3 m).
+        // nearest other live UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at
+        // ~6.3 m). A failed UAV shares nothing, so it is no company.
         let count = st.neighbours.len();
+        let nearest = bodies
+            .iter()
+            .filter(|b| b.id != me.id && b.alive)
+            .map(|b| (b.x - me.x).hypot(b.y - me.y))
+            .fold(f64::INFINITY, f64::min);
         let a = self.agents.entry(st.id).or_default();
+        if nearest > ALONE_M {
+            a.steps_alone += 1;
+            a.reported_while_alone += count as u64;
+        }
         // The first acquisition at start is not a regain: only a contact lost can be regained.
         let lost_before = a.contacts.last().is_some_and(|c| !c.regained);
         if let Some(prev) = a.last_count {
             let lost = prev > 0 && count == 0;
             let regained = prev == 0 && count > 0 && lost_before;
             if lost || regained {
-                a.contacts.push(ContactEvent { t_s: st.t_secs, regained, nearest_uav_m: me.agent_distance_m });
+                a.contacts.push(ContactEvent { t_s: st.t_secs, regained, nearest_uav_m: nearest });
             }
         }
         a.last_count = Some(count);
@@ -326,6 +346,8 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         stable_neighbour_share: a.neighbour_counts.values().max().map_or(f64::NAN, |&m| m as f64 / steps),
         false_estimates: a.false_estimates,
         contact_events: a.contacts.clone(),
+        steps_alone: a.steps_alone,
+        neighbours_reported_while_alone: a.reported_while_alone,
     }
 }
 
@@ -498,5 +520,13 @@ mod tests {
         assert!(!c[0].regained && c[1].regained);
         assert_eq!(c[0].nearest_uav_m, 2.0, "true distance at that moment");
         assert_eq!(s.localization.false_estimates, 1);
+        assert_eq!(s.agents[0].steps_alone, 0);
+        // Neighbour 2 flies 10 m away: UAV 1 is alone, and a neighbour it reports then is false.
+        b2.y = 10.0;
+        let far = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0 };
+        m.on_step(&far(6));
+        m.on_state(state(6, 10.0, 1));
+        let s = m.summary("r", &sc);
+        assert_eq!((s.agents[0].steps_alone, s.agents[0].neighbours_reported_while_alone), (1, 1));
     }
 }

@@ -101,7 +101,7 @@ pub struct ContactEvent {
     pub t_s: f64,
     /// Found again (true) or lost (false).
     pub regained: bool,
-    /// True distance to the nearest other UAV at that moment.
+    /// True distance to the nearest other live UAV at that moment.
     #[serde(with = "inf_as_null")]
     pub nearest_uav_m: f64,
 }
@@ -171,6 +171,10 @@ pub struct AgentSummary {
     pub false_estimates: u64,
     /// Each time it lost all neighbours or found one again.
     pub contact_events: Vec<ContactEvent>,
+    /// Steps at which no live UAV was within 8 m of it.
+    pub steps_alone: u64,
+    /// Neighbours it reported during those steps: all false.
+    pub neighbours_reported_while_alone: u64,
 }
 
 fn f3(v: f64) -> String {

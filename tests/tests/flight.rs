@@ -68,22 +68,25 @@ fn forest5_other_seeds_fly_without_collision() {
     }
 }
 
-/// Lockstep is deterministic: the same scenario flies the same trajectories, byte for byte.
+/// Lockstep is deterministic, in both localization modes: the same scenario flies the same
+/// trajectories, byte for byte.
 #[test]
 fn lockstep_runs_repeat_exactly() {
-    let a = tempfile::tempdir().expect("tempdir");
-    let b = tempfile::tempdir().expect("tempdir");
-    for d in [&a, &b] {
-        let out = swarm_run(&["open-field-5", "--out", d.path().to_str().expect("utf8"), "--run", &run_id("det")]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for scenario in ["open-field-5", "forest-5"] {
+        let a = tempfile::tempdir().expect("tempdir");
+        let b = tempfile::tempdir().expect("tempdir");
+        for d in [&a, &b] {
+            let out = swarm_run(&[scenario, "--out", d.path().to_str().expect("utf8"), "--run", &run_id("det")]);
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        }
+        let ta = std::fs::read(a.path().join("trajectories.csv")).expect("a");
+        let tb = std::fs::read(b.path().join("trajectories.csv")).expect("b");
+        assert!(ta.len() > 1000);
+        assert!(ta == tb, "two lockstep runs of {scenario} differ");
+        let s = summary(a.path());
+        assert_eq!(s["reached_goal"], true, "{s:#}");
+        assert_eq!(s["collisions"], 0);
     }
-    let ta = std::fs::read(a.path().join("trajectories.csv")).expect("a");
-    let tb = std::fs::read(b.path().join("trajectories.csv")).expect("b");
-    assert!(ta.len() > 1000);
-    assert!(ta == tb, "two lockstep runs of one scenario differ");
-    let s = summary(a.path());
-    assert_eq!(s["reached_goal"], true, "{s:#}");
-    assert_eq!(s["collisions"], 0);
 }
 
 /// A malformed scenario is refused before anything starts, naming the file and the field.
