@@ -10,8 +10,13 @@
 //! Architecture invariant: pure logic, no IO, no clock of its own. Time is sim time handed in by
 //! the caller, so a run is as lossy at 50× real time as at 1×, and every decision is repeatable.
 //! Onboard wiring (sensor and command keys) never passes through here.
+//!
+//! Modules: [`impair`], the pure impairment core (delay, jitter, loss and burst loss, duplication,
+//! reordering, rate, partitions) following Linux netem, not yet wired into [`Link`].
 
 use serde::{Deserialize, Serialize};
+
+pub mod impair;
 
 /// Counters of one agent's inter-agent traffic.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
