@@ -11,7 +11,8 @@
 //!
 //! Architecture invariant: this crate is pure data plus validation. It knows nothing of Zenoh,
 //! of geometry libraries or of how the world is simulated; forest generation lives in
-//! `physics-hub`, which is the only holder of ground truth.
+//! `physics-hub`, which is the only holder of ground truth. The `[[netem]]` rules reuse the
+//! impairment type of the pure `netem` crate, so the schema and the model cannot drift apart.
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -40,6 +41,7 @@ impl ScenarioError {
 /// Built-in scenarios, `(name, toml text)`: the files of `scenarios/`, compiled in.
 pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5", include_str!("../../scenarios/forest-5.toml")),
+    ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
@@ -199,9 +201,35 @@ impl Scenario {
         self.perception.validate()?;
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;
+        self.validate_netem()?;
         positive("end.goal_radius_m", self.end.goal_radius_m)?;
         positive("end.time_limit_s", self.end.time_limit_s)?;
         Ok(())
+    }
+
+    fn validate_netem(&self) -> Check {
+        for (i, r) in self.netem.iter().enumerate() {
+            non_negative(&format!("netem[{i}].at_s"), r.at_s)?;
+            for (side, set) in [("from", &r.from), ("to", &r.to)] {
+                if let UavSet::Ids(ids) = set {
+                    if let Some(bad) = ids.iter().find(|&&id| id == 0 || id > self.swarm.count) {
+                        return Err((format!("netem[{i}].{side}"), format!("UAV id {bad} is not in 1..={}", self.swarm.count)));
+                    }
+                }
+            }
+            r.rule.validate().map_err(|e| (format!("netem[{i}].rule.{}", e.field), e.reason))?;
+        }
+        Ok(())
+    }
+
+    /// The netem rule in force at sim time `t` for messages from `from` to `to`: the last rule
+    /// (in file order among equal times) with `at_s <= t` that covers the link; none = identity.
+    pub fn netem_rule_at(&self, t: f64, from: u32, to: u32) -> Option<&netem::impair::Impairment> {
+        self.netem
+            .iter()
+            .filter(|r| r.at_s <= t + 1e-9 && r.from.contains(from) && r.to.contains(to))
+            .max_by(|a, b| a.at_s.total_cmp(&b.at_s))
+            .map(|r| &r.rule)
     }
 
     fn validate_world(&self) -> Check {

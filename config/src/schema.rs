@@ -45,6 +45,55 @@ pub struct Scenario {
     /// When the run ends.
     #[serde(default)]
     pub end: End,
+    /// Network faults on inter-agent messages, in force from their `at_s` on (a later rule for
+    /// the same link replaces an earlier one; a rule with no impairment heals).
+    #[serde(default)]
+    pub netem: Vec<NetemRule>,
+}
+
+/// Which UAVs a netem rule applies to: `"all"` or a list of ids.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum UavSet {
+    /// Every UAV (the string must be `"all"`).
+    All(crate::AllMarker),
+    /// These ids.
+    Ids(Vec<u32>),
+}
+
+impl Default for UavSet {
+    fn default() -> Self {
+        UavSet::All(crate::AllMarker::All)
+    }
+}
+
+impl UavSet {
+    /// Whether `id` is in the set.
+    pub fn contains(&self, id: u32) -> bool {
+        match self {
+            UavSet::All(_) => true,
+            UavSet::Ids(ids) => ids.contains(&id),
+        }
+    }
+}
+
+/// One timed network rule: from `at_s` on, messages from a UAV in `from` to one in `to` pass
+/// `rule` (Linux netem semantics, see `netem::impair`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NetemRule {
+    /// Sim time the rule takes effect [s].
+    #[serde(default)]
+    pub at_s: f64,
+    /// Senders it applies to.
+    #[serde(default)]
+    pub from: UavSet,
+    /// Receivers it applies to.
+    #[serde(default)]
+    pub to: UavSet,
+    /// The impairment.
+    #[serde(default)]
+    pub rule: netem::impair::Impairment,
 }
 
 /// Obstacles: explicit trees and walls, plus an optional generated forest.

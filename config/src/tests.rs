@@ -86,6 +86,8 @@ fn semantic_errors_name_field() {
         (MINIMAL.replace("goal = [10.0, 0.0]", "goal = [10.0, 0.0]\nfailed = [3]"), "swarm.failed"),
         (MINIMAL.replace("goal = [10.0, 0.0]", "goal = [10.0, 0.0]\nfailed = [1, 2]"), "swarm.failed"),
         (format!("{MINIMAL}\n[localization.icp]\nlambda = 0.0\n"), "localization.icp.lambda"),
+        (format!("{MINIMAL}\n[[netem]]\nrule = {{ loss = {{ model = \"random\", p = 1.5 }} }}\n"), "netem[0].rule.loss.p"),
+        (format!("{MINIMAL}\n[[netem]]\nto = [7]\n"), "netem[0].to"),
         (format!("{MINIMAL}\n[localization.icp]\ngrid_headings = 0\n"), "localization.icp.grid_headings"),
         (
             format!("{MINIMAL}\n[world.forest]\nregion = {{ x_min = 5.0, x_max = 1.0, y_min = 0.0, y_max = 1.0 }}\ndensity_per_100m2 = 1.0\n"),
@@ -113,4 +115,19 @@ fn from_arg_resolves_builtin_and_reports_unknown() {
     assert!(text.contains("forest-5"));
     let e = Scenario::from_arg("no-such-thing").expect_err("unknown");
     assert!(e.message.contains("built-ins"), "{e}");
+}
+
+#[test]
+fn netem_rules_in_force_follow_time_and_links() {
+    let sc = Scenario::from_toml_str(
+        &format!(
+            "{MINIMAL}\n[[netem]]\nat_s = 0.0\nrule = {{ delay_s = 0.1 }}\n\n[[netem]]\nat_s = 5.0\nfrom = [2]\nrule = {{ loss = {{ model = \"random\", p = 0.3 }} }}\n\n[[netem]]\nat_s = 9.0\nfrom = [2]\n"
+        ),
+        "n.toml",
+    )
+    .expect("valid");
+    assert_eq!(sc.netem_rule_at(1.0, 2, 1).map(|r| r.delay_s), Some(0.1));
+    assert!(sc.netem_rule_at(6.0, 2, 1).is_some_and(|r| r.delay_s == 0.0 && !r.is_identity()), "the later rule replaces");
+    assert_eq!(sc.netem_rule_at(6.0, 1, 2).map(|r| r.delay_s), Some(0.1), "other links keep the first rule");
+    assert!(sc.netem_rule_at(9.5, 2, 1).is_some_and(|r| r.is_identity()), "an empty rule heals");
 }

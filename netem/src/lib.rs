@@ -40,20 +40,61 @@ pub struct Counters {
 pub enum Verdict {
     /// Deliver at this sim time.
     DeliverAt(f64),
+    /// Duplicated: deliver a copy at each of these sim times.
+    DeliverTwice(f64, f64),
     /// Drop it.
     Drop,
 }
 
-/// The per-agent link model. Today: pass everything, one tick of latency, count.
+/// The receive side of one agent's inter-agent links: one seeded [`impair::LinkSim`] per sender,
+/// and the counters.
 #[derive(Debug, Clone, Default)]
 pub struct Link {
     counters: Counters,
+    seed: u64,
+    me: u32,
+    sims: std::collections::BTreeMap<u32, impair::LinkSim>,
 }
 
 impl Link {
     /// A link that passes everything.
     pub fn new() -> Link {
         Link::default()
+    }
+
+    /// The links into agent `me`, whose random streams derive from the run's `seed`.
+    pub fn with_seed(seed: u64, me: u32) -> Link {
+        Link { seed, me, ..Link::default() }
+    }
+
+    /// Like [`Link::on_receive`], under `rule` (the impairment in force for the link from `from`
+    /// at the send time; `None` = identity). The rule is applied at the send instant, as netem
+    /// applies it at enqueue; every message still takes at least one tick.
+    pub fn on_receive_with(
+        &mut self,
+        rule: Option<&impair::Impairment>,
+        from: u32,
+        sent_at: f64,
+        now: f64,
+        dt: f64,
+        bytes: usize,
+    ) -> Verdict {
+        let Some(rule) = rule.filter(|r| !r.is_identity()) else {
+            return self.on_receive(from, sent_at, now, dt, bytes);
+        };
+        self.counters.recv_msgs += 1;
+        self.counters.recv_bytes += bytes as u64;
+        let (seed, me) = (self.seed, self.me);
+        let sim = self.sims.entry(from).or_insert_with(|| impair::LinkSim::new(seed, from, me));
+        let at = |t: f64| t.max(sent_at + dt).max(now);
+        match sim.decide(rule, sent_at, bytes) {
+            impair::Decision::Lost(_) => {
+                self.counters.dropped_msgs += 1;
+                Verdict::Drop
+            }
+            impair::Decision::Deliver(t) => Verdict::DeliverAt(at(t)),
+            impair::Decision::Duplicate(a, b) => Verdict::DeliverTwice(at(a), at(b)),
+        }
     }
 
     /// Accounts for an outgoing message of `bytes` bytes. Returns whether to publish it.
@@ -172,6 +213,38 @@ mod tests {
         let mut l = Link::new();
         let Verdict::DeliverAt(at) = l.on_receive(1, 0.1, 0.5, 0.1, 10) else { panic!("passes") };
         assert!(at <= 0.5);
+    }
+
+    #[test]
+    fn rules_drop_delay_and_count_but_never_beat_one_tick() {
+        use impair::{Impairment, LossModel};
+        let mut l = Link::with_seed(7, 1);
+        let lossy = Impairment { loss: LossModel::Random { p: 0.3 }, delay_s: 0.25, ..Impairment::IDENTITY };
+        let (mut dropped, mut delivered) = (0, 0);
+        for i in 0..10_000 {
+            let t = f64::from(i) * 0.1;
+            match l.on_receive_with(Some(&lossy), 2, t, t, 0.1, 50) {
+                Verdict::Drop => dropped += 1,
+                Verdict::DeliverAt(at) => {
+                    delivered += 1;
+                    assert!((at - (t + 0.25)).abs() < 1e-9, "delayed by the rule");
+                }
+                Verdict::DeliverTwice(..) => panic!("no duplication configured"),
+            }
+        }
+        assert!((2_800..3_200).contains(&dropped), "{dropped}");
+        assert_eq!(l.counters().dropped_msgs, dropped);
+        assert_eq!(delivered + dropped, 10_000);
+        // A 10 ms delay still takes the one-tick minimum.
+        let short = Impairment { delay_s: 0.01, ..Impairment::IDENTITY };
+        assert_eq!(l.on_receive_with(Some(&short), 3, 1.0, 1.0, 0.1, 50), Verdict::DeliverAt(1.1));
+        // The same seed repeats the same decisions.
+        let mut a = Link::with_seed(7, 1);
+        let mut b = Link::with_seed(7, 1);
+        for i in 0..100 {
+            let t = f64::from(i) * 0.1;
+            assert_eq!(a.on_receive_with(Some(&lossy), 2, t, t, 0.1, 50), b.on_receive_with(Some(&lossy), 2, t, t, 0.1, 50));
+        }
     }
 
     #[test]

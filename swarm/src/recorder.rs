@@ -332,6 +332,7 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         bytes_sent: link.sent_bytes,
         messages_received: link.recv_msgs,
         bytes_received: link.recv_bytes,
+        messages_delivered: link.delivered_msgs,
         malformed_messages: link.malformed,
         mean_step_time_ms: a.step_us_sum / steps / 1000.0,
         max_step_time_ms: a.step_us_max / 1000.0,

@@ -148,6 +148,9 @@ pub struct AgentSummary {
     pub messages_received: u64,
     /// Bytes of those.
     pub bytes_received: u64,
+    /// Share messages handed to its localization after netem (lost ones are not; duplicates
+    /// count twice).
+    pub messages_delivered: u64,
     /// Payloads it dropped as malformed.
     pub malformed_messages: u64,
     /// Mean wall time of its control step (perception + localization + control).

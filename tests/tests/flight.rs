@@ -127,3 +127,25 @@ fn seven_uavs_pass_a_failed_one() {
     }
     assert!(s["localization"]["mean_error_m"].as_f64().expect("n") < 0.15);
 }
+
+/// Issue 4, "lossy links": forest-5 with 30 % i.i.d. loss and 100 ± 50 ms delay on every
+/// inter-agent link still flies through without collision, and the loss really happened.
+#[test]
+fn forest5_over_lossy_links() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = swarm_run(&["forest-5-lossy", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("lossy")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(dir.path());
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
+    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    for a in s["agents"].as_array().expect("agents") {
+        let (rx, delivered) = (a["messages_received"].as_f64().expect("n"), a["messages_delivered"].as_f64().expect("n"));
+        let share = delivered / rx;
+        assert!((0.62..0.78).contains(&share), "30 % loss: {share} delivered of {rx} received: {a:#}");
+    }
+    let l = &s["localization"];
+    assert!(l["estimates_scored"].as_u64().expect("n") > 5000, "neighbours stay localized: {l:#}");
+    assert!(l["mean_error_m"].as_f64().expect("n") < 0.15, "{l:#}");
+}

@@ -11,8 +11,9 @@
 //!   window: from the tick after its subscription was declared (every later share is sure to be
 //!   routed to us, since the declaration reached the router before our command did) to the tick
 //!   before it left radio range. Which shares arrive no longer depends on timing.
-//! - Every share message in or out passes the [`netem::Link`] seam; incoming ones wait in an
-//!   [`netem::Inbox`] until their sim-time delivery instant.
+//! - Every share message in or out passes the [`netem::Link`] seam, which applies the scenario's
+//!   `[[netem]]` rule in force for that link at the send time (loss, delay, jitter, ...); the
+//!   survivors wait in an [`netem::Inbox`] until their sim-time delivery instant.
 //! - It declares its `alive/uav/{id}` token after its subscriptions (so the hub, seeing the
 //!   token, knows the agent will get tick 0) and watches `alive/hub`: when the hub goes, the agent
 //!   commands hover and exits cleanly.
@@ -134,6 +135,8 @@ struct Node {
     link: netem::Link,
     inbox: netem::Inbox<Share>,
     mode: LocalizationMode,
+    /// The scenario's `[[netem]]` rules, applied to every share this agent receives.
+    netem_rules: Scenario,
     malformed: u64,
     tx: mpsc::UnboundedSender<Incoming>,
     rx: mpsc::UnboundedReceiver<Incoming>,
@@ -198,9 +201,10 @@ impl Node {
             state_pub: publisher(&s, keys.state(id), cc).await?,
             needs_gnss: sc.localization.mode == LocalizationMode::Broadcast,
             mode: sc.localization.mode,
+            netem_rules: sc.clone(),
+            link: netem::Link::with_seed(sc.seed, id),
             dt: sc.dt_secs(),
             agent: Agent::new(id, sc),
-            link: netem::Link::new(),
             inbox: netem::Inbox::new(),
             malformed: 0,
             tx,
@@ -282,8 +286,14 @@ impl Node {
             return;
         }
         let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
-        if let netem::Verdict::DeliverAt(at) = self.link.on_receive(from, share.t_secs(), now, self.dt, bytes.len()) {
-            self.inbox.push(at, share);
+        let rule = self.netem_rules.netem_rule_at(share.t_secs(), from, self.id);
+        match self.link.on_receive_with(rule, from, share.t_secs(), now, self.dt, bytes.len()) {
+            netem::Verdict::DeliverAt(at) => self.inbox.push(at, share),
+            netem::Verdict::DeliverTwice(a, b) => {
+                self.inbox.push(a, share.clone());
+                self.inbox.push(b, share);
+            }
+            netem::Verdict::Drop => trace!(from, "share dropped by netem"),
         }
     }
 
