@@ -41,6 +41,7 @@ impl ScenarioError {
 /// Built-in scenarios, `(name, toml text)`: the files of `scenarios/`, compiled in.
 pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5", include_str!("../../scenarios/forest-5.toml")),
+    ("forest-5-linkloss", include_str!("../../scenarios/forest-5-linkloss.toml")),
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),

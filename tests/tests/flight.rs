@@ -149,3 +149,25 @@ fn forest5_over_lossy_links() {
     assert!(l["estimates_scored"].as_u64().expect("n") > 5000, "neighbours stay localized: {l:#}");
     assert!(l["mean_error_m"].as_f64().expect("n") < 0.15, "{l:#}");
 }
+
+/// Issue 4, "link loss" (seed 000 1.2, requirement 4): UAV 3 of forest-5 is deaf and mute from
+/// 30 s to 35 s among the trees. No collision (its LIDAR still sees its neighbours), it loses
+/// every neighbour while cut off, is localized again within 2 s of the links returning, and the
+/// swarm reaches the goal.
+#[test]
+fn forest5_survives_a_uav_losing_its_links() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = swarm_run(&["forest-5-linkloss", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("linkloss")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(dir.path());
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
+    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let events = s["agents"][2]["contact_events"].as_array().expect("events of UAV 3").clone();
+    let at = |regained: bool| -> Vec<f64> {
+        events.iter().filter(|e| e["regained"] == regained).map(|e| e["t_s"].as_f64().expect("t")).collect()
+    };
+    assert!(at(false).iter().any(|&t| (30.0..=31.0).contains(&t)), "UAV 3 lost its neighbours when cut off: {events:?}");
+    assert!(at(true).iter().any(|&t| (35.0..=37.0).contains(&t)), "and found them within 2 s of the links returning: {events:?}");
+}
