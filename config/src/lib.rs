@@ -41,6 +41,7 @@ impl ScenarioError {
 /// Built-in scenarios, `(name, toml text)`: the files of `scenarios/`, compiled in.
 pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5", include_str!("../../scenarios/forest-5.toml")),
+    ("forest-5-burst-frozen", include_str!("../../scenarios/forest-5-burst-frozen.toml")),
     ("forest-5-linkloss", include_str!("../../scenarios/forest-5-linkloss.toml")),
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
@@ -203,9 +204,25 @@ impl Scenario {
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;
         self.validate_netem()?;
+        self.validate_failures()?;
         positive("end.goal_radius_m", self.end.goal_radius_m)?;
         positive("end.time_limit_s", self.end.time_limit_s)?;
         Ok(())
+    }
+
+    fn validate_failures(&self) -> Check {
+        for (i, f) in self.failures.iter().enumerate() {
+            non_negative(&format!("failures[{i}].at_s"), f.at_s)?;
+            if f.uav == 0 || f.uav > self.swarm.count {
+                return Err((format!("failures[{i}].uav"), format!("UAV id {} is not in 1..={}", f.uav, self.swarm.count)));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether UAV `id` is frozen at sim time `t` (a `freeze` failure at or before `t`).
+    pub fn frozen_at(&self, id: u32, t: f64) -> bool {
+        self.failures.iter().any(|f| f.uav == id && f.kind == FailureKind::Freeze && f.at_s <= t + 1e-9)
     }
 
     fn validate_netem(&self) -> Check {
@@ -225,7 +242,11 @@ impl Scenario {
 
     /// The netem rule in force at sim time `t` for messages from `from` to `to`: the last rule
     /// (in file order among equal times) with `at_s <= t` that covers the link; none = identity.
+    /// A frozen sender says nothing: its links are blocked from its freeze on.
     pub fn netem_rule_at(&self, t: f64, from: u32, to: u32) -> Option<&netem::impair::Impairment> {
+        if self.frozen_at(from, t) {
+            return Some(&netem::impair::Impairment::BLOCKED);
+        }
         self.netem
             .iter()
             .filter(|r| r.at_s <= t + 1e-9 && r.from.contains(from) && r.to.contains(to))

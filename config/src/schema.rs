@@ -49,6 +49,30 @@ pub struct Scenario {
     /// the same link replaces an earlier one; a rule with no impairment heals).
     #[serde(default)]
     pub netem: Vec<NetemRule>,
+    /// Failures of individuals during the run (seed 000 1.2, requirement 4).
+    #[serde(default)]
+    pub failures: Vec<Failure>,
+}
+
+/// What happens to a failing UAV.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FailureKind {
+    /// From `at_s` on the UAV hovers where it is (an obstacle to the others) and says nothing:
+    /// the hub ignores its commands and its shares reach no one.
+    Freeze,
+}
+
+/// One failure of one UAV.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Failure {
+    /// Sim time it fails [s].
+    pub at_s: f64,
+    /// Which UAV.
+    pub uav: u32,
+    /// How.
+    pub kind: FailureKind,
 }
 
 /// Which UAVs a netem rule applies to: `"all"` or a list of ids.

@@ -88,6 +88,7 @@ fn semantic_errors_name_field() {
         (format!("{MINIMAL}\n[localization.icp]\nlambda = 0.0\n"), "localization.icp.lambda"),
         (format!("{MINIMAL}\n[[netem]]\nrule = {{ loss = {{ model = \"random\", p = 1.5 }} }}\n"), "netem[0].rule.loss.p"),
         (format!("{MINIMAL}\n[[netem]]\nto = [7]\n"), "netem[0].to"),
+        (format!("{MINIMAL}\n[[failures]]\nat_s = 1.0\nuav = 9\nkind = \"freeze\"\n"), "failures[0].uav"),
         (format!("{MINIMAL}\n[localization.icp]\ngrid_headings = 0\n"), "localization.icp.grid_headings"),
         (
             format!("{MINIMAL}\n[world.forest]\nregion = {{ x_min = 5.0, x_max = 1.0, y_min = 0.0, y_max = 1.0 }}\ndensity_per_100m2 = 1.0\n"),
@@ -130,4 +131,14 @@ fn netem_rules_in_force_follow_time_and_links() {
     assert!(sc.netem_rule_at(6.0, 2, 1).is_some_and(|r| r.delay_s == 0.0 && !r.is_identity()), "the later rule replaces");
     assert_eq!(sc.netem_rule_at(6.0, 1, 2).map(|r| r.delay_s), Some(0.1), "other links keep the first rule");
     assert!(sc.netem_rule_at(9.5, 2, 1).is_some_and(|r| r.is_identity()), "an empty rule heals");
+}
+
+#[test]
+fn a_frozen_sender_is_mute_from_its_freeze_on() {
+    let sc = Scenario::from_toml_str(&format!("{MINIMAL}\n[[failures]]\nat_s = 3.0\nuav = 2\nkind = \"freeze\"\n"), "f.toml")
+        .expect("valid");
+    assert!(!sc.frozen_at(2, 2.9) && sc.frozen_at(2, 3.0));
+    assert!(sc.netem_rule_at(2.9, 2, 1).is_none());
+    assert!(sc.netem_rule_at(3.5, 2, 1).is_some_and(|r| r.blocked), "mute");
+    assert!(sc.netem_rule_at(3.5, 1, 2).is_none(), "others still reach it");
 }

@@ -158,8 +158,12 @@ impl Sim {
     /// answer in time (it keeps its last command: a frozen or dead UAV). `alive[i]` is whether its
     /// agent holds a liveliness token.
     pub fn step(&mut self, cmds: &[Option<Cmd>], alive: &[bool], wall_secs: f64) -> TruthStep {
+        let t_now = self.t_secs();
         for (i, b) in self.bodies.iter_mut().enumerate() {
-            if let Some(Some(c)) = cmds.get(i) {
+            if self.sc.frozen_at(i as u32 + 1, t_now) {
+                // A frozen UAV hovers where it is, whatever its agent says (seed 000 6.2).
+                self.last_cmds[i] = Cmd { tick: self.tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
+            } else if let Some(Some(c)) = cmds.get(i) {
                 self.last_cmds[i] = *c;
             }
             b.step(&self.last_cmds[i], &self.limits, self.dt);
@@ -263,8 +267,14 @@ impl Sim {
     fn goal_met(&self) -> bool {
         let g = Vector2::new(self.sc.swarm.goal[0], self.sc.swarm.goal[1]);
         let r = self.sc.end.goal_radius_m;
-        // Failed UAVs (no agent) are not part of the swarm that has to arrive.
-        let flying: Vec<Vector2<f64>> = self.sc.agent_ids().map(|id| self.bodies[(id - 1) as usize].pos).collect();
+        // Failed UAVs (no agent) and frozen ones are not part of the swarm that has to arrive.
+        let t = self.t_secs();
+        let flying: Vec<Vector2<f64>> = self
+            .sc
+            .agent_ids()
+            .filter(|&id| !self.sc.frozen_at(id, t))
+            .map(|id| self.bodies[(id - 1) as usize].pos)
+            .collect();
         match self.sc.end.goal_rule {
             GoalRule::All => flying.iter().all(|p| (p - g).norm() <= r),
             GoalRule::Centroid => {
@@ -339,6 +349,21 @@ time_limit_s = 1.0
         }
         assert_eq!(last.ended, Some(EndReason::TimeLimit));
         assert_eq!(last.tick, 10);
+    }
+
+    #[test]
+    fn a_frozen_uav_hovers_whatever_its_agent_says() {
+        let mut sc = scenario();
+        sc.failures = vec![swarm_config::Failure { at_s: 0.5, uav: 1, kind: swarm_config::FailureKind::Freeze }];
+        let mut sim = Sim::new(&sc);
+        for _ in 0..5 {
+            sim.step(&[vel(0.5), vel(0.0)], &[true, true], 0.0);
+        }
+        assert!(sim.bodies()[0].vel.norm() > 0.4, "flies until it freezes");
+        for _ in 0..20 {
+            sim.step(&[vel(0.5), vel(0.0)], &[true, true], 0.0);
+        }
+        assert!(sim.bodies()[0].vel.norm() < 1e-9, "frozen: hovers");
     }
 
     #[test]

@@ -171,3 +171,23 @@ fn forest5_survives_a_uav_losing_its_links() {
     assert!(at(false).iter().any(|&t| (30.0..=31.0).contains(&t)), "UAV 3 lost its neighbours when cut off: {events:?}");
     assert!(at(true).iter().any(|&t| (35.0..=37.0).contains(&t)), "and found them within 2 s of the links returning: {events:?}");
 }
+
+/// Issue 4: burst loss (Gilbert–Elliott) on every link, and the front UAV freezes at 30 s among
+/// the trees, in the others' path: no collision, the others reach the goal, the frozen one stays.
+#[test]
+fn forest5_burst_loss_and_a_frozen_uav() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = swarm_run(&["forest-5-burst-frozen", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("burst")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(dir.path());
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
+    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let agents = s["agents"].as_array().expect("agents");
+    assert!(agents[0]["path_length_m"].as_f64().expect("n") < 15.0, "UAV 1 froze early: {:#}", agents[0]);
+    for a in &agents[1..] {
+        assert!(a["path_length_m"].as_f64().expect("n") > 25.0, "{a:#}");
+        assert!(a["messages_delivered"].as_u64().expect("n") < a["messages_received"].as_u64().expect("n"), "loss happened: {a:#}");
+    }
+}
