@@ -46,6 +46,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
+    ("open-field-7-partition", include_str!("../../scenarios/open-field-7-partition.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
 ];
 
@@ -205,8 +206,22 @@ impl Scenario {
         self.localization.icp.validate()?;
         self.validate_netem()?;
         self.validate_failures()?;
+        self.validate_mission()?;
         positive("end.goal_radius_m", self.end.goal_radius_m)?;
         positive("end.time_limit_s", self.end.time_limit_s)?;
+        Ok(())
+    }
+
+    fn validate_mission(&self) -> Check {
+        for (i, m) in self.mission.iter().enumerate() {
+            non_negative(&format!("mission[{i}].at_s"), m.at_s)?;
+            finite(&format!("mission[{i}].goal"), &m.goal)?;
+            if let UavSet::Ids(ids) = &m.uavs {
+                if let Some(bad) = ids.iter().find(|&&id| id == 0 || id > self.swarm.count) {
+                    return Err((format!("mission[{i}].uavs"), format!("UAV id {bad} is not in 1..={}", self.swarm.count)));
+                }
+            }
+        }
         Ok(())
     }
 
@@ -218,6 +233,16 @@ impl Scenario {
             }
         }
         Ok(())
+    }
+
+    /// The goal UAV `id` flies to at sim time `t`: the latest `mission` change covering it, else
+    /// `swarm.goal`.
+    pub fn goal_of(&self, id: u32, t: f64) -> [f64; 2] {
+        self.mission
+            .iter()
+            .filter(|m| m.at_s <= t + 1e-9 && m.uavs.contains(id))
+            .max_by(|a, b| a.at_s.total_cmp(&b.at_s))
+            .map_or(self.swarm.goal, |m| m.goal)
     }
 
     /// Whether UAV `id` is frozen at sim time `t` (a `freeze` failure at or before `t`).

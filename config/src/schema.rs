@@ -52,6 +52,23 @@ pub struct Scenario {
     /// Failures of individuals during the run (seed 000 1.2, requirement 4).
     #[serde(default)]
     pub failures: Vec<Failure>,
+    /// Goal changes during the run: from `at_s` on, the listed (informed) UAVs fly to `goal`
+    /// instead of `swarm.goal`. The end condition always uses `swarm.goal`.
+    #[serde(default)]
+    pub mission: Vec<GoalChange>,
+}
+
+/// A new goal for some UAVs from some time on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GoalChange {
+    /// Sim time it takes effect [s].
+    pub at_s: f64,
+    /// Which UAVs (only informed ones act on a goal).
+    #[serde(default)]
+    pub uavs: UavSet,
+    /// The goal `[x, y]`, world frame.
+    pub goal: [f64; 2],
 }
 
 /// What happens to a failing UAV.

@@ -142,3 +142,16 @@ fn a_frozen_sender_is_mute_from_its_freeze_on() {
     assert!(sc.netem_rule_at(3.5, 2, 1).is_some_and(|r| r.blocked), "mute");
     assert!(sc.netem_rule_at(3.5, 1, 2).is_none(), "others still reach it");
 }
+
+#[test]
+fn goals_change_by_mission_time_and_uav() {
+    let sc = Scenario::from_toml_str(
+        &format!("{MINIMAL}\n[[mission]]\nat_s = 5.0\nuavs = [1]\ngoal = [0.0, 9.0]\n\n[[mission]]\nat_s = 8.0\ngoal = [20.0, 0.0]\n"),
+        "m.toml",
+    )
+    .expect("valid");
+    assert_eq!(sc.goal_of(1, 1.0), [10.0, 0.0], "swarm.goal before any change");
+    assert_eq!(sc.goal_of(1, 5.0), [0.0, 9.0]);
+    assert_eq!(sc.goal_of(2, 6.0), [10.0, 0.0], "the change was for UAV 1 only");
+    assert_eq!(sc.goal_of(2, 8.0), [20.0, 0.0], "a change for all");
+}

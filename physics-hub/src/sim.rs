@@ -137,7 +137,8 @@ impl Sim {
         let p = to_start(b.pos);
         let v = start_from_world * b.vel;
         let goal = self.sc.is_informed(id).then(|| {
-            let g = to_start(Vector2::new(self.sc.swarm.goal[0], self.sc.swarm.goal[1]));
+            let g = self.sc.goal_of(id, t_secs);
+            let g = to_start(Vector2::new(g[0], g[1]));
             [g.x, g.y]
         });
         let odom = Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal };

@@ -6,7 +6,10 @@
 //! network.
 
 use crate::plot::{run_svg, Track};
-use crate::summary::{AgentSummary, CollisionRecord, ContactEvent, LocalizationSummary, Summary, SCHEMA};
+use crate::summary::{
+    AgentSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, LocalizationSummary, Reconnection, Summary,
+    SCHEMA,
+};
 use anyhow::{Context, Result};
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -85,6 +88,8 @@ pub struct Metrics {
     truth: BTreeMap<u64, Vec<TruthBody>>,
     /// States whose tick's truth has not arrived yet.
     pending: Vec<AgentState>,
+    /// Per tick: (sim time, for each agent that reported, the ids it has an estimate of).
+    known: BTreeMap<u64, (f64, BTreeMap<u32, Vec<u32>>)>,
 }
 
 /// An estimate farther than this from the truth places a neighbour where none is.
@@ -102,6 +107,34 @@ fn true_relative(i: &TruthBody, j: &TruthBody) -> (f64, f64) {
     let (dx, dy) = (j.x - i.x, j.y - i.y);
     let (s, c) = i.yaw.sin_cos();
     (c * dx + s * dy, -s * dx + c * dy)
+}
+
+/// Weakly connected components of the estimate graph over the agents that reported.
+fn components(known: &BTreeMap<u32, Vec<u32>>) -> usize {
+    let ids: Vec<u32> = known.keys().copied().collect();
+    let mut parent: BTreeMap<u32, u32> = ids.iter().map(|&i| (i, i)).collect();
+    fn root(p: &BTreeMap<u32, u32>, mut x: u32) -> u32 {
+        while let Some(&up) = p.get(&x) {
+            if up == x {
+                break;
+            }
+            x = up;
+        }
+        x
+    }
+    for (&i, js) in known {
+        for &j in js {
+            if !parent.contains_key(&j) {
+                continue;
+            }
+            let (a, b) = (root(&parent, i), root(&parent, j));
+            if a != b {
+                parent.insert(a, b);
+            }
+        }
+    }
+    let roots: std::collections::BTreeSet<u32> = ids.iter().map(|&i| root(&parent, i)).collect();
+    roots.len()
 }
 
 /// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
@@ -235,6 +268,8 @@ impl Metrics {
         a.steps += 1;
         a.neighbours_sum += st.neighbours.len() as u64;
         *a.neighbour_counts.entry(st.neighbours.len()).or_default() += 1;
+        let ids = st.neighbours.iter().filter_map(|e| e.id).collect();
+        self.known.entry(st.tick).or_insert_with(|| (st.t_secs, BTreeMap::new())).1.insert(st.id, ids);
         if self.truth.contains_key(&st.tick) {
             self.score(&st);
         } else if self.last_step.as_ref().is_none_or(|s| st.tick > s.tick) {
@@ -293,6 +328,7 @@ impl Metrics {
             false_estimates: agents.iter().map(|a| a.false_estimates).sum(),
         };
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
+        let connectivity = self.connectivity(scenario);
         Summary {
             schema: SCHEMA.into(),
             run_id: run_id.into(),
@@ -312,8 +348,51 @@ impl Metrics {
             min_obstacle_distance_m: min(|a| a.min_obstacle_distance_m),
             min_agent_distance_m: min(|a| a.min_agent_distance_m),
             localization,
+            connectivity,
             agents,
         }
+    }
+
+    /// Connectivity of the "i has a current estimate of j" graph over time, reconnection after
+    /// each heal, and estimates across links that have been blocked longer than the staleness.
+    fn connectivity(&self, sc: &swarm_config::Scenario) -> Connectivity {
+        let mut changes: Vec<ComponentsAt> = Vec::new();
+        let mut series: Vec<(f64, usize)> = Vec::new();
+        let mut across = 0u64;
+        let grace = sc.localization.stale_after_s + sc.dt_secs();
+        for (t, known) in self.known.values() {
+            let n = components(known);
+            if changes.last().is_none_or(|c| c.components != n) {
+                changes.push(ComponentsAt { t_s: *t, components: n });
+            }
+            series.push((*t, n));
+            let blocked = |from: u32, to: u32, at: f64| sc.netem_rule_at(at, from, to).is_some_and(|r| r.blocked);
+            for (&i, ids) in known {
+                across += ids.iter().filter(|&&j| blocked(j, i, *t) && blocked(j, i, t - grace)).count() as u64;
+            }
+        }
+        // A heal: a rule with no impairment ends a fault (several at one instant count once).
+        let mut heal_times: Vec<f64> = sc.netem.iter().filter(|r| r.rule.is_identity()).map(|r| r.at_s).collect();
+        heal_times.sort_by(f64::total_cmp);
+        heal_times.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        let reconnections = heal_times
+            .iter()
+            .map(|&h| {
+                let after: Vec<&(f64, usize)> = series.iter().filter(|(t, _)| *t >= h - 1e-9).collect();
+                // From the last sample that was not one component on, it stays connected.
+                let last_split = after.iter().rposition(|(_, n)| *n != 1);
+                let stays = match last_split {
+                    None => after.first().map(|(t, _)| t - h),
+                    Some(i) => after.get(i + 1).map(|(t, _)| t - h),
+                };
+                Reconnection {
+                    heal_at_s: h,
+                    reconnected_after_s: after.iter().find(|(_, n)| *n == 1).map(|(t, _)| t - h),
+                    stays_connected_after_s: stays,
+                }
+            })
+            .collect();
+        Connectivity { components_changes: changes, reconnections, estimates_across_blocked_links: across }
     }
 }
 
@@ -439,6 +518,14 @@ mod tests {
             agent_distance_m: ad,
             colliding: false,
         }
+    }
+
+    #[test]
+    fn components_of_the_estimate_graph() {
+        let g = |edges: &[(u32, &[u32])]| components(&edges.iter().map(|(i, js)| (*i, js.to_vec())).collect());
+        assert_eq!(g(&[(1, &[2]), (2, &[]), (3, &[4]), (4, &[3])]), 2);
+        assert_eq!(g(&[(1, &[2]), (2, &[3]), (3, &[])]), 1, "weakly connected");
+        assert_eq!(g(&[(1, &[]), (2, &[]), (3, &[9])]), 3, "ids that did not report are not nodes");
     }
 
     #[test]

@@ -65,6 +65,8 @@ pub struct Summary {
     pub min_agent_distance_m: f64,
     /// How well agents knew where their neighbours were.
     pub localization: LocalizationSummary,
+    /// Who knew of whom, over time.
+    pub connectivity: Connectivity,
     /// Per UAV.
     pub agents: Vec<AgentSummary>,
 }
@@ -92,6 +94,41 @@ pub struct LocalizationSummary {
     pub bytes_per_share_message: f64,
     /// Estimates more than 1 m from the truth: neighbours placed where none is.
     pub false_estimates: u64,
+}
+
+/// Connectivity of the graph "agent i has a current estimate of j" (weakly connected components
+/// over the agents that reported at a tick).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Connectivity {
+    /// Each time the number of components changed (the first entry is the start).
+    pub components_changes: Vec<ComponentsAt>,
+    /// For each heal of the `[[netem]]` timeline (a rule with no impairment), how long until the
+    /// graph was one component again (null: never).
+    pub reconnections: Vec<Reconnection>,
+    /// Estimates an agent held of a neighbour whose link to it had been blocked for longer than
+    /// the estimate staleness: information that crossed a partition (should be 0).
+    pub estimates_across_blocked_links: u64,
+}
+
+/// The number of components from a time on.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ComponentsAt {
+    /// Sim time.
+    pub t_s: f64,
+    /// Components.
+    pub components: usize,
+}
+
+/// Reconnection after one heal.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Reconnection {
+    /// Sim time of the heal.
+    pub heal_at_s: f64,
+    /// Time from the heal to one component again (null: never).
+    pub reconnected_after_s: Option<f64>,
+    /// Time from the heal until the graph is one component and stays so to the end of the run
+    /// (null: it does not).
+    pub stays_connected_after_s: Option<f64>,
 }
 
 /// A UAV lost all its neighbours (`regained` false) or found one again.

@@ -191,3 +191,27 @@ fn forest5_burst_loss_and_a_frozen_uav() {
         assert!(a["messages_delivered"].as_u64().expect("n") < a["messages_received"].as_u64().expect("n"), "loss happened: {a:#}");
     }
 }
+
+/// Issue 4, "partition and rejoin": seven UAVs split 3|4 from 10 s to 30 s, each group's informed
+/// UAV sent its own way, then healed with a common goal. During the split no estimate crosses
+/// the partition; the graph "i knows where j is" falls into two components and becomes one
+/// again after the heal, for good; the swarm reaches the common goal.
+#[test]
+fn partition_and_rejoin() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = swarm_run(&["open-field-7-partition", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("part")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(dir.path());
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let c = &s["connectivity"];
+    assert_eq!(c["estimates_across_blocked_links"], 0, "nothing crossed the partition: {c:#}");
+    let changes = c["components_changes"].as_array().expect("changes");
+    let split = changes.iter().any(|x| x["components"] == 2 && (10.0..=11.0).contains(&x["t_s"].as_f64().expect("t")));
+    assert!(split, "two components once the split took effect: {c:#}");
+    assert_eq!(changes.last().expect("some")["components"], 1, "one component at the end: {c:#}");
+    let r = &c["reconnections"][0];
+    assert_eq!(r["heal_at_s"], 30.0);
+    assert!(r["reconnected_after_s"].as_f64().is_some() && r["stays_connected_after_s"].as_f64().is_some(), "{c:#}");
+}
