@@ -46,6 +46,8 @@ struct Acc {
     reported_while_alone: u64,
     /// Steps it spent alone.
     steps_alone: u64,
+    /// Age of each neighbour estimate it held [s].
+    ages: Vec<f64>,
 }
 
 impl Default for Acc {
@@ -71,6 +73,7 @@ impl Default for Acc {
             contacts: Vec::new(),
             reported_while_alone: 0,
             steps_alone: 0,
+            ages: Vec::new(),
         }
     }
 }
@@ -268,6 +271,7 @@ impl Metrics {
         a.steps += 1;
         a.neighbours_sum += st.neighbours.len() as u64;
         *a.neighbour_counts.entry(st.neighbours.len()).or_default() += 1;
+        a.ages.extend(st.neighbours.iter().map(|e| f64::from(e.age_secs)));
         let ids = st.neighbours.iter().filter_map(|e| e.id).collect();
         self.known.entry(st.tick).or_insert_with(|| (st.t_secs, BTreeMap::new())).1.insert(st.id, ids);
         if self.truth.contains_key(&st.tick) {
@@ -317,6 +321,7 @@ impl Metrics {
         let goal_at = last.and_then(|s| s.goal_reached_at);
         let agents: Vec<AgentSummary> = self.agents.iter().map(|(&id, a)| agent_summary(id, a)).collect();
         let all_errors: Vec<f64> = self.agents.values().flat_map(|a| a.loc_errors.iter().copied()).collect();
+        let all_ages: Vec<f64> = self.agents.values().flat_map(|a| a.ages.iter().copied()).collect();
         let (sent_msgs, sent_bytes) = agents.iter().fold((0, 0), |(m, b), a| (m + a.messages_sent, b + a.bytes_sent));
         let localization = LocalizationSummary {
             mode: format!("{:?}", scenario.localization.mode).to_lowercase(),
@@ -326,6 +331,8 @@ impl Metrics {
             stable_neighbour_share: mean_finite(agents.iter().map(|a| a.stable_neighbour_share)),
             bytes_per_share_message: if sent_msgs > 0 { sent_bytes as f64 / sent_msgs as f64 } else { f64::NAN },
             false_estimates: agents.iter().map(|a| a.false_estimates).sum(),
+            mean_info_age_s: mean_finite(all_ages.iter().copied()),
+            p95_info_age_s: quantile(&all_ages, 0.95),
         };
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
         let connectivity = self.connectivity(scenario);
@@ -428,6 +435,8 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         contact_events: a.contacts.clone(),
         steps_alone: a.steps_alone,
         neighbours_reported_while_alone: a.reported_while_alone,
+        mean_info_age_s: mean_finite(a.ages.iter().copied()),
+        p95_info_age_s: quantile(&a.ages, 0.95),
     }
 }
 

@@ -94,6 +94,12 @@ pub struct LocalizationSummary {
     pub bytes_per_share_message: f64,
     /// Estimates more than 1 m from the truth: neighbours placed where none is.
     pub false_estimates: u64,
+    /// Mean age of the newest information agents held about their neighbours [s].
+    #[serde(with = "inf_as_null")]
+    pub mean_info_age_s: f64,
+    /// Its 95th percentile [s].
+    #[serde(with = "inf_as_null")]
+    pub p95_info_age_s: f64,
 }
 
 /// Connectivity of the graph "agent i has a current estimate of j" (weakly connected components
@@ -215,6 +221,12 @@ pub struct AgentSummary {
     pub steps_alone: u64,
     /// Neighbours it reported during those steps: all false.
     pub neighbours_reported_while_alone: u64,
+    /// Mean age of the newest information it held about each neighbour [s].
+    #[serde(with = "inf_as_null")]
+    pub mean_info_age_s: f64,
+    /// Its 95th percentile [s].
+    #[serde(with = "inf_as_null")]
+    pub p95_info_age_s: f64,
 }
 
 fn f3(v: f64) -> String {

@@ -148,6 +148,8 @@ fn forest5_over_lossy_links() {
     let l = &s["localization"];
     assert!(l["estimates_scored"].as_u64().expect("n") > 5000, "neighbours stay localized: {l:#}");
     assert!(l["mean_error_m"].as_f64().expect("n") < 0.15, "{l:#}");
+    // Lossless, every estimate is one tick (0.1 s) old; 100 ± 50 ms delay and loss age it.
+    assert!(l["mean_info_age_s"].as_f64().expect("n") > 0.15, "{l:#}");
 }
 
 /// Issue 4, "link loss" (seed 000 1.2, requirement 4): UAV 3 of forest-5 is deaf and mute from
