@@ -212,15 +212,21 @@ impl Scenario {
         Ok(())
     }
 
+    fn check_uav_set(&self, field: &str, set: &UavSet) -> Check {
+        match set {
+            UavSet::Ids(ids) => match ids.iter().find(|&&id| id == 0 || id > self.swarm.count) {
+                Some(bad) => Err((field.into(), format!("UAV id {bad} is not in 1..={}", self.swarm.count))),
+                None => Ok(()),
+            },
+            UavSet::All(_) => Ok(()),
+        }
+    }
+
     fn validate_mission(&self) -> Check {
         for (i, m) in self.mission.iter().enumerate() {
             non_negative(&format!("mission[{i}].at_s"), m.at_s)?;
             finite(&format!("mission[{i}].goal"), &m.goal)?;
-            if let UavSet::Ids(ids) = &m.uavs {
-                if let Some(bad) = ids.iter().find(|&&id| id == 0 || id > self.swarm.count) {
-                    return Err((format!("mission[{i}].uavs"), format!("UAV id {bad} is not in 1..={}", self.swarm.count)));
-                }
-            }
+            self.check_uav_set(&format!("mission[{i}].uavs"), &m.uavs)?;
         }
         Ok(())
     }
@@ -253,13 +259,8 @@ impl Scenario {
     fn validate_netem(&self) -> Check {
         for (i, r) in self.netem.iter().enumerate() {
             non_negative(&format!("netem[{i}].at_s"), r.at_s)?;
-            for (side, set) in [("from", &r.from), ("to", &r.to)] {
-                if let UavSet::Ids(ids) = set {
-                    if let Some(bad) = ids.iter().find(|&&id| id == 0 || id > self.swarm.count) {
-                        return Err((format!("netem[{i}].{side}"), format!("UAV id {bad} is not in 1..={}", self.swarm.count)));
-                    }
-                }
-            }
+            self.check_uav_set(&format!("netem[{i}].from"), &r.from)?;
+            self.check_uav_set(&format!("netem[{i}].to"), &r.to)?;
             r.rule.validate().map_err(|e| (format!("netem[{i}].rule.{}", e.field), e.reason))?;
         }
         Ok(())

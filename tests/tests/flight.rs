@@ -4,6 +4,27 @@ mod common;
 
 use common::{run_id, summary, swarm_run};
 
+/// Runs a scenario to completion in a fresh folder and returns the folder and its summary.
+fn fly(args: &[&str], tag: &str) -> (tempfile::TempDir, serde_json::Value) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut all: Vec<&str> = args.to_vec();
+    let run = run_id(tag);
+    all.extend(["--out", dir.path().to_str().expect("utf8"), "--run", &run]);
+    let out = swarm_run(&all);
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(dir.path());
+    (dir, s)
+}
+
+/// The goal was reached with no collision, never closer than 0.5 m to a tree or another UAV.
+fn assert_safe_arrival(s: &serde_json::Value) {
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    let min = |k: &str| s[k].as_f64().unwrap_or(f64::INFINITY);
+    assert!(min("min_obstacle_distance_m") > 0.5, "{s:#}");
+    assert!(min("min_agent_distance_m") > 0.5, "{s:#}");
+}
+
 /// Seed 000 section 6.1 (forest-5, lockstep, ICP localization): goal, no collision, safe
 /// distances, neighbours localized, a complete run folder.
 #[test]
@@ -17,12 +38,7 @@ fn forest5_reaches_goal_without_collision() {
     assert_eq!(s["scenario"], "forest-5");
     assert_eq!(s["run_id"], run.as_str());
     assert_eq!(s["end_reason"], "goal", "{s:#}");
-    assert_eq!(s["reached_goal"], true);
-    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    let min_obst = s["min_obstacle_distance_m"].as_f64().expect("number");
-    let min_uav = s["min_agent_distance_m"].as_f64().expect("number");
-    assert!(min_obst > 0.5, "min obstacle distance {min_obst}");
-    assert!(min_uav > 0.5, "min agent distance {min_uav}");
+    assert_safe_arrival(&s);
     assert!(s["trees"].as_u64().expect("number") > 10, "a forest was flown through");
     // ICP localization (seed 000 6.1: mean error 0.052 m, neighbour count stable 89 % of the time).
     let l = &s["localization"];
@@ -56,15 +72,9 @@ fn forest5_reaches_goal_without_collision() {
 /// Not one lucky forest: forest-5 re-seeded (other trees, other noise) still flies through.
 #[test]
 fn forest5_other_seeds_fly_without_collision() {
-    for seed in [1, 7, 10] {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let out = swarm_run(&["--seed", &seed.to_string(), "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("seeds")]);
-        assert!(out.status.success(), "seed {seed}: {}", String::from_utf8_lossy(&out.stderr));
-        let s = summary(dir.path());
-        assert_eq!(s["reached_goal"], true, "seed {seed}: {s:#}");
-        assert_eq!(s["collisions"], 0, "seed {seed}: {:#}", s["collision_events"]);
-        assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5, "seed {seed}");
-        assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5, "seed {seed}");
+    for seed in ["1", "7", "10"] {
+        let (_dir, s) = fly(&["--seed", seed], "seeds");
+        assert_safe_arrival(&s);
     }
 }
 
@@ -108,14 +118,8 @@ fn bad_scenario_names_file_and_field() {
 /// path with no agent: no collision, goal reached, the failed UAV says nothing.
 #[test]
 fn seven_uavs_pass_a_failed_one() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let out = swarm_run(&["forest-7-failed", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("f7")]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let s = summary(dir.path());
-    assert_eq!(s["reached_goal"], true, "{s:#}");
-    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
-    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let (_dir, s) = fly(&["forest-7-failed"], "f7");
+    assert_safe_arrival(&s);
     let agents = s["agents"].as_array().expect("agents");
     assert_eq!(agents.len(), 8);
     let failed = &agents[7];
@@ -132,14 +136,8 @@ fn seven_uavs_pass_a_failed_one() {
 /// inter-agent link still flies through without collision, and the loss really happened.
 #[test]
 fn forest5_over_lossy_links() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let out = swarm_run(&["forest-5-lossy", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("lossy")]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let s = summary(dir.path());
-    assert_eq!(s["reached_goal"], true, "{s:#}");
-    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
-    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let (_dir, s) = fly(&["forest-5-lossy"], "lossy");
+    assert_safe_arrival(&s);
     for a in s["agents"].as_array().expect("agents") {
         let (rx, delivered) = (a["messages_received"].as_f64().expect("n"), a["messages_delivered"].as_f64().expect("n"));
         let share = delivered / rx;
@@ -158,14 +156,8 @@ fn forest5_over_lossy_links() {
 /// swarm reaches the goal.
 #[test]
 fn forest5_survives_a_uav_losing_its_links() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let out = swarm_run(&["forest-5-linkloss", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("linkloss")]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let s = summary(dir.path());
-    assert_eq!(s["reached_goal"], true, "{s:#}");
-    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
-    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let (_dir, s) = fly(&["forest-5-linkloss"], "linkloss");
+    assert_safe_arrival(&s);
     let events = s["agents"][2]["contact_events"].as_array().expect("events of UAV 3").clone();
     let at = |regained: bool| -> Vec<f64> {
         events.iter().filter(|e| e["regained"] == regained).map(|e| e["t_s"].as_f64().expect("t")).collect()
@@ -178,14 +170,8 @@ fn forest5_survives_a_uav_losing_its_links() {
 /// the trees, in the others' path: no collision, the others reach the goal, the frozen one stays.
 #[test]
 fn forest5_burst_loss_and_a_frozen_uav() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let out = swarm_run(&["forest-5-burst-frozen", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("burst")]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let s = summary(dir.path());
-    assert_eq!(s["reached_goal"], true, "{s:#}");
-    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 0.5);
-    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let (_dir, s) = fly(&["forest-5-burst-frozen"], "burst");
+    assert_safe_arrival(&s);
     let agents = s["agents"].as_array().expect("agents");
     assert!(agents[0]["path_length_m"].as_f64().expect("n") < 15.0, "UAV 1 froze early: {:#}", agents[0]);
     for a in &agents[1..] {
@@ -200,13 +186,8 @@ fn forest5_burst_loss_and_a_frozen_uav() {
 /// again after the heal, for good; the swarm reaches the common goal.
 #[test]
 fn partition_and_rejoin() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let out = swarm_run(&["open-field-7-partition", "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("part")]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let s = summary(dir.path());
-    assert_eq!(s["reached_goal"], true, "{s:#}");
-    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    assert!(s["min_agent_distance_m"].as_f64().expect("n") > 0.5);
+    let (_dir, s) = fly(&["open-field-7-partition"], "part");
+    assert_safe_arrival(&s);
     let c = &s["connectivity"];
     assert_eq!(c["estimates_across_blocked_links"], 0, "nothing crossed the partition: {c:#}");
     let changes = c["components_changes"].as_array().expect("changes");
