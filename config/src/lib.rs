@@ -266,6 +266,18 @@ impl Scenario {
         Ok(())
     }
 
+    /// Checks a rule to be added to a running swarm (`swarm netem`): ids in range, a valid
+    /// impairment. The error names the field.
+    pub fn check_netem_rule(&self, r: &NetemRule) -> Result<(), String> {
+        let check = || -> Check {
+            non_negative("at_s", r.at_s)?;
+            self.check_uav_set("from", &r.from)?;
+            self.check_uav_set("to", &r.to)?;
+            r.rule.validate().map_err(|e| (format!("rule.{}", e.field), e.reason))
+        };
+        check().map_err(|(field, msg)| format!("field `{field}`: {msg}"))
+    }
+
     /// The netem rule in force at sim time `t` for messages from `from` to `to`: the last rule
     /// (in file order among equal times) with `at_s <= t` that covers the link; none = identity.
     /// A frozen sender says nothing: its links are blocked from its freeze on.

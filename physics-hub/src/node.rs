@@ -84,6 +84,10 @@ struct Net {
     alive_changed: Arc<Notify>,
     cmds: mpsc::UnboundedReceiver<(u32, Cmd)>,
     malformed: Arc<AtomicU64>,
+    /// The `[[netem]]` rules in force: the scenario's, plus those added while running.
+    rules: Vec<swarm_config::NetemRule>,
+    netem_rules: Publisher,
+    netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
 }
 
 async fn put(p: &Publisher, msg: &Msg) -> Result<(), WireError> {
@@ -150,6 +154,7 @@ async fn declare_world_queryable(
 struct Subs {
     _cmd: zenoh::pubsub::Subscriber<()>,
     _alive: zenoh::pubsub::Subscriber<()>,
+    _netem: zenoh::pubsub::Subscriber<()>,
 }
 
 impl Net {
@@ -218,7 +223,18 @@ impl Net {
             })
             .await
             .map_err(WireError::zenoh)?;
+        let (added_tx, netem_added) = mpsc::unbounded_channel();
+        let netem_sub = s
+            .declare_subscriber(keys.netem_add())
+            .callback(move |sample| {
+                let _ = added_tx.send(sample.payload().to_bytes().into_owned());
+            })
+            .await
+            .map_err(WireError::zenoh)?;
         let net = Net {
+            rules: sc.netem.clone(),
+            netem_rules: publisher(&s, keys.netem_rules(), CongestionControl::Block).await?,
+            netem_added,
             clock: publisher(&s, keys.clock(), CongestionControl::Block).await?,
             truth_world: publisher(&s, keys.truth_world(), CongestionControl::Block).await?,
             truth_step: publisher(&s, keys.truth_step(), CongestionControl::Block).await?,
@@ -230,7 +246,7 @@ impl Net {
             cmds,
             malformed,
         };
-        Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub }))
+        Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub, _netem: netem_sub }))
     }
 
     fn alive_now(&self) -> BTreeSet<u32> {
@@ -272,11 +288,13 @@ impl Net {
             _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, Instant::now()).await,
         }
         put(&self.truth_world, &Msg::TruthWorld(sim.truth_world())).await?;
+        self.publish_rules().await?;
         let started = Instant::now();
         let mut scan_buf = Vec::new();
         let mut next_wall = tokio::time::Instant::now();
         let real_dt = Duration::from_secs_f64(sim.clock().dt_secs / sc.time.realtime_factor);
         loop {
+            self.take_added_rules(sc, sim.t_secs() + sim.clock().dt_secs).await?;
             let sent = self.alive_now();
             if sent.is_empty() {
                 warn!("no agent alive");
@@ -315,6 +333,47 @@ impl Net {
                 return self.report(sim, end);
             }
         }
+    }
+
+    /// Rules added by `swarm netem` take effect from `not_before` (the next tick) at the
+    /// earliest; every change is published on `netem/rules` before this tick's sensors, so agents
+    /// apply it in wire order. Invalid additions are logged and dropped.
+    async fn take_added_rules(&mut self, sc: &Scenario, not_before: f64) -> Result<(), WireError> {
+        let mut changed = false;
+        while let Ok(bytes) = self.netem_added.try_recv() {
+            let parsed = match Msg::decode(&bytes) {
+                Ok(Msg::NetemRules(json)) => serde_json::from_str::<Vec<swarm_config::NetemRule>>(&json).map_err(|e| e.to_string()),
+                other => Err(format!("not a NetemRules message: {other:?}")),
+            };
+            let rules = match parsed {
+                Ok(r) => r,
+                Err(e) => {
+                    self.malformed.fetch_add(1, Ordering::Relaxed);
+                    warn!("netem rules refused: {e}");
+                    continue;
+                }
+            };
+            for mut r in rules {
+                r.at_s = r.at_s.max(not_before);
+                match sc.check_netem_rule(&r) {
+                    Ok(()) => {
+                        info!(at_s = r.at_s, "netem rule added");
+                        self.rules.push(r);
+                        changed = true;
+                    }
+                    Err(e) => warn!("netem rule refused: {e}"),
+                }
+            }
+        }
+        if changed {
+            self.publish_rules().await?;
+        }
+        Ok(())
+    }
+
+    async fn publish_rules(&self) -> Result<(), WireError> {
+        let json = serde_json::to_string(&self.rules).map_err(|e| WireError::zenoh(e.to_string()))?;
+        put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 
     async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>, buf: &mut Vec<f32>) -> Result<(), WireError> {

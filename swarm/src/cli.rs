@@ -45,6 +45,8 @@ pub enum Cmd {
     Tap(crate::tap::TapArgs),
     /// Publish one message (as JSON, or raw hex) on a key.
     Put(crate::tap::PutArgs),
+    /// Change the network faults of a running swarm (loss, delay, partition, isolate, heal).
+    Netem(crate::netem_cli::NetemArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -207,6 +209,7 @@ async fn dispatch(cli: Cli) -> Result<ExitCode> {
         Cmd::Record(a) => crate::launch::record_only(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,
         Cmd::Put(a) => crate::tap::put(a).await,
+        Cmd::Netem(a) => crate::netem_cli::netem(a).await,
         Cmd::Scenarios => {
             for (name, text) in swarm_config::BUILTIN {
                 let desc = Scenario::from_toml_str(text, name).map(|s| s.description).unwrap_or_default();

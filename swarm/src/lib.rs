@@ -1,10 +1,11 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
-//! - [`cli`]: argument parsing and dispatch (`swarm run | hub | agent | record | tap | put | scenarios | check`).
+//! - [`cli`]: argument parsing and dispatch (`swarm run | hub | agent | record | tap | put | netem | scenarios | check`).
 //! - [`launch`]: `swarm run`: starts the hub, one agent process per UAV and the recorder, shows
 //!   progress, stops at the end condition, writes the run folder.
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV) and
 //!   accumulates the metrics of [`summary`].
+//! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
 //! - [`plot`]: `run.svg`, the map of the run and distances over time.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
@@ -16,6 +17,7 @@
 
 pub mod cli;
 pub mod launch;
+pub mod netem_cli;
 pub mod plot;
 pub mod recorder;
 pub mod summary;

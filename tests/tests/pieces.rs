@@ -255,3 +255,39 @@ fn recorder_notices_a_vanished_hub() {
     assert_eq!(s["end_reason"], "incomplete", "{s:#}");
     assert!(s["ticks"].as_u64().expect("n") >= 3);
 }
+
+/// Issue 4: `swarm netem` changes the faults of a running swarm. UAV 3 is isolated mid-flight:
+/// the hub takes the rule and republishes the rules in force, and every agent applies it (UAV 3
+/// loses all its neighbours and hears nothing more).
+#[test]
+fn netem_command_isolates_a_uav_of_a_running_swarm() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("netemcli");
+    let sc = dir.path().join("three.toml");
+    std::fs::write(
+        &sc,
+        "name = \"three\"\n[swarm]\ncount = 3\nstart_positions = [[0.0, 0.0], [0.0, 2.0], [0.0, -2.0]]\ngoal = [100.0, 0.0]\n[time]\nmode = \"realtime\"\nrealtime_factor = 4.0\n[end]\ntime_limit_s = 40.0\n",
+    )
+    .expect("write");
+    let (mut hub, loc) = start_hub(sc.to_str().expect("utf8"), &run, dir.path());
+    let out = dir.path().join("rec");
+    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
+    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let _agents: Vec<Proc> = (1..=3)
+        .map(|id| Proc::start(&["agent", "--run", &run, "--id", &id.to_string(), "--connect", &loc], &dir.path().join(format!("a{id}.log"))))
+        .collect();
+    assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]).lines().count(), 20);
+    let o = Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "isolate", "3"]).output().expect("netem");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("\"blocked\":true"));
+    assert!(rec.wait_for(Duration::from_secs(60)).expect("the run ends").success());
+    assert!(hub.wait_for(Duration::from_secs(20)).is_some());
+    let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");
+    assert_eq!(hub_log.matches("netem rule added").count(), 2, "mute and deaf: {hub_log}");
+    let s = common::summary(&out);
+    let uav3 = &s["agents"][2];
+    let lost = uav3["contact_events"].as_array().expect("events").iter().any(|e| e["regained"] == false);
+    assert!(lost, "UAV 3 lost its neighbours once isolated: {uav3:#}");
+    let (rx, delivered) = (uav3["messages_received"].as_u64().expect("n"), uav3["messages_delivered"].as_u64().expect("n"));
+    assert!(delivered < rx / 2, "most of what reached UAV 3 after the cut was dropped: {uav3:#}");
+}

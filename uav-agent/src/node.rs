@@ -155,6 +155,7 @@ struct Node {
     last_tick: Option<u64>,
     _sense_sub: zenoh::pubsub::Subscriber<()>,
     _radio_sub: zenoh::pubsub::Subscriber<()>,
+    _rules_sub: zenoh::pubsub::Subscriber<()>,
     _hub_watch: zenoh::pubsub::Subscriber<()>,
     _token: Option<zenoh::liveliness::LivelinessToken>,
 }
@@ -166,7 +167,7 @@ impl Node {
             TimeMode::Realtime => CongestionControl::Drop,
         };
         let (tx, rx) = mpsc::unbounded_channel();
-        let (sense_tx, radio_tx) = (tx.clone(), tx.clone());
+        let (sense_tx, radio_tx, rules_tx) = (tx.clone(), tx.clone(), tx.clone());
         let decode = |bytes: &[u8]| Incoming::Sense(Msg::decode(bytes).ok());
         let sense_sub = s
             .declare_subscriber(keys.sense_all(id))
@@ -179,6 +180,14 @@ impl Node {
             .declare_subscriber(keys.radio(id))
             .callback(move |sample| {
                 let _ = radio_tx.send(decode(&sample.payload().to_bytes()));
+            })
+            .await
+            .map_err(WireError::zenoh)?;
+        // The rules in force, republished by the hub whenever `swarm netem` changes them.
+        let rules_sub = s
+            .declare_subscriber(keys.netem_rules())
+            .callback(move |sample| {
+                let _ = rules_tx.send(decode(&sample.payload().to_bytes()));
             })
             .await
             .map_err(WireError::zenoh)?;
@@ -218,6 +227,7 @@ impl Node {
             last_tick: None,
             _sense_sub: sense_sub,
             _radio_sub: radio_sub,
+            _rules_sub: rules_sub,
             _hub_watch: hub_watch,
             _token: None,
             s,
@@ -303,6 +313,16 @@ impl Node {
             Msg::Odom(o) => self.odom = Some(o),
             Msg::Gnss(g) => self.gnss = Some(g),
             Msg::Scan(s) => self.scan = Some(s),
+            Msg::NetemRules(json) => match serde_json::from_str::<Vec<swarm_config::NetemRule>>(&json) {
+                Ok(rules) => {
+                    debug!(rules = rules.len(), "netem rules in force updated");
+                    self.netem_rules.netem = rules;
+                }
+                Err(e) => {
+                    self.malformed += 1;
+                    warn!("malformed netem rules dropped: {e}");
+                }
+            },
             other => trace!(kind = other.kind(), "ignored"),
         }
         self.try_step().await

@@ -16,7 +16,8 @@
 //! swarm/{run}/alive/hub                    liveliness token of the hub
 //! swarm/{run}/alive/uav/{id}               liveliness token of agent {id}
 //! swarm/{run}/alive/recorder               liveliness token of the recorder
-//! swarm/{run}/netem/**                     (reserved for fault rules)
+//! swarm/{run}/netem/rules                  NetemRules   hub -> all (the [[netem]] rules in force)
+//! swarm/{run}/netem/add                    NetemRules   tools -> hub (rules to add, `swarm netem`)
 //! ```
 
 use crate::WireError;
@@ -98,6 +99,14 @@ impl Keys {
     /// `swarm/{run}/radio/{id}`
     pub fn radio(&self, id: u32) -> String {
         format!("{}/radio/{id}", self.prefix)
+    }
+    /// `swarm/{run}/netem/rules`
+    pub fn netem_rules(&self) -> String {
+        format!("{}/netem/rules", self.prefix)
+    }
+    /// `swarm/{run}/netem/add`
+    pub fn netem_add(&self) -> String {
+        format!("{}/netem/add", self.prefix)
     }
     /// `swarm/{run}/truth/world`
     pub fn truth_world(&self) -> String {

@@ -37,6 +37,10 @@ pub enum Msg {
     TruthStep(TruthStep),
     /// `.../share/obstacles`
     Obstacles(ObstacleShare),
+    /// `swarm/{run}/netem/rules` (the rules in force, hub -> all) and `swarm/{run}/netem/add`
+    /// (a rule to add, tools -> hub): JSON text of the scenario's `[[netem]]` entries, since the
+    /// rule types are self-describing serde enums that postcard cannot carry.
+    NetemRules(String),
 }
 
 impl Msg {
@@ -64,6 +68,7 @@ impl Msg {
             Msg::TruthWorld(_) => "truth_world",
             Msg::TruthStep(_) => "truth_step",
             Msg::Obstacles(_) => "obstacles",
+            Msg::NetemRules(_) => "netem_rules",
         }
     }
 }
