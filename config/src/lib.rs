@@ -46,6 +46,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
+    ("open-field-5-restart", include_str!("../../scenarios/open-field-5-restart.toml")),
     ("open-field-7-partition", include_str!("../../scenarios/open-field-7-partition.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
 ];

@@ -78,6 +78,12 @@ pub enum FailureKind {
     /// From `at_s` on the UAV hovers where it is (an obstacle to the others) and says nothing:
     /// the hub ignores its commands and its shares reach no one.
     Freeze,
+    /// Its agent process is killed at `at_s` (`swarm run` only): its token goes, the hub stops
+    /// waiting for it, and its body keeps its last command.
+    Kill,
+    /// A new agent process is started for it at `at_s` (`swarm run` only; an old one is killed
+    /// first): it fetches the scenario, joins, and is localized again.
+    Restart,
 }
 
 /// One failure of one UAV.

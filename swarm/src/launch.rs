@@ -12,7 +12,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::{ExitCode, Stdio};
 use std::time::Duration;
-use swarm_config::{Scenario, TimeMode};
+use std::collections::BTreeMap;
+use swarm_config::{FailureKind, Scenario, TimeMode};
 use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, Msg};
 use tokio::io::{AsyncBufReadExt, BufReader};
@@ -69,9 +70,8 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     info!(?locators, "hub up");
 
     let rec = Recording::start(&run_id, &locators, &a.cfg).await?;
-    let mut agents = Vec::new();
-    for id in sc.agent_ids() {
-        agents.push(spawn(&exe, &logs.join(format!("agent-{id}.log")), false, |c| {
+    let start_agent = |id: u32, log: &str| {
+        spawn(&exe, &logs.join(log), false, |c| {
             c.arg("agent").args(["--run", &run_id, "--id", &id.to_string(), "--exit-with-stdin"]);
             for l in &locators {
                 c.args(["--connect", l]);
@@ -79,12 +79,43 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
             for kv in &a.cfg {
                 c.args(["--cfg", kv]);
             }
-        })?);
+        })
+    };
+    let mut agents: BTreeMap<u32, Piece> = BTreeMap::new();
+    for id in sc.agent_ids() {
+        agents.insert(id, start_agent(id, &format!("agent-{id}.log"))?);
     }
+    // Kills and restarts of `[[failures]]`, in time order, applied as sim time passes.
+    let mut schedule: Vec<(f64, u32, FailureKind)> = sc
+        .failures
+        .iter()
+        .filter(|f| f.kind != FailureKind::Freeze)
+        .map(|f| (f.at_s, f.uav, f.kind))
+        .collect();
+    schedule.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut restarts = 0u32;
+    let mut on_tick = |t: f64| -> Result<()> {
+        while let Some(&(at, id, kind)) = schedule.first() {
+            if at > t + 1e-9 {
+                break;
+            }
+            schedule.remove(0);
+            if let Some(mut old) = agents.remove(&id) {
+                info!(uav_id = id, t, "killing agent");
+                let _ = old.child.start_kill();
+            }
+            if kind == FailureKind::Restart {
+                restarts += 1;
+                info!(uav_id = id, t, "restarting agent");
+                agents.insert(id, start_agent(id, &format!("agent-{id}-restart-{restarts}.log"))?);
+            }
+        }
+        Ok(())
+    };
     let progress = progress_bar(&sc, a.quiet);
-    let summary = rec.record(&out, &sc, &progress, Some(&mut hub.child)).await?;
+    let summary = rec.record(&out, &sc, &progress, Some(&mut hub.child), &mut on_tick).await?;
     progress.finish_and_clear();
-    let hub_ok = stop_children(hub, agents).await;
+    let hub_ok = stop_children(hub, agents.into_values().collect()).await;
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
     Ok(exit_code(&summary, hub_ok))
@@ -97,7 +128,7 @@ pub async fn record_only(a: RecordArgs) -> Result<ExitCode> {
     let rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.cfg).await?;
     let sc = rec.fetch_scenario().await?;
     let progress = progress_bar(&sc, false);
-    let summary = rec.record(&a.out, &sc, &progress, None).await?;
+    let summary = rec.record(&a.out, &sc, &progress, None, &mut |_| Ok(())).await?;
     progress.finish_and_clear();
     println!("{}", summary.human());
     Ok(exit_code(&summary, true))
@@ -313,7 +344,16 @@ impl Recording {
 
     /// Records until the hub marks the last step, the hub goes away, or a Ctrl-C (after which it
     /// waits up to [`STOP_GRACE`] for the hub's `stopped` step).
-    async fn record(mut self, out: &Path, sc: &Scenario, pb: &ProgressBar, mut hub: Option<&mut Child>) -> Result<Summary> {
+    /// `on_tick` is called with the sim time of every truth step (the launcher applies kills
+    /// and restarts there).
+    async fn record(
+        mut self,
+        out: &Path,
+        sc: &Scenario,
+        pb: &ProgressBar,
+        mut hub: Option<&mut Child>,
+        on_tick: &mut dyn FnMut(f64) -> Result<()>,
+    ) -> Result<Summary> {
         let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), malformed: 0, sc, pb };
         // The world is published once; ask for it too, in case that was before we subscribed.
         match self.ask(self.keys.truth_world()).await {
@@ -340,7 +380,10 @@ impl Recording {
             // Biased: every queued truth step is taken before the hub's exit is noticed.
             tokio::select! {
                 biased;
-                Some(b) = self.truth.recv() => if sink.truth(&b)? { break },
+                Some(b) = self.truth.recv() => {
+                    if sink.truth(&b)? { break }
+                    if let Some(t) = sink.m.last_step().map(|s| s.t_secs) { on_tick(t)?; }
+                },
                 Some(b) = self.states.recv() => sink.state(&b)?,
                 changed = self.hub_alive.changed() => {
                     let up = changed.is_ok() && *self.hub_alive.borrow();

@@ -198,3 +198,32 @@ fn partition_and_rejoin() {
     assert_eq!(r["heal_at_s"], 30.0);
     assert!(r["reconnected_after_s"].as_f64().is_some() && r["stays_connected_after_s"].as_f64().is_some(), "{c:#}");
 }
+
+/// Issue 4, failures of individuals: the agent process of UAV 2 is killed at 10 s and a new one
+/// started at 20 s. The hub stops waiting for the dead agent, the new one joins the running
+/// swarm and localizes its neighbours again, and the swarm reaches the goal.
+#[test]
+fn an_agent_killed_and_restarted_rejoins() {
+    let (dir, s) = fly(&["open-field-5-restart"], "restart");
+    assert_safe_arrival(&s);
+    let traj = std::fs::read_to_string(dir.path().join("trajectories.csv")).expect("csv");
+    // Columns: tick,t_s,id,...,colliding,alive,cmd_on_time
+    let alive_changes: Vec<(f64, bool)> = traj
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|c| c[2] == "2")
+        .map(|c| (c[1].parse::<f64>().expect("t"), c[11] == "1"))
+        .fold(Vec::new(), |mut v: Vec<(f64, bool)>, (t, a)| {
+            if v.last().is_none_or(|&(_, prev)| prev != a) {
+                v.push((t, a));
+            }
+            v
+        });
+    assert_eq!(alive_changes.len(), 3, "alive, dead, alive again: {alive_changes:?}");
+    assert!((10.0..=11.0).contains(&alive_changes[1].0) && !alive_changes[1].1, "{alive_changes:?}");
+    assert!((20.0..=25.0).contains(&alive_changes[2].0) && alive_changes[2].1, "{alive_changes:?}");
+    let events = s["agents"][1]["contact_events"].as_array().expect("events").clone();
+    let regained = events.iter().any(|e| e["regained"] == true && e["t_s"].as_f64().expect("t") >= 20.0);
+    assert!(regained, "the new agent localized its neighbours: {events:?}");
+}
