@@ -8,6 +8,14 @@ use common::{run_id, start_hub, Proc, SWARM};
 use std::process::Command;
 use std::time::Duration;
 
+/// Starts `swarm record` into `out` and waits until it holds its token, i.e. is subscribed.
+fn start_recorder(run: &str, loc: &str, out: &std::path::Path, dir: &std::path::Path) -> Proc {
+    let rec = Proc::start(&["record", "--run", run, "--out", out.to_str().expect("utf8"), "--connect", loc], &dir.join("rec.log"));
+    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", loc, "--count", "1", "--duration", "30"]);
+    assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
+    rec
+}
+
 fn tap(args: &[&str]) -> String {
     let out = Command::new(SWARM).arg("tap").args(args).output().expect("tap runs");
     assert!(out.status.success(), "tap failed: {}", String::from_utf8_lossy(&out.stderr));
@@ -25,14 +33,9 @@ fn pieces_by_hand_fly_and_tap_decodes_the_key_space() {
     let v: serde_json::Value = serde_json::from_str(got.lines().next().expect("a line")).expect("json line");
     assert!(v["text"].as_str().expect("text").contains("open-field-5"), "{v}");
 
-    // Recorder first (it must see tick 0), then the five agents, each with only --connect.
+    // Recorder first (it must see the whole run), then the five agents, each with only --connect.
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(
-        &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc],
-        &dir.path().join("rec.log"),
-    );
-    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
-    assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
+    let mut rec = start_recorder(&run, &loc, &out, dir.path());
     // A tap on the truth of the run, decoding postcard into JSON lines, while the swarm flies.
     let truth_tap = Command::new(SWARM)
         .args(["tap", &format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", "3", "--duration", "60"])
@@ -160,8 +163,7 @@ fn malformed_messages_are_counted_and_dropped() {
     .expect("scenario");
     let (mut hub, loc) = start_hub(sc.to_str().expect("utf8"), &run, dir.path());
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
-    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let mut rec = start_recorder(&run, &loc, &out, dir.path());
     let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
     assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "5", "--duration", "60"]).lines().count(), 5);
     let put = |key: String, payload: &[&str]| {
@@ -207,8 +209,7 @@ fn a_foreign_uav_id_is_ignored_by_the_hub() {
     let alive = tap(&[&format!("swarm/{run}/alive/uav/2"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
     assert!(alive.contains("true"), "the foreign agent is up: {alive}");
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
-    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let mut rec = start_recorder(&run, &loc, &out, dir.path());
     let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
     assert!(rec.wait_for(Duration::from_secs(60)).expect("run ends").success());
     let s = common::summary(&out);
@@ -244,8 +245,7 @@ fn recorder_notices_a_vanished_hub() {
     .expect("write");
     let (hub, loc) = start_hub(sc.to_str().expect("utf8"), &run, dir.path());
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
-    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let mut rec = start_recorder(&run, &loc, &out, dir.path());
     let _agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
     assert_eq!(tap(&[&format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", "3", "--duration", "30"]).lines().count(), 3);
     drop(hub); // SIGKILL
@@ -271,8 +271,7 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
     .expect("write");
     let (mut hub, loc) = start_hub(sc.to_str().expect("utf8"), &run, dir.path());
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
-    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    let mut rec = start_recorder(&run, &loc, &out, dir.path());
     let _agents: Vec<Proc> = (1..=3)
         .map(|id| Proc::start(&["agent", "--run", &run, "--id", &id.to_string(), "--connect", &loc], &dir.path().join(format!("a{id}.log"))))
         .collect();
