@@ -11,7 +11,6 @@ use crate::localization::{wrap, BroadcastTable, Estimate};
 use crate::neighbours::{Database, Matcher, Received};
 use crate::perception;
 use nalgebra::{Point2, Vector2};
-use std::collections::BTreeMap;
 use std::time::Instant;
 use swarm_config::{IcpParams, LocalizationMode, Scenario, TimeMode};
 use swarm_wire::{
@@ -88,25 +87,32 @@ pub struct Agent {
     sc: Scenario,
     table: BroadcastTable,
     db: Database,
-    /// The newest obstacle set from each neighbour, handed to the database every step (it
-    /// ignores sets older than `stale_after_s`).
-    received: BTreeMap<u32, Received>,
+    /// The newest obstacle set from each neighbour (one per sender), handed to the database by
+    /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
+    received: Vec<Received>,
 }
 
 impl Agent {
     /// The agent of UAV `id` under scenario `sc`.
     pub fn new(id: u32, sc: Scenario) -> Agent {
         let db = Database::new(sc.localization.icp.clone(), sc.localization.stale_after_s);
-        Agent { id, sc, table: BroadcastTable::default(), db, received: BTreeMap::new() }
+        Agent { id, sc, table: BroadcastTable::default(), db, received: Vec::new() }
     }
 
     /// Takes a neighbour's share that the link has delivered (our own echo is ignored).
     pub fn on_share(&mut self, share: Share) {
         match share {
             Share::Pose(p) if p.from != self.id => self.table.update(p),
-            Share::Obstacles(o) if o.from != self.id && self.received.get(&o.from).is_none_or(|r| o.t_secs > r.t_secs) => {
-                let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
-                self.received.insert(o.from, Received { from: o.from, t_secs: o.t_secs, points });
+            Share::Obstacles(o) if o.from != self.id => {
+                let held = self.received.iter().position(|r| r.from == o.from);
+                if held.is_none_or(|i| o.t_secs > self.received[i].t_secs) {
+                    let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
+                    let set = Received { from: o.from, t_secs: o.t_secs, points };
+                    match held {
+                        Some(i) => self.received[i] = set,
+                        None => self.received.push(set),
+                    }
+                }
             }
             _ => {}
         }
@@ -199,14 +205,13 @@ impl Agent {
             (LocalizationMode::Icp, _) => {
                 let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
                 let stale = self.sc.localization.stale_after_s;
-                self.received.retain(|_, r| now - r.t_secs <= stale + 1e-9);
-                let received: Vec<Received> = self.received.values().cloned().collect();
+                self.received.retain(|r| now - r.t_secs <= stale + 1e-9);
                 // The step-time failsafe (seed 000 6.2) guards a realtime deadline. In lockstep the
                 // hub waits for us, so there is none; and a wall-clock decision would make the run
                 // depend on machine load instead of repeating exactly.
                 let realtime = self.sc.time.mode == TimeMode::Realtime;
                 let mut elapsed_ms = || if realtime { started.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
-                let c = self.db.step(now, &own, &received, &mut IcpMatcher(&self.sc.localization.icp), &mut elapsed_ms);
+                let c = self.db.step(now, &own, &self.received, &mut IcpMatcher(&self.sc.localization.icp), &mut elapsed_ms);
                 let estimates = self.db.estimates(now).into_iter().map(Into::into).collect();
                 let counts = IcpCounts {
                     short: c.short,
