@@ -17,7 +17,13 @@
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+mod a21;
+mod m23;
+mod p17;
 mod schema;
+pub use a21::*;
+pub use m23::*;
+pub use p17::*;
 pub use schema::*;
 
 /// A scenario could not be read or is invalid. Always names the source, the field and the problem.
@@ -202,6 +208,10 @@ impl Scenario {
             return Err(("time.tick_timeout_ms".into(), "must be > 0".into()));
         }
         self.controller.k21.validate("controller.k21")?;
+        if self.controller.kind != ControllerKind::K21 {
+            // Until the agent flies them, say so instead of silently flying K21.
+            return Err(("controller.kind".into(), format!("{:?} is not flown by the agent yet", self.controller.kind)));
+        }
         self.perception.validate()?;
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;

@@ -470,6 +470,12 @@ impl Default for Time {
 pub enum ControllerKind {
     /// Seed 000 chapter 4: Boids with tangential obstacle avoidance; velocity output.
     K21,
+    /// Seed 001 chapter 3: Reynolds flocking with virtual β-agents for obstacles; velocity output.
+    P17,
+    /// Seed 003 section III: proximal control plus A* navigation; acceleration output.
+    A21,
+    /// Seed 004 chapter 3: formation topologies on top of a costmap planner; velocity output.
+    M23,
 }
 
 /// Controller choice and parameters.
@@ -482,13 +488,28 @@ pub struct Controller {
     /// K21 parameters.
     #[serde(default)]
     pub k21: K21Params,
+    /// P17 parameters.
+    #[serde(default)]
+    pub p17: crate::P17Params,
+    /// A21 parameters.
+    #[serde(default)]
+    pub a21: crate::A21Params,
+    /// M23 parameters.
+    #[serde(default)]
+    pub m23: crate::M23Params,
 }
 fn d_controller() -> ControllerKind {
     ControllerKind::K21
 }
 impl Default for Controller {
     fn default() -> Self {
-        Controller { kind: d_controller(), k21: K21Params::default() }
+        Controller {
+            kind: d_controller(),
+            k21: K21Params::default(),
+            p17: crate::P17Params::default(),
+            a21: crate::A21Params::default(),
+            m23: crate::M23Params::default(),
+        }
     }
 }
 

@@ -10,12 +10,17 @@
 //! Entry point: [`run`]. Architecture invariant: an agent sees the world only through its own
 //! sensor keys and its neighbours' shares; it never reads `truth/**`.
 
+pub mod a21;
 pub mod agent;
+pub mod costmap;
+pub mod grid;
 pub mod icp;
 pub mod k21;
+pub mod m23;
 pub mod localization;
 pub mod neighbours;
 pub mod node;
+pub mod p17;
 pub mod perception;
 
 pub use node::{run, AgentError, AgentExit, AgentOptions};

@@ -1,0 +1,1 @@
+//! The A21 controller (seed 003 section III). Placeholder.

@@ -1,0 +1,1 @@
+//! Costmap with inflation and a social layer (seed 004). Placeholder.

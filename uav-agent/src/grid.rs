@@ -1,0 +1,1 @@
+//! Occupancy grid built from scans, and A* on it. Placeholder.

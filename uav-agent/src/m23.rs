@@ -1,0 +1,1 @@
+//! Formation topologies of seed 004 (M23). Placeholder.
