@@ -18,13 +18,17 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 mod a21;
+mod costmap;
 mod m23;
 mod p17;
 mod schema;
+mod uvdar;
 pub use a21::*;
+pub use costmap::*;
 pub use m23::*;
 pub use p17::*;
 pub use schema::*;
+pub use uvdar::*;
 
 /// A scenario could not be read or is invalid. Always names the source, the field and the problem.
 #[derive(Debug, thiserror::Error)]

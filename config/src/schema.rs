@@ -677,6 +677,9 @@ pub struct Localization {
     /// ICP parameters (`icp` mode).
     #[serde(default)]
     pub icp: IcpParams,
+    /// Onboard relative sensing (`uvdar` mode, seed 003).
+    #[serde(default)]
+    pub uvdar: crate::UvdarParams,
 }
 fn d_loc() -> LocalizationMode {
     LocalizationMode::Broadcast
@@ -686,7 +689,12 @@ fn d_stale() -> f64 {
 }
 impl Default for Localization {
     fn default() -> Self {
-        Localization { mode: d_loc(), stale_after_s: d_stale(), icp: IcpParams::default() }
+        Localization {
+            mode: d_loc(),
+            stale_after_s: d_stale(),
+            icp: IcpParams::default(),
+            uvdar: crate::UvdarParams::default(),
+        }
     }
 }
 

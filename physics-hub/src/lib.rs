@@ -20,6 +20,7 @@ pub mod lidar;
 pub mod node;
 pub mod radio;
 pub mod sim;
+pub mod uvdar;
 pub mod world;
 
 pub use node::{run, HubError, HubOptions, HubReport};

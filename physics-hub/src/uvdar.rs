@@ -1,0 +1,1 @@
+//! Onboard relative sensing (seed 003 UVDAR). Placeholder.
