@@ -73,7 +73,38 @@ pub fn builtin(name: &str) -> Result<Scenario, ScenarioError> {
     Scenario::from_toml_str(text, &format!("builtin:{name}"))
 }
 
+/// Deserializes TOML, naming the dotted path of the field that fails.
+fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, source_name: &str) -> Result<T, ScenarioError> {
+    let de = toml::Deserializer::new(text);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let field = e.path().to_string();
+        let field = if field == "." { "(top level)".to_string() } else { field };
+        ScenarioError::new(source_name, field, e.into_inner().message().trim().to_string())
+    })
+}
+
+impl Timeline {
+    /// Reads an experiment file: a TOML timeline of `[[netem]]` and `[[failures]]` tables. Errors
+    /// name the file and the field; ids are checked against a scenario by
+    /// [`Scenario::check_timeline`].
+    pub fn from_file(path: &Path) -> Result<Timeline, ScenarioError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ScenarioError::new(&name, "(file)", format!("cannot read: {e}")))?;
+        parse_toml(&text, &name)
+    }
+}
+
 impl Scenario {
+    /// Reads an experiment file (see [`Timeline::from_file`]) and checks it against this
+    /// scenario. Errors name the file and the field.
+    pub fn timeline_from_file(&self, path: &Path) -> Result<Timeline, ScenarioError> {
+        let t = Timeline::from_file(path)?;
+        let name = path.display().to_string();
+        self.check_timeline(&t, false).map_err(|e| ScenarioError::new(&name, "(timeline)", e))?;
+        Ok(t)
+    }
+
     /// Reads and validates a scenario file.
     pub fn from_file(path: &Path) -> Result<Scenario, ScenarioError> {
         let name = path.display().to_string();
@@ -106,12 +137,7 @@ impl Scenario {
 
     /// Parses and validates scenario TOML; `source_name` is used in error messages.
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Scenario, ScenarioError> {
-        let de = toml::Deserializer::new(text);
-        let sc: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
-            let field = e.path().to_string();
-            let field = if field == "." { "(top level)".to_string() } else { field };
-            ScenarioError::new(source_name, field, e.into_inner().message().trim().to_string())
-        })?;
+        let sc: Scenario = parse_toml(text, source_name)?;
         sc.validate().map_err(|(field, msg)| ScenarioError::new(source_name, field, msg))?;
         Ok(sc)
     }
@@ -219,6 +245,14 @@ impl Scenario {
         self.perception.validate()?;
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;
+        if let Some(l) = &self.radio.distance_loss {
+            if !(l.from_m.is_finite() && l.from_m >= 0.0 && l.from_m < self.radio.range_m) {
+                return Err(("radio.distance_loss.from_m".into(), "must be in [0, radio.range_m)".into()));
+            }
+            if !(0.0..=1.0).contains(&l.at_range) {
+                return Err(("radio.distance_loss.at_range".into(), "must be a probability in [0, 1]".into()));
+            }
+        }
         self.validate_netem()?;
         self.validate_failures()?;
         self.validate_mission()?;
@@ -273,37 +307,79 @@ impl Scenario {
 
     fn validate_netem(&self) -> Check {
         for (i, r) in self.netem.iter().enumerate() {
-            non_negative(&format!("netem[{i}].at_s"), r.at_s)?;
-            self.check_uav_set(&format!("netem[{i}].from"), &r.from)?;
-            self.check_uav_set(&format!("netem[{i}].to"), &r.to)?;
-            r.rule.validate().map_err(|e| (format!("netem[{i}].rule.{}", e.field), e.reason))?;
+            self.check_rule(&format!("netem[{i}]."), r)?;
         }
         Ok(())
     }
 
-    /// Checks a rule to be added to a running swarm (`swarm netem`): ids in range, a valid
-    /// impairment. The error names the field.
-    pub fn check_netem_rule(&self, r: &NetemRule) -> Result<(), String> {
+    /// Checks one netem rule; `at` prefixes the field names (`netem[3].`).
+    fn check_rule(&self, at: &str, r: &NetemRule) -> Check {
+        non_negative(&format!("{at}at_s"), r.at_s)?;
+        self.check_uav_set(&format!("{at}from"), &r.from)?;
+        self.check_uav_set(&format!("{at}to"), &r.to)?;
+        r.rule.validate().map_err(|e| (format!("{at}rule.{}", e.field), e.reason))?;
+        if let Some(p) = &r.partition {
+            if r.from != UavSet::default() || r.to != UavSet::default() {
+                return Err((format!("{at}partition"), "a partition names its nodes itself: leave `from` and `to` out".into()));
+            }
+            let only_hold = netem::impair::Impairment { hold: r.rule.hold, ..netem::impair::Impairment::IDENTITY };
+            if r.rule != only_hold {
+                return Err((format!("{at}rule"), "with a partition, `rule` may only set `hold`".into()));
+            }
+            for id in p.nodes() {
+                if id == 0 || id > self.swarm.count {
+                    return Err((format!("{at}partition"), format!("UAV id {id} is not in 1..={}", self.swarm.count)));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks a timeline to be added to a running swarm (`swarm netem`) or merged into this
+    /// scenario (`--experiment`): ids in range, valid impairments, only freezes among the failures
+    /// when `running` (kill and restart are the launcher's). The error names the field.
+    pub fn check_timeline(&self, t: &Timeline, running: bool) -> Result<(), String> {
         let check = || -> Check {
-            non_negative("at_s", r.at_s)?;
-            self.check_uav_set("from", &r.from)?;
-            self.check_uav_set("to", &r.to)?;
-            r.rule.validate().map_err(|e| (format!("rule.{}", e.field), e.reason))
+            for (i, r) in t.netem.iter().enumerate() {
+                self.check_rule(&format!("netem[{i}]."), r)?;
+            }
+            for (i, f) in t.failures.iter().enumerate() {
+                non_negative(&format!("failures[{i}].at_s"), f.at_s)?;
+                if f.uav == 0 || f.uav > self.swarm.count {
+                    return Err((format!("failures[{i}].uav"), format!("UAV id {} is not in 1..={}", f.uav, self.swarm.count)));
+                }
+                if running && f.kind != FailureKind::Freeze {
+                    return Err((format!("failures[{i}].kind"), "only `freeze` can be added to a running swarm".into()));
+                }
+            }
+            Ok(())
         };
         check().map_err(|(field, msg)| format!("field `{field}`: {msg}"))
     }
 
-    /// The netem rule in force at sim time `t` for messages from `from` to `to`: the last rule
-    /// (in file order among equal times) with `at_s <= t` that covers the link; none = identity.
-    /// A frozen sender says nothing: its links are blocked from its freeze on.
+    /// The netem rule in force at sim time `t` for messages from `from` to `to`. A frozen sender
+    /// says nothing: its links are blocked from its freeze on. Then the partition in force (the
+    /// latest partition event at or before `t`) blocks, or holds, the links it cuts. Otherwise
+    /// the last per-link rule (in file order among equal times) with `at_s <= t` that covers the
+    /// link applies; none = identity.
     pub fn netem_rule_at(&self, t: f64, from: u32, to: u32) -> Option<&netem::impair::Impairment> {
+        use netem::impair::Impairment;
         if self.frozen_at(from, t) {
-            return Some(&netem::impair::Impairment::BLOCKED);
+            return Some(&Impairment::BLOCKED);
+        }
+        let due = |r: &&NetemRule| r.at_s <= t + 1e-9;
+        let latest = |a: &&NetemRule, b: &&NetemRule| a.at_s.total_cmp(&b.at_s);
+        let partition = self.netem.iter().filter(due).filter(|r| r.partition.is_some()).max_by(latest);
+        if let Some(r) = partition {
+            if r.partition.as_ref().is_some_and(|p| p.blocked(from, to)) {
+                return Some(if r.rule.hold { &Impairment::HOLD } else { &Impairment::BLOCKED });
+            }
         }
         self.netem
             .iter()
-            .filter(|r| r.at_s <= t + 1e-9 && r.from.contains(from) && r.to.contains(to))
-            .max_by(|a, b| a.at_s.total_cmp(&b.at_s))
+            .filter(due)
+            .filter(|r| r.partition.is_none() && r.from.contains(from) && r.to.contains(to))
+            .max_by(latest)
             .map(|r| &r.rule)
     }
 

@@ -126,6 +126,11 @@ impl UavSet {
 
 /// One timed network rule: from `at_s` on, messages from a UAV in `from` to one in `to` pass
 /// `rule` (Linux netem semantics, see `netem::impair`).
+///
+/// With `partition` set instead, the event is a partition (Jepsen's schemes, see
+/// `netem::impair::Partition`): from `at_s` on it replaces the partition in force, the links it
+/// cuts are blocked (or held, with `rule = { hold = true }`) whatever other rules say, and the
+/// rest keep their per-link rules. `partition = { scheme = "healed" }` ends it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NetemRule {
@@ -141,6 +146,36 @@ pub struct NetemRule {
     /// The impairment.
     #[serde(default)]
     pub rule: netem::impair::Impairment,
+    /// A partition event instead of a per-link rule (then `from`/`to` must stay `"all"` and
+    /// `rule` may only set `hold`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub partition: Option<netem::impair::Partition>,
+}
+
+impl NetemRule {
+    /// A per-link rule.
+    pub fn link(at_s: f64, from: UavSet, to: UavSet, rule: netem::impair::Impairment) -> NetemRule {
+        NetemRule { at_s, from, to, rule, partition: None }
+    }
+
+    /// A partition event; `hold` stores the cut links' messages instead of dropping them.
+    pub fn partition(at_s: f64, partition: netem::impair::Partition, hold: bool) -> NetemRule {
+        let rule = if hold { netem::impair::Impairment::HOLD } else { netem::impair::Impairment::IDENTITY };
+        NetemRule { at_s, from: UavSet::default(), to: UavSet::default(), rule, partition: Some(partition) }
+    }
+}
+
+/// Timed network rules and failures: the `[[netem]]` and `[[failures]]` of a scenario, or of a
+/// separate experiment file (`swarm run --experiment`, `swarm netem apply`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Timeline {
+    /// Network rules and partition events.
+    #[serde(default)]
+    pub netem: Vec<NetemRule>,
+    /// Failures of individuals.
+    #[serde(default)]
+    pub failures: Vec<Failure>,
 }
 
 /// Obstacles: explicit trees and walls, plus an optional generated forest.
@@ -393,6 +428,31 @@ pub struct Radio {
     /// A link, once up, drops only beyond `range_m + hysteresis_m`.
     #[serde(default = "d_hysteresis")]
     pub hysteresis_m: f64,
+    /// Distance-dependent loss on links that are up (none by default).
+    #[serde(default)]
+    pub distance_loss: Option<DistanceLoss>,
+}
+
+/// Distance-dependent loss of inter-agent messages, from ground truth: 0 up to `from_m`, rising
+/// linearly to `at_range` at `range_m`, and on at the same slope (capped at 1) through the
+/// hysteresis band. Applied per message, before the netem rules, from the link's seeded stream.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DistanceLoss {
+    /// Distance below which nothing is lost [m].
+    pub from_m: f64,
+    /// Loss probability at `radio.range_m`.
+    pub at_range: f64,
+}
+
+impl DistanceLoss {
+    /// The loss probability at distance `d` for a radio of range `range_m`.
+    pub fn at(&self, d: f64, range_m: f64) -> f64 {
+        if !(d > self.from_m) {
+            return 0.0;
+        }
+        (self.at_range * (d - self.from_m) / (range_m - self.from_m)).clamp(0.0, 1.0)
+    }
 }
 fn d_radio_range() -> f64 {
     10.0
@@ -402,7 +462,7 @@ fn d_hysteresis() -> f64 {
 }
 impl Default for Radio {
     fn default() -> Self {
-        Radio { range_m: d_radio_range(), hysteresis_m: d_hysteresis() }
+        Radio { range_m: d_radio_range(), hysteresis_m: d_hysteresis(), distance_loss: None }
     }
 }
 

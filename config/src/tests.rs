@@ -29,6 +29,8 @@ fn example_file_sets_every_section_away_from_nothing() {
     assert_eq!(sc.swarm.count, 3);
     assert_eq!(sc.lidar.beams, 750);
     assert_eq!(sc.controller.k21.kf, 0.4);
+    assert!(sc.radio.distance_loss.is_some());
+    assert!(sc.netem.iter().any(|r| r.partition.is_some() && r.rule.hold));
 }
 
 #[test]
@@ -154,4 +156,80 @@ fn goals_change_by_mission_time_and_uav() {
     assert_eq!(sc.goal_of(1, 5.0), [0.0, 9.0]);
     assert_eq!(sc.goal_of(2, 6.0), [10.0, 0.0], "the change was for UAV 1 only");
     assert_eq!(sc.goal_of(2, 8.0), [20.0, 0.0], "a change for all");
+}
+
+#[test]
+fn a_partition_event_cuts_its_links_over_per_link_rules_until_healed() {
+    let sc = Scenario::from_toml_str(
+        r#"
+name = "p"
+[swarm]
+count = 4
+start_positions = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]
+goal = [10.0, 0.0]
+[[netem]]
+at_s = 1.0
+rule = { delay_s = 0.2 }
+[[netem]]
+at_s = 2.0
+partition = { scheme = "halves", nodes = [1, 2, 3, 4] }
+[[netem]]
+at_s = 3.0
+partition = { scheme = "bridge", nodes = [1, 2, 3, 4] }
+rule = { hold = true }
+[[netem]]
+at_s = 4.0
+partition = { scheme = "healed" }
+"#,
+        "p.toml",
+    )
+    .expect("parses");
+    let rule = |t, a, b| sc.netem_rule_at(t, a, b).cloned();
+    assert_eq!(rule(1.5, 1, 3).map(|r| r.delay_s), Some(0.2));
+    // Halves {1,2} | {3,4}: across is blocked, within keeps the per-link rule.
+    assert!(rule(2.5, 1, 3).is_some_and(|r| r.blocked));
+    assert_eq!(rule(2.5, 1, 2).map(|r| r.delay_s), Some(0.2));
+    // Bridge {1,2} | 3 | {4}: the new partition replaces the old one, and holds instead of drops.
+    assert!(rule(3.5, 1, 4).is_some_and(|r| r.hold && !r.blocked));
+    assert_eq!(rule(3.5, 1, 3).map(|r| r.delay_s), Some(0.2), "3 is the bridge");
+    // Healed: only the per-link rule is left.
+    assert_eq!(rule(4.5, 1, 4).map(|r| r.delay_s), Some(0.2));
+}
+
+#[test]
+fn partition_events_and_distance_loss_are_validated() {
+    let base = r#"
+name = "p"
+[swarm]
+count = 3
+start_positions = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]
+goal = [10.0, 0.0]
+"#;
+    let e = err(&format!("{base}[[netem]]\npartition = {{ scheme = \"isolate\", node = 9 }}\n"));
+    assert_eq!(e.field, "netem[0].partition", "{e}");
+    let e = err(&format!("{base}[[netem]]\nfrom = [1]\npartition = {{ scheme = \"isolate\", node = 1 }}\n"));
+    assert_eq!(e.field, "netem[0].partition", "{e}");
+    let e = err(&format!("{base}[[netem]]\nrule = {{ delay_s = 1.0 }}\npartition = {{ scheme = \"isolate\", node = 1 }}\n"));
+    assert_eq!(e.field, "netem[0].rule", "{e}");
+    let e = err(&format!("{base}[radio]\ndistance_loss = {{ from_m = 12.0, at_range = 0.5 }}\n"));
+    assert_eq!(e.field, "radio.distance_loss.from_m", "{e}");
+    let e = err(&format!("{base}[radio]\ndistance_loss = {{ from_m = 2.0, at_range = 1.5 }}\n"));
+    assert_eq!(e.field, "radio.distance_loss.at_range", "{e}");
+}
+
+#[test]
+fn experiment_files_are_read_and_checked_against_the_scenario() {
+    let sc = Scenario::from_toml_str(MINIMAL, "m.toml").expect("minimal parses");
+    let dir = std::env::temp_dir().join(format!("swarm-config-timeline-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let ok = dir.join("ok.toml");
+    std::fs::write(&ok, "[[netem]]\nat_s = 5.0\npartition = { scheme = \"isolate\", node = 2 }\n[[failures]]\nat_s = 6.0\nuav = 1\nkind = \"kill\"\n").expect("write");
+    let t = sc.timeline_from_file(&ok).expect("ok");
+    assert_eq!((t.netem.len(), t.failures.len()), (1, 1));
+    assert!(sc.check_timeline(&t, true).is_err(), "a kill cannot be added to a running swarm");
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[[failures]]\nat_s = 6.0\nuav = 7\nkind = \"freeze\"\n").expect("write");
+    let e = sc.timeline_from_file(&bad).expect_err("UAV 7 of 2");
+    assert!(e.to_string().contains("bad.toml") && e.to_string().contains("failures[0].uav"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -29,7 +29,10 @@
 //! # What `decide` does, in netem's order (`netem_enqueue`)
 //!
 //! 1. **Blocked** (partition, isolation): dropped at once with [`LossCause::Blocked`]. No draw, no
-//!    state change: the cut is upstream of netem, like Jepsen's iptables drop.
+//!    state change: the cut is upstream of netem, like Jepsen's iptables drop. **Held**
+//!    ([`Impairment::hold`]): stored instead of dropped ([`Decision::Held`]), no draw; the caller
+//!    delivers what it stored once the link's rule stops holding. Neither netem nor Jepsen has
+//!    this; it is the "store, then flush" of a radio that buffers while out of range.
 //! 2. **Identity fast path**: a rule with no impairment ([`Impairment::is_identity`]) delivers at
 //!    `now` exactly, with no draw and no allocation.
 //! 3. **Duplicate**: one draw if `duplicate > 0` (netem: `q->duplicate >= get_crandom()`).
@@ -175,6 +178,11 @@ pub struct Impairment {
     /// Drop everything (partition, isolation). Set it from [`Partition::blocked`].
     #[serde(default)]
     pub blocked: bool,
+    /// Hold everything instead of dropping it: every message is stored, and the stored messages
+    /// are delivered at once when the rule for the link stops holding (release). The caller owns
+    /// the store ([`Decision::Held`]); `blocked` wins when both are set.
+    #[serde(default)]
+    pub hold: bool,
 }
 
 impl Default for Impairment {
@@ -194,15 +202,20 @@ impl Impairment {
         reorder: None,
         rate_bytes_per_s: None,
         blocked: false,
+        hold: false,
     };
 
     /// Everything is dropped (a partition or an isolated UAV).
     pub const BLOCKED: Impairment = Impairment { blocked: true, ..Impairment::IDENTITY };
 
+    /// Everything is stored until the link stops holding (a partition in `hold` mode).
+    pub const HOLD: Impairment = Impairment { hold: true, ..Impairment::IDENTITY };
+
     /// Whether this rule changes nothing, so [`LinkSim::decide`] takes its free fast path.
     #[inline]
     pub fn is_identity(&self) -> bool {
         !self.blocked
+            && !self.hold
             && self.delay_s == 0.0
             && self.jitter_s == 0.0
             && self.duplicate == 0.0
@@ -503,6 +516,8 @@ pub enum LossCause {
     Blocked,
     /// The loss model dropped it.
     LossModel,
+    /// The radio's distance-dependent loss dropped it ([`LinkSim::radio_loss`]).
+    Radio,
 }
 
 /// What the link does with one message: 0, 1 or 2 deliveries, at sim times.
@@ -514,6 +529,8 @@ pub enum Decision {
     Deliver(f64),
     /// Duplicated and both copies survived: the original's and the copy's delivery instants.
     Duplicate(f64, f64),
+    /// Stored by a holding link, to be delivered when it releases ([`Impairment::hold`]).
+    Held,
 }
 
 impl Decision {
@@ -521,7 +538,7 @@ impl Decision {
     #[inline]
     pub fn copies(&self) -> usize {
         match self {
-            Decision::Lost(_) => 0,
+            Decision::Lost(_) | Decision::Held => 0,
             Decision::Deliver(_) => 1,
             Decision::Duplicate(..) => 2,
         }
@@ -531,7 +548,7 @@ impl Decision {
     #[inline]
     pub fn instants(&self) -> impl Iterator<Item = f64> {
         let (at, n) = match *self {
-            Decision::Lost(_) => ([0.0, 0.0], 0),
+            Decision::Lost(_) | Decision::Held => ([0.0, 0.0], 0),
             Decision::Deliver(a) => ([a, 0.0], 1),
             Decision::Duplicate(a, b) => ([a, b], 2),
         };
@@ -541,13 +558,17 @@ impl Decision {
 
 /// What one directed link has done since it was created.
 ///
-/// `delivered = offered − blocked − lost + duplicated` always holds.
+/// `delivered = offered − blocked − held − lost + duplicated` always holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LinkStats {
     /// Messages handed to [`LinkSim::decide`].
     pub offered: u64,
     /// Messages dropped because the link was blocked.
     pub blocked: u64,
+    /// Messages stored by a holding link.
+    pub held: u64,
+    /// Messages dropped by the radio's distance-dependent loss.
+    pub radio_lost: u64,
     /// Copies the loss model dropped (a duplicate's own loss included).
     pub lost: u64,
     /// Messages duplicated.
@@ -619,6 +640,18 @@ impl LinkSim {
         self.decide_impaired(rule, now, bytes)
     }
 
+    /// The radio's distance-dependent loss (SPEC section 7): one draw from this link's stream
+    /// when `p > 0`, true (lost, counted) if it is below `p`. Called before [`LinkSim::decide`]
+    /// for a message the radio may lose; a lost message never reaches netem.
+    #[inline]
+    pub fn radio_loss(&mut self, p: f64) -> bool {
+        let lost = p > 0.0 && self.uniform() < p;
+        if lost {
+            self.stats.radio_lost += 1;
+        }
+        lost
+    }
+
     /// Counts since creation.
     pub fn stats(&self) -> LinkStats {
         self.stats
@@ -639,6 +672,10 @@ impl LinkSim {
         if rule.blocked {
             self.stats.blocked += 1;
             return Decision::Lost(LossCause::Blocked);
+        }
+        if rule.hold {
+            self.stats.held += 1;
+            return Decision::Held;
         }
         // Random duplication: netem draws only when the probability is set.
         let duplicated = rule.duplicate > 0.0 && self.uniform() < rule.duplicate;
@@ -802,6 +839,18 @@ impl Partition {
     /// `node` deaf and mute.
     pub fn isolate(node: u32) -> Partition {
         Partition::Isolate { node }
+    }
+
+    /// Every node the scheme names.
+    pub fn nodes(&self) -> Vec<u32> {
+        match self {
+            Partition::Healed => Vec::new(),
+            Partition::Groups { groups } => groups.iter().flatten().copied().collect(),
+            Partition::Halves { nodes } | Partition::Bridge { nodes } => nodes.clone(),
+            Partition::Isolate { node } => vec![*node],
+            Partition::MajoritiesRing { ring } => ring.clone(),
+            Partition::OneWay { from, to } => from.iter().chain(to).copied().collect(),
+        }
     }
 
     /// Whether the message `from → to` is dropped under this partition.
@@ -1221,6 +1270,7 @@ mod tests {
                 }
                 Decision::Deliver(a) => assert_eq!(a, now + 0.02),
                 Decision::Lost(c) => panic!("{c:?}"),
+                Decision::Held => panic!("not holding"),
             }
         }
         let rate = dups as f64 / N as f64;
@@ -1293,6 +1343,7 @@ mod tests {
             reorder: Some(Reorder { probability: 0.1, gap: 3 }),
             rate_bytes_per_s: Some(1e5),
             blocked: false,
+            hold: false,
         }
     }
 

@@ -12,7 +12,13 @@
 //! Onboard wiring (sensor and command keys) never passes through here.
 //!
 //! Modules: [`impair`], the pure impairment core (delay, jitter, loss and burst loss, duplication,
-//! reordering, rate, partitions) following Linux netem, not yet wired into [`Link`].
+//! reordering, rate, partitions, hold) following Linux netem; [`Link`] runs one seeded
+//! [`impair::LinkSim`] per sender under the rule the caller says is in force.
+//!
+//! Metrics: every message is counted under the class of the rule in force on its link when it was
+//! sent ([`LinkClass`]: clean, impaired, blocked/held), and the delay actually applied to every
+//! delivered copy (delivery instant − send instant, the one-tick floor included) is kept until the
+//! caller takes it with [`Link::take_delays`], so a recorder can report mean and p95 per class.
 
 use serde::{Deserialize, Serialize};
 
@@ -31,8 +37,64 @@ pub struct Counters {
     pub recv_bytes: u64,
     /// Messages handed to the agent (after the link's decisions).
     pub delivered_msgs: u64,
-    /// Messages the link dropped (none yet: the link passes everything).
+    /// Messages the link dropped.
     pub dropped_msgs: u64,
+    /// Per [`LinkClass`] (indexed by `class as usize`).
+    pub classes: [ClassCounters; 3],
+}
+
+/// The class of a link at the instant a message was sent, by the rule in force on it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LinkClass {
+    /// No rule, or a rule that changes nothing.
+    Clean = 0,
+    /// Delay, loss, duplication, reordering or rate (anything but a cut).
+    Impaired = 1,
+    /// Blocked or held (partition, isolation, frozen sender).
+    Cut = 2,
+}
+
+impl LinkClass {
+    /// The class of `rule` (`None` = no rule).
+    pub fn of(rule: Option<&impair::Impairment>) -> LinkClass {
+        match rule {
+            None => LinkClass::Clean,
+            Some(r) if r.blocked || r.hold => LinkClass::Cut,
+            Some(r) if r.is_identity() => LinkClass::Clean,
+            Some(_) => LinkClass::Impaired,
+        }
+    }
+
+    /// Lower-case name, as in `summary.json`.
+    pub fn name(self) -> &'static str {
+        match self {
+            LinkClass::Clean => "clean",
+            LinkClass::Impaired => "impaired",
+            LinkClass::Cut => "cut",
+        }
+    }
+
+    /// Every class, in index order.
+    pub const ALL: [LinkClass; 3] = [LinkClass::Clean, LinkClass::Impaired, LinkClass::Cut];
+}
+
+/// What the links of one class did to incoming messages.
+///
+/// `delivered = offered − dropped − held + duplicated + released`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClassCounters {
+    /// Messages that arrived on links of this class.
+    pub offered: u64,
+    /// Copies scheduled for delivery (duplicates and released messages included).
+    pub delivered: u64,
+    /// Messages dropped (loss model, radio loss, cut).
+    pub dropped: u64,
+    /// Messages duplicated.
+    pub duplicated: u64,
+    /// Messages stored by a holding link.
+    pub held: u64,
+    /// Stored messages delivered when their link released.
+    pub released: u64,
 }
 
 /// What the link decided for one incoming message.
@@ -44,6 +106,8 @@ pub enum Verdict {
     DeliverTwice(f64, f64),
     /// Drop it.
     Drop,
+    /// Store it until the link releases (see [`Inbox::push_held`] and [`Link::on_released`]).
+    Hold,
 }
 
 /// The receive side of one agent's inter-agent links: one seeded [`impair::LinkSim`] per sender,
@@ -54,6 +118,16 @@ pub struct Link {
     seed: u64,
     me: u32,
     sims: std::collections::BTreeMap<u32, impair::LinkSim>,
+    delays: Vec<AppliedDelay>,
+}
+
+/// The delay one delivered copy was given: delivery instant − send instant [s].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AppliedDelay {
+    /// The class of its link at the send instant.
+    pub class: LinkClass,
+    /// The delay [s].
+    pub delay_s: f64,
 }
 
 impl Link {
@@ -68,33 +142,81 @@ impl Link {
     }
 
     /// Like [`Link::on_receive`], under `rule` (the impairment in force for the link from `from`
-    /// at the send time; `None` = identity). The rule is applied at the send instant, as netem
+    /// at the send time; `None` = identity) after the radio's distance-dependent loss
+    /// `radio_loss` (a probability; 0 = none). The rule is applied at the send instant, as netem
     /// applies it at enqueue; every message still takes at least one tick.
+    #[allow(clippy::too_many_arguments)]
     pub fn on_receive_with(
         &mut self,
         rule: Option<&impair::Impairment>,
+        radio_loss: f64,
         from: u32,
         sent_at: f64,
         now: f64,
         dt: f64,
         bytes: usize,
     ) -> Verdict {
-        let Some(rule) = rule.filter(|r| !r.is_identity()) else {
+        let class = LinkClass::of(rule);
+        let rule = rule.filter(|r| !r.is_identity());
+        if rule.is_none() && radio_loss <= 0.0 {
             return self.on_receive(from, sent_at, now, dt, bytes);
-        };
+        }
         self.counters.recv_msgs += 1;
         self.counters.recv_bytes += bytes as u64;
+        self.counters.classes[class as usize].offered += 1;
         let (seed, me) = (self.seed, self.me);
         let sim = self.sims.entry(from).or_insert_with(|| impair::LinkSim::new(seed, from, me));
+        let decision = if sim.radio_loss(radio_loss) {
+            impair::Decision::Lost(impair::LossCause::Radio)
+        } else {
+            sim.decide(rule.unwrap_or(&impair::Impairment::IDENTITY), sent_at, bytes)
+        };
         let at = |t: f64| t.max(sent_at + dt).max(now);
-        match sim.decide(rule, sent_at, bytes) {
-            impair::Decision::Lost(_) => {
-                self.counters.dropped_msgs += 1;
-                Verdict::Drop
-            }
+        let verdict = match decision {
+            impair::Decision::Lost(_) => Verdict::Drop,
+            impair::Decision::Held => Verdict::Hold,
             impair::Decision::Deliver(t) => Verdict::DeliverAt(at(t)),
             impair::Decision::Duplicate(a, b) => Verdict::DeliverTwice(at(a), at(b)),
+        };
+        self.account(class, sent_at, verdict);
+        verdict
+    }
+
+    /// Counts one verdict under `class` and keeps the delays it applies.
+    fn account(&mut self, class: LinkClass, sent_at: f64, verdict: Verdict) {
+        let c = &mut self.counters.classes[class as usize];
+        let delay = |at: f64, delays: &mut Vec<AppliedDelay>| delays.push(AppliedDelay { class, delay_s: at - sent_at });
+        match verdict {
+            Verdict::Drop => {
+                c.dropped += 1;
+                self.counters.dropped_msgs += 1;
+            }
+            Verdict::Hold => c.held += 1,
+            Verdict::DeliverAt(a) => {
+                c.delivered += 1;
+                delay(a, &mut self.delays);
+            }
+            Verdict::DeliverTwice(a, b) => {
+                c.delivered += 2;
+                c.duplicated += 1;
+                delay(a, &mut self.delays);
+                delay(b, &mut self.delays);
+            }
         }
+    }
+
+    /// Notes that a message held since `sent_at` on a link of class `class` was released at
+    /// sim time `now` (it is delivered now).
+    pub fn on_released(&mut self, class: LinkClass, sent_at: f64, now: f64) {
+        let c = &mut self.counters.classes[class as usize];
+        c.released += 1;
+        c.delivered += 1;
+        self.delays.push(AppliedDelay { class, delay_s: now - sent_at });
+    }
+
+    /// The delays applied since the last call, oldest first.
+    pub fn take_delays(&mut self) -> Vec<AppliedDelay> {
+        std::mem::take(&mut self.delays)
     }
 
     /// Accounts for an outgoing message of `bytes` bytes. Returns whether to publish it.
@@ -110,7 +232,10 @@ impl Link {
     pub fn on_receive(&mut self, _from: u32, sent_at: f64, now: f64, dt: f64, bytes: usize) -> Verdict {
         self.counters.recv_msgs += 1;
         self.counters.recv_bytes += bytes as u64;
-        Verdict::DeliverAt((sent_at + dt).max(now))
+        self.counters.classes[LinkClass::Clean as usize].offered += 1;
+        let verdict = Verdict::DeliverAt((sent_at + dt).max(now));
+        self.account(LinkClass::Clean, sent_at, verdict);
+        verdict
     }
 
     /// Notes that `n` messages were handed to the agent.
@@ -124,7 +249,8 @@ impl Link {
     }
 }
 
-/// Messages waiting for their delivery instant, in arrival order.
+/// Messages waiting for their delivery instant, in arrival order. Held messages
+/// ([`Verdict::Hold`]) wait with no instant until [`Inbox::release`] gives them one.
 #[derive(Debug)]
 pub struct Inbox<T> {
     waiting: Vec<(f64, T)>,
@@ -145,6 +271,30 @@ impl<T> Inbox<T> {
     /// Holds `msg` until sim time `deliver_at`.
     pub fn push(&mut self, deliver_at: f64, msg: T) {
         self.waiting.push((deliver_at, msg));
+    }
+
+    /// Holds `msg` until [`Inbox::release`] lets it go.
+    pub fn push_held(&mut self, msg: T) {
+        self.waiting.push((f64::INFINITY, msg));
+    }
+
+    /// Gives every held message for which `release` is true the delivery instant `now`, and
+    /// returns them by reference count (for accounting: `(how many, the messages' own data)` is
+    /// the caller's business, so this returns how many were released).
+    pub fn release(&mut self, now: f64, mut release: impl FnMut(&T) -> bool) -> usize {
+        let mut n = 0;
+        for (at, m) in &mut self.waiting {
+            if at.is_infinite() && release(m) {
+                *at = now;
+                n += 1;
+            }
+        }
+        n
+    }
+
+    /// The held messages (waiting for a release).
+    pub fn held(&self) -> impl Iterator<Item = &T> {
+        self.waiting.iter().filter(|(at, _)| at.is_infinite()).map(|(_, m)| m)
     }
 
     /// Takes every message due at or before `now` (sim time), in arrival order. A microsecond of
@@ -223,13 +373,13 @@ mod tests {
         let (mut dropped, mut delivered) = (0, 0);
         for i in 0..10_000 {
             let t = f64::from(i) * 0.1;
-            match l.on_receive_with(Some(&lossy), 2, t, t, 0.1, 50) {
+            match l.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50) {
                 Verdict::Drop => dropped += 1,
                 Verdict::DeliverAt(at) => {
                     delivered += 1;
                     assert!((at - (t + 0.25)).abs() < 1e-9, "delayed by the rule");
                 }
-                Verdict::DeliverTwice(..) => panic!("no duplication configured"),
+                Verdict::DeliverTwice(..) | Verdict::Hold => panic!("no duplication or hold configured"),
             }
         }
         assert!((2_800..3_200).contains(&dropped), "{dropped}");
@@ -237,14 +387,84 @@ mod tests {
         assert_eq!(delivered + dropped, 10_000);
         // A 10 ms delay still takes the one-tick minimum.
         let short = Impairment { delay_s: 0.01, ..Impairment::IDENTITY };
-        assert_eq!(l.on_receive_with(Some(&short), 3, 1.0, 1.0, 0.1, 50), Verdict::DeliverAt(1.1));
+        assert_eq!(l.on_receive_with(Some(&short), 0.0, 3, 1.0, 1.0, 0.1, 50), Verdict::DeliverAt(1.1));
         // The same seed repeats the same decisions.
         let mut a = Link::with_seed(7, 1);
         let mut b = Link::with_seed(7, 1);
         for i in 0..100 {
             let t = f64::from(i) * 0.1;
-            assert_eq!(a.on_receive_with(Some(&lossy), 2, t, t, 0.1, 50), b.on_receive_with(Some(&lossy), 2, t, t, 0.1, 50));
+            assert_eq!(a.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50), b.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50));
         }
+    }
+
+    #[test]
+    fn classes_count_and_delays_are_kept_per_class() {
+        use impair::{Impairment, LossModel};
+        let mut l = Link::with_seed(3, 1);
+        let delayed = Impairment { delay_s: 0.3, loss: LossModel::Random { p: 0.5 }, ..Impairment::IDENTITY };
+        for i in 0..1000 {
+            let t = f64::from(i) * 0.1;
+            let _ = l.on_receive_with(None, 0.0, 2, t, t, 0.1, 10);
+            let _ = l.on_receive_with(Some(&delayed), 0.0, 3, t, t, 0.1, 10);
+            let _ = l.on_receive_with(Some(&Impairment::BLOCKED), 0.0, 4, t, t, 0.1, 10);
+        }
+        let c = l.counters();
+        let [clean, impaired, cut] = c.classes;
+        assert_eq!((clean.offered, clean.delivered, clean.dropped), (1000, 1000, 0));
+        assert_eq!(impaired.offered, 1000);
+        assert!((430..570).contains(&impaired.dropped), "{impaired:?}");
+        assert_eq!(impaired.delivered + impaired.dropped, 1000);
+        assert_eq!((cut.offered, cut.dropped, cut.delivered), (1000, 1000, 0));
+        assert_eq!(c.dropped_msgs, impaired.dropped + cut.dropped);
+        let delays = l.take_delays();
+        assert_eq!(delays.len() as u64, clean.delivered + impaired.delivered);
+        for d in &delays {
+            let want = if d.class == LinkClass::Clean { 0.1 } else { 0.3 };
+            assert!((d.delay_s - want).abs() < 1e-9, "{d:?}");
+        }
+        assert!(l.take_delays().is_empty(), "taken once");
+    }
+
+    #[test]
+    fn radio_loss_drops_its_share_before_netem_and_repeats() {
+        let run = |seed| {
+            let mut l = Link::with_seed(seed, 1);
+            (0..4000).map(|i| l.on_receive_with(None, 0.25, 2, f64::from(i), f64::from(i), 0.1, 10)).collect::<Vec<_>>()
+        };
+        let a = run(9);
+        let dropped = a.iter().filter(|v| **v == Verdict::Drop).count();
+        assert!((880..1120).contains(&dropped), "{dropped}");
+        assert_eq!(a, run(9));
+        assert_ne!(a, run(10));
+    }
+
+    #[test]
+    fn held_messages_wait_for_release_and_count_their_whole_wait() {
+        let mut l = Link::with_seed(1, 1);
+        let mut inbox = Inbox::new();
+        for i in 0..5 {
+            let t = f64::from(i);
+            match l.on_receive_with(Some(&impair::Impairment::HOLD), 0.0, 2, t, t, 0.1, 10) {
+                Verdict::Hold => inbox.push_held((2, t)),
+                v => panic!("{v:?}"),
+            }
+        }
+        assert!(inbox.take_due(100.0).is_empty(), "held, not due");
+        assert_eq!(inbox.held().count(), 5);
+        let released = inbox.release(10.0, |&(from, _)| from == 2);
+        assert_eq!(released, 5);
+        for &(_, sent) in inbox.held().collect::<Vec<_>>() {
+            panic!("still held: {sent}");
+        }
+        let due = inbox.take_due(10.0);
+        for &(_, sent) in &due {
+            l.on_released(LinkClass::Cut, sent, 10.0);
+        }
+        assert_eq!(due.len(), 5);
+        let cut = l.counters().classes[LinkClass::Cut as usize];
+        assert_eq!((cut.offered, cut.held, cut.released, cut.delivered), (5, 5, 5, 5));
+        let waits: Vec<f64> = l.take_delays().iter().map(|d| d.delay_s).collect();
+        assert_eq!(waits, vec![10.0, 9.0, 8.0, 7.0, 6.0]);
     }
 
     #[test]

@@ -84,8 +84,9 @@ struct Net {
     alive_changed: Arc<Notify>,
     cmds: mpsc::UnboundedReceiver<(u32, Cmd)>,
     malformed: Arc<AtomicU64>,
-    /// The `[[netem]]` rules in force: the scenario's, plus those added while running.
-    rules: Vec<swarm_config::NetemRule>,
+    /// The `[[netem]]` rules and failures in force: the scenario's, plus those added while
+    /// running (`swarm netem`).
+    timeline: swarm_config::Timeline,
     netem_rules: Publisher,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
 }
@@ -232,7 +233,7 @@ impl Net {
             .await
             .map_err(WireError::zenoh)?;
         let net = Net {
-            rules: sc.netem.clone(),
+            timeline: swarm_config::Timeline { netem: sc.netem.clone(), failures: sc.failures.clone() },
             netem_rules: publisher(&s, keys.netem_rules(), CongestionControl::Block).await?,
             netem_added,
             clock: publisher(&s, keys.clock(), CongestionControl::Block).await?,
@@ -294,7 +295,8 @@ impl Net {
         let mut next_wall = tokio::time::Instant::now();
         let real_dt = Duration::from_secs_f64(sim.clock().dt_secs / sc.time.realtime_factor);
         loop {
-            self.take_added_rules(sc, sim.t_secs() + sim.clock().dt_secs).await?;
+            let next_t = sim.t_secs() + sim.clock().dt_secs;
+            self.take_added_rules(sc, sim, next_t).await?;
             let sent = self.alive_now();
             if sent.is_empty() {
                 warn!("no agent alive");
@@ -335,35 +337,33 @@ impl Net {
         }
     }
 
-    /// Rules added by `swarm netem` take effect from `not_before` (the next tick) at the
-    /// earliest; every change is published on `netem/rules` before this tick's sensors, so agents
-    /// apply it in wire order. Invalid additions are logged and dropped.
-    async fn take_added_rules(&mut self, sc: &Scenario, not_before: f64) -> Result<(), WireError> {
+    /// Timelines added by `swarm netem` count their times from `not_before` (the next tick);
+    /// every change is published on `netem/rules` before this tick's sensors, so agents apply it
+    /// in wire order, and added freezes reach the simulation. Invalid additions are counted,
+    /// logged and dropped whole.
+    async fn take_added_rules(&mut self, sc: &Scenario, sim: &mut Sim, not_before: f64) -> Result<(), WireError> {
         let mut changed = false;
         while let Ok(bytes) = self.netem_added.try_recv() {
             let parsed = match Msg::decode(&bytes) {
-                Ok(Msg::NetemRules(json)) => serde_json::from_str::<Vec<swarm_config::NetemRule>>(&json).map_err(|e| e.to_string()),
+                Ok(Msg::NetemRules(json)) => serde_json::from_str::<swarm_config::Timeline>(&json).map_err(|e| e.to_string()),
                 other => Err(format!("not a NetemRules message: {other:?}")),
             };
-            let rules = match parsed {
-                Ok(r) => r,
+            let checked = parsed.and_then(|t| sc.check_timeline(&t, true).map(|()| t));
+            let mut t = match checked {
+                Ok(t) => t,
                 Err(e) => {
                     self.malformed.fetch_add(1, Ordering::Relaxed);
-                    warn!("netem rules refused: {e}");
+                    warn!("netem timeline refused: {e}");
                     continue;
                 }
             };
-            for mut r in rules {
-                r.at_s = r.at_s.max(not_before);
-                match sc.check_netem_rule(&r) {
-                    Ok(()) => {
-                        info!(at_s = r.at_s, "netem rule added");
-                        self.rules.push(r);
-                        changed = true;
-                    }
-                    Err(e) => warn!("netem rule refused: {e}"),
-                }
-            }
+            t.netem.iter_mut().for_each(|r| r.at_s += not_before);
+            t.failures.iter_mut().for_each(|f| f.at_s += not_before);
+            info!(rules = t.netem.len(), failures = t.failures.len(), from_s = not_before, "netem timeline added");
+            sim.add_failures(&t.failures);
+            self.timeline.netem.extend(t.netem);
+            self.timeline.failures.extend(t.failures);
+            changed = true;
         }
         if changed {
             self.publish_rules().await?;
@@ -372,7 +372,7 @@ impl Net {
     }
 
     async fn publish_rules(&self) -> Result<(), WireError> {
-        let json = serde_json::to_string(&self.rules).map_err(|e| WireError::zenoh(e.to_string()))?;
+        let json = serde_json::to_string(&self.timeline).map_err(|e| WireError::zenoh(e.to_string()))?;
         put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 

@@ -1,6 +1,8 @@
 //! Who can hear whom, from ground truth: range with hysteresis. A link comes up inside
 //! `range_m` and goes down only beyond `range_m + hysteresis_m`, so a pair balancing on the edge
-//! does not flap. Agents subscribe only to the share keys of the UAVs in their set.
+//! does not flap. Agents subscribe only to the share keys of the UAVs in their set. Optionally
+//! each link that is up also loses messages with a probability that grows with distance
+//! (`radio.distance_loss`); the agent applies it per message from the link's seeded stream.
 
 use std::collections::BTreeSet;
 
@@ -9,13 +11,32 @@ use std::collections::BTreeSet;
 pub struct Radio {
     range_m: f64,
     hysteresis_m: f64,
+    distance_loss: Option<swarm_config::DistanceLoss>,
     links: BTreeSet<(usize, usize)>,
 }
 
 impl Radio {
     /// No links yet.
     pub fn new(range_m: f64, hysteresis_m: f64) -> Radio {
-        Radio { range_m, hysteresis_m, links: BTreeSet::new() }
+        Radio { range_m, hysteresis_m, distance_loss: None, links: BTreeSet::new() }
+    }
+
+    /// The radio of a scenario.
+    pub fn of(r: &swarm_config::Radio) -> Radio {
+        Radio { distance_loss: r.distance_loss, ..Radio::new(r.range_m, r.hysteresis_m) }
+    }
+
+    /// The loss probability of each link of `i` (in [`Radio::in_range`] order) at `positions`;
+    /// empty when the radio has no distance loss.
+    pub fn losses(&self, i: usize, positions: &[[f64; 2]]) -> Vec<f32> {
+        let Some(l) = self.distance_loss else { return Vec::new() };
+        self.in_range(i)
+            .into_iter()
+            .map(|j| {
+                let d = (positions[i][0] - positions[j][0]).hypot(positions[i][1] - positions[j][1]);
+                l.at(d, self.range_m) as f32
+            })
+            .collect()
     }
 
     /// Updates the links from positions (index = UAV index).
@@ -61,5 +82,30 @@ mod tests {
         assert!(r.in_range(0).is_empty(), "past range + hysteresis: down");
         r.update(&[[0.0, 0.0], [10.5, 0.0], [30.0, 0.0]]);
         assert!(r.in_range(0).is_empty(), "does not come back until inside range");
+    }
+
+    #[test]
+    fn distance_loss_ramps_from_its_start_to_its_value_at_range() {
+        let cfg = swarm_config::Radio {
+            range_m: 10.0,
+            hysteresis_m: 2.0,
+            distance_loss: Some(swarm_config::DistanceLoss { from_m: 6.0, at_range: 0.4 }),
+        };
+        let mut r = Radio::of(&cfg);
+        let pos = [[0.0, 0.0], [5.0, 0.0], [0.0, 8.0], [-9.99, 0.0]];
+        r.update(&pos);
+        assert_eq!(r.in_range(0), vec![1, 2, 3]);
+        let l = r.losses(0, &pos);
+        // 5 m: below the start; 8 m: (8 - 6) / (10 - 6) * 0.4 = 0.2; 9.99 m: 0.399.
+        assert_eq!(l[0], 0.0);
+        assert!((l[1] - 0.2).abs() < 1e-6, "{l:?}");
+        assert!((l[2] - 0.399).abs() < 1e-4, "{l:?}");
+        // In the hysteresis band it goes on at the same slope: 11.5 m → 0.55.
+        let pos = [[0.0, 0.0], [11.5, 0.0]];
+        let mut r = Radio::of(&cfg);
+        r.update(&[[0.0, 0.0], [9.0, 0.0]]);
+        r.update(&pos);
+        assert!((r.losses(0, &pos)[0] - 0.55).abs() < 1e-6);
+        assert!(Radio::new(10.0, 1.0).losses(0, &pos).is_empty(), "no model, no losses");
     }
 }

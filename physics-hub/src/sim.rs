@@ -52,7 +52,7 @@ impl Sim {
         let starts: Vec<[f64; 3]> = start_positions(sc).iter().map(|p| [p[0], p[1], yaw0]).collect();
         let bodies = starts.iter().map(|s| Body::at(s[0], s[1], s[2])).collect();
         let n = sc.count();
-        let mut radio = Radio::new(sc.radio.range_m, sc.radio.hysteresis_m);
+        let mut radio = Radio::of(&sc.radio);
         radio.update(&starts.iter().map(|s| [s[0], s[1]]).collect::<Vec<_>>());
         let hover = Cmd { tick: 0, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
         Sim {
@@ -152,7 +152,18 @@ impl Sim {
             vy: b.vel.y,
         });
         let in_range = self.radio.in_range(i).into_iter().map(|j| j as u32 + 1).collect();
-        Sensors { radio: RadioSet { tick, id, in_range }, odom, gnss, scan }
+        let loss = if self.sc.radio.distance_loss.is_some() {
+            let positions: Vec<[f64; 2]> = self.bodies.iter().map(|b| [b.pos.x, b.pos.y]).collect();
+            self.radio.losses(i, &positions)
+        } else {
+            Vec::new()
+        };
+        Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan }
+    }
+
+    /// Adds failures (freezes from `swarm netem freeze`) to the run's scenario.
+    pub fn add_failures(&mut self, failures: &[swarm_config::Failure]) {
+        self.sc.failures.extend_from_slice(failures);
     }
 
     /// Integrates one tick. `cmds[i]` is UAV i+1's command for this tick, `None` when it did not

@@ -73,6 +73,10 @@ pub struct RunArgs {
     /// Override the scenario's master seed (forest, start area, sensor noise).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// An experiment file (`[[netem]]` and `[[failures]]` tables, sim times) added to the
+    /// scenario's own timeline.
+    #[arg(long)]
+    pub experiment: Option<PathBuf>,
     /// Zenoh config override `KEY:JSON5` for every piece of the run (repeatable).
     #[arg(long)]
     pub cfg: Vec<String>,

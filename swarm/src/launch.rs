@@ -46,7 +46,12 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
             f.seed = None;
         }
     }
-    if a.time_mode.is_some() || a.seed.is_some() {
+    if let Some(path) = &a.experiment {
+        let t = sc.timeline_from_file(path)?;
+        sc.netem.extend(t.netem);
+        sc.failures.extend(t.failures);
+    }
+    if a.time_mode.is_some() || a.seed.is_some() || a.experiment.is_some() {
         // The hub serves this text to the agents, so overrides must be in it.
         text = toml::to_string(&sc).context("cannot re-serialize the scenario")?;
     }

@@ -1,16 +1,18 @@
-//! `swarm netem`: change the network faults of a running swarm. Each command becomes one or more
-//! `[[netem]]` rules (the scenario's schema), sent to the hub on `swarm/{run}/netem/add`; the hub
-//! starts them at its next tick and republishes every rule in force on `swarm/{run}/netem/rules`
-//! (`swarm tap 'swarm/{run}/netem/**'` shows them). Semantics are those of the scenario rules:
-//! the latest rule for a link applies, `heal` clears every link.
+//! `swarm netem`: change the network faults of a running swarm. Each command becomes a timeline
+//! (`[[netem]]` rules and `[[failures]]`, the scenario's schema), sent to the hub on
+//! `swarm/{run}/netem/add`; the hub counts its times from its next tick and republishes the whole
+//! timeline in force on `swarm/{run}/netem/rules` (`swarm tap 'swarm/{run}/netem/**'` shows it).
+//! Semantics are those of the scenario: the latest rule for a link applies, a partition event
+//! replaces the partition in force, `heal` clears every link and the partition. `apply FILE`
+//! sends a whole experiment file, its times counted from now.
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 use std::process::ExitCode;
-use swarm_config::{NetemRule, UavSet};
+use swarm_config::{Failure, FailureKind, NetemRule, Timeline, UavSet};
 use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, Msg};
-use netem::impair::{Impairment, JitterDistribution, LossModel};
+use netem::impair::{Impairment, JitterDistribution, LossModel, Partition};
 
 /// `swarm netem`.
 #[derive(Args, Debug, Clone)]
@@ -43,9 +45,10 @@ pub struct LinkSel {
 /// A change to the faults in force.
 #[derive(Subcommand, Debug, Clone)]
 pub enum NetemOp {
-    /// i.i.d. loss of PERCENT % of messages, e.g. `netem loss 30 --uav 7`.
+    /// i.i.d. loss of PERCENT % of messages, e.g. `netem loss 30% --uav 7`.
     Loss {
-        /// Percent lost.
+        /// Percent lost (`30` or `30%`).
+        #[arg(value_parser = percent)]
         percent: f64,
         /// Links.
         #[command(flatten)]
@@ -62,10 +65,28 @@ pub enum NetemOp {
         #[command(flatten)]
         links: LinkSel,
     },
-    /// Split the swarm into groups that cannot hear each other, e.g. `netem partition 1,2,3/4,5,6,7`.
+    /// Split the swarm into groups that cannot hear each other, e.g. `netem partition 1,2,3/4,5,6,7`,
+    /// or by a Jepsen scheme over the listed nodes, e.g. `netem partition --scheme bridge 1,2,3,4,5`.
     Partition {
-        /// Groups separated by `/`.
+        /// Groups separated by `/` (no scheme), or the nodes in the order the scheme reads them.
         groups: String,
+        /// A Jepsen scheme instead of explicit groups.
+        #[arg(long, value_enum)]
+        scheme: Option<Scheme>,
+        /// Store the cut links' messages and deliver them at the heal, instead of dropping them.
+        #[arg(long)]
+        hold: bool,
+    },
+    /// Freeze a UAV: it hovers where it is and stops talking (an obstacle to the others).
+    Freeze {
+        /// The UAV.
+        uav: u32,
+    },
+    /// Send a whole experiment file (`[[netem]]` and `[[failures]]` tables, only `freeze`
+    /// failures), its `at_s` counted from the hub's next tick.
+    Apply {
+        /// The TOML file.
+        file: std::path::PathBuf,
     },
     /// Make one UAV deaf and mute.
     Isolate {
@@ -74,6 +95,26 @@ pub enum NetemOp {
     },
     /// Remove every fault: all links pass everything.
     Heal,
+}
+
+/// Jepsen's partition schemes (see `netem::impair::Partition`).
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scheme {
+    /// The first ⌊n/2⌋ nodes against the rest.
+    Halves,
+    /// Halves, with the first node of the second half hearing everyone.
+    Bridge,
+    /// Every node hears a majority, no two the same.
+    MajoritiesRing,
+}
+
+fn percent(s: &str) -> std::result::Result<f64, String> {
+    let v: f64 = s.trim().trim_end_matches('%').parse().map_err(|_| format!("`{s}` is not a percentage"))?;
+    if (0.0..=100.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("percent must be in [0, 100], got {v}"))
+    }
 }
 
 fn ids(s: &str) -> Result<Vec<u32>> {
@@ -88,25 +129,26 @@ fn set(s: &Option<String>) -> Result<UavSet> {
 }
 
 fn rule(from: UavSet, to: UavSet, rule: Impairment) -> NetemRule {
-    NetemRule { at_s: 0.0, from, to, rule }
+    NetemRule::link(0.0, from, to, rule)
 }
 
-/// The rules one command stands for (`at_s` 0: the hub starts them at its next tick).
-pub fn rules_of(op: &NetemOp) -> Result<Vec<NetemRule>> {
-    let on_links = |links: &LinkSel, imp: Impairment| -> Result<Vec<NetemRule>> {
-        Ok(match links.uav {
+fn rules(netem: Vec<NetemRule>) -> Timeline {
+    Timeline { netem, failures: Vec::new() }
+}
+
+/// The timeline one command stands for (`at_s` 0: the hub starts it at its next tick).
+pub fn timeline_of(op: &NetemOp) -> Result<Timeline> {
+    let on_links = |links: &LinkSel, imp: Impairment| -> Result<Timeline> {
+        Ok(rules(match links.uav {
             Some(u) => vec![
                 rule(UavSet::Ids(vec![u]), UavSet::default(), imp.clone()),
                 rule(UavSet::default(), UavSet::Ids(vec![u]), imp),
             ],
             None => vec![rule(set(&links.from)?, set(&links.to)?, imp)],
-        })
+        }))
     };
     match op {
         NetemOp::Loss { percent, links } => {
-            if !(0.0..=100.0).contains(percent) {
-                bail!("loss: percent must be in [0, 100], got {percent}");
-            }
             on_links(links, Impairment { loss: LossModel::Random { p: percent / 100.0 }, ..Impairment::IDENTITY })
         }
         NetemOp::Delay { ms, jitter, links } => on_links(
@@ -118,32 +160,48 @@ pub fn rules_of(op: &NetemOp) -> Result<Vec<NetemRule>> {
                 ..Impairment::IDENTITY
             },
         ),
-        NetemOp::Partition { groups } => {
-            let groups: Vec<Vec<u32>> = groups.split('/').map(ids).collect::<Result<_>>()?;
-            if groups.len() < 2 {
-                bail!("partition: give at least two groups, e.g. 1,2,3/4,5");
+        NetemOp::Partition { groups, scheme, hold } => Ok(rules(vec![NetemRule::partition(0.0, partition(groups, *scheme)?, *hold)])),
+        NetemOp::Isolate { uav } => Ok(rules(vec![NetemRule::partition(0.0, Partition::isolate(*uav), false)])),
+        NetemOp::Heal => Ok(rules(vec![
+            rule(UavSet::default(), UavSet::default(), Impairment::IDENTITY),
+            NetemRule::partition(0.0, Partition::heal(), false),
+        ])),
+        NetemOp::Freeze { uav } => Ok(Timeline { netem: Vec::new(), failures: vec![Failure { at_s: 0.0, uav: *uav, kind: FailureKind::Freeze }] }),
+        NetemOp::Apply { file } => {
+            let t = Timeline::from_file(file)?;
+            if let Some(f) = t.failures.iter().find(|f| f.kind != FailureKind::Freeze) {
+                bail!("{}: only `freeze` failures can be applied to a running swarm (UAV {} has {:?})", file.display(), f.uav, f.kind);
             }
-            let mut out = Vec::new();
-            for (i, a) in groups.iter().enumerate() {
-                for (j, b) in groups.iter().enumerate() {
-                    if i != j {
-                        out.push(rule(UavSet::Ids(a.clone()), UavSet::Ids(b.clone()), Impairment::BLOCKED));
-                    }
-                }
-            }
-            Ok(out)
+            Ok(t)
         }
-        NetemOp::Isolate { uav } => on_links(&LinkSel { uav: Some(*uav), ..LinkSel::default() }, Impairment::BLOCKED),
-        NetemOp::Heal => Ok(vec![rule(UavSet::default(), UavSet::default(), Impairment::IDENTITY)]),
     }
+}
+
+fn partition(groups: &str, scheme: Option<Scheme>) -> Result<Partition> {
+    let Some(scheme) = scheme else {
+        let groups: Vec<Vec<u32>> = groups.split('/').map(ids).collect::<Result<_>>()?;
+        if groups.len() < 2 {
+            bail!("partition: give at least two groups, e.g. 1,2,3/4,5");
+        }
+        return Ok(Partition::Groups { groups });
+    };
+    let nodes = ids(groups)?;
+    if nodes.len() < 2 {
+        bail!("partition --scheme: list at least two nodes, e.g. 1,2,3,4,5");
+    }
+    Ok(match scheme {
+        Scheme::Halves => Partition::Halves { nodes },
+        Scheme::Bridge => Partition::Bridge { nodes },
+        Scheme::MajoritiesRing => Partition::MajoritiesRing { ring: nodes },
+    })
 }
 
 /// Runs `swarm netem`.
 pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "netem needs --connect <hub endpoint>");
     let keys = Keys::new(&a.run)?;
-    let rules = rules_of(&a.op)?;
-    let json = serde_json::to_string(&rules)?;
+    let timeline = timeline_of(&a.op)?;
+    let json = serde_json::to_string(&timeline)?;
     let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
     s.put(keys.netem_add(), Msg::NetemRules(json.clone()).encode()?)
         .encoding(session::encoding())
@@ -160,18 +218,48 @@ mod tests {
     use super::*;
 
     #[test]
-    fn commands_become_rules() {
-        let r = rules_of(&NetemOp::Loss { percent: 30.0, links: LinkSel { uav: Some(7), ..LinkSel::default() } }).expect("ok");
+    fn commands_become_timelines() {
+        let loss = |p| NetemOp::Loss { percent: p, links: LinkSel { uav: Some(7), ..LinkSel::default() } };
+        let r = timeline_of(&loss(30.0)).expect("ok").netem;
         assert_eq!(r.len(), 2, "to and from UAV 7");
         assert_eq!(r[0].from, UavSet::Ids(vec![7]));
         assert_eq!(r[1].to, UavSet::Ids(vec![7]));
         assert_eq!(r[0].rule.loss, LossModel::Random { p: 0.3 });
-        let p = rules_of(&NetemOp::Partition { groups: "1,2/3/4".into() }).expect("ok");
-        assert_eq!(p.len(), 6, "every ordered pair of groups");
-        assert!(p.iter().all(|r| r.rule.blocked));
-        assert!(rules_of(&NetemOp::Heal).expect("ok")[0].rule.is_identity());
-        assert!(rules_of(&NetemOp::Partition { groups: "1,2".into() }).is_err());
-        assert!(rules_of(&NetemOp::Loss { percent: 130.0, links: LinkSel::default() }).is_err());
-        assert!(rules_of(&NetemOp::Partition { groups: "1,x/2".into() }).is_err());
+        assert_eq!(percent("30%"), Ok(30.0));
+        assert!(percent("130").is_err() && percent("x%").is_err());
+        let op = |groups: &str, scheme, hold| NetemOp::Partition { groups: groups.into(), scheme, hold };
+        let p = timeline_of(&op("1,2/3/4", None, false)).expect("ok").netem;
+        assert_eq!(p.len(), 1);
+        let part = p[0].partition.as_ref().expect("a partition event");
+        assert!(part.blocked(1, 3) && part.blocked(4, 2) && !part.blocked(1, 2));
+        assert!(!p[0].rule.hold);
+        let held = timeline_of(&op("1,2,3,4,5", Some(Scheme::Bridge), true)).expect("ok").netem;
+        assert_eq!(held[0].partition, Some(Partition::Bridge { nodes: vec![1, 2, 3, 4, 5] }));
+        assert!(held[0].rule.hold);
+        let heal = timeline_of(&NetemOp::Heal).expect("ok").netem;
+        assert!(heal[0].rule.is_identity() && heal[1].partition == Some(Partition::Healed));
+        let f = timeline_of(&NetemOp::Freeze { uav: 3 }).expect("ok").failures;
+        assert_eq!(f, vec![Failure { at_s: 0.0, uav: 3, kind: FailureKind::Freeze }]);
+        assert!(timeline_of(&op("1,2", None, false)).is_err());
+        assert!(timeline_of(&op("1,x/2", None, false)).is_err());
+        assert!(timeline_of(&op("1", Some(Scheme::Halves), false)).is_err());
+    }
+
+    #[test]
+    fn apply_reads_an_experiment_file_and_refuses_kills() {
+        let dir = std::env::temp_dir().join(format!("swarm-netem-apply-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let ok = dir.join("ok.toml");
+        std::fs::write(&ok, "[[netem]]\nat_s = 2.0\nrule = { loss = { model = \"random\", p = 0.1 } }\n[[failures]]\nat_s = 1.0\nuav = 2\nkind = \"freeze\"\n").expect("write");
+        let t = timeline_of(&NetemOp::Apply { file: ok }).expect("ok");
+        assert_eq!((t.netem.len(), t.failures.len()), (1, 1));
+        let kill = dir.join("kill.toml");
+        std::fs::write(&kill, "[[failures]]\nat_s = 1.0\nuav = 2\nkind = \"kill\"\n").expect("write");
+        assert!(timeline_of(&NetemOp::Apply { file: kill }).is_err());
+        let bad = dir.join("bad.toml");
+        std::fs::write(&bad, "[[netem]]\nat_s = 1.0\nrule = { los = 1 }\n").expect("write");
+        let e = timeline_of(&NetemOp::Apply { file: bad.clone() }).expect_err("typo").to_string();
+        assert!(e.contains("bad.toml") && e.contains("netem[0].rule"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -6,7 +6,7 @@
 //! network.
 
 use crate::plot::{run_svg, Track};
-use crate::summary::{
+use crate::summary::{ClassSummary, 
     AgentSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, LocalizationSummary, Reconnection, Summary,
     SCHEMA,
 };
@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
-use swarm_wire::{AgentState, EndReason, Msg, TruthBody, TruthStep, TruthWorld};
+use swarm_wire::{AgentState, ClassCounts, EndReason, Msg, TruthBody, TruthStep, TruthWorld};
 
 #[derive(Debug, Clone)]
 struct Acc {
@@ -48,6 +48,8 @@ struct Acc {
     steps_alone: u64,
     /// Age of each neighbour estimate it held [s].
     ages: Vec<f64>,
+    /// Link class counts of its earlier incarnations (a restarted agent counts from zero).
+    link_base: [ClassCounts; 3],
 }
 
 impl Default for Acc {
@@ -74,7 +76,27 @@ impl Default for Acc {
             reported_while_alone: 0,
             steps_alone: 0,
             ages: Vec::new(),
+            link_base: [ClassCounts::default(); 3],
         }
+    }
+}
+
+impl Acc {
+    /// Its link class counts over every incarnation so far.
+    fn link_classes(&self) -> [ClassCounts; 3] {
+        let last = self.last_state.as_ref().map(|s| s.link.classes).unwrap_or_default();
+        std::array::from_fn(|i| add_counts(self.link_base[i], last[i]))
+    }
+}
+
+fn add_counts(a: ClassCounts, b: ClassCounts) -> ClassCounts {
+    ClassCounts {
+        offered: a.offered + b.offered,
+        delivered: a.delivered + b.delivered,
+        dropped: a.dropped + b.dropped,
+        duplicated: a.duplicated + b.duplicated,
+        held: a.held + b.held,
+        released: a.released + b.released,
     }
 }
 
@@ -93,6 +115,8 @@ pub struct Metrics {
     pending: Vec<AgentState>,
     /// Per tick: (sim time, for each agent that reported, the ids it has an estimate of).
     known: BTreeMap<u64, (f64, BTreeMap<u32, Vec<u32>>)>,
+    /// Delay applied to each delivered copy, per link class [s].
+    delays: [Vec<f64>; 3],
 }
 
 /// An estimate farther than this from the truth places a neighbour where none is.
@@ -272,6 +296,16 @@ impl Metrics {
         a.neighbours_sum += st.neighbours.len() as u64;
         *a.neighbour_counts.entry(st.neighbours.len()).or_default() += 1;
         a.ages.extend(st.neighbours.iter().map(|e| f64::from(e.age_secs)));
+        for d in &st.delays {
+            if let Some(v) = self.delays.get_mut(usize::from(d.class)) {
+                v.push(f64::from(d.delay_s));
+            }
+        }
+        if let Some(prev) = a.last_state.as_ref().filter(|p| st.link.classes.iter().map(|c| c.offered).sum::<u64>() < p.link.classes.iter().map(|c| c.offered).sum::<u64>()) {
+            // A new incarnation (restart): its counters start again from zero.
+            let before = prev.link.classes;
+            a.link_base = std::array::from_fn(|i| add_counts(a.link_base[i], before[i]));
+        }
         let ids = st.neighbours.iter().filter_map(|e| e.id).collect();
         self.known.entry(st.tick).or_insert_with(|| (st.t_secs, BTreeMap::new())).1.insert(st.id, ids);
         if self.truth.contains_key(&st.tick) {
@@ -336,6 +370,7 @@ impl Metrics {
         };
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
         let connectivity = self.connectivity(scenario);
+        let network = self.network();
         Summary {
             schema: SCHEMA.into(),
             run_id: run_id.into(),
@@ -356,8 +391,34 @@ impl Metrics {
             min_agent_distance_m: min(|a| a.min_agent_distance_m),
             localization,
             connectivity,
+            network,
             agents,
         }
+    }
+
+    /// What the links did, per class, over every agent.
+    fn network(&self) -> Vec<ClassSummary> {
+        let totals = self.agents.values().map(Acc::link_classes).fold([ClassCounts::default(); 3], |t, c| {
+            std::array::from_fn(|i| add_counts(t[i], c[i]))
+        });
+        netem::LinkClass::ALL
+            .iter()
+            .map(|&class| {
+                let c = totals[class as usize];
+                let d = &self.delays[class as usize];
+                ClassSummary {
+                    class: class.name().into(),
+                    offered: c.offered,
+                    delivered: c.delivered,
+                    dropped: c.dropped,
+                    duplicated: c.duplicated,
+                    held: c.held,
+                    released: c.released,
+                    mean_delay_s: if d.is_empty() { f64::NAN } else { d.iter().sum::<f64>() / d.len() as f64 },
+                    p95_delay_s: quantile(d, 0.95),
+                }
+            })
+            .collect()
     }
 
     /// Connectivity of the "i has a current estimate of j" graph over time, reconnection after
@@ -378,8 +439,13 @@ impl Metrics {
                 across += ids.iter().filter(|&&j| blocked(j, i, *t) && blocked(j, i, t - grace)).count() as u64;
             }
         }
-        // A heal: a rule with no impairment ends a fault (several at one instant count once).
-        let mut heal_times: Vec<f64> = sc.netem.iter().filter(|r| r.rule.is_identity()).map(|r| r.at_s).collect();
+        // A heal: a per-link rule with no impairment, or the end of a partition (several at one
+        // instant count once).
+        let is_heal = |r: &&swarm_config::NetemRule| match &r.partition {
+            None => r.rule.is_identity(),
+            Some(p) => *p == netem::impair::Partition::Healed,
+        };
+        let mut heal_times: Vec<f64> = sc.netem.iter().filter(is_heal).map(|r| r.at_s).collect();
         heal_times.sort_by(f64::total_cmp);
         heal_times.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
         let reconnections = heal_times
@@ -593,6 +659,7 @@ mod tests {
             vectors: Default::default(),
             link: Default::default(),
             icp: Default::default(),
+            delays: Vec::new(),
         };
         m.on_step(&truth(1));
         m.on_state(state(1, 2.1, 1)); // truth first: scored at once, error 0.1

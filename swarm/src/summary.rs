@@ -67,6 +67,9 @@ pub struct Summary {
     pub localization: LocalizationSummary,
     /// Who knew of whom, over time.
     pub connectivity: Connectivity,
+    /// What the inter-agent links did to the messages, per link class (the rule in force on the
+    /// link at the send instant: `clean`, `impaired`, `cut` = blocked or held).
+    pub network: Vec<ClassSummary>,
     /// Per UAV.
     pub agents: Vec<AgentSummary>,
 }
@@ -114,6 +117,32 @@ pub struct Connectivity {
     /// Estimates an agent held of a neighbour whose link to it had been blocked for longer than
     /// the estimate staleness: information that crossed a partition (should be 0).
     pub estimates_across_blocked_links: u64,
+}
+
+/// Messages received on links of one class, over every agent, and the delay actually applied
+/// to the delivered copies (delivery instant − send instant; at least one tick).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ClassSummary {
+    /// `clean`, `impaired` or `cut`.
+    pub class: String,
+    /// Messages that arrived on such links.
+    pub offered: u64,
+    /// Copies scheduled for delivery (duplicates and released messages included).
+    pub delivered: u64,
+    /// Messages dropped (loss, radio loss, cut).
+    pub dropped: u64,
+    /// Messages duplicated.
+    pub duplicated: u64,
+    /// Messages held by a holding link.
+    pub held: u64,
+    /// Held messages released.
+    pub released: u64,
+    /// Mean applied delay [s] (null: nothing delivered).
+    #[serde(with = "inf_as_null")]
+    pub mean_delay_s: f64,
+    /// 95th percentile of the applied delay [s].
+    #[serde(with = "inf_as_null")]
+    pub p95_delay_s: f64,
 }
 
 /// The number of components from a time on.

@@ -184,6 +184,7 @@ impl Agent {
             },
             link: LinkCounters::default(),
             icp: icp_counts,
+            delays: Vec::new(),
         };
         StepOutput { cmd, share, state }
     }

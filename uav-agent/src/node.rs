@@ -142,6 +142,8 @@ struct Node {
     rx: mpsc::UnboundedReceiver<Incoming>,
     /// First tick whose share is accepted, per neighbour in radio range.
     windows: BTreeMap<u32, u64>,
+    /// The radio's distance-dependent loss probability per neighbour in range.
+    radio_loss: BTreeMap<u32, f64>,
     hub_alive: watch::Receiver<bool>,
     neighbour_subs: BTreeMap<u32, zenoh::pubsub::Subscriber<()>>,
     cmd_pub: Publisher,
@@ -219,6 +221,7 @@ impl Node {
             tx,
             rx,
             windows: BTreeMap::new(),
+            radio_loss: BTreeMap::new(),
             hub_alive,
             neighbour_subs: BTreeMap::new(),
             odom: None,
@@ -297,26 +300,46 @@ impl Node {
         }
         let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
         let rule = self.netem_rules.netem_rule_at(share.t_secs(), from, self.id);
-        match self.link.on_receive_with(rule, from, share.t_secs(), now, self.dt, bytes.len()) {
+        let radio_loss = self.radio_loss.get(&from).copied().unwrap_or(0.0);
+        match self.link.on_receive_with(rule, radio_loss, from, share.t_secs(), now, self.dt, bytes.len()) {
             netem::Verdict::DeliverAt(at) => self.inbox.push(at, share),
             netem::Verdict::DeliverTwice(a, b) => {
                 self.inbox.push(a, share.clone());
                 self.inbox.push(b, share);
             }
             netem::Verdict::Drop => trace!(from, "share dropped by netem"),
+            netem::Verdict::Hold => self.inbox.push_held(share),
+        }
+    }
+
+    /// Delivers, at `now`, every held share whose link no longer holds.
+    fn release_held(&mut self, now: f64) {
+        if self.inbox.held().next().is_none() {
+            return;
+        }
+        let (rules, me) = (&self.netem_rules, self.id);
+        let holding = |from: u32| rules.netem_rule_at(now, from, me).is_some_and(|r| r.hold);
+        let released: Vec<f64> = self.inbox.held().filter(|m| !holding(m.from())).map(Share::t_secs).collect();
+        self.inbox.release(now, |m| !holding(m.from()));
+        for sent_at in released {
+            self.link.on_released(netem::LinkClass::Cut, sent_at, now);
         }
     }
 
     async fn on_sense(&mut self, msg: Msg) -> Result<(), AgentError> {
         match msg {
-            Msg::Radio(r) => self.update_neighbour_subscriptions(r.tick, &r.in_range).await?,
+            Msg::Radio(r) => {
+                self.radio_loss = r.in_range.iter().zip(&r.loss).map(|(&id, &p)| (id, f64::from(p))).collect();
+                self.update_neighbour_subscriptions(r.tick, &r.in_range).await?
+            }
             Msg::Odom(o) => self.odom = Some(o),
             Msg::Gnss(g) => self.gnss = Some(g),
             Msg::Scan(s) => self.scan = Some(s),
-            Msg::NetemRules(json) => match serde_json::from_str::<Vec<swarm_config::NetemRule>>(&json) {
-                Ok(rules) => {
-                    debug!(rules = rules.len(), "netem rules in force updated");
-                    self.netem_rules.netem = rules;
+            Msg::NetemRules(json) => match serde_json::from_str::<swarm_config::Timeline>(&json) {
+                Ok(t) => {
+                    debug!(rules = t.netem.len(), failures = t.failures.len(), "netem timeline in force updated");
+                    self.netem_rules.netem = t.netem;
+                    self.netem_rules.failures = t.failures;
                 }
                 Err(e) => {
                     self.malformed += 1;
@@ -342,6 +365,7 @@ impl Node {
             return Err(AgentError::TickWentBack(last, tick));
         }
         self.last_tick = Some(tick);
+        self.release_held(scan.t_secs);
         let due = self.inbox.take_due(scan.t_secs);
         self.link.on_delivered(due.len());
         for share in due {
@@ -366,7 +390,21 @@ impl Node {
             recv_bytes: c.recv_bytes,
             delivered_msgs: c.delivered_msgs,
             malformed: self.malformed,
+            classes: c.classes.map(|k| swarm_wire::ClassCounts {
+                offered: k.offered,
+                delivered: k.delivered,
+                dropped: k.dropped,
+                duplicated: k.duplicated,
+                held: k.held,
+                released: k.released,
+            }),
         };
+        out.state.delays = self
+            .link
+            .take_delays()
+            .into_iter()
+            .map(|d| swarm_wire::DelaySample { class: d.class as u8, delay_s: d.delay_s as f32 })
+            .collect();
         self.state_pub.put(Msg::State(out.state).encode()?).await.map_err(WireError::zenoh)?;
         trace!(tick, "stepped");
         Ok(())

@@ -150,6 +150,9 @@ pub struct RadioSet {
     pub id: u32,
     /// UAV ids in radio range, sorted.
     pub in_range: Vec<u32>,
+    /// Distance-dependent loss probability of each link in `in_range` (same order; empty when
+    /// the scenario has no distance loss).
+    pub loss: Vec<f32>,
 }
 
 /// What a command asks of the body.
@@ -274,6 +277,34 @@ pub struct LinkCounters {
     pub delivered_msgs: u64,
     /// Received payloads that failed to decode (counted and dropped).
     pub malformed: u64,
+    /// Per link class (clean, impaired, cut: the rule in force on the link at the send instant).
+    pub classes: [ClassCounts; 3],
+}
+
+/// What the links of one class did to the messages an agent received (netem `ClassCounters`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClassCounts {
+    /// Messages that arrived.
+    pub offered: u64,
+    /// Copies scheduled for delivery (duplicates and released messages included).
+    pub delivered: u64,
+    /// Messages dropped.
+    pub dropped: u64,
+    /// Messages duplicated.
+    pub duplicated: u64,
+    /// Messages held by a holding link.
+    pub held: u64,
+    /// Held messages released.
+    pub released: u64,
+}
+
+/// The delay one delivered copy got: delivery instant − send instant.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DelaySample {
+    /// Link class index (0 clean, 1 impaired, 2 cut).
+    pub class: u8,
+    /// Delay [s].
+    pub delay_s: f32,
 }
 
 /// Magnitudes of the K21 vectors of one step (seed 000 eq. 4.1), for plots and diagnostics.
@@ -314,6 +345,8 @@ pub struct AgentState {
     pub link: LinkCounters,
     /// ICP work of this step (`icp` mode; zero otherwise). Appended in v1: old readers skip it.
     pub icp: IcpCounts,
+    /// Delays applied to the copies scheduled for delivery since the previous state.
+    pub delays: Vec<DelaySample>,
 }
 
 /// The static world, published once by the hub for the recorder.
@@ -419,7 +452,7 @@ mod tests {
                 ranges_m: vec![1.0, f32::INFINITY],
             }),
             Msg::Cmd(Cmd { tick: 2, kind: CmdKind::Velocity, x: 0.25, y: -0.5, yaw_rate: 0.0 }),
-            Msg::Radio(RadioSet { tick: 4, id: 2, in_range: vec![1, 3] }),
+            Msg::Radio(RadioSet { tick: 4, id: 2, in_range: vec![1, 3], loss: vec![0.0, 0.25] }),
         ]
     }
 
@@ -438,7 +471,8 @@ mod tests {
         assert_eq!(b[0][0], 0, "Clock is variant 0");
         assert_eq!(b[0][1], 3, "tick varint");
         assert_eq!(b[2], vec![5, 2, 0, 0, 0, 128, 62, 0, 0, 0, 191, 0, 0, 0, 0]);
-        assert_eq!(b[3], vec![4, 4, 2, 2, 1, 3]);
+        // Radio: tick 4, id 2, in_range [1, 3], loss [0.0, 0.25] as two little-endian f32.
+        assert_eq!(b[3], vec![4, 4, 2, 2, 1, 3, 2, 0, 0, 0, 0, 0, 0, 128, 62]);
     }
 
     #[test]
