@@ -56,6 +56,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
+    ("open-field-5-linkfault", include_str!("../../scenarios/open-field-5-linkfault.toml")),
     ("open-field-5-restart", include_str!("../../scenarios/open-field-5-restart.toml")),
     ("open-field-7-partition", include_str!("../../scenarios/open-field-7-partition.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
@@ -285,6 +286,11 @@ impl Scenario {
             non_negative(&format!("failures[{i}].at_s"), f.at_s)?;
             if f.uav == 0 || f.uav > self.swarm.count {
                 return Err((format!("failures[{i}].uav"), format!("UAV id {} is not in 1..={}", f.uav, self.swarm.count)));
+            }
+            if f.kind.is_link() && self.time.mode != TimeMode::Realtime {
+                // Zenoh leases are wall-clock: a stall of sim seconds in lockstep would last a
+                // few milliseconds of wall time, or stop the run for a tick timeout per tick.
+                return Err((format!("failures[{i}].kind"), "link faults need time.mode = \"realtime\" (Zenoh leases run on wall time)".into()));
             }
         }
         Ok(())

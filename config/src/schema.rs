@@ -84,6 +84,25 @@ pub enum FailureKind {
     /// A new agent process is started for it at `at_s` (`swarm run` only; an old one is killed
     /// first): it fetches the scenario, joins, and is localized again.
     Restart,
+    /// Its Zenoh link to the hub stalls silently at `at_s` (`swarm run`, realtime mode only):
+    /// nothing crosses it, nothing is closed, and the sessions' leases expire, as with a radio
+    /// that fades out.
+    #[serde(rename = "link_stall")]
+    LinkStall,
+    /// Its Zenoh link to the hub is closed at `at_s` and reconnection is refused until restored
+    /// (`swarm run`, realtime mode only).
+    #[serde(rename = "link_close")]
+    LinkClose,
+    /// Its Zenoh link to the hub works again from `at_s`: the agent's session reconnects by itself.
+    #[serde(rename = "link_restore")]
+    LinkRestore,
+}
+
+impl FailureKind {
+    /// Whether this is a link-level fault (carried out by `swarm run`'s TCP proxy).
+    pub fn is_link(self) -> bool {
+        matches!(self, FailureKind::LinkStall | FailureKind::LinkClose | FailureKind::LinkRestore)
+    }
 }
 
 /// One failure of one UAV.

@@ -119,6 +119,10 @@ pub struct AgentArgs {
     /// Exit when standard input closes.
     #[arg(long, hide = true)]
     pub exit_with_stdin: bool,
+    /// Seconds to hover and wait when the hub's liveliness token goes away (its link may come
+    /// back: the session reconnects by itself) before exiting.
+    #[arg(long, default_value_t = 3.0)]
+    pub hub_grace_s: f64,
 }
 
 /// `swarm record`.
@@ -258,7 +262,14 @@ async fn agent(a: AgentArgs) -> Result<ExitCode> {
         None => None,
     };
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "an agent needs --connect <hub endpoint>");
-    let opts = uav_agent::AgentOptions { run: a.run, id: a.id, connect: a.zenoh.connect, zenoh_cfg: a.zenoh.cfg, scenario };
+    let opts = uav_agent::AgentOptions {
+        run: a.run,
+        id: a.id,
+        connect: a.zenoh.connect,
+        zenoh_cfg: a.zenoh.cfg,
+        scenario,
+        hub_grace_s: a.hub_grace_s,
+    };
     let exit = uav_agent::run(opts, shutdown_signal(a.exit_with_stdin)).await.context("agent failed")?;
     tracing::info!(?exit, "agent done");
     Ok(ExitCode::SUCCESS)

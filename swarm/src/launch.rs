@@ -5,6 +5,7 @@
 //! `kill_on_drop` covers the ordinary paths. Child logs go to `<run folder>/logs/`.
 
 use crate::cli::{RecordArgs, RunArgs, LISTENING_PREFIX};
+use crate::proxy::{LinkProxy, LinkState};
 use crate::recorder::{decode, Files, Metrics};
 use crate::summary::Summary;
 use anyhow::{bail, Context, Result};
@@ -52,8 +53,10 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
         sc.failures.extend(t.failures);
     }
     if a.time_mode.is_some() || a.seed.is_some() || a.experiment.is_some() {
-        // The hub serves this text to the agents, so overrides must be in it.
+        // The hub serves this text to the agents, so overrides must be in it; and the whole must
+        // still be valid (link faults need realtime mode, say).
         text = toml::to_string(&sc).context("cannot re-serialize the scenario")?;
+        sc = Scenario::from_toml_str(&text, &format!("{name} (with the command line's overrides)"))?;
     }
     let run_id = a.run.unwrap_or_else(|| default_run_id(&sc.name));
     Keys::new(&run_id)?;
@@ -65,23 +68,38 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     eprintln!("run {run_id}: scenario {} ({} UAVs), folder {}", sc.name, sc.count(), out.display());
 
     let exe = std::env::current_exe().context("cannot find my own executable")?;
+    let link_faults = sc.failures.iter().any(|f| f.kind.is_link());
+    let mut cfg = a.cfg.clone();
+    if link_faults {
+        // A stalled link is noticed when the lease expires; the default 10 s would outlast most
+        // faults. Each side is expired by the lease it announces, so every piece gets it.
+        cfg.insert(0, format!("transport/link/tx/lease:{LINK_FAULT_LEASE_MS}"));
+    }
     let mut hub = spawn(&exe, &logs.join("hub.log"), true, |c| {
         c.arg("hub").arg(&scenario_path).args(["--run", &run_id, "--listen", "tcp/127.0.0.1:0", "--exit-with-stdin"]);
-        for kv in &a.cfg {
+        for kv in &cfg {
             c.args(["--cfg", kv]);
         }
     })?;
     let locators = read_locators(&mut hub.child, &logs).await?;
     info!(?locators, "hub up");
+    let proxies = start_proxies(&sc, &locators).await?;
 
     let rec = Recording::start(&run_id, &locators, &a.cfg).await?;
     let start_agent = |id: u32, log: &str| {
         spawn(&exe, &logs.join(log), false, |c| {
             c.arg("agent").args(["--run", &run_id, "--id", &id.to_string(), "--exit-with-stdin"]);
-            for l in &locators {
-                c.args(["--connect", l]);
+            match proxies.get(&id) {
+                Some(p) => {
+                    c.args(["--connect", &p.locator(), "--hub-grace-s", &link_grace_s(&sc, id).to_string()]);
+                }
+                None => {
+                    for l in &locators {
+                        c.args(["--connect", l]);
+                    }
+                }
             }
-            for kv in &a.cfg {
+            for kv in &cfg {
                 c.args(["--cfg", kv]);
             }
         })
@@ -90,7 +108,7 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     for id in sc.agent_ids() {
         agents.insert(id, start_agent(id, &format!("agent-{id}.log"))?);
     }
-    // Kills and restarts of `[[failures]]`, in time order, applied as sim time passes.
+    // Kills, restarts and link faults of `[[failures]]`, in time order, applied as sim time passes.
     let mut schedule: Vec<(f64, u32, FailureKind)> = sc
         .failures
         .iter()
@@ -105,6 +123,17 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
                 break;
             }
             schedule.remove(0);
+            if kind.is_link() {
+                if let Some(p) = proxies.get(&id) {
+                    info!(uav_id = id, t, ?kind, "link fault");
+                    p.set(match kind {
+                        FailureKind::LinkStall => LinkState::Stalled,
+                        FailureKind::LinkClose => LinkState::Closed,
+                        _ => LinkState::Up,
+                    });
+                }
+                continue;
+            }
             if let Some(mut old) = agents.remove(&id) {
                 info!(uav_id = id, t, "killing agent");
                 let _ = old.child.start_kill();
@@ -124,6 +153,53 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
     Ok(exit_code(&summary, hub_ok))
+}
+
+/// The lease every piece announces when the scenario has link faults [ms].
+const LINK_FAULT_LEASE_MS: u64 = 1000;
+
+/// One TCP proxy per UAV with link faults, in front of the hub's first TCP locator.
+async fn start_proxies(sc: &Scenario, locators: &[String]) -> Result<BTreeMap<u32, LinkProxy>> {
+    let mut proxies = BTreeMap::new();
+    for f in sc.failures.iter().filter(|f| f.kind.is_link()) {
+        if proxies.contains_key(&f.uav) {
+            continue;
+        }
+        let upstream = locators
+            .iter()
+            .find_map(|l| l.strip_prefix("tcp/").and_then(|a| a.parse::<std::net::SocketAddr>().ok()))
+            .with_context(|| format!("link faults need a TCP locator of the hub, got {locators:?}"))?;
+        let p = LinkProxy::start(upstream).await.context("cannot start the link proxy")?;
+        info!(uav_id = f.uav, proxy = %p.addr(), "link proxy up");
+        proxies.insert(f.uav, p);
+    }
+    Ok(proxies)
+}
+
+/// How long UAV `id`'s agent waits for a lost hub [wall s]: its longest link outage in the
+/// scenario (sim time divided by the realtime factor), plus 10 s for the lease and the
+/// reconnection backoff.
+fn link_grace_s(sc: &Scenario, id: u32) -> f64 {
+    let mut events: Vec<(f64, FailureKind)> =
+        sc.failures.iter().filter(|f| f.uav == id && f.kind.is_link()).map(|f| (f.at_s, f.kind)).collect();
+    events.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut longest: f64 = 0.0;
+    let mut down_since = None;
+    for (t, k) in events {
+        match (k, down_since) {
+            (FailureKind::LinkRestore, Some(s)) => {
+                longest = longest.max(t - s);
+                down_since = None;
+            }
+            (FailureKind::LinkRestore, None) => {}
+            (_, None) => down_since = Some(t),
+            (_, Some(_)) => {}
+        }
+    }
+    if let Some(s) = down_since {
+        longest = longest.max(sc.end.time_limit_s - s);
+    }
+    longest / sc.time.realtime_factor + 10.0
 }
 
 /// `swarm record`: the recorder alone, for a run whose pieces were started by hand.
@@ -199,7 +275,8 @@ async fn stop_children(mut hub: Piece, agents: Vec<Piece>) -> bool {
         }
     };
     for mut a in agents {
-        // Agents exit on their own once the hub's token is gone.
+        // Closing its stdin tells an agent to stop (else it would wait out its hub grace).
+        drop(a._stdin.take());
         if tokio::time::timeout(grace, a.child.wait()).await.is_err() {
             warn!("an agent did not exit; killing it");
             let _ = a.child.kill().await;

@@ -6,6 +6,8 @@
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV) and
 //!   accumulates the metrics of [`summary`].
 //! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
+//! - [`proxy`]: the TCP proxy `swarm run` puts between an agent and the hub for link-level faults
+//!   (stall, close, restore) that Zenoh itself sees.
 //! - [`plot`]: `run.svg`, the map of the run and distances over time.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
@@ -19,6 +21,7 @@ pub mod cli;
 pub mod launch;
 pub mod netem_cli;
 pub mod plot;
+pub mod proxy;
 pub mod recorder;
 pub mod summary;
 pub mod tap;

@@ -148,6 +148,15 @@ fn forest5_over_lossy_links() {
     assert!(l["mean_error_m"].as_f64().expect("n") < 0.15, "{l:#}");
     // Lossless, every estimate is one tick (0.1 s) old; 100 ± 50 ms delay and loss age it.
     assert!(l["mean_info_age_s"].as_f64().expect("n") > 0.15, "{l:#}");
+    // Every link is impaired from the start: 30 % dropped, and the applied delay is the rule's
+    // 100 ± 50 ms (normal) floored at one tick (0.1 s): mean between 0.1 and 0.2 s.
+    let n = &s["network"][1];
+    assert_eq!(n["class"], "impaired");
+    let (offered, dropped) = (n["offered"].as_f64().expect("n"), n["dropped"].as_f64().expect("n"));
+    assert!((0.25..0.35).contains(&(dropped / offered)), "{n:#}");
+    let (mean, p95) = (n["mean_delay_s"].as_f64().expect("n"), n["p95_delay_s"].as_f64().expect("n"));
+    assert!((0.1..0.2).contains(&mean) && (mean..0.3).contains(&p95), "{n:#}");
+    assert_eq!(s["network"][0]["offered"], 0, "no clean link: {:#}", s["network"]);
 }
 
 /// Issue 4, "link loss" (seed 000 1.2, requirement 4): UAV 3 of forest-5 is deaf and mute from
@@ -199,6 +208,53 @@ fn partition_and_rejoin() {
     assert!(r["reconnected_after_s"].as_f64().is_some() && r["stays_connected_after_s"].as_f64().is_some(), "{c:#}");
 }
 
+/// The alive column of one UAV in `trajectories.csv`, as (sim time, alive) at each change.
+fn alive_changes(dir: &std::path::Path, id: &str) -> Vec<(f64, bool)> {
+    let traj = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
+    // Columns: tick,t_s,id,...,colliding,alive,cmd_on_time
+    traj.lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|c| c[2] == id)
+        .map(|c| (c[1].parse::<f64>().expect("t"), c[11] == "1"))
+        .fold(Vec::new(), |mut v: Vec<(f64, bool)>, (t, a)| {
+            if v.last().is_none_or(|&(_, prev)| prev != a) {
+                v.push((t, a));
+            }
+            v
+        })
+}
+
+/// Issue 4, link-level faults: `swarm run` puts a TCP proxy between UAV 3's agent and the hub,
+/// stalls it from 10 s to 22 s and closes it from 34 s to 42 s (realtime, 4x, 1 s leases). Zenoh
+/// itself sees each fault: the hub loses the agent's liveliness token (after the lease when
+/// stalled, at once when closed), the agent hovers and waits instead of exiting, its session
+/// reconnects by itself after each restore, and it localizes its neighbours again at once. The
+/// same agent process lives through both; no collision, the swarm reaches the goal.
+#[test]
+fn a_uav_whose_zenoh_link_stalls_and_closes_reconnects() {
+    let (dir, s) = fly(&["open-field-5-linkfault"], "linkfault");
+    assert_safe_arrival(&s);
+    let alive = alive_changes(dir.path(), "3");
+    assert_eq!(alive.len(), 5, "alive, stalled, back, closed, back: {alive:?}");
+    let within = |i: usize, lo: f64, hi: f64, up: bool| (lo..=hi).contains(&alive[i].0) && alive[i].1 == up;
+    // Stall at 10 s: the token goes when the 1 s (wall) lease expires, 4 s of sim at 4x.
+    assert!(within(1, 10.5, 17.0, false), "{alive:?}");
+    assert!(within(2, 22.0, 27.0, true), "back within 5 s of the restore: {alive:?}");
+    assert!(within(3, 34.0, 35.0, false), "a close is seen at once: {alive:?}");
+    assert!(within(4, 42.0, 47.0, true), "{alive:?}");
+    let logs = dir.path().join("logs");
+    let agent3: Vec<_> = std::fs::read_dir(&logs).expect("logs").filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().starts_with("agent-3")).collect();
+    assert_eq!(agent3.len(), 1, "one agent process for UAV 3 throughout");
+    let log = std::fs::read_to_string(logs.join("agent-3.log")).expect("log");
+    assert_eq!(log.matches("hub back").count(), 2, "{log}");
+    let events = s["agents"][2]["contact_events"].as_array().expect("events").clone();
+    for back in [alive[2].0, alive[4].0] {
+        let regained = events.iter().any(|e| e["regained"] == true && (back..=back + 2.0).contains(&e["t_s"].as_f64().expect("t")));
+        assert!(regained, "neighbours localized again within 2 s of reconnecting at {back}: {events:?}");
+    }
+}
+
 /// Issue 4, failures of individuals: the agent process of UAV 2 is killed at 10 s and a new one
 /// started at 20 s. The hub stops waiting for the dead agent, the new one joins the running
 /// swarm and localizes its neighbours again, and the swarm reaches the goal.
@@ -206,20 +262,7 @@ fn partition_and_rejoin() {
 fn an_agent_killed_and_restarted_rejoins() {
     let (dir, s) = fly(&["open-field-5-restart"], "restart");
     assert_safe_arrival(&s);
-    let traj = std::fs::read_to_string(dir.path().join("trajectories.csv")).expect("csv");
-    // Columns: tick,t_s,id,...,colliding,alive,cmd_on_time
-    let alive_changes: Vec<(f64, bool)> = traj
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect::<Vec<_>>())
-        .filter(|c| c[2] == "2")
-        .map(|c| (c[1].parse::<f64>().expect("t"), c[11] == "1"))
-        .fold(Vec::new(), |mut v: Vec<(f64, bool)>, (t, a)| {
-            if v.last().is_none_or(|&(_, prev)| prev != a) {
-                v.push((t, a));
-            }
-            v
-        });
+    let alive_changes = alive_changes(dir.path(), "2");
     assert_eq!(alive_changes.len(), 3, "alive, dead, alive again: {alive_changes:?}");
     assert!((10.0..=11.0).contains(&alive_changes[1].0) && !alive_changes[1].1, "{alive_changes:?}");
     assert!((20.0..=25.0).contains(&alive_changes[2].0) && alive_changes[2].1, "{alive_changes:?}");

@@ -256,9 +256,10 @@ fn recorder_notices_a_vanished_hub() {
     assert!(s["ticks"].as_u64().expect("n") >= 3);
 }
 
-/// Issue 4: `swarm netem` changes the faults of a running swarm. UAV 3 is isolated mid-flight:
-/// the hub takes the rule and republishes the rules in force, and every agent applies it (UAV 3
-/// loses all its neighbours and hears nothing more).
+/// Issue 4: `swarm netem` changes the faults of a running swarm. UAV 3 is isolated mid-flight,
+/// then UAV 2 frozen: the hub takes each timeline and republishes the one in force, every agent
+/// applies it (UAV 3 loses all its neighbours and hears nothing more), the hub freezes UAV 2
+/// (it stops while UAV 1 flies on), and the summary counts the cut messages.
 #[test]
 fn netem_command_isolates_a_uav_of_a_running_swarm() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -278,15 +279,25 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
     assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]).lines().count(), 20);
     let o = Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "isolate", "3"]).output().expect("netem");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(String::from_utf8_lossy(&o.stdout).contains("\"blocked\":true"));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("\"scheme\":\"isolate\""));
+    let o = Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "2"]).output().expect("netem");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "9"]).output().expect("netem");
+    assert!(o.status.success(), "sent; the hub refuses it: {}", String::from_utf8_lossy(&o.stderr));
     assert!(rec.wait_for(Duration::from_secs(60)).expect("the run ends").success());
     assert!(hub.wait_for(Duration::from_secs(20)).is_some());
     let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");
-    assert_eq!(hub_log.matches("netem rule added").count(), 2, "mute and deaf: {hub_log}");
+    assert_eq!(hub_log.matches("netem timeline added").count(), 2, "isolate and freeze: {hub_log}");
+    assert_eq!(hub_log.matches("netem timeline refused").count(), 1, "UAV 9 does not exist: {hub_log}");
     let s = common::summary(&out);
     let uav3 = &s["agents"][2];
     let lost = uav3["contact_events"].as_array().expect("events").iter().any(|e| e["regained"] == false);
     assert!(lost, "UAV 3 lost its neighbours once isolated: {uav3:#}");
     let (rx, delivered) = (uav3["messages_received"].as_u64().expect("n"), uav3["messages_delivered"].as_u64().expect("n"));
     assert!(delivered < rx / 2, "most of what reached UAV 3 after the cut was dropped: {uav3:#}");
+    let (p1, p2) = (s["agents"][0]["path_length_m"].as_f64().expect("n"), s["agents"][1]["path_length_m"].as_f64().expect("n"));
+    assert!(p2 < 0.8 * p1, "UAV 2 stopped when frozen, UAV 1 flew on: {p2} vs {p1}");
+    let cut = &s["network"][2];
+    assert_eq!(cut["class"], "cut");
+    assert!(cut["dropped"].as_u64().expect("n") > 50 && cut["delivered"] == 0, "{cut:#}");
 }

@@ -64,6 +64,9 @@ pub struct AgentOptions {
     pub zenoh_cfg: Vec<String>,
     /// Use this scenario instead of fetching it from the hub.
     pub scenario: Option<Scenario>,
+    /// How long to wait for a hub whose liveliness token went away before giving up [s]: its link
+    /// may come back (Zenoh clients reconnect by themselves) or it may have stopped for good.
+    pub hub_grace_s: f64,
 }
 
 /// How an agent's run ended.
@@ -88,7 +91,9 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
         if opts.id == 0 || opts.id > sc.swarm.count {
             return Err(AgentError::BadId(opts.id, sc.swarm.count));
         }
-        Node::start(s.clone(), keys, opts.id, sc).await?.run_loop(shutdown).await
+        let mut node = Node::start(s.clone(), keys, opts.id, sc).await?;
+        node.hub_grace_s = opts.hub_grace_s;
+        node.run_loop(shutdown).await
     }
     .instrument(span)
     .await;
@@ -128,6 +133,8 @@ enum Incoming {
 
 struct Node {
     s: zenoh::Session,
+    /// See [`AgentOptions::hub_grace_s`].
+    hub_grace_s: f64,
     keys: Keys,
     id: u32,
     dt: f64,
@@ -222,6 +229,7 @@ impl Node {
             rx,
             windows: BTreeMap::new(),
             radio_loss: BTreeMap::new(),
+            hub_grace_s: 0.0,
             hub_alive,
             neighbour_subs: BTreeMap::new(),
             odom: None,
@@ -249,6 +257,11 @@ impl Node {
         let hub_deadline = tokio::time::sleep(Duration::from_secs(30));
         tokio::pin!(hub_deadline);
         let mut hub_seen = *self.hub_alive.borrow();
+        // While the hub is lost: when to give up.
+        let grace = Duration::from_secs_f64(self.hub_grace_s.max(0.0));
+        let lost_deadline = tokio::time::sleep(Duration::ZERO);
+        tokio::pin!(lost_deadline);
+        let mut hub_lost = false;
         loop {
             tokio::select! {
                 m = self.rx.recv() => match m {
@@ -259,9 +272,20 @@ impl Node {
                 },
                 changed = self.hub_alive.changed() => {
                     let up = changed.is_ok() && *self.hub_alive.borrow();
-                    if up { hub_seen = true; }
-                    else if hub_seen || changed.is_err() { return self.hub_gone().await; }
+                    if up {
+                        if hub_lost { info!("hub back"); }
+                        hub_seen = true;
+                        hub_lost = false;
+                    } else if changed.is_err() || (hub_seen && grace.is_zero()) {
+                        return self.hub_gone().await;
+                    } else if hub_seen && !hub_lost {
+                        warn!(grace_s = grace.as_secs_f64(), "hub lost: hovering, waiting for it to come back");
+                        self.hover().await;
+                        hub_lost = true;
+                        lost_deadline.as_mut().reset(tokio::time::Instant::now() + grace);
+                    }
                 },
+                _ = &mut lost_deadline, if hub_lost => return self.hub_gone().await,
                 _ = &mut hub_deadline, if !hub_seen => return Err(AgentError::NoHub(self.keys.prefix().to_string(), 30)),
                 _ = &mut shutdown => { self.hover().await; return Ok(AgentExit::Stopped); }
             }
