@@ -388,7 +388,10 @@ mod tests {
         assert!(p.validate("controller.p17").is_ok());
         // The lattice set with a faster loop: boids (d 4) at 20 Hz, 0.25 m.
         let v = parse("preset = \"boids\"\nloop_rate_hz = 20.0\nloop_distance_m = 0.25\n").values();
-        assert_eq!((v.d, v.k1, v.r, v.loop_rate_hz, v.loop_distance_m), (4.0, 10.0, 10.0, 20.0, 0.25));
+        assert_eq!(
+            (v.d, v.k1, v.r, v.loop_rate_hz, v.loop_distance_m),
+            (4.0, 10.0, 10.0, 20.0, 0.25)
+        );
         // An override without a preset applies to the default.
         let v = parse("w = 5.5").values();
         assert_eq!((v.w, v.k2, v.r), (5.5, 25.0, 7.5));
