@@ -26,22 +26,27 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct A21Params {
-    /// d_0 [m]: distance with neither attraction nor repulsion (seed 003 eq. 3 and 5; Table I: 4.00).
+    /// d_0 [m]: distance with neither attraction nor repulsion (seed 003 eq. 3 and 5;
+    /// Table I: 4.00).
     #[serde(default = "d_d0")]
     pub d0_m: f64,
     /// d_f [m]: beyond it the attraction saturates towards λα·π/2 (seed 003 eq. 3; Table I: 5.85).
     #[serde(default = "d_df")]
     pub df_m: f64,
-    /// kα [m⁻¹s⁻²]: attraction gain, α = kα(d − d_0)² on (d_0, d_f] (seed 003 eq. 3; Table I "k_a": 0.16).
+    /// kα [m⁻¹s⁻²]: attraction gain, α = kα(d − d_0)² on (d_0, d_f] (seed 003 eq. 3;
+    /// Table I "k_a": 0.16).
     #[serde(default = "d_k_alpha")]
     pub k_alpha: f64,
-    /// d_c [m]: "critically close"; below it the repulsion grows as 1/√d (seed 003 eq. 5; Table I: 1.93).
+    /// d_c [m]: "critically close"; below it the repulsion grows as 1/√d (seed 003 eq. 5;
+    /// Table I: 1.93).
     #[serde(default = "d_dc")]
     pub dc_m: f64,
-    /// kβ [m⁻¹s⁻²]: repulsion gain, β = −kβ(d − d_0)² on (d_c, d_0] (seed 003 eq. 5; Table I "k_r": 0.07).
+    /// kβ [m⁻¹s⁻²]: repulsion gain, β = −kβ(d − d_0)² on (d_c, d_0] (seed 003 eq. 5;
+    /// Table I "k_r": 0.07).
     #[serde(default = "d_k_beta")]
     pub k_beta: f64,
-    /// d_max [m]: mean agent distance at which navigation fades to zero (seed 003 eq. 8; Table I: 8.00).
+    /// d_max [m]: mean agent distance at which navigation fades to zero (seed 003 eq. 8;
+    /// Table I: 8.00).
     #[serde(default = "d_dmax")]
     pub dmax_m: f64,
     /// kn [m/s²]: navigation gain, n = kn φ(μ_d) x̂ⁿ (seed 003 eq. 7; Table I: 1.20).
@@ -51,7 +56,8 @@ pub struct A21Params {
     /// eq. 2.5; seed 003 Table I: 2.00).
     #[serde(default = "d_dr")]
     pub dr_m: f64,
-    /// ko [m^½/s²]: collision gain, Φ = ko(1/√d − 1/√d_r) (seed 000 eq. 2.5; seed 003 Table I: 2.00).
+    /// ko [m^½/s²]: collision gain, Φ = ko(1/√d − 1/√d_r) (seed 000 eq. 2.5;
+    /// seed 003 Table I: 2.00).
     #[serde(default = "d_ko")]
     pub ko: f64,
     /// φ used when the informed agent observes no agent at all, in [0, 1] (seed 003 eq. 8 leaves
