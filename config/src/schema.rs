@@ -467,7 +467,7 @@ pub struct DistanceLoss {
 impl DistanceLoss {
     /// The loss probability at distance `d` for a radio of range `range_m`.
     pub fn at(&self, d: f64, range_m: f64) -> f64 {
-        if !(d > self.from_m) {
+        if d.is_nan() || d <= self.from_m {
             return 0.0;
         }
         (self.at_range * (d - self.from_m) / (range_m - self.from_m)).clamp(0.0, 1.0)

@@ -357,7 +357,7 @@ impl Sink<'_> {
         if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
             if (1..=self.sc.swarm.count).contains(&st.id) {
                 self.files.write_state(&st)?;
-                self.m.on_state(st);
+                self.m.on_state(*st);
             }
         }
         Ok(())

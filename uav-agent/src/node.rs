@@ -429,7 +429,7 @@ impl Node {
             .into_iter()
             .map(|d| swarm_wire::DelaySample { class: d.class as u8, delay_s: d.delay_s as f32 })
             .collect();
-        self.state_pub.put(Msg::State(out.state).encode()?).await.map_err(WireError::zenoh)?;
+        self.state_pub.put(Msg::State(Box::new(out.state)).encode()?).await.map_err(WireError::zenoh)?;
         trace!(tick, "stepped");
         Ok(())
     }

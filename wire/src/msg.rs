@@ -30,7 +30,7 @@ pub enum Msg {
     /// `.../share/pose`
     Pose(PoseShare),
     /// `.../state`
-    State(AgentState),
+    State(Box<AgentState>),
     /// `swarm/{run}/truth/world`
     TruthWorld(TruthWorld),
     /// `swarm/{run}/truth/step`
