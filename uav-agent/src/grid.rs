@@ -25,8 +25,8 @@
 //! - **A\***: 8-connected, a diagonal step only where both orthogonal neighbours are passable (no
 //!   squeezing between two diagonal obstacle cells); a step costs the entered cell's unit cost
 //!   times 1 or √2. Expanded cells are never reopened (no loss with a consistent heuristic, much
-//!   less work with the inconsistent A21 one); f-ties go to the deepest cell. The search stays inside a window: the known map plus start and goal, widened
-//!   by a margin. It stops after `max_expanded` expansions and then returns the path to the
+//!   less work with the inconsistent A21 one); f-ties go to the deepest cell. The search stays
+//!   inside a window: the known map plus start and goal, widened by a margin. It stops after `max_expanded` expansions and then returns the path to the
 //!   expanded cell closest to the goal, marked `reached_goal = false`, so a far goal never stalls
 //!   a control step; `None` means the whole window was searched and the goal is unreachable, or the
 //!   goal cell itself is blocked. A start cell inside an obstacle's inflation first escapes to the
@@ -38,8 +38,9 @@
 //!   term must be finite). It is NOT admissible: `d_obs` can exceed the remaining path length
 //!   (h(goal) = d_obs(goal) > 0), so the path found need not be the shortest. Taken literally it
 //!   also makes cells near obstacles look cheaper; with obstacles inflated by the UAV size that
-//!   draws the path towards the inflated boundary. [`Heuristic::Euclidean`] is the admissible
-//!   alternative for comparison.
+//!   draws the path towards the inflated boundary. [`Heuristic::Octile`] (admissible, the
+//!   shortest path) is there for comparison, and [`Heuristic::A21Octile`] swaps the Euclidean goal
+//!   term for the octile one, which expands far fewer cells (numbers at [`Heuristic::A21`]).
 
 use std::cell::RefCell;
 use std::cmp::Ordering;
