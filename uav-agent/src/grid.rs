@@ -1,1 +1,1347 @@
-//! Occupancy grid built from scans, and A* on it. Placeholder.
+//! Occupancy grid built from this UAV's own LIDAR scans, and A* on it.
+//!
+//! Why this module exists: the A21 navigation vector (seed 003 eq. 7) needs a path to the goal,
+//! planned on the agent's own map (seed 003 section IV-C: Hector SLAM's occupancy grid, obstacles
+//! inflated by the UAV size, A* whose heuristic is "the sum of euclidean distance to the goal and
+//! the closest obstacle", unknown cells free). The M23 costmap ([`crate::costmap`]) is built on
+//! the same grid and reuses the same A*. The grid lives in the agent's odometry frame (its start
+//! pose, a fixed world-like frame); SLAM itself is not simulated, the odometry pose is used as is.
+//!
+//! Choices where the seeds are silent:
+//! - **Unbounded map by hashed tiles**: cells are grouped in 16 × 16 tiles kept in a hash map
+//!   keyed by tile index, created on first write, so the map grows in every direction as the UAV
+//!   flies, costs nothing where it never looked, and needs no re-centring. The hasher is a fixed
+//!   multiply-rotate (no random seed), so runs are deterministic.
+//! - **Cell update**: log-odds as in Hector mapping (the SLAM of seeds 003 and 004): a hit adds
+//!   `ln(p_occ/(1−p_occ))`, a pass-through adds `ln(p_free/(1−p_free))`, with Hector's update
+//!   factors of seed 004 Fig. 27 (0.8 and 0.45). Occupied means log-odds > 0. As in Hector, each
+//!   cell is updated at most once per scan and a hit wins over a pass-through in the same scan.
+//!   Values are clamped to [ln(0.12/0.88), ln(0.97/0.03)] (OctoMap's clamping), so a neighbour UAV
+//!   that flew away is erased after a few scans instead of never.
+//! - **Clearing along beams**: yes. Each beam clears the cells from the sensor cell up to, not
+//!   including, its hit cell (Bresenham, as Hector). Points beyond `max_range_m` mark nothing but
+//!   their beam clears up to `max_range_m` (costmap_2d's obstacle/raytrace range, 9 m in seed 004
+//!   Fig. 30a).
+//! - **A\***: 8-connected, a diagonal step only where both orthogonal neighbours are passable (no
+//!   squeezing between two diagonal obstacle cells); a step costs the entered cell's unit cost
+//!   times 1 or √2. Expanded cells are never reopened (no loss with a consistent heuristic, much
+//!   less work with the inconsistent A21 one); f-ties go to the deepest cell. The search stays
+//!   inside a window: the known map plus start and goal, widened by a margin. It stops after `max_expanded` expansions and then returns the path to the
+//!   expanded cell closest to the goal, marked `reached_goal = false`, so a far goal never stalls
+//!   a control step; `None` means the whole window was searched and the goal is unreachable, or the
+//!   goal cell itself is blocked. A start cell inside an obstacle's inflation first escapes to the
+//!   nearest free cell through non-obstacle cells (global_planner clears the robot cell for the
+//!   same reason).
+//! - **The A21 heuristic** is implemented as written: `h = |c − goal| + d_obs(c)`, with d_obs the
+//!   distance from cell c to the closest occupied cell, capped at `obstacle_cap_m` (an unbounded
+//!   search for the closest obstacle would cost a control step, and with no obstacle in sight the
+//!   term must be finite). It is NOT admissible: `d_obs` can exceed the remaining path length
+//!   (h(goal) = d_obs(goal) > 0), so the path found need not be the shortest. Taken literally it
+//!   also makes cells near obstacles look cheaper; with obstacles inflated by the UAV size that
+//!   draws the path towards the inflated boundary. [`Heuristic::Octile`] (admissible, the
+//!   shortest path) is there for comparison, and [`Heuristic::A21Octile`] swaps the Euclidean goal
+//!   term for the octile one, which expands far fewer cells (numbers at [`Heuristic::A21`]).
+
+use std::cell::RefCell;
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashMap, HashSet, VecDeque};
+use std::hash::{BuildHasherDefault, Hasher};
+
+use nalgebra::Point2;
+
+/// Cells per side of a storage tile.
+const TILE: i32 = 16;
+/// log2 of [`TILE`].
+const TILE_SHIFT: i32 = 4;
+const TILE_AREA: usize = (TILE * TILE) as usize;
+/// Cell indices are kept within ±2^30 so that neighbour arithmetic never overflows an i32.
+const MAX_CELL: f64 = (1u32 << 30) as f64;
+/// The closest-obstacle search never looks farther than this many cells.
+const MAX_SEARCH_CELLS: i32 = 1024;
+/// Edge lengths of the 8-connected moves, in cells.
+const DIAGONAL: f64 = std::f64::consts::SQRT_2;
+/// The 8 moves: orthogonal first, then diagonal.
+const MOVES: [(i32, i32); 8] = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)];
+
+/// A deterministic hasher for cell and tile keys (FxHash's multiply-rotate): no random seed, so
+/// any iteration order, and hence every result, is the same in every run.
+#[derive(Default, Clone, Copy)]
+pub(crate) struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    fn write_i32(&mut self, v: i32) {
+        self.write_u64(u64::from(v as u32));
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
+/// Hash map with the deterministic [`CellHasher`].
+pub(crate) type CellMap<K, V> = HashMap<K, V, BuildHasherDefault<CellHasher>>;
+/// Hash set with the deterministic [`CellHasher`].
+pub(crate) type CellSet<K> = HashSet<K, BuildHasherDefault<CellHasher>>;
+
+/// Index of a grid cell: cell (ix, iy) covers `[ix·res, (ix+1)·res) × [iy·res, (iy+1)·res)` of the
+/// odometry frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Cell {
+    /// Column: floor(x / resolution).
+    pub ix: i32,
+    /// Row: floor(y / resolution).
+    pub iy: i32,
+}
+
+impl Cell {
+    /// The cell (ix, iy).
+    pub const fn new(ix: i32, iy: i32) -> Self {
+        Cell { ix, iy }
+    }
+
+    /// The cell `dx` columns and `dy` rows away (saturating at the i32 range).
+    pub fn offset(self, dx: i32, dy: i32) -> Cell {
+        Cell { ix: self.ix.saturating_add(dx), iy: self.iy.saturating_add(dy) }
+    }
+
+    /// Squared distance to `other` in cells².
+    fn dist2(self, other: Cell) -> f64 {
+        let dx = f64::from(other.ix) - f64::from(self.ix);
+        let dy = f64::from(other.iy) - f64::from(self.iy);
+        dx * dx + dy * dy
+    }
+
+    /// Index of the tile holding this cell (arithmetic shift floors negative indices).
+    fn tile(self) -> Cell {
+        Cell { ix: self.ix >> TILE_SHIFT, iy: self.iy >> TILE_SHIFT }
+    }
+
+    /// Position of this cell inside its tile.
+    fn local(self) -> usize {
+        ((self.iy & (TILE - 1)) * TILE + (self.ix & (TILE - 1))) as usize
+    }
+}
+
+/// An inclusive rectangle of cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CellBox {
+    /// Lowest column and row.
+    pub min: Cell,
+    /// Highest column and row (inclusive).
+    pub max: Cell,
+}
+
+impl CellBox {
+    /// The box holding exactly `c`.
+    pub fn around(c: Cell) -> Self {
+        CellBox { min: c, max: c }
+    }
+
+    /// Whether `c` lies inside.
+    pub fn contains(&self, c: Cell) -> bool {
+        (self.min.ix..=self.max.ix).contains(&c.ix) && (self.min.iy..=self.max.iy).contains(&c.iy)
+    }
+
+    /// The smallest box holding this one and `c`.
+    pub fn including(self, c: Cell) -> Self {
+        CellBox {
+            min: Cell::new(self.min.ix.min(c.ix), self.min.iy.min(c.iy)),
+            max: Cell::new(self.max.ix.max(c.ix), self.max.iy.max(c.iy)),
+        }
+    }
+
+    /// This box widened by `by` cells on every side.
+    pub fn grown(self, by: i32) -> Self {
+        CellBox { min: self.min.offset(-by, -by), max: self.max.offset(by, by) }
+    }
+}
+
+/// Sparse storage: 16 × 16 tiles of `T` created on first write; unwritten cells read as `fill`.
+#[derive(Debug, Clone)]
+pub(crate) struct TileMap<T: Copy> {
+    tiles: CellMap<Cell, Box<[T; TILE_AREA]>>,
+    fill: T,
+}
+
+impl<T: Copy> TileMap<T> {
+    /// An empty map whose cells all read as `fill`.
+    pub(crate) fn new(fill: T) -> Self {
+        TileMap { tiles: CellMap::default(), fill }
+    }
+
+    /// The value of `c`.
+    pub(crate) fn get(&self, c: Cell) -> T {
+        self.tiles.get(&c.tile()).map_or(self.fill, |t| t[c.local()])
+    }
+
+    /// The value of `c`, for writing; creates its tile if needed.
+    pub(crate) fn get_mut(&mut self, c: Cell) -> &mut T {
+        let fill = self.fill;
+        &mut self.tiles.entry(c.tile()).or_insert_with(|| Box::new([fill; TILE_AREA]))[c.local()]
+    }
+
+    /// Number of tiles allocated.
+    pub(crate) fn tile_count(&self) -> usize {
+        self.tiles.len()
+    }
+}
+
+/// A pose in the odometry frame: where the LIDAR is and where it looks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose2 {
+    /// Position x [m], odometry frame.
+    pub x: f64,
+    /// Position y [m], odometry frame.
+    pub y: f64,
+    /// Heading [rad], odometry frame.
+    pub yaw: f64,
+}
+
+impl Pose2 {
+    /// The pose (x, y, yaw).
+    pub fn new(x: f64, y: f64, yaw: f64) -> Self {
+        Pose2 { x, y, yaw }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite() && self.yaw.is_finite()
+    }
+
+    /// The position as a point of the odometry frame.
+    pub fn position(&self) -> Point2<f64> {
+        Point2::new(self.x, self.y)
+    }
+
+    /// A body-frame point expressed in the odometry frame: `world_from_body · p`.
+    pub fn world_from_body(&self, p: &Point2<f64>) -> Point2<f64> {
+        let (s, c) = self.yaw.sin_cos();
+        Point2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
+    }
+}
+
+/// Map-building parameters. The defaults are seed 004's Hector mapping and costmap values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridParams {
+    /// Cell size [m] (seed 004 Fig. 27: Hector `map_resolution` 0.050).
+    pub resolution_m: f64,
+    /// Probability a hit gives its cell (seed 004 Fig. 27: `update_factor_occupied` 0.8).
+    pub p_occupied: f64,
+    /// Probability a pass-through gives a cell (seed 004 Fig. 27: `update_factor_free` 0.45).
+    pub p_free: f64,
+    /// Lower clamp of a cell's probability (OctoMap's 0.12; seeds silent).
+    pub p_clamp_min: f64,
+    /// Upper clamp of a cell's probability (OctoMap's 0.97; seeds silent).
+    pub p_clamp_max: f64,
+    /// Points farther than this mark nothing; beams clear at most this far [m] (seed 004
+    /// Fig. 30a: `obstacle_range` = `raytrace_range` = 9.0).
+    pub max_range_m: f64,
+    /// Whether each beam clears the cells it passes through.
+    pub clear_along_beams: bool,
+}
+
+impl Default for GridParams {
+    fn default() -> Self {
+        GridParams {
+            resolution_m: 0.05,
+            p_occupied: 0.8,
+            p_free: 0.45,
+            p_clamp_min: 0.12,
+            p_clamp_max: 0.97,
+            max_range_m: 9.0,
+            clear_along_beams: true,
+        }
+    }
+}
+
+/// `ln(p / (1 − p))`.
+fn log_odds(p: f64) -> f64 {
+    (p / (1.0 - p)).ln()
+}
+
+/// What a cell is known to be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CellState {
+    /// Never seen; planners treat it as free (seed 003 IV-C).
+    Unknown,
+    /// Seen, log-odds ≤ 0.
+    Free,
+    /// Seen, log-odds > 0.
+    Occupied,
+}
+
+/// Cells whose occupied/not-occupied state flipped in one [`OccupancyGrid::update`], in the
+/// order they were updated.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct GridChanges {
+    /// Cells that became occupied.
+    pub occupied: Vec<Cell>,
+    /// Cells that were occupied and are not any more.
+    pub freed: Vec<Cell>,
+}
+
+/// One cell: its log-odds (NaN = unknown) and the last scan that touched it.
+#[derive(Debug, Clone, Copy)]
+struct CellData {
+    log_odds: f32,
+    /// `2·scan + 1` if the scan hit the cell, `2·scan` if a beam passed through it.
+    mark: u32,
+}
+
+const UNKNOWN_CELL: CellData = CellData { log_odds: f32::NAN, mark: 0 };
+
+/// The occupancy grid of one UAV, in its odometry frame, unbounded.
+#[derive(Debug, Clone)]
+pub struct OccupancyGrid {
+    params: GridParams,
+    cells: TileMap<CellData>,
+    /// Occupied cells, grouped by tile, for closest-obstacle queries and inflation.
+    occupied: CellMap<Cell, Vec<Cell>>,
+    occupied_count: usize,
+    known: Option<CellBox>,
+    scan: u32,
+}
+
+impl OccupancyGrid {
+    /// An empty grid (every cell unknown).
+    pub fn new(params: GridParams) -> Self {
+        OccupancyGrid {
+            params,
+            cells: TileMap::new(UNKNOWN_CELL),
+            occupied: CellMap::default(),
+            occupied_count: 0,
+            known: None,
+            scan: 0,
+        }
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &GridParams {
+        &self.params
+    }
+
+    /// Cell size [m].
+    pub fn resolution_m(&self) -> f64 {
+        self.params.resolution_m
+    }
+
+    /// The cell containing `p` (odometry frame), or `None` if `p` is not finite or too far out.
+    pub fn cell_of(&self, p: &Point2<f64>) -> Option<Cell> {
+        let res = self.params.resolution_m;
+        let fx = (p.x / res).floor();
+        let fy = (p.y / res).floor();
+        if !(fx.abs() < MAX_CELL && fy.abs() < MAX_CELL) {
+            return None;
+        }
+        Some(Cell::new(fx as i32, fy as i32))
+    }
+
+    /// The centre of cell `c` (odometry frame) [m].
+    pub fn center_of(&self, c: Cell) -> Point2<f64> {
+        let res = self.params.resolution_m;
+        Point2::new((f64::from(c.ix) + 0.5) * res, (f64::from(c.iy) + 0.5) * res)
+    }
+
+    /// What cell `c` is known to be.
+    pub fn state(&self, c: Cell) -> CellState {
+        let l = self.cells.get(c).log_odds;
+        if l.is_nan() {
+            CellState::Unknown
+        } else if l > 0.0 {
+            CellState::Occupied
+        } else {
+            CellState::Free
+        }
+    }
+
+    /// The log-odds of cell `c`, `None` if unknown.
+    pub fn log_odds(&self, c: Cell) -> Option<f64> {
+        let l = self.cells.get(c).log_odds;
+        (!l.is_nan()).then_some(f64::from(l))
+    }
+
+    /// Whether cell `c` is occupied.
+    pub fn is_occupied(&self, c: Cell) -> bool {
+        self.state(c) == CellState::Occupied
+    }
+
+    /// The smallest box holding every cell ever seen, `None` before the first scan.
+    pub fn known_bounds(&self) -> Option<CellBox> {
+        self.known
+    }
+
+    /// Number of occupied cells.
+    pub fn occupied_count(&self) -> usize {
+        self.occupied_count
+    }
+
+    /// Number of 16 × 16 storage tiles allocated (memory grows with the area seen, not with the
+    /// distance from the origin).
+    pub fn tile_count(&self) -> usize {
+        self.cells.tile_count()
+    }
+
+    /// Every occupied cell, in a deterministic order.
+    pub fn occupied_cells(&self) -> impl Iterator<Item = Cell> + '_ {
+        self.occupied.values().flatten().copied()
+    }
+
+    /// Occupied cells in the tiles overlapping the square of half-width `radius_cells` around
+    /// `c` (a superset of those within that distance).
+    pub fn occupied_near(&self, c: Cell, radius_cells: i32) -> impl Iterator<Item = Cell> + '_ {
+        let r = radius_cells.clamp(0, MAX_SEARCH_CELLS);
+        let (lo, hi) = (c.offset(-r, -r).tile(), c.offset(r, r).tile());
+        (lo.iy..=hi.iy)
+            .flat_map(move |ty| (lo.ix..=hi.ix).map(move |tx| Cell::new(tx, ty)))
+            .filter_map(|t| self.occupied.get(&t))
+            .flatten()
+            .copied()
+    }
+
+    /// Distance from the centre of `c` to the centre of the closest occupied cell [m], if one lies
+    /// within `cap_m` (the search never looks farther, nor farther than 1024 cells).
+    pub fn nearest_occupied_m(&self, c: Cell, cap_m: f64) -> Option<f64> {
+        let res = self.params.resolution_m;
+        let cap_cells = if cap_m.is_finite() && cap_m >= 0.0 { cap_m / res } else { 0.0 };
+        let r = (cap_cells.ceil() as i32).clamp(0, MAX_SEARCH_CELLS);
+        let limit2 = cap_cells * cap_cells + 1e-9;
+        let mut best2 = f64::INFINITY;
+        let (lo, hi) = (c.offset(-r, -r).tile(), c.offset(r, r).tile());
+        for ty in lo.iy..=hi.iy {
+            for tx in lo.ix..=hi.ix {
+                let Some(list) = self.occupied.get(&Cell::new(tx, ty)) else { continue };
+                let floor2 = tile_dist2(c, Cell::new(tx, ty));
+                if floor2 >= best2 || floor2 > limit2 {
+                    continue;
+                }
+                best2 = list.iter().fold(best2, |b, o| b.min(c.dist2(*o)));
+            }
+        }
+        (best2 <= limit2).then(|| best2.sqrt() * res)
+    }
+
+    /// Integrates one scan taken at `pose` (odometry frame). `points_in_body` are the LIDAR hits
+    /// in the body frame (no-return beams left out); non-finite points are ignored, a non-finite
+    /// pose ignores the scan. Returns the cells whose occupancy flipped.
+    pub fn update(&mut self, pose: Pose2, points_in_body: &[Point2<f64>]) -> GridChanges {
+        let mut changes = GridChanges::default();
+        if !pose.is_finite() {
+            return changes;
+        }
+        let Some(origin) = self.cell_of(&pose.position()) else { return changes };
+        self.scan = self.scan.wrapping_add(1);
+        let ends: Vec<(Cell, bool)> = points_in_body.iter().filter_map(|p| self.beam_end(&pose, p)).collect();
+        // Hits first, so a pass-through of another beam cannot undo them (Hector: the hit wins).
+        let l_hit = log_odds(self.params.p_occupied);
+        for &(end, hit) in &ends {
+            if hit {
+                self.touch(end, true, l_hit, &mut changes);
+            }
+        }
+        if self.params.clear_along_beams {
+            let l_free = log_odds(self.params.p_free);
+            for &(end, hit) in &ends {
+                for c in bresenham(origin, end, !hit) {
+                    self.touch(c, false, l_free, &mut changes);
+                }
+            }
+        }
+        changes
+    }
+
+    /// The cell a beam ends in, and whether it is a hit (within range) or a range-limited beam.
+    fn beam_end(&self, pose: &Pose2, p: &Point2<f64>) -> Option<(Cell, bool)> {
+        let range = p.coords.norm();
+        if !range.is_finite() {
+            return None;
+        }
+        let max = self.params.max_range_m;
+        if range <= max {
+            return self.cell_of(&pose.world_from_body(p)).map(|c| (c, true));
+        }
+        if max.is_nan() || max <= 0.0 {
+            return None;
+        }
+        let p_max = Point2::from(p.coords * (max / range));
+        self.cell_of(&pose.world_from_body(&p_max)).map(|c| (c, false))
+    }
+
+    /// Applies one hit or pass-through to cell `c`, at most once per scan; a hit of this scan is
+    /// never followed by a pass-through.
+    fn touch(&mut self, c: Cell, hit: bool, delta: f64, changes: &mut GridChanges) {
+        let miss_mark = self.scan.wrapping_mul(2);
+        let hit_mark = miss_mark.wrapping_add(1);
+        let (lo, hi) = (log_odds(self.params.p_clamp_min), log_odds(self.params.p_clamp_max));
+        let cell = self.cells.get_mut(c);
+        if cell.mark == hit_mark || (!hit && cell.mark == miss_mark) {
+            return;
+        }
+        let was = cell.log_odds > 0.0;
+        let base = if cell.log_odds.is_nan() { 0.0 } else { f64::from(cell.log_odds) };
+        // Hector log-odds update, clamped: l ← clamp(l + ln(p/(1−p))).
+        cell.log_odds = (base + delta).clamp(lo.min(hi), hi.max(lo)) as f32;
+        cell.mark = if hit { hit_mark } else { miss_mark };
+        let now = cell.log_odds > 0.0;
+        self.known = Some(self.known.map_or(CellBox::around(c), |b| b.including(c)));
+        if was != now {
+            self.set_occupied(c, now, changes);
+        }
+    }
+
+    fn set_occupied(&mut self, c: Cell, occupied: bool, changes: &mut GridChanges) {
+        if occupied {
+            self.occupied.entry(c.tile()).or_default().push(c);
+            self.occupied_count += 1;
+            changes.occupied.push(c);
+            return;
+        }
+        let Some(list) = self.occupied.get_mut(&c.tile()) else { return };
+        if let Some(i) = list.iter().position(|&o| o == c) {
+            list.swap_remove(i);
+            self.occupied_count -= 1;
+            changes.freed.push(c);
+        }
+        if list.is_empty() {
+            self.occupied.remove(&c.tile());
+        }
+    }
+
+    /// Sets cell `c` to the clamp value of its state, as if seen many times (tests build maps
+    /// cell by cell with it).
+    #[cfg(test)]
+    pub(crate) fn set_cell(&mut self, c: Cell, occupied: bool) -> GridChanges {
+        let mut changes = GridChanges::default();
+        let p = if occupied { self.params.p_clamp_max } else { self.params.p_clamp_min };
+        let cell = self.cells.get_mut(c);
+        let was = cell.log_odds > 0.0;
+        cell.log_odds = log_odds(p) as f32;
+        self.known = Some(self.known.map_or(CellBox::around(c), |b| b.including(c)));
+        if was != occupied {
+            self.set_occupied(c, occupied, &mut changes);
+        }
+        changes
+    }
+
+    /// The search window for a plan from `start` to `goal`: the known map plus both cells,
+    /// widened by `margin_m`.
+    pub fn search_window(&self, start: Cell, goal: Cell, margin_m: f64) -> CellBox {
+        let margin = if margin_m.is_finite() && margin_m > 0.0 {
+            (margin_m / self.params.resolution_m).ceil().min(MAX_CELL) as i32
+        } else {
+            0
+        };
+        let b = self.known.map_or(CellBox::around(start), |k| k.including(start));
+        b.including(goal).grown(margin.max(1))
+    }
+
+    /// Plans from `start` to `goal` (odometry frame) with the seed 003 IV-C planner: cells within
+    /// `inflation_radius_m` of an occupied cell are blocked, unknown cells are free, and the
+    /// heuristic is `params.heuristic`. Step costs are metres.
+    pub fn plan(&self, start: Point2<f64>, goal: Point2<f64>, params: &PlanParams) -> Option<Path> {
+        let (s, g) = (self.cell_of(&start)?, self.cell_of(&goal)?);
+        let window = self.search_window(s, g, params.limits.margin_m);
+        let cap = match params.heuristic {
+            Heuristic::Octile | Heuristic::Euclidean => params.inflation_radius_m,
+            Heuristic::A21 | Heuristic::A21Octile => params.inflation_radius_m.max(params.obstacle_cap_m),
+        };
+        let memo: RefCell<CellMap<Cell, Option<f64>>> = RefCell::default();
+        let d_obs = |c: Cell| *memo.borrow_mut().entry(c).or_insert_with(|| self.nearest_occupied_m(c, cap));
+        let res = self.params.resolution_m;
+        let blocked = |c: Cell| self.is_occupied(c) || d_obs(c).is_some_and(|d| d <= params.inflation_radius_m);
+        let goal_center = self.center_of(g);
+        let heuristic = |c: Cell| {
+            let to_goal = (self.center_of(c) - goal_center).norm();
+            match params.heuristic {
+                Heuristic::Octile => octile_cells(c, g) * res,
+                Heuristic::Euclidean => to_goal,
+                Heuristic::A21 => a21_heuristic(to_goal, d_obs(c).unwrap_or(cap)),
+                Heuristic::A21Octile => a21_heuristic(octile_cells(c, g) * res, d_obs(c).unwrap_or(cap)),
+            }
+        };
+        let search = CellSearch {
+            start: s,
+            goal: g,
+            window,
+            max_expanded: params.limits.max_expanded,
+            cell_cost: |c: Cell| (!blocked(c)).then_some(res),
+            escapable: |c: Cell| !self.is_occupied(c),
+            heuristic,
+        };
+        let cells = search.run()?;
+        Some(Path::from_cells(cells, start, goal, |c| self.center_of(c)))
+    }
+}
+
+/// Squared distance in cells² from cell `c` to the nearest cell of tile `t` (0 inside it).
+fn tile_dist2(c: Cell, t: Cell) -> f64 {
+    let axis = |v: i32, tile: i32| {
+        let lo = i64::from(tile) * i64::from(TILE);
+        let hi = lo + i64::from(TILE) - 1;
+        let v = i64::from(v);
+        (lo - v).max(v - hi).max(0) as f64
+    };
+    let (dx, dy) = (axis(c.ix, t.ix), axis(c.iy, t.iy));
+    dx * dx + dy * dy
+}
+
+/// The cells of a Bresenham line from `a` towards `b`: `a` included, `b` included only if
+/// `include_end`.
+fn bresenham(a: Cell, b: Cell, include_end: bool) -> impl Iterator<Item = Cell> {
+    let (x1, y1) = (i64::from(b.ix), i64::from(b.iy));
+    let (dx, dy) = ((x1 - i64::from(a.ix)).abs(), -(y1 - i64::from(a.iy)).abs());
+    let (sx, sy) = (if x1 >= i64::from(a.ix) { 1 } else { -1 }, if y1 >= i64::from(a.iy) { 1 } else { -1 });
+    let mut state = Some((i64::from(a.ix), i64::from(a.iy), dx + dy));
+    std::iter::from_fn(move || {
+        let (x, y, err) = state?;
+        let here = Cell::new(x as i32, y as i32);
+        if x == x1 && y == y1 {
+            state = None;
+            return include_end.then_some(here);
+        }
+        let (mut nx, mut ny, mut ne) = (x, y, err);
+        if 2 * err >= dy {
+            ne += dy;
+            nx += sx;
+        }
+        if 2 * err <= dx {
+            ne += dx;
+            ny += sy;
+        }
+        state = Some((nx, ny, ne));
+        Some(here)
+    })
+}
+
+/// Which heuristic [`OccupancyGrid::plan`] uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Heuristic {
+    /// Octile distance to the goal, the exact 8-connected path length in free space: admissible
+    /// and consistent, so the path is the shortest; the baseline to compare A21 with.
+    Octile,
+    /// Straight-line distance to the goal: admissible and consistent too, but looser than octile
+    /// on an 8-connected grid, so it expands more cells.
+    Euclidean,
+    /// Seed 003 IV-C as written: Euclidean distance to the goal plus distance to the closest
+    /// obstacle (inadmissible). It is loose on an 8-connected grid, and its obstacle term makes
+    /// every cell near a tree look up to `obstacle_cap_m` cheaper: a 30 m plan through a test
+    /// forest on 0.1 m cells expanded ≈ 13 500 cells, where [`Heuristic::A21Octile`] expanded
+    /// ≈ 4 500 and [`Heuristic::Octile`] ≈ 500; on 0.05 m cells it hit the 50 000 limit.
+    A21,
+    /// The A21 heuristic with the octile distance to the goal in place of the Euclidean one: the
+    /// same (inadmissible) obstacle term, far fewer expansions. A project variant, not the seed's.
+    A21Octile,
+}
+
+/// Octile distance between cells: the length of the shortest 8-connected path with no obstacle,
+/// `max(dx, dy) + (√2 − 1)·min(dx, dy)` [cells].
+pub fn octile_cells(a: Cell, b: Cell) -> f64 {
+    let dx = (f64::from(a.ix) - f64::from(b.ix)).abs();
+    let dy = (f64::from(a.iy) - f64::from(b.iy)).abs();
+    dx.max(dy) + (DIAGONAL - 1.0) * dx.min(dy)
+}
+
+/// Where the search stops.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SearchLimits {
+    /// At most this many cells are expanded; then the best partial path is returned (seeds
+    /// silent; project default 50 000).
+    pub max_expanded: usize,
+    /// The search window is the known map plus start and goal, widened by this much [m] (seeds
+    /// silent; project default 2 m).
+    pub margin_m: f64,
+}
+
+impl Default for SearchLimits {
+    fn default() -> Self {
+        SearchLimits { max_expanded: 50_000, margin_m: 2.0 }
+    }
+}
+
+/// Parameters of the seed 003 IV-C planner on the occupancy grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanParams {
+    /// The heuristic.
+    pub heuristic: Heuristic,
+    /// Cells whose centre is within this distance of an occupied cell's centre are blocked:
+    /// "obstacles in the map are inflated w.r.t. the UAV size" (seed 003 IV-C) [m]. Default 0.3,
+    /// the project's default body radius.
+    pub inflation_radius_m: f64,
+    /// The closest-obstacle term of the A21 heuristic is capped here [m] (seed silent; default
+    /// 2.0, the collision-control range dr of seed 003 Table I).
+    pub obstacle_cap_m: f64,
+    /// Search limits.
+    pub limits: SearchLimits,
+}
+
+impl Default for PlanParams {
+    fn default() -> Self {
+        PlanParams {
+            heuristic: Heuristic::A21,
+            inflation_radius_m: 0.3,
+            obstacle_cap_m: 2.0,
+            limits: SearchLimits::default(),
+        }
+    }
+}
+
+/// The A21 heuristic of seed 003 IV-C: "the sum of euclidean distance to the goal and the closest
+/// obstacle", `h = d_goal + d_obs` [m]. Inadmissible (see the module doc).
+pub fn a21_heuristic(distance_to_goal_m: f64, distance_to_closest_obstacle_m: f64) -> f64 {
+    // seed 003 section IV-C
+    distance_to_goal_m + distance_to_closest_obstacle_m
+}
+
+/// A path found on a grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Path {
+    /// Way points in the odometry frame [m]: the exact start, the centres of the following cells,
+    /// and the exact goal in place of the last cell's centre when the goal was reached.
+    pub points: Vec<Point2<f64>>,
+    /// The cells, start cell first.
+    pub cells: Vec<Cell>,
+    /// Sum of the step costs after the escape (see [`CellPath::cost`]).
+    pub cost: f64,
+    /// `false` for a partial path towards the goal (search limit hit).
+    pub reached_goal: bool,
+    /// Cells expanded by the search.
+    pub expanded: usize,
+}
+
+impl Path {
+    pub(crate) fn from_cells(
+        cells: CellPath,
+        start: Point2<f64>,
+        goal: Point2<f64>,
+        center_of: impl Fn(Cell) -> Point2<f64>,
+    ) -> Path {
+        let mut points: Vec<Point2<f64>> = std::iter::once(start)
+            .chain(cells.cells.iter().skip(1).map(|&c| center_of(c)))
+            .collect();
+        if cells.reached_goal {
+            if cells.cells.len() > 1 {
+                points.pop();
+            }
+            points.push(goal);
+        }
+        Path { points, cells: cells.cells, cost: cells.cost, reached_goal: cells.reached_goal, expanded: cells.expanded }
+    }
+}
+
+/// The result of [`astar`]: cells from start to goal (or to the expanded cell closest to it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellPath {
+    /// The cells, start first.
+    pub cells: Vec<Cell>,
+    /// Sum of the step costs: entered cell's unit cost × 1 or √2 (an escape prefix, see
+    /// [`OccupancyGrid::plan`], is not counted).
+    pub cost: f64,
+    /// Whether the last cell is the goal.
+    pub reached_goal: bool,
+    /// Cells expanded.
+    pub expanded: usize,
+}
+
+/// `f` with its mantissa rounded to 36 bits (relative step 2^-36 ≈ 1.5e-11), so that costs equal
+/// in exact arithmetic but apart by float rounding (sums of 1 and √2) compare as ties; monotone,
+/// so the order stays a total order. Without it, the equal-f cells of an 8-connected grid are
+/// taken in rounding-noise order instead of deepest first, and a long diagonal plan floods the
+/// whole parallelogram between the two extreme octile paths.
+fn tie_key(f: f64) -> f64 {
+    const DROP: u32 = 16;
+    if !f.is_finite() {
+        return f;
+    }
+    f64::from_bits((f.to_bits() + (1 << (DROP - 1))) & !((1u64 << DROP) - 1))
+}
+
+/// An entry of the open list; the heap pops the smallest f (up to rounding, see [`tie_key`]),
+/// then the smallest h (deepest first), then the lowest cell, so ties are broken the same way in
+/// every run.
+#[derive(Debug, Clone, Copy)]
+struct Open {
+    f: f64,
+    h: f64,
+    g: f64,
+    cell: Cell,
+}
+
+impl Ord for Open {
+    fn cmp(&self, other: &Self) -> Ordering {
+        other.f.total_cmp(&self.f).then(other.h.total_cmp(&self.h)).then(other.cell.cmp(&self.cell))
+    }
+}
+impl PartialOrd for Open {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl PartialEq for Open {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+impl Eq for Open {}
+
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    g: f64,
+    h: f64,
+    parent: Option<Cell>,
+    closed: bool,
+}
+
+/// A* on 8-connected cells inside `window` (Hart, Nilsson and Raphael 1968, the A* of seeds 003
+/// and 004).
+///
+/// `cell_cost(c)` is the cost per cell length of entering `c`, `None` (or a negative or
+/// non-finite value) if `c` cannot be entered; a step costs it times 1 (orthogonal) or √2
+/// (diagonal), and a diagonal step needs both orthogonal neighbours enterable. The start cell's
+/// own cost is never asked. `heuristic(c)` estimates the cost from `c` to the goal; if it never
+/// overestimates (admissible) and is consistent, the path is optimal; expanded cells are never
+/// reopened. Each function is called at most once per cell. At most `max_expanded` cells are expanded; then the path to the expanded
+/// cell closest to the goal is returned with `reached_goal = false`. `None`: start or goal outside
+/// the window, the goal cannot be entered, or the window holds no path.
+pub fn astar(
+    start: Cell,
+    goal: Cell,
+    window: CellBox,
+    max_expanded: usize,
+    cell_cost: impl FnMut(Cell) -> Option<f64>,
+    heuristic: impl FnMut(Cell) -> f64,
+) -> Option<CellPath> {
+    AStar::new(window, cell_cost, heuristic).run(start, goal, max_expanded)
+}
+
+struct AStar<C, H> {
+    window: CellBox,
+    cell_cost: C,
+    heuristic: H,
+    costs: CellMap<Cell, Option<f64>>,
+    nodes: CellMap<Cell, Node>,
+    open: BinaryHeap<Open>,
+}
+
+impl<C: FnMut(Cell) -> Option<f64>, H: FnMut(Cell) -> f64> AStar<C, H> {
+    fn new(window: CellBox, cell_cost: C, heuristic: H) -> Self {
+        AStar { window, cell_cost, heuristic, costs: CellMap::default(), nodes: CellMap::default(), open: BinaryHeap::new() }
+    }
+
+    /// The unit cost of entering `c`, cached; `None` outside the window or if blocked.
+    fn cost(&mut self, c: Cell) -> Option<f64> {
+        if !self.window.contains(c) {
+            return None;
+        }
+        let f = &mut self.cell_cost;
+        *self.costs.entry(c).or_insert_with(|| f(c).filter(|v| v.is_finite() && *v >= 0.0))
+    }
+
+    fn h(&mut self, c: Cell) -> f64 {
+        let h = (self.heuristic)(c);
+        if h.is_nan() {
+            0.0
+        } else {
+            h
+        }
+    }
+
+    fn run(mut self, start: Cell, goal: Cell, max_expanded: usize) -> Option<CellPath> {
+        if !self.window.contains(start) || (start != goal && self.cost(goal).is_none()) {
+            return None;
+        }
+        let h0 = self.h(start);
+        self.nodes.insert(start, Node { g: 0.0, h: h0, parent: None, closed: false });
+        self.open.push(Open { f: tie_key(h0), h: h0, g: 0.0, cell: start });
+        let (mut expanded, mut best) = (0usize, start);
+        while let Some(top) = self.open.pop() {
+            let Some(node) = self.nodes.get_mut(&top.cell) else { continue };
+            if node.closed || top.g > node.g {
+                continue;
+            }
+            node.closed = true;
+            expanded += 1;
+            if top.cell == goal {
+                return Some(self.path_to(goal, true, expanded));
+            }
+            best = self.closer(best, top.cell, goal);
+            if expanded >= max_expanded {
+                return Some(self.path_to(best, false, expanded));
+            }
+            self.expand(top.cell, top.g);
+        }
+        None
+    }
+
+    /// The one of `a`, `b` closer to `goal` (straight line; ties: the cheaper one, then `a`).
+    fn closer(&self, a: Cell, b: Cell, goal: Cell) -> Cell {
+        let g = |c: Cell| self.nodes.get(&c).map_or(f64::INFINITY, |n| n.g);
+        match b.dist2(goal).total_cmp(&a.dist2(goal)).then(g(b).total_cmp(&g(a))) {
+            Ordering::Less => b,
+            _ => a,
+        }
+    }
+
+    fn expand(&mut self, cell: Cell, g: f64) {
+        for (dx, dy) in MOVES {
+            let next = cell.offset(dx, dy);
+            let Some(unit) = self.cost(next) else { continue };
+            let diagonal = dx != 0 && dy != 0;
+            if diagonal && (self.cost(cell.offset(dx, 0)).is_none() || self.cost(cell.offset(0, dy)).is_none()) {
+                continue;
+            }
+            let ng = g + unit * if diagonal { DIAGONAL } else { 1.0 };
+            self.relax(cell, next, ng);
+        }
+    }
+
+    /// Offers `cell` the cost `g` through `parent`. A closed cell is never reopened: with a
+    /// consistent heuristic it cannot improve, and with an inconsistent one (A21) reopening
+    /// would re-expand much of the map for a marginally shorter path.
+    fn relax(&mut self, parent: Cell, cell: Cell, g: f64) {
+        let h = match self.nodes.get(&cell) {
+            Some(n) if n.closed || g >= n.g => return,
+            Some(n) => n.h,
+            None => self.h(cell),
+        };
+        self.nodes.insert(cell, Node { g, h, parent: Some(parent), closed: false });
+        self.open.push(Open { f: tie_key(g + h), h, g, cell });
+    }
+
+    fn path_to(&self, end: Cell, reached_goal: bool, expanded: usize) -> CellPath {
+        let mut cells = vec![end];
+        let mut at = end;
+        while let Some(p) = self.nodes.get(&at).and_then(|n| n.parent) {
+            cells.push(p);
+            at = p;
+        }
+        cells.reverse();
+        let cost = self.nodes.get(&end).map_or(0.0, |n| n.g);
+        CellPath { cells, cost, reached_goal, expanded }
+    }
+}
+
+/// A planning problem on cells: A* preceded, when the start cell cannot be entered, by an escape
+/// to the nearest enterable cell through `escapable` cells. Shared by the grid and costmap
+/// planners.
+pub(crate) struct CellSearch<C, E, H> {
+    pub(crate) start: Cell,
+    pub(crate) goal: Cell,
+    pub(crate) window: CellBox,
+    pub(crate) max_expanded: usize,
+    pub(crate) cell_cost: C,
+    pub(crate) escapable: E,
+    pub(crate) heuristic: H,
+}
+
+impl<C, E, H> CellSearch<C, E, H>
+where
+    C: FnMut(Cell) -> Option<f64>,
+    E: FnMut(Cell) -> bool,
+    H: FnMut(Cell) -> f64,
+{
+    pub(crate) fn run(mut self) -> Option<CellPath> {
+        let prefix = if (self.cell_cost)(self.start).is_some() || self.start == self.goal {
+            vec![self.start]
+        } else {
+            self.escape()?
+        };
+        let from = *prefix.last()?;
+        let mut rest = astar(from, self.goal, self.window, self.max_expanded, self.cell_cost, self.heuristic)?;
+        let mut cells = prefix;
+        cells.extend(rest.cells.drain(1..));
+        Some(CellPath { cells, ..rest })
+    }
+
+    /// Breadth-first from the start through escapable cells to the first enterable one.
+    fn escape(&mut self) -> Option<Vec<Cell>> {
+        let mut parent: CellMap<Cell, Cell> = CellMap::default();
+        let mut queue = VecDeque::from([self.start]);
+        parent.insert(self.start, self.start);
+        let mut visited = 0usize;
+        while let Some(c) = queue.pop_front() {
+            visited += 1;
+            if visited > self.max_expanded {
+                return None;
+            }
+            for (dx, dy) in MOVES {
+                let n = c.offset(dx, dy);
+                if !self.window.contains(n) || parent.contains_key(&n) || !(self.escapable)(n) {
+                    continue;
+                }
+                parent.insert(n, c);
+                if (self.cell_cost)(n).is_some() {
+                    return Some(unwind(&parent, n));
+                }
+                queue.push_back(n);
+            }
+        }
+        None
+    }
+}
+
+/// The chain of parents from the root (its own parent) to `end`.
+fn unwind(parent: &CellMap<Cell, Cell>, end: Cell) -> Vec<Cell> {
+    let mut cells = vec![end];
+    let mut at = end;
+    while let Some(&p) = parent.get(&at).filter(|&&p| p != at) {
+        cells.push(p);
+        at = p;
+    }
+    cells.reverse();
+    cells
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::f64::consts::FRAC_PI_2;
+
+    /// ln(0.8/0.2) = ln 4, Hector's occupied update of seed 004 Fig. 27.
+    const L_HIT: f64 = 1.386_294_361_119_890_6;
+    /// ln(0.45/0.55), Hector's free update of seed 004 Fig. 27.
+    const L_FREE: f64 = -0.200_670_695_462_151_1;
+
+    fn grid(resolution_m: f64) -> OccupancyGrid {
+        OccupancyGrid::new(GridParams { resolution_m, ..GridParams::default() })
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() < 1e-6
+    }
+
+    /// LIDAR hits on a circle (centre, radius) in the body frame, `beams` beams over 360°.
+    fn scan_circle(cx: f64, cy: f64, r: f64, beams: usize) -> Vec<Point2<f64>> {
+        (0..beams)
+            .filter_map(|i| {
+                let th = i as f64 * std::f64::consts::TAU / beams as f64;
+                let (dx, dy) = (th.cos(), th.sin());
+                let b = dx * cx + dy * cy;
+                let disc = b * b - (cx * cx + cy * cy - r * r);
+                let t = b - disc.sqrt();
+                (disc >= 0.0 && t > 0.0).then(|| Point2::new(t * dx, t * dy))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn log_odds_constants_are_the_hector_factors_of_seed_004() {
+        assert!(close(log_odds(0.8), L_HIT));
+        assert!(close(log_odds(0.45), L_FREE));
+    }
+
+    #[test]
+    fn cells_floor_negative_coordinates() {
+        let g = grid(0.5);
+        // floor(-0.1/0.5) = floor(-0.2) = -1; floor(0.74/0.5) = floor(1.48) = 1.
+        assert_eq!(g.cell_of(&Point2::new(-0.1, 0.74)), Some(Cell::new(-1, 1)));
+        assert_eq!(g.center_of(Cell::new(-1, 1)), Point2::new(-0.25, 0.75));
+        assert_eq!(g.cell_of(&Point2::new(f64::NAN, 0.0)), None);
+        assert_eq!(g.cell_of(&Point2::new(1e300, 0.0)), None);
+    }
+
+    #[test]
+    fn a_synthetic_scan_marks_the_right_cells() {
+        let mut g = grid(0.5);
+        // Pose (1.2, 2.2), yaw 90°: sensor cell (floor 2.4, floor 4.4) = (2, 4).
+        // Body (2.0, 0.1) -> world (1.2 − 0.1, 2.2 + 2.0) = (1.1, 4.2) -> cell (2, 8).
+        // Body (0.0, −1.1) -> world (1.2 + 1.1, 2.2) = (2.3, 2.2) -> cell (4, 4).
+        // Body (0.05, −1.15) -> world (2.35, 2.25) -> cell (4, 4) again: one hit only.
+        // Body (0.0, −2.1) -> world (3.3, 2.2) -> cell (6, 4); its beam crosses (4, 4), which
+        // keeps its hit (Hector: the hit wins within a scan).
+        let pts = [Point2::new(2.0, 0.1), Point2::new(0.0, -1.1), Point2::new(0.05, -1.15), Point2::new(0.0, -2.1)];
+        let changes = g.update(Pose2::new(1.2, 2.2, FRAC_PI_2), &pts);
+        assert_eq!(changes.occupied, vec![Cell::new(2, 8), Cell::new(4, 4), Cell::new(6, 4)]);
+        assert!(changes.freed.is_empty());
+        for c in [Cell::new(2, 8), Cell::new(4, 4), Cell::new(6, 4)] {
+            assert_eq!(g.state(c), CellState::Occupied, "{c:?}");
+            assert!(close(g.log_odds(c).expect("known"), L_HIT), "{c:?}");
+        }
+        // Beam cells, each passed once in this scan (the sensor cell is on every beam).
+        for c in [(2, 4), (2, 5), (2, 6), (2, 7), (3, 4), (5, 4)].map(|(x, y)| Cell::new(x, y)) {
+            assert_eq!(g.state(c), CellState::Free, "{c:?}");
+            assert!(close(g.log_odds(c).expect("known"), L_FREE), "{c:?}");
+        }
+        // Behind a hit and beside the beams: never seen.
+        for c in [(2, 9), (3, 5), (7, 4), (1, 4)].map(|(x, y)| Cell::new(x, y)) {
+            assert_eq!(g.state(c), CellState::Unknown, "{c:?}");
+        }
+        assert_eq!(g.known_bounds(), Some(CellBox { min: Cell::new(2, 4), max: Cell::new(6, 8) }));
+        assert_eq!(g.occupied_count(), 3);
+    }
+
+    #[test]
+    fn beams_clear_a_cell_after_enough_passes_and_values_are_clamped() {
+        let mut g = grid(0.5);
+        let pose = Pose2::new(0.25, 0.25, 0.0); // sensor cell (0, 0)
+        // Scan 1 hits (4, 0): world (2.25, 0.25).
+        g.update(pose, &[Point2::new(2.0, 0.0)]);
+        // Then every scan hits (8, 0) and passes through (4, 0).
+        for k in 1..=6 {
+            let ch = g.update(pose, &[Point2::new(4.0, 0.0)]);
+            assert!(ch.freed.is_empty(), "scan {k}");
+        }
+        // ln4 − 6 · 0.2006707 = 0.182270 > 0: still occupied.
+        assert!(close(g.log_odds(Cell::new(4, 0)).expect("known"), L_HIT + 6.0 * L_FREE));
+        assert!(g.is_occupied(Cell::new(4, 0)));
+        let ch = g.update(pose, &[Point2::new(4.0, 0.0)]);
+        // ln4 − 7 · 0.2006707 = −0.018402 <= 0: freed.
+        assert_eq!(ch.freed, vec![Cell::new(4, 0)]);
+        assert_eq!(g.state(Cell::new(4, 0)), CellState::Free);
+        // (8, 0) was hit 7 times: 7 ln4 = 9.7 is clamped to ln(0.97/0.03) = 3.476099.
+        assert!(close(g.log_odds(Cell::new(8, 0)).expect("known"), 3.476_098_714_273_987));
+        // (1, 0) was passed 8 times: 8 · −0.2007 = −1.605; 3 more scans give −2.207, clamped to
+        // ln(0.12/0.88) = −1.992430.
+        assert!(close(g.log_odds(Cell::new(1, 0)).expect("known"), 8.0 * L_FREE));
+        for _ in 0..3 {
+            g.update(pose, &[Point2::new(4.0, 0.0)]);
+        }
+        assert!(close(g.log_odds(Cell::new(1, 0)).expect("known"), -1.992_430_164_690_206));
+    }
+
+    #[test]
+    fn points_beyond_max_range_clear_but_do_not_mark() {
+        let mut g = OccupancyGrid::new(GridParams { resolution_m: 0.5, max_range_m: 2.0, ..GridParams::default() });
+        // A hit 4 m ahead is out of range: the beam clears (0,0)..=(4,0) (x ≤ 2.25 m), marks nothing.
+        let ch = g.update(Pose2::new(0.25, 0.25, 0.0), &[Point2::new(4.0, 0.0)]);
+        assert!(ch.occupied.is_empty());
+        assert_eq!(g.state(Cell::new(4, 0)), CellState::Free);
+        assert_eq!(g.state(Cell::new(5, 0)), CellState::Unknown);
+        assert_eq!(g.state(Cell::new(8, 0)), CellState::Unknown);
+    }
+
+    #[test]
+    fn non_finite_input_is_ignored() {
+        let mut g = grid(0.5);
+        assert_eq!(g.update(Pose2::new(f64::NAN, 0.0, 0.0), &[Point2::new(1.0, 0.0)]), GridChanges::default());
+        let ch = g.update(Pose2::new(0.25, 0.25, 0.0), &[Point2::new(f64::INFINITY, 0.0), Point2::new(1.0, 0.0)]);
+        assert_eq!(ch.occupied, vec![Cell::new(2, 0)]);
+        assert_eq!(g.plan(Point2::new(f64::NAN, 0.0), Point2::new(1.0, 1.0), &PlanParams::default()), None);
+    }
+
+    #[test]
+    fn the_map_grows_far_from_the_origin() {
+        let mut g = grid(0.1);
+        let pose = Pose2::new(10_000.3, -20_000.7, 0.3);
+        // A trunk of radius 0.3 m, 3 m ahead of the UAV.
+        let pts = scan_circle(3.0, 0.0, 0.3, 720);
+        assert!(pts.len() > 10);
+        g.update(pose, &pts);
+        let trunk = pose.world_from_body(&Point2::new(3.0, 0.0));
+        // The hit closest to the UAV: 2.7 m ahead.
+        let near_side = g.cell_of(&pose.world_from_body(&Point2::new(2.7, 0.0))).expect("cell");
+        assert!(g.is_occupied(near_side));
+        let b = g.known_bounds().expect("bounds");
+        assert!(b.contains(g.cell_of(&pose.position()).expect("cell")));
+        assert!(b.min.ix > 99_000 && b.max.iy < -199_000, "{b:?}");
+        // Only the area seen is stored: 9 m range, 16 × 0.1 m tiles -> well under 1000 tiles.
+        assert!(g.tile_count() < 1000, "{}", g.tile_count());
+        // Plan past the trunk to a goal 20 m beyond it, in space never seen (unknown = free).
+        let goal = pose.world_from_body(&Point2::new(23.0, 0.0));
+        let path = g.plan(pose.position(), goal, &PlanParams::default()).expect("path");
+        assert!(path.reached_goal);
+        assert_eq!(path.points.last(), Some(&goal));
+        let octile = PlanParams { heuristic: Heuristic::Octile, ..PlanParams::default() };
+        let shortest = g.plan(pose.position(), goal, &octile).expect("path");
+        assert!(shortest.reached_goal && path.cost >= shortest.cost - 1e-9);
+        // Inflated by 0.3 m: no way point comes within 0.3 m of a hit cell (0.3 m + the trunk's
+        // 0.3 m of the centre), allowing a cell diagonal of discretisation.
+        let clearance = path.points.iter().map(|p| (p - trunk).norm()).fold(f64::INFINITY, f64::min);
+        assert!(clearance > 0.6 - 0.15, "{clearance}");
+    }
+
+    #[test]
+    fn nearest_occupied_distance_and_cap() {
+        let mut g = grid(0.5);
+        g.set_cell(Cell::new(5, 0), true);
+        g.set_cell(Cell::new(40, 0), true);
+        // From (2, 4): (3, −4) cells = 5 cells = 2.5 m.
+        assert_eq!(g.nearest_occupied_m(Cell::new(2, 4), 10.0), Some(2.5));
+        assert_eq!(g.nearest_occupied_m(Cell::new(2, 4), 2.5), Some(2.5));
+        assert_eq!(g.nearest_occupied_m(Cell::new(2, 4), 2.0), None);
+        assert_eq!(g.nearest_occupied_m(Cell::new(5, 0), 0.0), Some(0.0));
+        // (38, 0) is 2 cells from (40, 0), 33 from (5, 0) across tiles.
+        assert_eq!(g.nearest_occupied_m(Cell::new(38, 0), 100.0), Some(1.0));
+    }
+
+    #[test]
+    fn the_a21_heuristic_is_goal_distance_plus_obstacle_distance() {
+        // seed 003 IV-C: h = d_goal + d_obs.
+        assert_eq!(a21_heuristic(3.0, 4.0), 7.0);
+        // On a map: one obstacle at cell (5, 0), res 0.5, cell (2, 4) with the goal at cell
+        // (2, 0): d_goal = 4 cells = 2 m, d_obs = 5 cells = 2.5 m, h = 4.5 m. This h overestimates
+        // the true remaining cost (2 m): inadmissible.
+        let mut g = grid(0.5);
+        g.set_cell(Cell::new(5, 0), true);
+        let d_goal = (g.center_of(Cell::new(2, 4)) - g.center_of(Cell::new(2, 0))).norm();
+        let d_obs = g.nearest_occupied_m(Cell::new(2, 4), 10.0).expect("obstacle");
+        assert_eq!(a21_heuristic(d_goal, d_obs), 4.5);
+    }
+
+    /// A wall of occupied cells at column 10, rows −5..=5.
+    fn walled(res: f64) -> OccupancyGrid {
+        let mut g = grid(res);
+        for iy in -5..=5 {
+            g.set_cell(Cell::new(10, iy), true);
+        }
+        g
+    }
+
+    #[test]
+    fn the_a21_planner_finds_a_path_around_a_wall() {
+        let g = walled(0.1);
+        let (start, goal) = (Point2::new(0.05, 0.05), Point2::new(2.05, 0.05));
+        let params = PlanParams { inflation_radius_m: 0.2, ..PlanParams::default() };
+        // The admissible heuristics give the shortest path, the same cost for both.
+        let octile = g.plan(start, goal, &PlanParams { heuristic: Heuristic::Octile, ..params }).expect("path");
+        let euclid = g.plan(start, goal, &PlanParams { heuristic: Heuristic::Euclidean, ..params }).expect("path");
+        assert!(octile.reached_goal && euclid.reached_goal);
+        assert!((octile.cost - euclid.cost).abs() < 1e-9, "{} vs {}", octile.cost, euclid.cost);
+        for heuristic in [Heuristic::A21, Heuristic::A21Octile] {
+            let a21 = g.plan(start, goal, &PlanParams { heuristic, ..params }).expect("path");
+            assert!(a21.reached_goal, "{heuristic:?}");
+            assert_eq!(a21.points.first(), Some(&start));
+            assert_eq!(a21.points.last(), Some(&goal));
+            for w in a21.cells.windows(2) {
+                assert!((w[0].ix - w[1].ix).abs() <= 1 && (w[0].iy - w[1].iy).abs() <= 1, "{w:?}");
+            }
+            for c in &a21.cells {
+                let d = g.nearest_occupied_m(*c, 1.0);
+                assert!(d.is_none_or(|d| d > 0.2 + 1e-9), "{c:?} is inside the inflation: {d:?}");
+            }
+            // Inadmissible: never shorter than the shortest.
+            assert!(a21.cost >= octile.cost - 1e-9, "{heuristic:?}: {} < {}", a21.cost, octile.cost);
+            // The wall spans rows −5..=5, inflated by 2 cells: the path detours to |row| ≥ 8.
+            assert!(a21.cells.iter().any(|c| c.iy.abs() >= 8), "{heuristic:?}");
+        }
+    }
+
+    #[test]
+    fn astar_returns_none_when_the_goal_is_walled_in() {
+        let mut g = grid(0.1);
+        // A closed ring around the goal cell (20, 0).
+        for (dx, dy) in MOVES {
+            g.set_cell(Cell::new(20 + dx, dy), true);
+        }
+        let params = PlanParams { heuristic: Heuristic::Octile, inflation_radius_m: 0.0, ..PlanParams::default() };
+        assert_eq!(g.plan(Point2::new(0.05, 0.05), Point2::new(2.05, 0.05), &params), None);
+        // Open one side of the ring: now reachable.
+        g.set_cell(Cell::new(21, 0), false);
+        let path = g.plan(Point2::new(0.05, 0.05), Point2::new(2.05, 0.05), &params).expect("path");
+        assert!(path.reached_goal);
+        assert_eq!(path.cells.last(), Some(&Cell::new(20, 0)));
+    }
+
+    #[test]
+    fn a_far_goal_stops_at_the_expansion_limit_with_a_partial_path() {
+        let g = grid(0.1);
+        let params = PlanParams {
+            heuristic: Heuristic::Octile,
+            limits: SearchLimits { max_expanded: 10, margin_m: 2.0 },
+            ..PlanParams::default()
+        };
+        let path = g.plan(Point2::new(0.05, 0.05), Point2::new(1000.05, 0.05), &params).expect("partial");
+        assert!(!path.reached_goal);
+        assert_eq!(path.expanded, 10);
+        // Straight at the goal: the 10th expanded cell is 9 cells ahead.
+        assert_eq!(path.cells.last(), Some(&Cell::new(9, 0)));
+        assert!(close(path.cost, 0.9));
+    }
+
+    #[test]
+    fn a_start_inside_the_inflation_escapes_first() {
+        let mut g = grid(0.1);
+        g.set_cell(Cell::new(1, 0), true);
+        // Start in cell (0, 0), 0.1 m from the obstacle, inflation 0.25 m.
+        let params = PlanParams { heuristic: Heuristic::Octile, inflation_radius_m: 0.25, ..PlanParams::default() };
+        let path = g.plan(Point2::new(0.05, 0.05), Point2::new(-1.95, 0.05), &params).expect("path");
+        assert!(path.reached_goal);
+        assert_eq!(path.cells.first(), Some(&Cell::new(0, 0)));
+        // Escape: BFS reaches the first cell farther than 0.25 m = 2.5 cells from (1, 0), i.e.
+        // (−2, ·) in three steps; from there on every cell is free of the inflation.
+        let free_from = path.cells.iter().position(|c| g.nearest_occupied_m(*c, 0.25).is_none()).expect("escaped");
+        assert!(path.cells[free_from..].iter().all(|c| g.nearest_occupied_m(*c, 0.25).is_none()));
+    }
+
+    /// Plain Dijkstra over every cell of `w × h`, same moves and costs as `astar`: the reference.
+    fn dijkstra(w: i32, h: i32, cost: &dyn Fn(Cell) -> Option<f64>, start: Cell, goal: Cell) -> Option<f64> {
+        let inside = |c: Cell| (0..w).contains(&c.ix) && (0..h).contains(&c.iy);
+        let passable = |c: Cell| if inside(c) { cost(c) } else { None };
+        let mut dist: HashMap<Cell, f64> = HashMap::new();
+        let mut done: HashSet<Cell> = HashSet::new();
+        dist.insert(start, 0.0);
+        loop {
+            let next = dist.iter().filter(|(c, _)| !done.contains(*c)).min_by(|a, b| a.1.total_cmp(b.1));
+            let (&c, &d) = next?;
+            if c == goal {
+                return Some(d);
+            }
+            done.insert(c);
+            for (dx, dy) in MOVES {
+                let n = c.offset(dx, dy);
+                let Some(unit) = passable(n) else { continue };
+                let diagonal = dx != 0 && dy != 0;
+                if diagonal && (passable(c.offset(dx, 0)).is_none() || passable(c.offset(0, dy)).is_none()) {
+                    continue;
+                }
+                let nd = d + unit * if diagonal { DIAGONAL } else { 1.0 };
+                if dist.get(&n).is_none_or(|&old| nd < old) {
+                    dist.insert(n, nd);
+                }
+            }
+        }
+    }
+
+    /// Width, height, unit cost of each cell (row-major, `None` = blocked), start, goal.
+    type RandomGrid = (i32, i32, Vec<Option<f64>>, (i32, i32), (i32, i32));
+
+    fn random_grid() -> impl Strategy<Value = RandomGrid> {
+        (2i32..9, 2i32..9).prop_flat_map(|(w, h)| {
+            let cell = prop_oneof![1 => Just(None), 3 => (1.0f64..5.0).prop_map(Some)];
+            (Just(w), Just(h), prop::collection::vec(cell, (w * h) as usize), (0..w, 0..h), (0..w, 0..h))
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn astar_with_an_admissible_heuristic_is_optimal((w, h, costs, s, g) in random_grid()) {
+            let cost = |c: Cell| costs[(c.iy * w + c.ix) as usize];
+            let (start, goal) = (Cell::new(s.0, s.1), Cell::new(g.0, g.1));
+            let window = CellBox { min: Cell::new(0, 0), max: Cell::new(w - 1, h - 1) };
+            // Every unit cost is ≥ 1, so 1 × the octile distance (the free-space path length)
+            // never overestimates; nor does the straight-line distance, which is shorter still.
+            let found = astar(start, goal, window, 10_000, cost, |c| octile_cells(c, goal));
+            let by_line = astar(start, goal, window, 10_000, cost, |c| c.dist2(goal).sqrt());
+            let best = dijkstra(w, h, &cost, start, goal);
+            prop_assert_eq!(found.is_some(), by_line.is_some());
+            if let (Some(a), Some(b)) = (&found, &by_line) {
+                prop_assert!((a.cost - b.cost).abs() < 1e-9);
+            }
+            match (&found, best) {
+                (None, None) => {}
+                (Some(p), Some(d)) => {
+                    prop_assert!(p.reached_goal);
+                    prop_assert!((p.cost - d).abs() < 1e-9, "A* {} vs Dijkstra {}", p.cost, d);
+                    prop_assert_eq!(p.cells.first(), Some(&start));
+                    prop_assert_eq!(p.cells.last(), Some(&goal));
+                    // The path is a chain of legal moves whose costs add up to the reported cost.
+                    let mut sum = 0.0;
+                    for pair in p.cells.windows(2) {
+                        let (dx, dy) = (pair[1].ix - pair[0].ix, pair[1].iy - pair[0].iy);
+                        prop_assert!(dx.abs() <= 1 && dy.abs() <= 1 && (dx, dy) != (0, 0));
+                        let unit = cost(pair[1]);
+                        prop_assert!(unit.is_some());
+                        sum += unit.unwrap_or(0.0) * if dx != 0 && dy != 0 { DIAGONAL } else { 1.0 };
+                    }
+                    prop_assert!((sum - p.cost).abs() < 1e-9);
+                }
+                _ => prop_assert!(false, "A* {:?} but Dijkstra {:?}", found, best),
+            }
+        }
+    }
+}
