@@ -246,6 +246,14 @@ impl Scenario {
         self.perception.validate()?;
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;
+        if let Some(e) = &self.localization.broadcast_error {
+            non_negative("localization.broadcast_error.delta_a_m", e.delta_a_m)?;
+            non_negative("localization.broadcast_error.from_s", e.from_s)?;
+            if e.until_s.is_some_and(|u| !(u.is_finite() && u > e.from_s)) {
+                return Err(("localization.broadcast_error.until_s".into(), "must be after from_s".into()));
+            }
+            self.check_uav_set("localization.broadcast_error.uavs", &e.uavs)?;
+        }
         if let Some(l) = &self.radio.distance_loss {
             if !(l.from_m.is_finite() && l.from_m >= 0.0 && l.from_m < self.radio.range_m) {
                 return Err(("radio.distance_loss.from_m".into(), "must be in [0, radio.range_m)".into()));

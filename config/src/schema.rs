@@ -759,6 +759,36 @@ pub struct Localization {
     /// Onboard relative sensing (`uvdar` mode, seed 003).
     #[serde(default)]
     pub uvdar: crate::UvdarParams,
+    /// Artificial error on the broadcast position (`broadcast` mode; seed 001 section 6).
+    #[serde(default)]
+    pub broadcast_error: Option<BroadcastError>,
+}
+
+/// The artificial localization error of seed 001 section 6 (eq. 45–46): from `from_s` until
+/// `until_s`, the GNSS-like position of each UAV in `uavs` is off by a fresh error vector every
+/// tick, uniform in direction and with its length uniform in [0, `delta_a_m`]. The UAV flies on
+/// and broadcasts the wrong position, as with a degraded GPS.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BroadcastError {
+    /// δa, the largest error [m].
+    pub delta_a_m: f64,
+    /// Which UAVs are affected.
+    #[serde(default)]
+    pub uavs: UavSet,
+    /// Start [s].
+    #[serde(default)]
+    pub from_s: f64,
+    /// End [s] (none: to the end of the run).
+    #[serde(default)]
+    pub until_s: Option<f64>,
+}
+
+impl BroadcastError {
+    /// Whether UAV `id` is affected at sim time `t`.
+    pub fn active(&self, id: u32, t: f64) -> bool {
+        self.uavs.contains(id) && t + 1e-9 >= self.from_s && self.until_s.is_none_or(|u| t < u - 1e-9)
+    }
 }
 fn d_loc() -> LocalizationMode {
     LocalizationMode::Broadcast
@@ -773,6 +803,7 @@ impl Default for Localization {
             stale_after_s: d_stale(),
             icp: IcpParams::default(),
             uvdar: crate::UvdarParams::default(),
+            broadcast_error: None,
         }
     }
 }

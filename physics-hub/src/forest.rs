@@ -16,6 +16,8 @@ pub(crate) mod stream {
     pub const START: u64 = 0x0053_7461_7274;
     /// LIDAR noise of UAV `id` is `LIDAR + id`.
     pub const LIDAR: u64 = 0x4c69_6461_7200;
+    /// The broadcast-position error of UAV `id` (seed 001 section 6) is `GNSS_ERROR + id`.
+    pub const GNSS_ERROR: u64 = 0x476e_7373_4500;
 }
 
 /// A ChaCha8 stream for `purpose` derived from `seed`.

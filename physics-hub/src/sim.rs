@@ -8,6 +8,7 @@ use crate::lidar;
 use crate::radio::Radio;
 use crate::world::World;
 use nalgebra::{Rotation2, Vector2};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{GoalRule, LocalizationMode, OnCollision, Scenario};
 use swarm_wire::{
@@ -36,6 +37,7 @@ pub struct Sim {
     limits: Limits,
     radio: Radio,
     lidar_rngs: Vec<ChaCha8Rng>,
+    gnss_rngs: Vec<ChaCha8Rng>,
     last_cmds: Vec<Cmd>,
     obstacle_contact: Vec<bool>,
     uav_contact: Vec<Vec<bool>>,
@@ -66,6 +68,7 @@ impl Sim {
             },
             radio,
             lidar_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::LIDAR + u64::from(id))).collect(),
+            gnss_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::GNSS_ERROR + u64::from(id))).collect(),
             last_cmds: vec![hover; n],
             obstacle_contact: vec![false; n],
             uav_contact: vec![vec![false; n]; n],
@@ -142,14 +145,9 @@ impl Sim {
             [g.x, g.y]
         });
         let odom = Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal };
-        let gnss = (self.sc.localization.mode == LocalizationMode::Broadcast).then_some(Gnss {
-            tick,
-            t_secs,
-            x: b.pos.x,
-            y: b.pos.y,
-            yaw: b.yaw,
-            vx: b.vel.x,
-            vy: b.vel.y,
+        let gnss = (self.sc.localization.mode == LocalizationMode::Broadcast).then(|| {
+            let [ex, ey] = self.gnss_error(i, id, t_secs);
+            Gnss { tick, t_secs, x: b.pos.x + ex, y: b.pos.y + ey, yaw: b.yaw, vx: b.vel.x, vy: b.vel.y }
         });
         let in_range = self.radio.in_range(i).into_iter().map(|j| j as u32 + 1).collect();
         let loss = if self.sc.radio.distance_loss.is_some() {
@@ -159,6 +157,20 @@ impl Sim {
             Vec::new()
         };
         Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan }
+    }
+
+    /// The artificial error of UAV `id`'s GNSS-like fix at `t` (seed 001 eq. 45–46): zero, or
+    /// while the scenario's `broadcast_error` is active for it, a vector of uniform direction
+    /// whose length is uniform in [0, δa], fresh every tick.
+    fn gnss_error(&mut self, i: usize, id: u32, t: f64) -> [f64; 2] {
+        let Some(e) = self.sc.localization.broadcast_error.as_ref().filter(|e| e.active(id, t)) else {
+            return [0.0, 0.0];
+        };
+        let r = &mut self.gnss_rngs[i];
+        // seed 001 eq. 46: f(|δa|) = 1/δa on [0, δa]; the direction is uniform.
+        let len = e.delta_a_m * r.gen::<f64>();
+        let dir = std::f64::consts::TAU * r.gen::<f64>();
+        [len * dir.cos(), len * dir.sin()]
     }
 
     /// Adds failures (freezes from `swarm netem freeze`) to the run's scenario.

@@ -6,16 +6,16 @@
 //! neighbours' shares. Nothing here can reach ground truth.
 
 use crate::icp::{self, Match, Transform};
-use crate::k21;
-use crate::localization::{wrap, BroadcastTable, Estimate};
+use crate::localization::{BroadcastTable, Estimate};
 use crate::neighbours::{Database, Matcher, Received};
 use crate::perception;
-use nalgebra::{Point2, Vector2};
+use crate::pilot::{Pilot, View};
+use nalgebra::Point2;
 use std::time::Instant;
-use swarm_config::{IcpParams, LocalizationMode, Scenario, TimeMode};
+use swarm_config::{ControllerKind, IcpParams, LocalizationMode, Scenario, TimeMode};
 use swarm_wire::{
-    AgentState, Cmd, CmdKind, Gnss, IcpCounts, LinkCounters, Msg, NeighbourEstimate, ObstacleShare, Odom, PoseShare,
-    Scan, VectorMagnitudes,
+    AgentState, Cmd, Gnss, IcpCounts, LinkCounters, Msg, NeighbourEstimate, ObstacleShare, Odom, PoseShare,
+    Scan,
 };
 
 /// What agents tell their neighbours: a pose (`broadcast`) or an obstacle set (`icp`).
@@ -90,13 +90,16 @@ pub struct Agent {
     /// The newest obstacle set from each neighbour (one per sender), handed to the database by
     /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
     received: Vec<Received>,
+    /// The controller and what it keeps between steps.
+    pilot: Pilot,
 }
 
 impl Agent {
     /// The agent of UAV `id` under scenario `sc`.
     pub fn new(id: u32, sc: Scenario) -> Agent {
         let db = Database::new(sc.localization.icp.clone(), sc.localization.stale_after_s);
-        Agent { id, sc, table: BroadcastTable::default(), db, received: Vec::new() }
+        let pilot = Pilot::new(&sc);
+        Agent { id, sc, table: BroadcastTable::default(), db, received: Vec::new(), pilot }
     }
 
     /// Takes a neighbour's share that the link has delivered (our own echo is ignored).
@@ -121,21 +124,29 @@ impl Agent {
     /// Runs perception, localization and control for one tick.
     pub fn step(&mut self, scan: &Scan, odom: &Odom, gnss: Option<&Gnss>) -> StepOutput {
         let started = Instant::now();
-        let circles = perception::extract_obstacles(scan, &self.sc.perception);
+        let seen = perception::extract(scan, &self.sc.perception, &perception::SegmentParams::default());
+        let circles = seen.circles;
         let (estimates, icp_counts) = self.localize(scan.t_secs, &circles, gnss, started);
-        let neighbours: Vec<k21::Neighbour> =
-            estimates.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
-        let obstacles = self.trees_only(&circles, &estimates);
-        let goal_heading = odom.goal.map(|g| wrap((g[1] - odom.y).atan2(g[0] - odom.x) - odom.yaw));
-        let out = k21::step(
-            &self.sc.controller.k21,
-            &k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading },
-        );
+        let trees = self.trees_only(&circles, &estimates);
+        let scan_points: Vec<Point2<f64>> = if self.sc.controller.kind == ControllerKind::A21 {
+            perception::group_scan(scan, f64::INFINITY).concat()
+        } else {
+            Vec::new()
+        };
+        let view = View {
+            t_secs: scan.t_secs,
+            odom,
+            neighbours: &estimates,
+            trees: &trees,
+            walls: &seen.segments,
+            scan_points: &scan_points,
+        };
+        let out = self.pilot.step(&self.sc, &view);
         let cmd = Cmd {
             tick: scan.tick,
-            kind: CmdKind::Velocity,
-            x: out.velocity.x as f32,
-            y: out.velocity.y as f32,
+            kind: out.kind,
+            x: out.xy.x as f32,
+            y: out.xy.y as f32,
             yaw_rate: out.yaw_rate as f32,
         };
         let share = match (self.sc.localization.mode, gnss) {
@@ -163,7 +174,7 @@ impl Agent {
             tick: scan.tick,
             t_secs: scan.t_secs,
             step_time_us: started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32,
-            obstacles: obstacles.len() as u32,
+            obstacles: trees.len() as u32,
             neighbours: estimates
                 .iter()
                 .map(|e| NeighbourEstimate {
@@ -175,13 +186,7 @@ impl Agent {
                 })
                 .collect(),
             in_radio_range: 0,
-            vectors: VectorMagnitudes {
-                cohesion: out.cohesion.norm() as f32,
-                separation: out.separation.norm() as f32,
-                avoidance: out.avoidance.norm() as f32,
-                navigation: out.navigation.norm() as f32,
-                output: out.velocity.norm() as f32,
-            },
+            vectors: out.vectors,
             link: LinkCounters::default(),
             icp: icp_counts,
             delays: Vec::new(),
@@ -227,14 +232,10 @@ impl Agent {
         }
     }
 
-    /// Obstacle centres minus those that are a localized neighbour seen by the LIDAR.
-    fn trees_only(&self, circles: &[perception::Circle], estimates: &[Estimate]) -> Vec<Vector2<f64>> {
+    /// Obstacle circles minus those that are a localized neighbour seen by the LIDAR.
+    fn trees_only(&self, circles: &[perception::Circle], estimates: &[Estimate]) -> Vec<perception::Circle> {
         let m = self.sc.perception.neighbour_match_m;
-        circles
-            .iter()
-            .map(|c| c.center.coords)
-            .filter(|c| estimates.iter().all(|e| (e.pos_in_body - c).norm() > m))
-            .collect()
+        circles.iter().filter(|c| estimates.iter().all(|e| (e.pos_in_body - c.center.coords).norm() > m)).copied().collect()
     }
 }
 
@@ -293,6 +294,6 @@ mod tests {
         let tree = perception::Circle { center: nalgebra::Point2::new(0.0, 5.0), radius: 0.3 };
         let (est, _) = a.localize(0.1, &[], Some(&g), Instant::now());
         let left = a.trees_only(&[circle, tree], &est);
-        assert_eq!(left, vec![Vector2::new(0.0, 5.0)]);
+        assert_eq!(left, vec![tree]);
     }
 }

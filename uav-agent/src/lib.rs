@@ -22,5 +22,6 @@ pub mod neighbours;
 pub mod node;
 pub mod p17;
 pub mod perception;
+pub mod pilot;
 
 pub use node::{run, AgentError, AgentExit, AgentOptions};

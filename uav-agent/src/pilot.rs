@@ -1,0 +1,228 @@
+//! The pilot: one control step of the scenario's controller, from what perception and
+//! localization made of this tick to a command for the hub.
+//!
+//! Why a module of its own: the controllers ([`k21`], [`p17`], [`a21`]) are pure functions of
+//! their seeds' inputs, each in its own frame and units. The pilot owns what they need to keep
+//! between steps (P17's previous velocity and its neighbours' velocity tracker, A21's occupancy
+//! grid and planned path) and does the conversions, so `agent` stays one readable pipeline.
+//!
+//! Frames: perception and localization give everything in the body frame. K21 and A21 work in
+//! it; P17 works in the agent's odometry frame (its steering update integrates velocities, which
+//! must not turn with the body), and A21's planner too (the grid is a map). Commands go out in
+//! the body frame.
+//!
+//! Choices where the seeds are silent:
+//! - P17 and A21 do not steer the heading (seed 003 holds a constant desired heading; seed 001's
+//!   equations have no yaw): their yaw rate is 0. The LIDAR sees all around, so nothing is lost.
+//! - P17 neighbour velocities come from position differences of identified neighbours (seed 001
+//!   eq. 9); an anonymous neighbour (`identify = "scan"` in ICP mode) counts with velocity 0.
+//! - P17 walls are the segments perception extracts (the visible face, thickness 0); its
+//!   cylinders are the circles that are not a localized neighbour.
+//! - A21's collision term takes the scan points within `dr` that are not a localized neighbour
+//!   (seed 003 computes it from its map, whose occupied cells are laser hits). A21 plans on its own
+//!   occupancy grid every `replan_period_s` with the heuristic of seed 003 IV-C, unknown = free.
+
+use crate::grid::{Heuristic, OccupancyGrid, PlanParams, Pose2};
+use crate::localization::Estimate;
+use crate::perception::{Circle, Segment};
+use crate::{a21, k21, p17};
+use nalgebra::{Point2, Rotation2, Vector2};
+use swarm_config::{ControllerKind, Scenario};
+use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
+
+/// What one step saw, in the body frame.
+#[derive(Debug, Clone, Copy)]
+pub struct View<'a> {
+    /// Sim time [s].
+    pub t_secs: f64,
+    /// Own odometry (pose and velocity in the start frame, and the goal of an informed UAV).
+    pub odom: &'a Odom,
+    /// Localized neighbours.
+    pub neighbours: &'a [Estimate],
+    /// Obstacle circles that are not a localized neighbour.
+    pub trees: &'a [Circle],
+    /// Wall faces.
+    pub walls: &'a [Segment],
+    /// Every returned scan point.
+    pub scan_points: &'a [Point2<f64>],
+}
+
+/// A command in the body frame, with the magnitudes of the controller's terms.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Command {
+    /// Velocity or acceleration.
+    pub kind: CmdKind,
+    /// x, y [m/s or m/s²], body frame.
+    pub xy: Vector2<f64>,
+    /// Yaw rate [rad/s].
+    pub yaw_rate: f64,
+    /// Term magnitudes for diagnostics (the K21 names; other controllers map theirs).
+    pub vectors: VectorMagnitudes,
+}
+
+/// The controller's memory between steps.
+#[derive(Debug)]
+pub enum Pilot {
+    /// K21 keeps nothing.
+    K21,
+    /// P17.
+    P17 {
+        /// v[t−1] of seed 001 eq. 40 [m/s], odometry frame.
+        prev_vel: Vector2<f64>,
+        /// Neighbour velocities from position differences (eq. 9).
+        tracker: p17::VelocityTracker,
+    },
+    /// A21.
+    A21 {
+        /// The map built from its own scans (seed 003 IV-C).
+        grid: Box<OccupancyGrid>,
+        /// The current path to the goal, odometry frame.
+        path: Vec<Point2<f64>>,
+        /// When it was planned [s].
+        planned_at: Option<f64>,
+    },
+}
+
+impl Pilot {
+    /// The pilot of the scenario's controller.
+    pub fn new(sc: &Scenario) -> Pilot {
+        match sc.controller.kind {
+            ControllerKind::P17 => {
+                Pilot::P17 { prev_vel: Vector2::zeros(), tracker: p17::VelocityTracker::new(sc.localization.stale_after_s) }
+            }
+            ControllerKind::A21 => {
+                let a = &sc.controller.a21;
+                let params = crate::grid::GridParams {
+                    resolution_m: a.grid_resolution_m,
+                    max_range_m: sc.lidar.max_range_m,
+                    ..crate::grid::GridParams::default()
+                };
+                Pilot::A21 { grid: Box::new(OccupancyGrid::new(params)), path: Vec::new(), planned_at: None }
+            }
+            ControllerKind::K21 | ControllerKind::M23 => Pilot::K21,
+        }
+    }
+
+    /// One control step.
+    pub fn step(&mut self, sc: &Scenario, v: &View) -> Command {
+        match self {
+            Pilot::K21 => fly_k21(sc, v),
+            Pilot::P17 { prev_vel, tracker } => fly_p17(sc, v, prev_vel, tracker),
+            Pilot::A21 { grid, path, planned_at } => fly_a21(sc, v, grid, path, planned_at),
+        }
+    }
+}
+
+/// The goal's bearing in the body frame (seed 000 eq. 4.15 minus own heading).
+fn goal_heading(odom: &Odom) -> Option<f64> {
+    odom.goal.map(|g| crate::localization::wrap((g[1] - odom.y).atan2(g[0] - odom.x) - odom.yaw))
+}
+
+fn fly_k21(sc: &Scenario, v: &View) -> Command {
+    let neighbours: Vec<k21::Neighbour> =
+        v.neighbours.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
+    let obstacles: Vec<Vector2<f64>> = v.trees.iter().map(|c| c.center.coords).collect();
+    let out = k21::step(
+        &sc.controller.k21,
+        &k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading: goal_heading(v.odom) },
+    );
+    Command {
+        kind: CmdKind::Velocity,
+        xy: out.velocity,
+        yaw_rate: out.yaw_rate,
+        vectors: VectorMagnitudes {
+            cohesion: out.cohesion.norm() as f32,
+            separation: out.separation.norm() as f32,
+            avoidance: out.avoidance.norm() as f32,
+            navigation: out.navigation.norm() as f32,
+            output: out.velocity.norm() as f32,
+        },
+    }
+}
+
+/// Own pose in the odometry frame: position and the rotation body → odometry.
+fn pose(odom: &Odom) -> (Vector2<f64>, Rotation2<f64>) {
+    (Vector2::new(odom.x, odom.y), Rotation2::new(odom.yaw))
+}
+
+fn fly_p17(sc: &Scenario, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut p17::VelocityTracker) -> Command {
+    let (p0, rot) = pose(v.odom);
+    let to_odom = |b: Vector2<f64>| p0 + rot * b;
+    tracker.forget_stale(v.t_secs);
+    let neighbours: Vec<p17::Neighbour> = v
+        .neighbours
+        .iter()
+        .map(|e| {
+            let pos = to_odom(e.pos_in_body);
+            // seed 001 eq. 9: a neighbour's velocity from its position differences.
+            let vel = e.id.and_then(|id| tracker.update(id, pos, v.t_secs - e.age_secs)).unwrap_or_else(Vector2::zeros);
+            p17::Neighbour { pos, vel_mps: vel }
+        })
+        .collect();
+    let cylinders: Vec<p17::Cylinder> =
+        v.trees.iter().map(|c| p17::Cylinder { centre: to_odom(c.center.coords), radius_m: c.radius }).collect();
+    let walls: Vec<p17::Wall> =
+        v.walls.iter().map(|s| p17::Wall { a: to_odom(s.a.coords), b: to_odom(s.b.coords), thickness_m: 0.0 }).collect();
+    let goal = v.odom.goal.map(|g| p17::Goal::Static { pos: Vector2::new(g[0], g[1]) });
+    let values = sc.controller.p17.values();
+    let out = p17::step(
+        &values,
+        &p17::Input { pos: p0, prev_vel_mps: *prev_vel, neighbours: &neighbours, cylinders: &cylinders, walls: &walls, goal },
+    );
+    *prev_vel = out.velocity_mps;
+    let f = &out.forces;
+    Command {
+        kind: CmdKind::Velocity,
+        xy: rot.inverse() * out.velocity_mps,
+        yaw_rate: 0.0,
+        vectors: VectorMagnitudes {
+            cohesion: f.cohesion.norm() as f32,
+            separation: f.separation.norm() as f32,
+            avoidance: (f.avoidance_separation + f.avoidance_alignment).norm() as f32,
+            navigation: f.navigation.norm() as f32,
+            output: out.velocity_mps.norm() as f32,
+        },
+    }
+}
+
+fn fly_a21(
+    sc: &Scenario,
+    v: &View,
+    grid: &mut OccupancyGrid,
+    path: &mut Vec<Point2<f64>>,
+    planned_at: &mut Option<f64>,
+) -> Command {
+    let a = &sc.controller.a21;
+    let (p0, rot) = pose(v.odom);
+    let near_neighbour = |p: &Point2<f64>| {
+        v.neighbours.iter().any(|e| (e.pos_in_body - p.coords).norm() <= sc.perception.neighbour_match_m)
+    };
+    let static_points: Vec<Point2<f64>> = v.scan_points.iter().filter(|p| !near_neighbour(p)).copied().collect();
+    grid.update(Pose2 { x: p0.x, y: p0.y, yaw: v.odom.yaw }, &static_points);
+    let direction = v.odom.goal.and_then(|g| {
+        let due = planned_at.is_none_or(|t| v.t_secs - t >= a.replan_period_s - 1e-9);
+        if due {
+            let params = PlanParams { heuristic: Heuristic::A21, inflation_radius_m: a.inflation_m, ..PlanParams::default() };
+            *path = grid.plan(Point2::from(p0), Point2::new(g[0], g[1]), &params).map(|p| p.points).unwrap_or_default();
+            *planned_at = Some(v.t_secs);
+        }
+        // seed 003 eq. 7: x̂ⁿ along the path, turned into the body frame.
+        a21::navigation_direction(path, Point2::from(p0), a.path_lookahead_m).map(|d| rot.inverse() * d)
+    });
+    let neighbours: Vec<Vector2<f64>> = v.neighbours.iter().map(|e| e.pos_in_body).collect();
+    let obstacle_points: Vec<Vector2<f64>> =
+        static_points.iter().map(|p| p.coords).filter(|p| p.norm() <= a.dr_m).collect();
+    let out = a21::step(a, &a21::Input { neighbours: &neighbours, obstacle_points: &obstacle_points, path_direction: direction });
+    Command {
+        kind: CmdKind::Acceleration,
+        xy: out.acceleration,
+        yaw_rate: 0.0,
+        vectors: VectorMagnitudes {
+            cohesion: out.proximal.norm() as f32,
+            separation: 0.0,
+            avoidance: out.collision.norm() as f32,
+            navigation: out.navigation.norm() as f32,
+            output: out.acceleration.norm() as f32,
+        },
+    }
+}
