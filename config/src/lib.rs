@@ -59,6 +59,9 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("open-field-5-linkfault", include_str!("../../scenarios/open-field-5-linkfault.toml")),
     ("open-field-5-restart", include_str!("../../scenarios/open-field-5-restart.toml")),
     ("open-field-7-partition", include_str!("../../scenarios/open-field-7-partition.toml")),
+    ("p17-free-4", include_str!("../../scenarios/p17-free-4.toml")),
+    ("p17-gap", include_str!("../../scenarios/p17-gap.toml")),
+    ("p17-wall", include_str!("../../scenarios/p17-wall.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
 ];
 
@@ -239,9 +242,14 @@ impl Scenario {
             return Err(("time.tick_timeout_ms".into(), "must be > 0".into()));
         }
         self.controller.k21.validate("controller.k21")?;
-        if self.controller.kind != ControllerKind::K21 {
-            // Until the agent flies them, say so instead of silently flying K21.
-            return Err(("controller.kind".into(), format!("{:?} is not flown by the agent yet", self.controller.kind)));
+        self.controller.p17.validate("controller.p17")?;
+        self.controller.a21.validate("controller.a21")?;
+        self.controller.m23.validate("controller.m23")?;
+        self.controller.m23.costmap.validate("controller.m23.costmap")?;
+        self.localization.uvdar.validate("localization.uvdar")?;
+        if self.controller.kind == ControllerKind::M23 {
+            // The formation layer is built and tested, not yet flown: say so instead of flying K21.
+            return Err(("controller.kind".into(), "m23 is not flown by the agent yet".into()));
         }
         self.perception.validate()?;
         positive("localization.stale_after_s", self.localization.stale_after_s)?;

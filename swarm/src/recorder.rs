@@ -17,6 +17,9 @@ use std::io::{BufWriter, Write};
 use std::path::Path;
 use swarm_wire::{AgentState, ClassCounts, EndReason, Msg, TruthBody, TruthStep, TruthWorld};
 
+/// The window at the end of a run over which the lattice spacing is reported [s].
+const LATTICE_WINDOW_S: f64 = 10.0;
+
 #[derive(Debug, Clone)]
 struct Acc {
     min_obst: f64,
@@ -117,6 +120,8 @@ pub struct Metrics {
     known: BTreeMap<u64, (f64, BTreeMap<u32, Vec<u32>>)>,
     /// Delay applied to each delivered copy, per link class [s].
     delays: [Vec<f64>; 3],
+    /// Mean nearest-neighbour distance over the UAVs at each tick: (sim time, metres).
+    spacing: Vec<(f64, f64)>,
 }
 
 /// An estimate farther than this from the truth places a neighbour where none is.
@@ -228,6 +233,10 @@ impl Metrics {
             }
             let t = self.tracks.entry(b.id).or_insert_with(|| Track { id: b.id, samples: Vec::new() });
             t.samples.push([s.t_secs, b.x, b.y, b.obstacle_distance_m, b.agent_distance_m]);
+        }
+        let nn: Vec<f64> = s.bodies.iter().map(|b| b.agent_distance_m).filter(|d| d.is_finite()).collect();
+        if !nn.is_empty() {
+            self.spacing.push((s.t_secs, nn.iter().sum::<f64>() / nn.len() as f64));
         }
         for c in &s.collisions {
             self.collisions.push(CollisionRecord { t_s: s.t_secs, id: c.id, other_uav: c.other_uav, x_m: c.x, y_m: c.y });
@@ -371,6 +380,7 @@ impl Metrics {
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
         let connectivity = self.connectivity(scenario);
         let network = self.network();
+        let (lattice_spacing_m, lattice_spacing_std_m) = self.lattice_spacing();
         Summary {
             schema: SCHEMA.into(),
             run_id: run_id.into(),
@@ -389,11 +399,23 @@ impl Metrics {
             collision_events: self.collisions.clone(),
             min_obstacle_distance_m: min(|a| a.min_obstacle_distance_m),
             min_agent_distance_m: min(|a| a.min_agent_distance_m),
+            lattice_spacing_m,
+            lattice_spacing_std_m,
             localization,
             connectivity,
             network,
             agents,
         }
+    }
+
+    /// Mean and standard deviation over the last [`LATTICE_WINDOW_S`] of sim time of the mean
+    /// nearest-neighbour distance (seed 001 4.1 reports the equilibrium spacing ξ this way).
+    fn lattice_spacing(&self) -> (f64, f64) {
+        let Some(&(t_end, _)) = self.spacing.last() else { return (f64::NAN, f64::NAN) };
+        let tail: Vec<f64> = self.spacing.iter().filter(|(t, _)| *t >= t_end - LATTICE_WINDOW_S).map(|&(_, d)| d).collect();
+        let mean = tail.iter().sum::<f64>() / tail.len() as f64;
+        let var = tail.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / tail.len() as f64;
+        (mean, var.sqrt())
     }
 
     /// What the links did, per class, over every agent.

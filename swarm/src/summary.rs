@@ -63,6 +63,13 @@ pub struct Summary {
     /// Smallest centre-to-centre distance between two UAVs.
     #[serde(with = "inf_as_null")]
     pub min_agent_distance_m: f64,
+    /// Mean nearest-neighbour distance between UAVs over the last 10 s of the run (the lattice
+    /// spacing ξ of seed 001 4.1) [m].
+    #[serde(with = "inf_as_null")]
+    pub lattice_spacing_m: f64,
+    /// Its standard deviation over those 10 s: small when the lattice has settled [m].
+    #[serde(with = "inf_as_null")]
+    pub lattice_spacing_std_m: f64,
     /// How well agents knew where their neighbours were.
     pub localization: LocalizationSummary,
     /// Who knew of whom, over time.

@@ -270,3 +270,28 @@ fn an_agent_killed_and_restarted_rejoins() {
     let regained = events.iter().any(|e| e["regained"] == true && e["t_s"].as_f64().expect("t") >= 20.0);
     assert!(regained, "the new agent localized its neighbours: {events:?}");
 }
+
+/// Issue 5, P17 in free space (seed 001 4.1): four UAVs with d = 4 m and no goal settle into a
+/// lattice and the run reports its spacing. In the plane four UAVs make a square whose side
+/// under eq. 7 is 2.35 m (seed 001 measured 2.80 ± 0.15 m in 3D, a tetrahedron).
+#[test]
+fn p17_settles_into_a_lattice() {
+    let (_dir, s) = fly(&["p17-free-4"], "p17free");
+    assert_eq!(s["end_reason"], "time_limit");
+    assert_eq!(s["collisions"], 0, "{s:#}");
+    let (xi, sd) = (s["lattice_spacing_m"].as_f64().expect("n"), s["lattice_spacing_std_m"].as_f64().expect("n"));
+    assert!((2.2..2.5).contains(&xi), "spacing {xi}");
+    assert!(sd < 0.05, "settled: std {sd} over the last 10 s");
+}
+
+/// Issue 5, P17 past obstacles (seed 001 Fig. 42 and 44): six UAVs around a wall the LIDAR sees
+/// and perception turns into segments, and five through a gap between two cylinders; no
+/// collision, the group reaches the goal.
+#[test]
+fn p17_passes_a_wall_and_a_gap() {
+    for (scenario, tag) in [("p17-wall", "p17wall"), ("p17-gap", "p17gap")] {
+        let (_dir, s) = fly(&[scenario], tag);
+        assert_safe_arrival(&s);
+        assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 1.0, "{scenario}: kept off the obstacles: {s:#}");
+    }
+}
