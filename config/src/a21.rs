@@ -88,6 +88,15 @@ pub struct A21Params {
     /// target stays near the (inflated, obstacle-free) path.
     #[serde(default = "d_lookahead")]
     pub path_lookahead_m: f64,
+    /// Velocity damping k_v [1/s]: the agent commands f − k_v·v. Seed 003 feeds f to the MRS
+    /// trajectory generator and MPC tracker, which damp the motion; our bodies track the
+    /// acceleration directly, so without this the double integrator overshoots (0 = the bare
+    /// eq. 1).
+    #[serde(default = "d_damping")]
+    pub damping_per_s: f64,
+}
+fn d_damping() -> f64 {
+    0.5
 }
 fn d_d0() -> f64 {
     4.00
@@ -146,6 +155,7 @@ impl Default for A21Params {
             inflation_m: d_inflation(),
             replan_period_s: d_replan(),
             path_lookahead_m: d_lookahead(),
+            damping_per_s: d_damping(),
         }
     }
 }
@@ -172,6 +182,7 @@ impl A21Params {
             ("ko", self.ko),
             ("inflation_m", self.inflation_m),
             ("path_lookahead_m", self.path_lookahead_m),
+            ("damping_per_s", self.damping_per_s),
         ] {
             crate::non_negative(&format!("{at}.{name}"), v)?;
         }

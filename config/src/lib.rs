@@ -62,6 +62,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("p17-free-4", include_str!("../../scenarios/p17-free-4.toml")),
     ("p17-gap", include_str!("../../scenarios/p17-gap.toml")),
     ("p17-wall", include_str!("../../scenarios/p17-wall.toml")),
+    ("a21-forest-uvdar", include_str!("../../scenarios/a21-forest-uvdar.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
 ];
 

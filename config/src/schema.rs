@@ -731,6 +731,8 @@ pub enum LocalizationMode {
     Broadcast,
     /// Agents share their obstacle centres and align them by ICP (seed 000 chapters 3 and 5).
     Icp,
+    /// No communication at all: onboard relative sensing (UVDAR, seed 003) from the hub.
+    Uvdar,
 }
 
 /// How the neighbour database tells neighbours apart in `icp` mode.

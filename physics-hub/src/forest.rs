@@ -18,6 +18,8 @@ pub(crate) mod stream {
     pub const LIDAR: u64 = 0x4c69_6461_7200;
     /// The broadcast-position error of UAV `id` (seed 001 section 6) is `GNSS_ERROR + id`.
     pub const GNSS_ERROR: u64 = 0x476e_7373_4500;
+    /// UVDAR noise of UAV `id` is `UVDAR + id`.
+    pub const UVDAR: u64 = 0x5556_4441_5200;
 }
 
 /// A ChaCha8 stream for `purpose` derived from `seed`.

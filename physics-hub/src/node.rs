@@ -70,6 +70,7 @@ struct UavPubs {
     radio: Publisher,
     odom: Publisher,
     gnss: Publisher,
+    uvdar: Publisher,
     scan: Publisher,
 }
 
@@ -170,6 +171,7 @@ impl Net {
                 radio: publisher(&s, keys.radio(id), sensors_cc).await?,
                 odom: publisher(&s, keys.odom(id), sensors_cc).await?,
                 gnss: publisher(&s, keys.gnss(id), sensors_cc).await?,
+                uvdar: publisher(&s, keys.uvdar(id), sensors_cc).await?,
                 scan: publisher(&s, keys.scan(id), sensors_cc).await?,
             });
         }
@@ -385,6 +387,9 @@ impl Net {
             put(&p.odom, &Msg::Odom(s.odom)).await?;
             if let Some(g) = s.gnss {
                 put(&p.gnss, &Msg::Gnss(g)).await?;
+            }
+            if let Some(u) = s.uvdar {
+                put(&p.uvdar, &Msg::Uvdar(u)).await?;
             }
             put(&p.scan, &Msg::Scan(s.scan)).await?;
         }

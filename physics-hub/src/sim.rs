@@ -12,7 +12,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{GoalRule, LocalizationMode, OnCollision, Scenario};
 use swarm_wire::{
-    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld,
+    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld, Uvdar,
+    UvdarSeen,
 };
 
 /// Sensor messages of one UAV for the current tick.
@@ -26,6 +27,8 @@ pub struct Sensors {
     pub gnss: Option<Gnss>,
     /// LIDAR scan (body frame).
     pub scan: Scan,
+    /// Onboard relative sensing, only in `uvdar` localization mode.
+    pub uvdar: Option<Uvdar>,
 }
 
 /// The whole simulated world.
@@ -38,6 +41,7 @@ pub struct Sim {
     radio: Radio,
     lidar_rngs: Vec<ChaCha8Rng>,
     gnss_rngs: Vec<ChaCha8Rng>,
+    uvdar_rngs: Vec<ChaCha8Rng>,
     last_cmds: Vec<Cmd>,
     obstacle_contact: Vec<bool>,
     uav_contact: Vec<Vec<bool>>,
@@ -69,6 +73,7 @@ impl Sim {
             radio,
             lidar_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::LIDAR + u64::from(id))).collect(),
             gnss_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::GNSS_ERROR + u64::from(id))).collect(),
+            uvdar_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::UVDAR + u64::from(id))).collect(),
             last_cmds: vec![hover; n],
             obstacle_contact: vec![false; n],
             uav_contact: vec![vec![false; n]; n],
@@ -156,7 +161,19 @@ impl Sim {
         } else {
             Vec::new()
         };
-        Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan }
+        let uvdar = (self.sc.localization.mode == LocalizationMode::Uvdar).then(|| self.uvdar(i, tick, t_secs));
+        Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan, uvdar }
+    }
+
+    /// What UAV index `i` sees of the others by UVDAR (seed 003) now.
+    fn uvdar(&mut self, i: usize, tick: u64, t_secs: f64) -> Uvdar {
+        let poses: Vec<(u32, [f64; 2], f64)> =
+            self.bodies.iter().enumerate().map(|(j, b)| (j as u32 + 1, [b.pos.x, b.pos.y], b.yaw)).collect();
+        let seen = crate::uvdar::observe(&self.world, i, &poses, &self.sc.localization.uvdar, &mut self.uvdar_rngs[i])
+            .into_iter()
+            .map(|o| UvdarSeen { id: o.id, range_m: o.range_m as f32, bearing_rad: o.bearing_rad as f32 })
+            .collect();
+        Uvdar { tick, t_secs, seen }
     }
 
     /// The artificial error of UAV `id`'s GNSS-like fix at `t` (seed 001 eq. 45–46): zero, or

@@ -295,3 +295,19 @@ fn p17_passes_a_wall_and_a_gap() {
         assert!(s["min_obstacle_distance_m"].as_f64().expect("n") > 1.0, "{scenario}: kept off the obstacles: {s:#}");
     }
 }
+
+/// Issue 5, A21 with no communication (seed 003 section V): four UAVs through forest-5's forest,
+/// only UAV 1 informed, localized by UVDAR. No message is sent between agents, no collision, and
+/// the whole group reaches the goal with the informed UAV.
+#[test]
+fn a21_crosses_the_forest_on_uvdar_alone() {
+    let (_dir, s) = fly(&["a21-forest-uvdar"], "a21uvdar");
+    assert_safe_arrival(&s);
+    for a in s["agents"].as_array().expect("agents") {
+        assert_eq!(a["messages_sent"], 0, "no communication: {a:#}");
+    }
+    let l = &s["localization"];
+    assert_eq!(l["mode"], "uvdar");
+    assert!(l["estimates_scored"].as_u64().expect("n") > 1000, "neighbours seen: {l:#}");
+    assert!(l["mean_error_m"].as_f64().expect("n") < 0.6, "UVDAR noise is 10 % of range: {l:#}");
+}

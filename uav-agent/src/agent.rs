@@ -10,7 +10,7 @@ use crate::localization::{BroadcastTable, Estimate};
 use crate::neighbours::{Database, Matcher, Received};
 use crate::perception;
 use crate::pilot::{Pilot, View};
-use nalgebra::Point2;
+use nalgebra::{Point2, Vector2};
 use std::time::Instant;
 use swarm_config::{ControllerKind, IcpParams, LocalizationMode, Scenario, TimeMode};
 use swarm_wire::{
@@ -92,6 +92,8 @@ pub struct Agent {
     received: Vec<Received>,
     /// The controller and what it keeps between steps.
     pilot: Pilot,
+    /// The newest onboard relative sensing (`uvdar` mode).
+    uvdar: Option<swarm_wire::Uvdar>,
 }
 
 impl Agent {
@@ -99,7 +101,7 @@ impl Agent {
     pub fn new(id: u32, sc: Scenario) -> Agent {
         let db = Database::new(sc.localization.icp.clone(), sc.localization.stale_after_s);
         let pilot = Pilot::new(&sc);
-        Agent { id, sc, table: BroadcastTable::default(), db, received: Vec::new(), pilot }
+        Agent { id, sc, table: BroadcastTable::default(), db, received: Vec::new(), pilot, uvdar: None }
     }
 
     /// Takes a neighbour's share that the link has delivered (our own echo is ignored).
@@ -119,6 +121,11 @@ impl Agent {
             }
             _ => {}
         }
+    }
+
+    /// Takes this tick's onboard relative sensing (`uvdar` mode).
+    pub fn on_uvdar(&mut self, u: swarm_wire::Uvdar) {
+        self.uvdar = Some(u);
     }
 
     /// Runs perception, localization and control for one tick.
@@ -160,7 +167,7 @@ impl Agent {
                 vx: g.vx,
                 vy: g.vy,
             })),
-            (LocalizationMode::Broadcast, None) => None,
+            (LocalizationMode::Broadcast, None) | (LocalizationMode::Uvdar, _) => None,
             // seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
             (LocalizationMode::Icp, _) => Some(Share::Obstacles(ObstacleShare {
                 from: self.id,
@@ -208,6 +215,22 @@ impl Agent {
             }
             // Without its own fix a broadcast agent cannot place anyone: fly on obstacles alone.
             (LocalizationMode::Broadcast, None) => (Vec::new(), IcpCounts::default()),
+            // UVDAR gives range and bearing of each marker seen this tick; no heading.
+            (LocalizationMode::Uvdar, _) => {
+                let seen = self.uvdar.as_ref().filter(|u| (u.t_secs - now).abs() < 1e-6);
+                let estimates = seen
+                    .map(|u| {
+                        u.seen
+                            .iter()
+                            .map(|s| {
+                                let (r, b) = (f64::from(s.range_m), f64::from(s.bearing_rad));
+                                Estimate { id: Some(s.id), pos_in_body: r * Vector2::new(b.cos(), b.sin()), heading: 0.0, age_secs: 0.0 }
+                            })
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                (estimates, IcpCounts::default())
+            }
             (LocalizationMode::Icp, _) => {
                 let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
                 let stale = self.sc.localization.stale_after_s;

@@ -160,6 +160,9 @@ struct Node {
     gnss: Option<Gnss>,
     scan: Option<Scan>,
     needs_gnss: bool,
+    /// `uvdar` mode: a step waits for the tick's onboard relative sensing too.
+    needs_uvdar: bool,
+    uvdar: Option<swarm_wire::Uvdar>,
     /// Last tick stepped, `None` before the first.
     last_tick: Option<u64>,
     _sense_sub: zenoh::pubsub::Subscriber<()>,
@@ -213,9 +216,12 @@ impl Node {
         let node = Node {
             cmd_pub: publisher(&s, keys.cmd(id), CongestionControl::Block).await?,
             share_pub: match sc.localization.mode {
-                LocalizationMode::Broadcast => publisher(&s, keys.share_pose(id), cc).await?,
+                // `uvdar` never shares (no communication): the pose key stays silent.
+                LocalizationMode::Broadcast | LocalizationMode::Uvdar => publisher(&s, keys.share_pose(id), cc).await?,
                 LocalizationMode::Icp => publisher(&s, keys.share_obstacles(id), cc).await?,
             },
+            needs_uvdar: sc.localization.mode == LocalizationMode::Uvdar,
+            uvdar: None,
             state_pub: publisher(&s, keys.state(id), cc).await?,
             needs_gnss: sc.localization.mode == LocalizationMode::Broadcast,
             mode: sc.localization.mode,
@@ -358,6 +364,7 @@ impl Node {
             }
             Msg::Odom(o) => self.odom = Some(o),
             Msg::Gnss(g) => self.gnss = Some(g),
+            Msg::Uvdar(u) => self.uvdar = Some(u),
             Msg::Scan(s) => self.scan = Some(s),
             Msg::NetemRules(json) => match serde_json::from_str::<swarm_config::Timeline>(&json) {
                 Ok(t) => {
@@ -381,7 +388,8 @@ impl Node {
         let tick = scan.tick;
         let odom_ready = self.odom.as_ref().is_some_and(|o| o.tick == tick);
         let gnss_ready = !self.needs_gnss || self.gnss.as_ref().is_some_and(|g| g.tick == tick);
-        if !(odom_ready && gnss_ready) {
+        let uvdar_ready = !self.needs_uvdar || self.uvdar.as_ref().is_some_and(|u| u.tick == tick);
+        if !(odom_ready && gnss_ready && uvdar_ready) {
             return Ok(());
         }
         let Some(scan) = self.scan.take() else { return Ok(()) };
@@ -397,6 +405,9 @@ impl Node {
         }
         let Some(odom) = self.odom else { return Ok(()) };
         let gnss = self.gnss.filter(|g| g.tick == tick);
+        if let Some(u) = self.uvdar.take().filter(|u| u.tick == tick) {
+            self.agent.on_uvdar(u);
+        }
         let mut out = self.agent.step(&scan, &odom, gnss.as_ref());
         if let Some(share) = out.share {
             let bytes = share.into_msg().encode()?;
@@ -452,6 +463,8 @@ impl Node {
             let key = match self.mode {
                 LocalizationMode::Broadcast => self.keys.share_pose(id),
                 LocalizationMode::Icp => self.keys.share_obstacles(id),
+                // No communication at all: nobody to subscribe to.
+                LocalizationMode::Uvdar => continue,
             };
             let sub = self
                 .s

@@ -20,7 +20,9 @@
 //!   cylinders are the circles that are not a localized neighbour.
 //! - A21's collision term takes the scan points within `dr` that are not a localized neighbour
 //!   (seed 003 computes it from its map, whose occupied cells are laser hits). A21 plans on its own
-//!   occupancy grid every `replan_period_s` with the heuristic of seed 003 IV-C, unknown = free.
+//!   occupancy grid every `replan_period_s` with the heuristic of seed 003 IV-C, unknown = free,
+//!   and subtracts `damping_per_s`·v from eq. 1's acceleration (the seed's tracker damps; ours
+//!   is a bare double integrator).
 
 use crate::grid::{Heuristic, OccupancyGrid, PlanParams, Pose2};
 use crate::localization::Estimate;
@@ -213,16 +215,19 @@ fn fly_a21(
     let obstacle_points: Vec<Vector2<f64>> =
         static_points.iter().map(|p| p.coords).filter(|p| p.norm() <= a.dr_m).collect();
     let out = a21::step(a, &a21::Input { neighbours: &neighbours, obstacle_points: &obstacle_points, path_direction: direction });
+    // The damping the seed's trajectory tracker provides (see `A21Params::damping_per_s`).
+    let vel_body = rot.inverse() * Vector2::new(v.odom.vx, v.odom.vy);
+    let acceleration = out.acceleration - a.damping_per_s * vel_body;
     Command {
         kind: CmdKind::Acceleration,
-        xy: out.acceleration,
+        xy: acceleration,
         yaw_rate: 0.0,
         vectors: VectorMagnitudes {
             cohesion: out.proximal.norm() as f32,
             separation: 0.0,
             avoidance: out.collision.norm() as f32,
             navigation: out.navigation.norm() as f32,
-            output: out.acceleration.norm() as f32,
+            output: acceleration.norm() as f32,
         },
     }
 }

@@ -68,6 +68,10 @@ impl Keys {
     pub fn gnss(&self, id: u32) -> String {
         format!("{}/uav/{id}/sense/gnss", self.prefix)
     }
+    /// `swarm/{run}/uav/{id}/sense/uvdar`
+    pub fn uvdar(&self, id: u32) -> String {
+        format!("{}/uav/{id}/sense/uvdar", self.prefix)
+    }
     /// `swarm/{run}/uav/{id}/sense/**`
     pub fn sense_all(&self, id: u32) -> String {
         format!("{}/uav/{id}/sense/**", self.prefix)

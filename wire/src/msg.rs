@@ -41,6 +41,8 @@ pub enum Msg {
     /// (a rule to add, tools -> hub): JSON text of the scenario's `[[netem]]` entries, since the
     /// rule types are self-describing serde enums that postcard cannot carry.
     NetemRules(String),
+    /// `.../sense/uvdar`: onboard relative sensing of neighbours (`uvdar` localization mode).
+    Uvdar(Uvdar),
 }
 
 impl Msg {
@@ -69,8 +71,32 @@ impl Msg {
             Msg::TruthStep(_) => "truth_step",
             Msg::Obstacles(_) => "obstacles",
             Msg::NetemRules(_) => "netem_rules",
+            Msg::Uvdar(_) => "uvdar",
         }
     }
+}
+
+/// What a UAV's onboard relative sensing (UVDAR, seed 003) saw at one tick: each neighbour in
+/// range and field of view and not occluded, by its marker id, with noisy range and bearing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Uvdar {
+    /// Tick.
+    pub tick: u64,
+    /// Sim time [s].
+    pub t_secs: f64,
+    /// What was seen.
+    pub seen: Vec<UvdarSeen>,
+}
+
+/// One neighbour seen by UVDAR.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct UvdarSeen {
+    /// Its id (the blinking code of its markers).
+    pub id: u32,
+    /// Range [m].
+    pub range_m: f32,
+    /// Bearing in the observer's body frame [rad], counter-clockwise from its heading.
+    pub bearing_rad: f32,
 }
 
 /// Sim clock at tick `tick`.
