@@ -50,6 +50,7 @@ impl ScenarioError {
 
 /// Built-in scenarios, `(name, toml text)`: the files of `scenarios/`, compiled in.
 pub const BUILTIN: &[(&str, &str)] = &[
+    ("compare-4", include_str!("../../scenarios/compare-4.toml")),
     ("forest-5", include_str!("../../scenarios/forest-5.toml")),
     ("forest-5-burst-frozen", include_str!("../../scenarios/forest-5-burst-frozen.toml")),
     ("forest-5-linkloss", include_str!("../../scenarios/forest-5-linkloss.toml")),
@@ -59,6 +60,8 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("open-field-5-linkfault", include_str!("../../scenarios/open-field-5-linkfault.toml")),
     ("open-field-5-restart", include_str!("../../scenarios/open-field-5-restart.toml")),
     ("open-field-7-partition", include_str!("../../scenarios/open-field-7-partition.toml")),
+    ("p17-error-forest", include_str!("../../scenarios/p17-error-forest.toml")),
+    ("p17-error-free", include_str!("../../scenarios/p17-error-free.toml")),
     ("p17-free-4", include_str!("../../scenarios/p17-free-4.toml")),
     ("p17-gap", include_str!("../../scenarios/p17-gap.toml")),
     ("p17-wall", include_str!("../../scenarios/p17-wall.toml")),

@@ -393,6 +393,30 @@ time_limit_s = 1.0
     }
 
     #[test]
+    fn the_broadcast_error_is_uniform_in_length_up_to_delta_a_and_only_where_asked() {
+        let mut sc = scenario();
+        sc.localization.mode = LocalizationMode::Broadcast;
+        sc.localization.broadcast_error = Some(swarm_config::BroadcastError {
+            delta_a_m: 2.0,
+            uavs: swarm_config::UavSet::Ids(vec![1]),
+            from_s: 1.0,
+            until_s: Some(3.0),
+        });
+        let mut sim = Sim::new(&sc);
+        let n = 20_000;
+        let lengths: Vec<f64> = (0..n).map(|_| sim.gnss_error(0, 1, 2.0)).map(|[x, y]| x.hypot(y)).collect();
+        // seed 001 eq. 46: |δa| uniform on [0, 2]: mean 1, variance 4/12.
+        let mean = lengths.iter().sum::<f64>() / f64::from(n);
+        let var = lengths.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / f64::from(n);
+        assert!(lengths.iter().all(|&l| l <= 2.0));
+        assert!((mean - 1.0).abs() < 0.02, "{mean}");
+        assert!((var - 1.0 / 3.0).abs() < 0.02, "{var}");
+        assert_eq!(sim.gnss_error(1, 2, 2.0), [0.0, 0.0], "UAV 2 is not affected");
+        assert_eq!(sim.gnss_error(0, 1, 0.5), [0.0, 0.0], "before the window");
+        assert_eq!(sim.gnss_error(0, 1, 3.0), [0.0, 0.0], "after the window");
+    }
+
+    #[test]
     fn a_frozen_uav_hovers_whatever_its_agent_says() {
         let mut sc = scenario();
         sc.failures = vec![swarm_config::Failure { at_s: 0.5, uav: 1, kind: swarm_config::FailureKind::Freeze }];

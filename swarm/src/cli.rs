@@ -47,6 +47,10 @@ pub enum Cmd {
     Put(crate::tap::PutArgs),
     /// Change the network faults of a running swarm (loss, delay, partition, isolate, heal).
     Netem(crate::netem_cli::NetemArgs),
+    /// Fly one scenario with each controller and print the comparison (seed 000 section 6.5).
+    Compare(crate::study::CompareArgs),
+    /// Sweep the broadcast-position error δa (seed 001 section 6): print and plot min distances.
+    SweepError(crate::study::SweepArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -218,6 +222,8 @@ async fn dispatch(cli: Cli) -> Result<ExitCode> {
         Cmd::Tap(a) => crate::tap::tap(a).await,
         Cmd::Put(a) => crate::tap::put(a).await,
         Cmd::Netem(a) => crate::netem_cli::netem(a).await,
+        Cmd::Compare(a) => crate::study::compare(a).await,
+        Cmd::SweepError(a) => crate::study::sweep_error(a).await,
         Cmd::Scenarios => {
             for (name, text) in swarm_config::BUILTIN {
                 let desc = Scenario::from_toml_str(text, name).map(|s| s.description).unwrap_or_default();

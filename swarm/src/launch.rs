@@ -58,18 +58,28 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
         text = toml::to_string(&sc).context("cannot re-serialize the scenario")?;
         sc = Scenario::from_toml_str(&text, &format!("{name} (with the command line's overrides)"))?;
     }
-    let run_id = a.run.unwrap_or_else(|| default_run_id(&sc.name));
+    let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
+    let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &a.cfg, a.quiet).await?;
+    println!("{}", summary.human());
+    println!("run folder: {}", out.display());
+    Ok(exit_code(&summary, hub_ok))
+}
+
+/// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
+/// writes the run folder `out`, and returns the summary and whether the hub exited cleanly.
+pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, zenoh_cfg: &[String], quiet: bool) -> Result<(Summary, bool)> {
+    let (sc, run_id) = (sc.clone(), run_id.to_string());
     Keys::new(&run_id)?;
-    let out = a.out.unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     let logs = out.join("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("cannot create {}", logs.display()))?;
     let scenario_path = out.join("scenario.toml");
-    std::fs::write(&scenario_path, &text).with_context(|| format!("cannot write {}", scenario_path.display()))?;
+    std::fs::write(&scenario_path, text).with_context(|| format!("cannot write {}", scenario_path.display()))?;
     eprintln!("run {run_id}: scenario {} ({} UAVs), folder {}", sc.name, sc.count(), out.display());
 
     let exe = std::env::current_exe().context("cannot find my own executable")?;
     let link_faults = sc.failures.iter().any(|f| f.kind.is_link());
-    let mut cfg = a.cfg.clone();
+    let mut cfg = zenoh_cfg.to_vec();
     if link_faults {
         // A stalled link is noticed when the lease expires; the default 10 s would outlast most
         // faults. Each side is expired by the lease it announces, so every piece gets it.
@@ -85,7 +95,7 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     info!(?locators, "hub up");
     let proxies = start_proxies(&sc, &locators).await?;
 
-    let rec = Recording::start(&run_id, &locators, &a.cfg).await?;
+    let rec = Recording::start(&run_id, &locators, zenoh_cfg).await?;
     let start_agent = |id: u32, log: &str| {
         spawn(&exe, &logs.join(log), false, |c| {
             c.arg("agent").args(["--run", &run_id, "--id", &id.to_string(), "--exit-with-stdin"]);
@@ -146,13 +156,11 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
         }
         Ok(())
     };
-    let progress = progress_bar(&sc, a.quiet);
-    let summary = rec.record(&out, &sc, &progress, Some(&mut hub.child), &mut on_tick).await?;
+    let progress = progress_bar(&sc, quiet);
+    let summary = rec.record(out, &sc, &progress, Some(&mut hub.child), &mut on_tick).await?;
     progress.finish_and_clear();
     let hub_ok = stop_children(hub, agents.into_values().collect()).await;
-    println!("{}", summary.human());
-    println!("run folder: {}", out.display());
-    Ok(exit_code(&summary, hub_ok))
+    Ok((summary, hub_ok))
 }
 
 /// The lease every piece announces when the scenario has link faults [ms].

@@ -8,6 +8,8 @@
 //! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
 //! - [`proxy`]: the TCP proxy `swarm run` puts between an agent and the hub for link-level faults
 //!   (stall, close, restore) that Zenoh itself sees.
+//! - [`study`]: `swarm compare` (one scenario, each controller) and `swarm sweep-error` (seed 001's
+//!   broadcast error study), each a series of full runs with a table and a plot.
 //! - [`plot`]: `run.svg`, the map of the run and distances over time.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
@@ -23,5 +25,6 @@ pub mod netem_cli;
 pub mod plot;
 pub mod proxy;
 pub mod recorder;
+pub mod study;
 pub mod summary;
 pub mod tap;

@@ -1,0 +1,245 @@
+//! Studies that run one scenario many times with one thing changed, and print (and plot) the
+//! results side by side:
+//!
+//! - `swarm compare`: the same world and start flown by each controller (seed 000 section 6.5
+//!   compares its method with the older one: 147 s vs 340 s to the goal).
+//! - `swarm sweep-error`: the artificial broadcast-position error δa of seed 001 section 6, from
+//!   0 to 4 m, on one UAV and on all, in free space and in a forest; min inter-UAV and min
+//!   obstacle distance against δa (seed 001: safe up to 3 m in free space, 2 m in the forest).
+//!
+//! Each run is a full `swarm run` (hub, agent processes, recorder) with its own run id and folder
+//! under the study's folder, so any of them can be looked at afterwards.
+
+use crate::launch::execute;
+use crate::summary::Summary;
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use swarm_config::{BroadcastError, ControllerKind, LocalizationMode, Scenario, UavSet};
+
+/// `swarm compare`.
+#[derive(Args, Debug, Clone)]
+pub struct CompareArgs {
+    /// Scenario file or built-in name (its controller is replaced by each of `--controllers`).
+    #[arg(default_value = "compare-4")]
+    pub scenario: String,
+    /// Controllers to fly, comma-separated.
+    #[arg(long, default_value = "k21,a21,p17")]
+    pub controllers: String,
+    /// Override the localization mode for every run (`broadcast`, `icp`, `uvdar`).
+    #[arg(long)]
+    pub localization: Option<String>,
+    /// Study folder (default: runs/compare-<time>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `swarm sweep-error`.
+#[derive(Args, Debug, Clone)]
+pub struct SweepArgs {
+    /// Error magnitudes δa [m], comma-separated.
+    #[arg(long, default_value = "0,0.5,1,1.5,2,2.5,3,3.5,4")]
+    pub deltas: String,
+    /// The free-space scenario.
+    #[arg(long, default_value = "p17-error-free")]
+    pub free: String,
+    /// The forest scenario.
+    #[arg(long, default_value = "p17-error-forest")]
+    pub forest: String,
+    /// Study folder (default: runs/sweep-error-<time>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+fn stamp() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
+}
+
+fn controller(s: &str) -> Result<ControllerKind> {
+    Ok(match s.trim() {
+        "k21" => ControllerKind::K21,
+        "p17" => ControllerKind::P17,
+        "a21" => ControllerKind::A21,
+        other => bail!("unknown controller `{other}` (k21, p17, a21)"),
+    })
+}
+
+fn localization(s: &str) -> Result<LocalizationMode> {
+    Ok(match s {
+        "broadcast" => LocalizationMode::Broadcast,
+        "icp" => LocalizationMode::Icp,
+        "uvdar" => LocalizationMode::Uvdar,
+        other => bail!("unknown localization `{other}` (broadcast, icp, uvdar)"),
+    })
+}
+
+/// Runs `sc` (after re-validating it) as `<out>/<tag>`; returns its summary.
+async fn run_variant(sc: &Scenario, out: &Path, tag: &str) -> Result<Summary> {
+    let text = toml::to_string(sc).context("cannot serialize the scenario")?;
+    let sc = Scenario::from_toml_str(&text, &format!("{} ({tag})", sc.name))?;
+    let run_id = format!("{}-{tag}-{}-{}", sc.name, stamp(), std::process::id()).replace('.', "_");
+    eprintln!("{tag}: running");
+    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], true).await?;
+    Ok(summary)
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or("-".into(), |v| format!("{v:.1}"))
+}
+
+fn dist(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.2}")
+    } else {
+        "-".into()
+    }
+}
+
+/// Runs `swarm compare`.
+pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
+    let (base, _) = Scenario::from_arg(&a.scenario)?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("compare-{}", stamp())));
+    let mut rows = Vec::new();
+    for name in a.controllers.split(',') {
+        let mut sc = base.clone();
+        sc.controller.kind = controller(name)?;
+        if let Some(l) = &a.localization {
+            sc.localization.mode = localization(l)?;
+        }
+        let s = run_variant(&sc, &out, name.trim()).await?;
+        rows.push((name.trim().to_string(), s));
+    }
+    let mut t = String::new();
+    let _ = writeln!(t, "# {} — same world and start, one controller per run\n", base.name);
+    let _ = writeln!(t, "| controller | goal | time to goal s | collisions | min obstacle m | min UAV m | mean path m |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|");
+    for (name, s) in &rows {
+        let path = s.agents.iter().map(|a| a.path_length_m).sum::<f64>() / s.agents.len().max(1) as f64;
+        let _ = writeln!(
+            t,
+            "| {name} | {} | {} | {} | {} | {} | {path:.1} |",
+            if s.reached_goal { "yes" } else { "no" },
+            opt(s.time_to_goal_s),
+            s.collisions,
+            dist(s.min_obstacle_distance_m),
+            dist(s.min_agent_distance_m)
+        );
+    }
+    let _ = writeln!(t, "\nseed 000 section 6.5 (4 UAVs, one informed): its method 147 s to the goal, the older one 340 s (2.3x).");
+    print!("{t}");
+    std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join("compare.md"), &t)?;
+    println!("study folder: {}", out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// One point of the sweep.
+struct Point {
+    world: &'static str,
+    who: &'static str,
+    delta: f64,
+    s: Summary,
+}
+
+/// Runs `swarm sweep-error`.
+pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
+    let deltas: Vec<f64> = a
+        .deltas
+        .split(',')
+        .map(|d| d.trim().parse::<f64>().with_context(|| format!("`{d}` is not a number")))
+        .collect::<Result<_>>()?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("sweep-error-{}", stamp())));
+    let mut points = Vec::new();
+    for (world, name) in [("free", &a.free), ("forest", &a.forest)] {
+        let (base, _) = Scenario::from_arg(name)?;
+        for (who, uavs) in [("one", UavSet::Ids(vec![1])), ("all", UavSet::default())] {
+            for &delta in &deltas {
+                let mut sc = base.clone();
+                sc.localization.mode = LocalizationMode::Broadcast;
+                sc.localization.broadcast_error =
+                    Some(BroadcastError { delta_a_m: delta, uavs: uavs.clone(), from_s: 0.0, until_s: None });
+                let s = run_variant(&sc, &out, &format!("{world}-{who}-{delta}")).await?;
+                points.push(Point { world, who, delta, s });
+            }
+        }
+    }
+    let mut t = String::new();
+    let _ = writeln!(t, "| world | error on | δa m | collisions | min UAV m | min obstacle m | goal |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|");
+    for p in &points {
+        let _ = writeln!(
+            t,
+            "| {} | {} | {:.1} | {} | {} | {} | {} |",
+            p.world,
+            p.who,
+            p.delta,
+            p.s.collisions,
+            dist(p.s.min_agent_distance_m),
+            dist(p.s.min_obstacle_distance_m),
+            if p.s.reached_goal { "yes" } else { "no" }
+        );
+    }
+    let _ = writeln!(t, "\nseed 001 section 6.1 (its parameters, d = w = 8 m, 30 Hz): safe up to δa = 3 m in free space (error on one UAV), 2 m in the forest.");
+    print!("{t}");
+    std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join("sweep.md"), &t)?;
+    std::fs::write(out.join("sweep.svg"), sweep_svg(&points))?;
+    println!("study folder: {} (sweep.md, sweep.svg)", out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Min distances against δa, one line per (world, error on, distance kind).
+fn sweep_svg(points: &[Point]) -> String {
+    let (w, h, m) = (720.0, 420.0, 50.0);
+    let x_max = points.iter().map(|p| p.delta).fold(1.0, f64::max);
+    let y_of = |p: &Point, obstacle: bool| if obstacle { p.s.min_obstacle_distance_m } else { p.s.min_agent_distance_m };
+    let y_max = points
+        .iter()
+        .flat_map(|p| [y_of(p, false), y_of(p, true)])
+        .filter(|v| v.is_finite())
+        .fold(1.0, f64::max);
+    let sx = |x: f64| m + x / x_max * (w - 2.0 * m);
+    let sy = |y: f64| h - m - y / y_max * (h - 2.0 * m);
+    let mut s = format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+    );
+    let _ = writeln!(s, "<text x=\"{m}\" y=\"20\">min distances against the broadcast error δa (seed 001 section 6)</text>");
+    let _ = writeln!(s, "<line x1=\"{m}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"black\"/>", h - m, w - m, h - m);
+    let _ = writeln!(s, "<line x1=\"{m}\" y1=\"{m}\" x2=\"{m}\" y2=\"{}\" stroke=\"black\"/>", h - m);
+    let _ = writeln!(s, "<text x=\"{}\" y=\"{}\">δa [m]</text>", w / 2.0, h - 15.0);
+    let _ = writeln!(s, "<text x=\"5\" y=\"{}\">[m]</text>", m - 10.0);
+    for k in 0..=4 {
+        let (xv, yv) = (x_max * f64::from(k) / 4.0, y_max * f64::from(k) / 4.0);
+        let _ = writeln!(s, "<text x=\"{}\" y=\"{}\">{xv:.1}</text>", sx(xv) - 8.0, h - m + 15.0);
+        let _ = writeln!(s, "<text x=\"10\" y=\"{}\">{yv:.1}</text>", sy(yv) + 4.0);
+    }
+    // The collision threshold between two bodies of the default radius.
+    let _ = writeln!(s, "<line x1=\"{m}\" y1=\"{0}\" x2=\"{1}\" y2=\"{0}\" stroke=\"red\" stroke-dasharray=\"4 4\"/>", sy(0.6), w - m);
+    let colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"];
+    let mut i = 0;
+    for world in ["free", "forest"] {
+        for who in ["one", "all"] {
+            for obstacle in [false, true] {
+                let line: Vec<String> = points
+                    .iter()
+                    .filter(|p| p.world == world && p.who == who)
+                    .filter(|p| y_of(p, obstacle).is_finite())
+                    .map(|p| format!("{:.1},{:.1}", sx(p.delta), sy(y_of(p, obstacle))))
+                    .collect();
+                if line.is_empty() {
+                    continue;
+                }
+                let c = colors[i % colors.len()];
+                let dash = if obstacle { " stroke-dasharray=\"6 3\"" } else { "" };
+                let _ = writeln!(s, "<polyline points=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"2\"{dash}/>", line.join(" "));
+                let label = format!("{world}, error on {who}: min {}", if obstacle { "obstacle" } else { "UAV" });
+                let _ = writeln!(s, "<text x=\"{}\" y=\"{}\" fill=\"{c}\">{label}</text>", w - m - 230.0, m + 15.0 * i as f64);
+                i += 1;
+            }
+        }
+    }
+    s.push_str("</svg>\n");
+    s
+}
