@@ -64,6 +64,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("p17-error-free", include_str!("../../scenarios/p17-error-free.toml")),
     ("p17-free-4", include_str!("../../scenarios/p17-free-4.toml")),
     ("p17-gap", include_str!("../../scenarios/p17-gap.toml")),
+    ("p17-moving-goal", include_str!("../../scenarios/p17-moving-goal.toml")),
     ("p17-wall", include_str!("../../scenarios/p17-wall.toml")),
     ("a21-forest-uvdar", include_str!("../../scenarios/a21-forest-uvdar.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
@@ -319,11 +320,21 @@ impl Scenario {
     /// The goal UAV `id` flies to at sim time `t`: the latest `mission` change covering it, else
     /// `swarm.goal`.
     pub fn goal_of(&self, id: u32, t: f64) -> [f64; 2] {
+        self.goal_motion_of(id, t).0
+    }
+
+    /// The goal of UAV `id` at sim time `t` and its velocity: a moving `mission` goal has moved
+    /// by `velocity_mps · (t − at_s)`.
+    pub fn goal_motion_of(&self, id: u32, t: f64) -> ([f64; 2], [f64; 2]) {
         self.mission
             .iter()
             .filter(|m| m.at_s <= t + 1e-9 && m.uavs.contains(id))
             .max_by(|a, b| a.at_s.total_cmp(&b.at_s))
-            .map_or(self.swarm.goal, |m| m.goal)
+            .map_or((self.swarm.goal, [0.0, 0.0]), |m| {
+                let [vx, vy] = m.velocity_mps;
+                let dt = t - m.at_s;
+                ([m.goal[0] + vx * dt, m.goal[1] + vy * dt], m.velocity_mps)
+            })
     }
 
     /// Whether UAV `id` is frozen at sim time `t` (a `freeze` failure at or before `t`).

@@ -67,8 +67,12 @@ pub struct GoalChange {
     /// Which UAVs (only informed ones act on a goal).
     #[serde(default)]
     pub uavs: UavSet,
-    /// The goal `[x, y]`, world frame.
+    /// The goal `[x, y]`, world frame, at `at_s`.
     pub goal: [f64; 2],
+    /// A moving goal: its velocity `[vx, vy]` [m/s], world frame, from `at_s` on (P17 flies it with
+    /// seed 001's dynamic-goal navigation, eq. 39; the others chase its position).
+    #[serde(default)]
+    pub velocity_mps: [f64; 2],
 }
 
 /// What happens to a failing UAV.

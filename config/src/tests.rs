@@ -233,3 +233,15 @@ fn experiment_files_are_read_and_checked_against_the_scenario() {
     assert!(e.to_string().contains("bad.toml") && e.to_string().contains("failures[0].uav"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_moving_mission_goal_moves_from_its_start_time() {
+    let sc = Scenario::from_toml_str(
+        &format!("{MINIMAL}\n[[mission]]\nat_s = 10.0\ngoal = [1.0, 2.0]\nvelocity_mps = [0.5, -1.0]\n"),
+        "m.toml",
+    )
+    .expect("parses");
+    assert_eq!(sc.goal_motion_of(1, 5.0), ([10.0, 0.0], [0.0, 0.0]), "swarm goal before the mission");
+    assert_eq!(sc.goal_motion_of(1, 14.0), ([3.0, -2.0], [0.5, -1.0]));
+    assert_eq!(sc.goal_of(2, 14.0), [3.0, -2.0]);
+}

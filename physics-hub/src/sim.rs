@@ -144,12 +144,15 @@ impl Sim {
         let to_start = |p: Vector2<f64>| start_from_world * (p - Vector2::new(s[0], s[1]));
         let p = to_start(b.pos);
         let v = start_from_world * b.vel;
-        let goal = self.sc.is_informed(id).then(|| {
-            let g = self.sc.goal_of(id, t_secs);
+        let (goal, goal_vel) = if self.sc.is_informed(id) {
+            let (g, gv) = self.sc.goal_motion_of(id, t_secs);
             let g = to_start(Vector2::new(g[0], g[1]));
-            [g.x, g.y]
-        });
-        let odom = Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal };
+            let gv = start_from_world * Vector2::new(gv[0], gv[1]);
+            (Some([g.x, g.y]), (gv.norm() > 0.0).then_some([gv.x, gv.y]))
+        } else {
+            (None, None)
+        };
+        let odom = Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal, goal_vel };
         let gnss = (self.sc.localization.mode == LocalizationMode::Broadcast).then(|| {
             let [ex, ey] = self.gnss_error(i, id, t_secs);
             Gnss { tick, t_secs, x: b.pos.x + ex, y: b.pos.y + ey, yaw: b.yaw, vx: b.vel.x, vy: b.vel.y }

@@ -311,3 +311,14 @@ fn a21_crosses_the_forest_on_uvdar_alone() {
     assert!(l["estimates_scored"].as_u64().expect("n") > 1000, "neighbours seen: {l:#}");
     assert!(l["mean_error_m"].as_f64().expect("n") < 0.6, "UVDAR noise is 10 % of range: {l:#}");
 }
+
+/// Issue 5, P17 with a dynamic goal (seed 001 eq. 39): the goal starts among the UAVs and moves
+/// at 0.4 m/s; the swarm follows it, so its centroid reaches (40, 0) around when the goal does
+/// (100 s), not as soon as a static goal there would allow (about 40 s at 1 m/s).
+#[test]
+fn p17_follows_a_moving_goal() {
+    let (_dir, s) = fly(&["p17-moving-goal"], "p17moving");
+    assert_safe_arrival(&s);
+    let t = s["time_to_goal_s"].as_f64().expect("reached");
+    assert!((85.0..110.0).contains(&t), "arrived with the goal: {t} s");
+}

@@ -53,7 +53,7 @@ fn forest_scan(beams: usize) -> Scan {
 fn bench_step(c: &mut Criterion) {
     let sc = swarm_config::builtin("forest-5").expect("builtin");
     let scan = forest_scan(750);
-    let odom = Odom { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0, goal: Some([30.0, 0.0]) };
+    let odom = Odom { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
     let gnss = Gnss { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0 };
     for n in [4u32, 8] {
         let mut agent = Agent::new(1, sc.clone());
@@ -95,7 +95,7 @@ fn bench_icp_step(c: &mut Criterion) {
                 }
                 let t = tick as f64 * 0.1;
                 let scan = Scan { tick, t_secs: t, ..scan.clone() };
-                let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]) };
+                let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
                 let out = agent.step(black_box(&scan), &odom, None);
                 tick += 1;
                 black_box(out)
@@ -103,7 +103,7 @@ fn bench_icp_step(c: &mut Criterion) {
         });
         // The bench measured real work: the neighbours were localized.
         let t = tick as f64 * 0.1;
-        let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None };
+        let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None };
         for (j, &p) in poses.iter().enumerate() {
             agent.on_share(share_of(j as u32 + 2, p, tick - 1));
         }

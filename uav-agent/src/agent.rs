@@ -282,7 +282,7 @@ mod tests {
     }
 
     fn odom(goal: Option<[f64; 2]>) -> Odom {
-        Odom { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal }
+        Odom { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None }
     }
 
     #[test]

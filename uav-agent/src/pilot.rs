@@ -165,7 +165,14 @@ fn fly_p17(sc: &Scenario, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut p
         v.trees.iter().map(|c| p17::Cylinder { centre: to_odom(c.center.coords), radius_m: c.radius }).collect();
     let walls: Vec<p17::Wall> =
         v.walls.iter().map(|s| p17::Wall { a: to_odom(s.a.coords), b: to_odom(s.b.coords), thickness_m: 0.0 }).collect();
-    let goal = v.odom.goal.map(|g| p17::Goal::Static { pos: Vector2::new(g[0], g[1]) });
+    // seed 001 eq. 38 (static goal) or eq. 39 (a goal that moves).
+    let goal = v.odom.goal.map(|g| {
+        let pos = Vector2::new(g[0], g[1]);
+        match v.odom.goal_vel {
+            Some([vx, vy]) => p17::Goal::Dynamic { pos, vel_mps: Vector2::new(vx, vy) },
+            None => p17::Goal::Static { pos },
+        }
+    });
     let values = sc.controller.p17.values();
     let out = p17::step(
         &values,

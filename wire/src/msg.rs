@@ -146,6 +146,8 @@ pub struct Odom {
     pub vy: f64,
     /// The goal in the odom frame, for informed UAVs (a mission waypoint from the ground station).
     pub goal: Option<[f64; 2]>,
+    /// The goal's velocity in the odom frame [m/s] when it moves (a dynamic goal).
+    pub goal_vel: Option<[f64; 2]>,
 }
 
 /// A GNSS-like pose in the shared world frame; published only in `broadcast` localization mode.
