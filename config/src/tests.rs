@@ -30,6 +30,9 @@ fn example_file_sets_every_section_away_from_nothing() {
     assert_eq!(sc.lidar.beams, 750);
     assert_eq!(sc.controller.k21.kf, 0.4);
     assert!(sc.radio.distance_loss.is_some());
+    assert_eq!(sc.controller.p17.values().d, 8.0);
+    assert_eq!(sc.controller.a21.damping_per_s, 0.5);
+    assert!(sc.localization.broadcast_error.is_some());
     assert!(sc.netem.iter().any(|r| r.partition.is_some() && r.rule.hold));
 }
 
