@@ -121,6 +121,20 @@ pub struct Link {
     delays: Vec<AppliedDelay>,
 }
 
+impl std::ops::Add for ClassCounters {
+    type Output = ClassCounters;
+    fn add(self, o: ClassCounters) -> ClassCounters {
+        ClassCounters {
+            offered: self.offered + o.offered,
+            delivered: self.delivered + o.delivered,
+            dropped: self.dropped + o.dropped,
+            duplicated: self.duplicated + o.duplicated,
+            held: self.held + o.held,
+            released: self.released + o.released,
+        }
+    }
+}
+
 /// The delay one delivered copy was given: delivery instant − send instant [s].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct AppliedDelay {

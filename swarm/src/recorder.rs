@@ -88,18 +88,7 @@ impl Acc {
     /// Its link class counts over every incarnation so far.
     fn link_classes(&self) -> [ClassCounts; 3] {
         let last = self.last_state.as_ref().map(|s| s.link.classes).unwrap_or_default();
-        std::array::from_fn(|i| add_counts(self.link_base[i], last[i]))
-    }
-}
-
-fn add_counts(a: ClassCounts, b: ClassCounts) -> ClassCounts {
-    ClassCounts {
-        offered: a.offered + b.offered,
-        delivered: a.delivered + b.delivered,
-        dropped: a.dropped + b.dropped,
-        duplicated: a.duplicated + b.duplicated,
-        held: a.held + b.held,
-        released: a.released + b.released,
+        std::array::from_fn(|i| self.link_base[i] + last[i])
     }
 }
 
@@ -313,7 +302,7 @@ impl Metrics {
         if let Some(prev) = a.last_state.as_ref().filter(|p| st.link.classes.iter().map(|c| c.offered).sum::<u64>() < p.link.classes.iter().map(|c| c.offered).sum::<u64>()) {
             // A new incarnation (restart): its counters start again from zero.
             let before = prev.link.classes;
-            a.link_base = std::array::from_fn(|i| add_counts(a.link_base[i], before[i]));
+            a.link_base = std::array::from_fn(|i| a.link_base[i] + before[i]);
         }
         let ids = st.neighbours.iter().filter_map(|e| e.id).collect();
         self.known.entry(st.tick).or_insert_with(|| (st.t_secs, BTreeMap::new())).1.insert(st.id, ids);
@@ -421,7 +410,7 @@ impl Metrics {
     /// What the links did, per class, over every agent.
     fn network(&self) -> Vec<ClassSummary> {
         let totals = self.agents.values().map(Acc::link_classes).fold([ClassCounts::default(); 3], |t, c| {
-            std::array::from_fn(|i| add_counts(t[i], c[i]))
+            std::array::from_fn(|i| t[i] + c[i])
         });
         netem::LinkClass::ALL
             .iter()
@@ -430,12 +419,7 @@ impl Metrics {
                 let d = &self.delays[class as usize];
                 ClassSummary {
                     class: class.name().into(),
-                    offered: c.offered,
-                    delivered: c.delivered,
-                    dropped: c.dropped,
-                    duplicated: c.duplicated,
-                    held: c.held,
-                    released: c.released,
+                    counts: c,
                     mean_delay_s: if d.is_empty() { f64::NAN } else { d.iter().sum::<f64>() / d.len() as f64 },
                     p95_delay_s: quantile(d, 0.95),
                 }

@@ -132,18 +132,9 @@ pub struct Connectivity {
 pub struct ClassSummary {
     /// `clean`, `impaired` or `cut`.
     pub class: String,
-    /// Messages that arrived on such links.
-    pub offered: u64,
-    /// Copies scheduled for delivery (duplicates and released messages included).
-    pub delivered: u64,
-    /// Messages dropped (loss, radio loss, cut).
-    pub dropped: u64,
-    /// Messages duplicated.
-    pub duplicated: u64,
-    /// Messages held by a holding link.
-    pub held: u64,
-    /// Held messages released.
-    pub released: u64,
+    /// `offered`, `delivered`, `dropped`, `duplicated`, `held`, `released` (netem's counters).
+    #[serde(flatten)]
+    pub counts: netem::ClassCounters,
     /// Mean applied delay [s] (null: nothing delivered).
     #[serde(with = "inf_as_null")]
     pub mean_delay_s: f64,

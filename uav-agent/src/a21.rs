@@ -74,20 +74,7 @@ pub struct Output {
     pub phi: f64,
 }
 
-/// Lengths below this are treated as zero (directions undefined).
-const EPS: f64 = 1e-9;
-
-fn is_finite(v: &Vector2<f64>) -> bool {
-    v.x.is_finite() && v.y.is_finite()
-}
-
-fn finite_or_zero(v: Vector2<f64>) -> Vector2<f64> {
-    if is_finite(&v) {
-        v
-    } else {
-        Vector2::zeros()
-    }
-}
+use crate::vec2::{finite_or_zero, is_finite, EPS};
 
 /// Length and unit vector of a finite vector longer than 1e-9 m, else `None`.
 fn length_and_direction(v: &Vector2<f64>) -> Option<(f64, Vector2<f64>)> {

@@ -66,12 +66,7 @@ pub struct Output {
     pub navigation: Vector2<f64>,
 }
 
-/// Lengths below this are treated as zero (directions undefined).
-const EPS: f64 = 1e-9;
-
-fn is_finite(v: &Vector2<f64>) -> bool {
-    v.x.is_finite() && v.y.is_finite()
-}
+use crate::vec2::{is_finite, EPS};
 
 /// Clip to unit length: v/|v| if |v| > 1, else v (seed 000, eq. 4.6, 4.13 and 4.2 share it).
 fn clip_unit(v: Vector2<f64>) -> Vector2<f64> {

@@ -50,12 +50,8 @@
 use nalgebra::{Point2, Rotation2, Vector2};
 use swarm_config::{LfFrame, M23Params, Topology};
 
-/// ROS costmap_2d INSCRIBED_INFLATED_OBSTACLE: the robot's centre here means a collision.
-pub const INSCRIBED: u8 = 253;
-/// ROS costmap_2d LETHAL_OBSTACLE.
-pub const LETHAL: u8 = 254;
-/// ROS costmap_2d NO_INFORMATION: treated like `None` (unknown = free).
-pub const NO_INFORMATION: u8 = 255;
+/// ROS costmap_2d values, as the costmap writes them (NO_INFORMATION counts as free here).
+pub use crate::costmap::{INSCRIBED_INFLATED_OBSTACLE as INSCRIBED, LETHAL_OBSTACLE as LETHAL, NO_INFORMATION};
 
 /// Lengths below this are treated as zero.
 const EPS: f64 = 1e-9;

@@ -425,14 +425,7 @@ impl Node {
             recv_bytes: c.recv_bytes,
             delivered_msgs: c.delivered_msgs,
             malformed: self.malformed,
-            classes: c.classes.map(|k| swarm_wire::ClassCounts {
-                offered: k.offered,
-                delivered: k.delivered,
-                dropped: k.dropped,
-                duplicated: k.duplicated,
-                held: k.held,
-                released: k.released,
-            }),
+            classes: c.classes,
         };
         out.state.delays = self
             .link

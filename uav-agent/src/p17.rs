@@ -188,20 +188,7 @@ impl Output {
     }
 }
 
-/// Lengths below this are treated as zero (directions undefined).
-const EPS: f64 = 1e-9;
-
-fn is_finite(v: &Vector2<f64>) -> bool {
-    v.x.is_finite() && v.y.is_finite()
-}
-
-fn finite_or_zero(v: Vector2<f64>) -> Vector2<f64> {
-    if is_finite(&v) {
-        v
-    } else {
-        Vector2::zeros()
-    }
-}
+use crate::vec2::{finite_or_zero, is_finite, EPS};
 
 /// A velocity [m/s] as the move of one loop [m per loop]; non-finite becomes zero.
 fn per_loop(v: &P17Values, vel_mps: Vector2<f64>) -> Vector2<f64> {

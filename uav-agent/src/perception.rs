@@ -659,19 +659,7 @@ mod tests {
         circles: &[(f64, f64, f64)],
         noise: Option<(f64, u64)>,
     ) -> Scan {
-        let inc = TAU / beams as f64;
-        let mut rng = noise.map(|(sigma, seed)| (sigma, Noise::new(seed)));
-        let ranges = (0..beams)
-            .map(|i| {
-                let r = ray_range(angle_min + i as f64 * inc, circles, 12.0);
-                let r = match (&mut rng, r.is_finite()) {
-                    (Some((sigma, rng)), true) => r + *sigma * rng.gauss(),
-                    _ => r,
-                };
-                r as f32
-            })
-            .collect();
-        scan_from(angle_min, inc, ranges)
+        world_scan(beams, angle_min, circles, &[], noise)
     }
 
     fn arc(cx: f64, cy: f64, r: f64, from: f64, to: f64, n: usize) -> Vec<Point2<f64>> {

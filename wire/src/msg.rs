@@ -309,22 +309,8 @@ pub struct LinkCounters {
     pub classes: [ClassCounts; 3],
 }
 
-/// What the links of one class did to the messages an agent received (netem `ClassCounters`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ClassCounts {
-    /// Messages that arrived.
-    pub offered: u64,
-    /// Copies scheduled for delivery (duplicates and released messages included).
-    pub delivered: u64,
-    /// Messages dropped.
-    pub dropped: u64,
-    /// Messages duplicated.
-    pub duplicated: u64,
-    /// Messages held by a holding link.
-    pub held: u64,
-    /// Held messages released.
-    pub released: u64,
-}
+/// What the links of one class did to the messages an agent received.
+pub use netem::ClassCounters as ClassCounts;
 
 /// The delay one delivered copy got: delivery instant − send instant.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
