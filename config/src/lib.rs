@@ -56,6 +56,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5-linkloss", include_str!("../../scenarios/forest-5-linkloss.toml")),
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
+    ("m23-indoor-lf", include_str!("../../scenarios/m23-indoor-lf.toml")),
+    ("m23-indoor-none", include_str!("../../scenarios/m23-indoor-none.toml")),
+    ("m23-indoor-pf", include_str!("../../scenarios/m23-indoor-pf.toml")),
+    ("m23-indoor-tnpf", include_str!("../../scenarios/m23-indoor-tnpf.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
     ("open-field-5-linkfault", include_str!("../../scenarios/open-field-5-linkfault.toml")),
     ("open-field-5-restart", include_str!("../../scenarios/open-field-5-restart.toml")),
@@ -252,10 +256,6 @@ impl Scenario {
         self.controller.m23.validate("controller.m23")?;
         self.controller.m23.costmap.validate("controller.m23.costmap")?;
         self.localization.uvdar.validate("localization.uvdar")?;
-        if self.controller.kind == ControllerKind::M23 {
-            // The formation layer is built and tested, not yet flown: say so instead of flying K21.
-            return Err(("controller.kind".into(), "m23 is not flown by the agent yet".into()));
-        }
         self.perception.validate()?;
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;
@@ -323,6 +323,15 @@ impl Scenario {
         self.goal_motion_of(id, t).0
     }
 
+    /// UAV `id`'s goal before any mission: `swarm.goal`, or its own one of `controller.m23.goals`
+    /// (seed 004 Table 7) when M23 flies.
+    fn static_goal_of(&self, id: u32) -> [f64; 2] {
+        match self.controller.kind {
+            ControllerKind::M23 => self.controller.m23.goal_of(id, self.swarm.goal),
+            _ => self.swarm.goal,
+        }
+    }
+
     /// The goal of UAV `id` at sim time `t` and its velocity: a moving `mission` goal has moved
     /// by `velocity_mps · (t − at_s)`.
     pub fn goal_motion_of(&self, id: u32, t: f64) -> ([f64; 2], [f64; 2]) {
@@ -330,7 +339,7 @@ impl Scenario {
             .iter()
             .filter(|m| m.at_s <= t + 1e-9 && m.uavs.contains(id))
             .max_by(|a, b| a.at_s.total_cmp(&b.at_s))
-            .map_or((self.swarm.goal, [0.0, 0.0]), |m| {
+            .map_or((self.static_goal_of(id), [0.0, 0.0]), |m| {
                 let [vx, vy] = m.velocity_mps;
                 let dt = t - m.at_s;
                 ([m.goal[0] + vx * dt, m.goal[1] + vy * dt], m.velocity_mps)

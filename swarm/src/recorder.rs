@@ -6,7 +6,7 @@
 //! network.
 
 use crate::plot::{run_svg, Track};
-use crate::summary::{ClassSummary, 
+use crate::summary::{ClassSummary, FormationMetrics, 
     AgentSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, LocalizationSummary, Reconnection, Summary,
     SCHEMA,
 };
@@ -351,7 +351,14 @@ impl Metrics {
             None => "incomplete",
         };
         let goal_at = last.and_then(|s| s.goal_reached_at);
-        let agents: Vec<AgentSummary> = self.agents.iter().map(|(&id, a)| agent_summary(id, a)).collect();
+        let mut agents: Vec<AgentSummary> = self.agents.iter().map(|(&id, a)| agent_summary(id, a)).collect();
+        for a in &mut agents {
+            if let Some(t) = self.tracks.get(&a.id) {
+                a.blocking_time_s = blocking_time(&t.samples);
+                a.agent_distance_std_m = std_dev(t.samples.iter().map(|s| s[4]));
+            }
+        }
+        let formation = formation_metrics(&agents);
         let all_errors: Vec<f64> = self.agents.values().flat_map(|a| a.loc_errors.iter().copied()).collect();
         let all_ages: Vec<f64> = self.agents.values().flat_map(|a| a.ages.iter().copied()).collect();
         let (sent_msgs, sent_bytes) = agents.iter().fold((0, 0), |(m, b), a| (m + a.messages_sent, b + a.bytes_sent));
@@ -393,6 +400,7 @@ impl Metrics {
             localization,
             connectivity,
             network,
+            formation,
             agents,
         }
     }
@@ -475,6 +483,49 @@ impl Metrics {
     }
 }
 
+/// Window and distance of seed 004's blocking rule: blocked while it moved less than 0.1 m
+/// during the last 1 s.
+const BLOCKING_WINDOW_S: f64 = 1.0;
+const BLOCKING_DISTANCE_M: f64 = 0.1;
+
+/// Seconds a UAV was blocked, from its track `(t, x, y, ..)` (seed 004 3.5).
+fn blocking_time(samples: &[[f64; 5]]) -> f64 {
+    let mut blocked = 0.0;
+    let mut back = 0;
+    for i in 1..samples.len() {
+        let [t, x, y, ..] = samples[i];
+        while back < i && samples[back + 1][0] <= t - BLOCKING_WINDOW_S + 1e-9 {
+            back += 1;
+        }
+        let [t0, x0, y0, ..] = samples[back];
+        if t - t0 >= BLOCKING_WINDOW_S - 1e-9 && (x - x0).hypot(y - y0) < BLOCKING_DISTANCE_M {
+            blocked += t - samples[i - 1][0];
+        }
+    }
+    blocked
+}
+
+/// Standard deviation of the finite values (NaN when there are none).
+fn std_dev(values: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+fn formation_metrics(agents: &[AgentSummary]) -> FormationMetrics {
+    let mean = |f: fn(&AgentSummary) -> f64| mean_finite(agents.iter().map(f));
+    FormationMetrics {
+        mean_neighbour_distance_m: mean(|a| a.mean_agent_distance_m),
+        neighbour_distance_deviation_m: mean(|a| a.agent_distance_std_m),
+        mean_blocking_time_s: mean(|a| a.blocking_time_s),
+        mean_trajectory_length_m: mean(|a| a.path_length_m),
+        mean_obstacle_distance_m: mean(|a| a.mean_obstacle_distance_m),
+    }
+}
+
 fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
     let n = a.n.max(1) as f64;
     let steps = a.steps.max(1) as f64;
@@ -484,6 +535,9 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         min_obstacle_distance_m: a.min_obst,
         mean_obstacle_distance_m: if a.min_obst.is_finite() { a.sum_obst / n } else { f64::INFINITY },
         min_agent_distance_m: a.min_agent,
+        // Filled in from the track by `Metrics::summary`.
+        agent_distance_std_m: f64::NAN,
+        blocking_time_s: 0.0,
         mean_agent_distance_m: if a.min_agent.is_finite() { a.sum_agent / n } else { f64::INFINITY },
         path_length_m: a.path,
         messages_sent: link.sent_msgs,
@@ -583,6 +637,25 @@ pub fn decode(bytes: &[u8], malformed: &mut u64) -> Option<Msg> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn blocking_counts_the_time_spent_moving_less_than_10_cm_per_second() {
+        // 0.1 s ticks: moving at 0.5 m/s for 3 s, then still for 2 s, then 0.05 m/s for 2 s.
+        let mut samples = Vec::new();
+        let mut x = 0.0;
+        for k in 0..=70 {
+            let t = f64::from(k) * 0.1;
+            samples.push([t, x, 0.0, 1.0, 1.0]);
+            x += if t < 3.0 - 1e-9 { 0.05 } else if t < 5.0 - 1e-9 { 0.0 } else { 0.005 };
+        }
+        // Still from 3.0 s: blocked once the last second moved < 0.1 m, i.e. from 3.9 s (at 3.9
+        // it moved 0.05 m since 2.9) through 7.0 s: 3.1 s (the crawl moves 0.05 m per second).
+        let b = blocking_time(&samples);
+        assert!((b - 3.1).abs() < 0.11, "{b}");
+        assert_eq!(blocking_time(&samples[..31]), 0.0, "moving: never blocked");
+        assert!((std_dev([1.0, 3.0].into_iter()) - 1.0).abs() < 1e-12);
+        assert!(std_dev([f64::NAN].into_iter()).is_nan());
+    }
     use swarm_wire::{CollisionEvent, NeighbourEstimate};
 
     fn body(id: u32, x: f64, od: f64, ad: f64, on_time: bool) -> TruthBody {

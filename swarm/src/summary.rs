@@ -70,6 +70,10 @@ pub struct Summary {
     /// Its standard deviation over those 10 s: small when the lattice has settled [m].
     #[serde(with = "inf_as_null")]
     pub lattice_spacing_std_m: f64,
+    /// Seed 004 section 3.5's metrics over every UAV: mean distance to the nearest neighbour, its
+    /// deviation, blocking time (mean per UAV), trajectory length (mean per UAV), mean distance to
+    /// the nearest obstacle; the mission time is `time_to_goal_s`.
+    pub formation: FormationMetrics,
     /// How well agents knew where their neighbours were.
     pub localization: LocalizationSummary,
     /// Who knew of whom, over time.
@@ -124,6 +128,25 @@ pub struct Connectivity {
     /// Estimates an agent held of a neighbour whose link to it had been blocked for longer than
     /// the estimate staleness: information that crossed a partition (should be 0).
     pub estimates_across_blocked_links: u64,
+}
+
+/// Seed 004 section 3.5's metrics (Table 8 compares LF, PF and TNPF with them).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct FormationMetrics {
+    /// Mean over UAVs and ticks of the distance to the nearest other UAV [m].
+    #[serde(with = "inf_as_null")]
+    pub mean_neighbour_distance_m: f64,
+    /// Mean over UAVs of the standard deviation over ticks of that distance [m] ("deviation from
+    /// neighbours").
+    #[serde(with = "inf_as_null")]
+    pub neighbour_distance_deviation_m: f64,
+    /// Mean over UAVs of the blocking time [s].
+    pub mean_blocking_time_s: f64,
+    /// Mean over UAVs of the trajectory length [m].
+    pub mean_trajectory_length_m: f64,
+    /// Mean over UAVs and ticks of the distance to the nearest obstacle surface [m].
+    #[serde(with = "inf_as_null")]
+    pub mean_obstacle_distance_m: f64,
 }
 
 /// Messages received on links of one class, over every agent, and the delay actually applied
@@ -205,7 +228,13 @@ pub struct AgentSummary {
     /// Minimum distance to the nearest other UAV (centre to centre).
     #[serde(with = "inf_as_null")]
     pub min_agent_distance_m: f64,
-    /// Mean over ticks of that distance.
+    /// Standard deviation over ticks of the distance to the nearest other UAV (seed 004 3.5's
+    /// deviation from neighbours).
+    #[serde(with = "inf_as_null")]
+    pub agent_distance_std_m: f64,
+    /// Time it was blocked: moved less than 0.1 m during the preceding 1 s (seed 004 3.5) [s].
+    pub blocking_time_s: f64,
+    /// Mean over ticks of the distance to the nearest other UAV.
     #[serde(with = "inf_as_null")]
     pub mean_agent_distance_m: f64,
     /// Length of its path.

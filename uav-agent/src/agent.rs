@@ -135,12 +135,13 @@ impl Agent {
         let circles = seen.circles;
         let (estimates, icp_counts) = self.localize(scan.t_secs, &circles, gnss, started);
         let trees = self.trees_only(&circles, &estimates);
-        let scan_points: Vec<Point2<f64>> = if self.sc.controller.kind == ControllerKind::A21 {
+        let scan_points: Vec<Point2<f64>> = if matches!(self.sc.controller.kind, ControllerKind::A21 | ControllerKind::M23) {
             perception::group_scan(scan, f64::INFINITY).concat()
         } else {
             Vec::new()
         };
         let view = View {
+            id: self.id,
             t_secs: scan.t_secs,
             odom,
             neighbours: &estimates,

@@ -244,6 +244,10 @@ impl Costmap {
     /// The cost of the cell containing `p` (odometry frame); [`NO_INFORMATION`] if `p` is not
     /// finite.
     pub fn cost_at(&self, p: &Point2<f64>) -> u8 {
+        self.cost_of_point(p)
+    }
+
+    fn cost_of_point(&self, p: &Point2<f64>) -> u8 {
         self.grid.cell_of(p).map_or(NO_INFORMATION, |c| self.cost(c))
     }
 
@@ -705,5 +709,15 @@ mod tests {
         let g = m.nearest_cell_where(&p, 1.0, published).expect("found");
         assert_eq!(g, m.grid().center_of(c(53, -13)));
         assert_eq!(m.cost_at(&g), 126);
+    }
+}
+
+/// The M23 formation layer reads this costmap through its [`crate::m23::CostQuery`].
+impl crate::m23::CostQuery for Costmap {
+    fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
+        Some(self.cost_of_point(&p))
+    }
+    fn resolution(&self) -> f64 {
+        self.params.resolution_m
     }
 }

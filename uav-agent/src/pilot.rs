@@ -24,7 +24,9 @@
 //!   and subtracts `damping_per_s`·v from eq. 1's acceleration (the seed's tracker damps; ours
 //!   is a bare double integrator).
 
+use crate::costmap::{Costmap, SocialAgent};
 use crate::grid::{Heuristic, OccupancyGrid, PlanParams, Pose2};
+use crate::m23::{self, FollowerInput, LeaderWait, UavState};
 use crate::localization::Estimate;
 use crate::perception::{Circle, Segment};
 use crate::{a21, k21, p17};
@@ -35,6 +37,8 @@ use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 /// What one step saw, in the body frame.
 #[derive(Debug, Clone, Copy)]
 pub struct View<'a> {
+    /// This UAV's id.
+    pub id: u32,
     /// Sim time [s].
     pub t_secs: f64,
     /// Own odometry (pose and velocity in the start frame, and the goal of an informed UAV).
@@ -74,6 +78,8 @@ pub enum Pilot {
         /// Neighbour velocities from position differences (eq. 9).
         tracker: p17::VelocityTracker,
     },
+    /// M23 (boxed: it is by far the largest).
+    M23(Box<M23Pilot>),
     /// A21.
     A21 {
         /// The map built from its own scans (seed 003 IV-C).
@@ -101,7 +107,8 @@ impl Pilot {
                 };
                 Pilot::A21 { grid: Box::new(OccupancyGrid::new(params)), path: Vec::new(), planned_at: None }
             }
-            ControllerKind::K21 | ControllerKind::M23 => Pilot::K21,
+            ControllerKind::M23 => Pilot::M23(Box::new(M23Pilot::new(sc))),
+            ControllerKind::K21 => Pilot::K21,
         }
     }
 
@@ -111,6 +118,7 @@ impl Pilot {
             Pilot::K21 => fly_k21(sc, v),
             Pilot::P17 { prev_vel, tracker } => fly_p17(sc, v, prev_vel, tracker),
             Pilot::A21 { grid, path, planned_at } => fly_a21(sc, v, grid, path, planned_at),
+            Pilot::M23(m) => m.step(sc, v),
         }
     }
 }
@@ -236,5 +244,137 @@ fn fly_a21(
             navigation: out.navigation.norm() as f32,
             output: acceleration.norm() as f32,
         },
+    }
+}
+
+/// M23 (seed 004 chapter 3): a costmap from the agent's own scans with its neighbours as social
+/// costs, a formation goal from the topology (validated against the costmap), an A* path on the
+/// costmap, the reduced-DWA tracker, and the leader's wait. Everything is in the odometry frame;
+/// with the common start heading of a scenario its axes are the world's, so LF offsets given in
+/// the world frame apply as they are. Followers learn where the leader is only from their
+/// neighbour estimates, so the network's faults reach the formation too.
+#[derive(Debug)]
+pub struct M23Pilot {
+    costmap: Costmap,
+    wait: LeaderWait,
+    tracker: p17::VelocityTracker,
+    goal: Option<Point2<f64>>,
+    goal_at: Option<f64>,
+    path: Vec<Point2<f64>>,
+}
+
+impl M23Pilot {
+    fn new(sc: &Scenario) -> M23Pilot {
+        M23Pilot {
+            costmap: Costmap::new(&sc.controller.m23.costmap),
+            wait: LeaderWait::default(),
+            tracker: p17::VelocityTracker::new(sc.localization.stale_after_s),
+            goal: None,
+            goal_at: None,
+            path: Vec::new(),
+        }
+    }
+
+    fn step(&mut self, sc: &Scenario, v: &View) -> Command {
+        let p = &sc.controller.m23;
+        let (p0, rot) = pose(v.odom);
+        let me_id = v.id;
+        // The map: the static scan points (a neighbour's hits would leave a trail of lethal cells
+        // behind it), and the neighbours as social costs (seed 004 eq. 11).
+        let near_neighbour =
+            |q: &Point2<f64>| v.neighbours.iter().any(|e| (e.pos_in_body - q.coords).norm() <= sc.perception.neighbour_match_m);
+        let static_points: Vec<Point2<f64>> = v.scan_points.iter().filter(|q| !near_neighbour(q)).copied().collect();
+        self.costmap.update(Pose2 { x: p0.x, y: p0.y, yaw: v.odom.yaw }, &static_points);
+        self.tracker.forget_stale(v.t_secs);
+        let mut known = Vec::new();
+        let mut social = Vec::new();
+        for e in v.neighbours {
+            let pos = p0 + rot * e.pos_in_body;
+            let vel = e.id.and_then(|id| self.tracker.update(id, pos, v.t_secs - e.age_secs)).unwrap_or_else(Vector2::zeros);
+            social.push(SocialAgent { position: Point2::from(pos), velocity: vel });
+            if let Some(id) = e.id {
+                known.push(UavState { id, position: Point2::from(pos), heading: v.odom.yaw + e.heading });
+            }
+        }
+        self.costmap.set_neighbours(&social);
+        let me = UavState { id: me_id, position: Point2::from(p0), heading: v.odom.yaw };
+        let own_goal = v.odom.goal.map(|g| Point2::new(g[0], g[1]));
+        let hold = self.leader_holds(sc, v.t_secs, &me, &known);
+        self.update_goal(sc, v.t_secs, &me, &known, own_goal);
+        let path: &[Point2<f64>] = if hold { &[] } else { &self.path };
+        let vel_odom = Vector2::new(v.odom.vx, v.odom.vy);
+        // The tracker sees the neighbours where they are now as lethal discs, as seed 004's local
+        // planner saw them in its LIDAR's obstacle layer.
+        let others: Vec<Point2<f64>> = social.iter().map(|a| a.position).collect();
+        let costs = WithNeighbours { map: &self.costmap, others: &others, radius_m: 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M };
+        let out = m23::track(path, Point2::from(p0), vel_odom, sc.dt_secs(), &costs, p);
+        Command {
+            kind: CmdKind::Velocity,
+            xy: rot.inverse() * out.velocity,
+            yaw_rate: 0.0,
+            vectors: VectorMagnitudes {
+                navigation: out.velocity.norm() as f32,
+                output: out.velocity.norm() as f32,
+                ..VectorMagnitudes::default()
+            },
+        }
+    }
+
+    /// The leader's wait (seed 004 Fig. 38): while a follower is farther than MAX_DISTANCE, at
+    /// most MAX_TIME. `None` (not every follower known) lets the timer decide.
+    fn leader_holds(&mut self, sc: &Scenario, t: f64, me: &UavState, known: &[UavState]) -> bool {
+        let p = &sc.controller.m23;
+        if p.topology == swarm_config::Topology::None || me.id != p.leader_id {
+            return false;
+        }
+        let followers: Vec<Point2<f64>> = known.iter().map(|u| u.position).collect();
+        let all_known = known.len() + 1 >= sc.agent_ids().count();
+        let far = m23::any_follower_far(me.position, &followers, p.max_distance_m);
+        self.wait.step(t, (all_known || far).then_some(far), p)
+    }
+
+    /// Every `goal_period_s`: the goal (seed 004 Fig. 40) and a new A* path on the costmap.
+    fn update_goal(&mut self, sc: &Scenario, t: f64, me: &UavState, known: &[UavState], own_goal: Option<Point2<f64>>) {
+        let p = &sc.controller.m23;
+        if self.goal_at.is_some_and(|g| t - g < p.goal_period_s - 1e-9) {
+            return;
+        }
+        self.goal_at = Some(t);
+        let Some(own) = own_goal else { return };
+        let leader = if me.id == p.leader_id { Some(me) } else { known.iter().find(|u| u.id == p.leader_id) };
+        let input = FollowerInput {
+            me: *me,
+            leader,
+            neighbours: known,
+            // Every UAV of an M23 scenario flies to the common goal; with per-UAV goals
+            // (`goals`, topology none) nobody looks at the leader's.
+            leader_goal: own,
+            own_goal: own,
+            previous_goal: self.goal,
+        };
+        self.goal = m23::follower_goal(p.topology, &input, &self.costmap, p);
+        self.path = self.goal.and_then(|g| self.costmap.plan(me.position, g)).map(|path| path.points).unwrap_or_default();
+    }
+}
+
+/// Clearance kept between two bodies by the M23 tracker beyond touching [m].
+const NEIGHBOUR_MARGIN_M: f64 = 0.2;
+
+/// The costmap with each neighbour's disc lethal: what the M23 tracker must not step into.
+struct WithNeighbours<'a> {
+    map: &'a Costmap,
+    others: &'a [Point2<f64>],
+    radius_m: f64,
+}
+
+impl m23::CostQuery for WithNeighbours<'_> {
+    fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
+        if self.others.iter().any(|o| (o - p).norm() < self.radius_m) {
+            return Some(crate::costmap::LETHAL_OBSTACLE);
+        }
+        m23::CostQuery::cost_at(self.map, p)
+    }
+    fn resolution(&self) -> f64 {
+        m23::CostQuery::resolution(self.map)
     }
 }
