@@ -49,6 +49,8 @@ pub enum Cmd {
     Netem(crate::netem_cli::NetemArgs),
     /// Fly one scenario with each controller and print the comparison (seed 000 section 6.5).
     Compare(crate::study::CompareArgs),
+    /// Fly seed 004's formation topologies and print its Table 8 beside ours.
+    Formations(crate::study::FormationsArgs),
     /// Sweep the broadcast-position error δa (seed 001 section 6): print and plot min distances.
     SweepError(crate::study::SweepArgs),
     /// List the built-in scenarios.
@@ -224,6 +226,7 @@ async fn dispatch(cli: Cli) -> Result<ExitCode> {
         Cmd::Netem(a) => crate::netem_cli::netem(a).await,
         Cmd::Compare(a) => crate::study::compare(a).await,
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
+        Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::Scenarios => {
             for (name, text) in swarm_config::BUILTIN {
                 let desc = Scenario::from_toml_str(text, name).map(|s| s.description).unwrap_or_default();

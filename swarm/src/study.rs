@@ -7,6 +7,9 @@
 //!   0 to 4 m, on one UAV and on all, in free space and in a forest; min inter-UAV and min
 //!   obstacle distance against δa (seed 001: safe up to 3 m in free space, 2 m in the forest).
 //!
+//! - `swarm formations`: seed 004's four topologies on its indoor world, optionally over lossy
+//!   inter-agent links, in the shape of its Table 8 with the seed's numbers beside ours.
+//!
 //! Each run is a full `swarm run` (hub, agent processes, recorder) with its own run id and folder
 //! under the study's folder, so any of them can be looked at afterwards.
 
@@ -32,6 +35,20 @@ pub struct CompareArgs {
     #[arg(long)]
     pub localization: Option<String>,
     /// Study folder (default: runs/compare-<time>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `swarm formations`.
+#[derive(Args, Debug, Clone)]
+pub struct FormationsArgs {
+    /// The scenarios, one per topology, as `topology=scenario` pairs.
+    #[arg(long, default_value = "none=m23-indoor-none,lf=m23-indoor-lf,pf=m23-indoor-pf,tnpf=m23-indoor-tnpf")]
+    pub scenarios: String,
+    /// i.i.d. loss on every inter-agent link [%] (0: none), added from the start.
+    #[arg(long, default_value_t = 0.0)]
+    pub loss: f64,
+    /// Study folder (default: runs/formations-<time>).
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -131,6 +148,60 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
     print!("{t}");
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("compare.md"), &t)?;
+    println!("study folder: {}", out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Seed 004 Table 8: LF, PF, TNPF (obstacle distance, trajectory length, deviation) [m].
+const TABLE_8: [(&str, [f64; 3]); 3] = [("lf", [1.81, 50.04, 0.89]), ("pf", [1.67, 48.13, 0.09]), ("tnpf", [1.62, 48.71, 0.08])];
+
+/// Runs `swarm formations`.
+pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
+    if !(0.0..=100.0).contains(&a.loss) {
+        bail!("--loss: a percentage in [0, 100], got {}", a.loss);
+    }
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("formations-{}", stamp())));
+    let mut rows = Vec::new();
+    for pair in a.scenarios.split(',') {
+        let (topology, name) = pair.split_once('=').with_context(|| format!("`{pair}`: expected topology=scenario"))?;
+        let (mut sc, _) = Scenario::from_arg(name.trim())?;
+        if a.loss > 0.0 {
+            let rule = netem::impair::Impairment {
+                loss: netem::impair::LossModel::Random { p: a.loss / 100.0 },
+                ..netem::impair::Impairment::IDENTITY
+            };
+            sc.netem.push(swarm_config::NetemRule::link(0.0, UavSet::default(), UavSet::default(), rule));
+        }
+        let s = run_variant(&sc, &out, topology.trim()).await?;
+        rows.push((topology.trim().to_string(), s));
+    }
+    let mut t = String::new();
+    let loss = if a.loss > 0.0 { format!(", {} % inter-agent loss", a.loss) } else { String::new() };
+    let _ = writeln!(t, "# seed 004 Table 8, ours beside the seed's (seed values in brackets){loss}\n");
+    let _ = writeln!(t, "| topology | collisions | goal s | obstacle distance m | trajectory m | deviation from neighbours m | blocking s |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|");
+    for (topology, s) in &rows {
+        let f = &s.formation;
+        let seed = TABLE_8.iter().find(|(n, _)| n == topology).map(|(_, v)| *v);
+        let with = |ours: f64, i: usize| match seed {
+            Some(v) => format!("{ours:.2} ({:.2})", v[i]),
+            None => format!("{ours:.2}"),
+        };
+        let _ = writeln!(
+            t,
+            "| {topology} | {} | {} | {} | {} | {} | {:.1} |",
+            s.collisions,
+            opt(s.time_to_goal_s),
+            with(f.mean_obstacle_distance_m, 0),
+            with(f.mean_trajectory_length_m, 1),
+            with(f.neighbour_distance_deviation_m, 2),
+            f.mean_blocking_time_s
+        );
+    }
+    let _ = writeln!(t, "\nseed 004: PF and TNPF keep the formation far better than LF (deviation 0.09 / 0.08 m vs 0.89 m).");
+    print!("{t}");
+    std::fs::create_dir_all(&out)?;
+    std::fs::write(out.join("formations.md"), &t)?;
     println!("study folder: {}", out.display());
     Ok(ExitCode::SUCCESS)
 }

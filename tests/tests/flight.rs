@@ -322,3 +322,20 @@ fn p17_follows_a_moving_goal() {
     let t = s["time_to_goal_s"].as_f64().expect("reached");
     assert!((85.0..110.0).contains(&t), "arrived with the goal: {t} s");
 }
+
+/// Issue 6, M23 (seed 004 chapter 3) over real Zenoh: four UAVs in TNPF formation through the
+/// indoor world of walls, each on its own costmap and A* path, followers placing their goals from
+/// where the network says their predecessors are. No collision, the goal is reached, and the
+/// summary carries seed 004's metrics.
+#[test]
+fn m23_tnpf_crosses_the_indoor_world() {
+    let (_dir, s) = fly(&["m23-indoor-tnpf"], "m23tnpf");
+    assert_safe_arrival(&s);
+    let f = &s["formation"];
+    let len = f["mean_trajectory_length_m"].as_f64().expect("n");
+    assert!((40.0..60.0).contains(&len), "about the 48.71 m of seed 004 Table 8: {f:#}");
+    let dev = f["neighbour_distance_deviation_m"].as_f64().expect("n");
+    assert!(dev > 0.0 && dev < 1.5, "{f:#}");
+    let blocked = f["mean_blocking_time_s"].as_f64().expect("n");
+    assert!(blocked < s["time_to_goal_s"].as_f64().expect("t") / 2.0, "mostly moving: {f:#}");
+}

@@ -8,7 +8,7 @@
 //! - [`a21`]: the A21 controller of seed 003 section III (proximal control, φ-limited navigation).
 //! - [`grid`], [`costmap`]: an occupancy grid from the agent's scans with A* on it (A21), and the
 //!   seed 004 costmap with inflation and a social layer.
-//! - [`m23`]: the formation layer of seed 004 (built and tested; not flown yet).
+//! - [`m23`]: the formation layer of seed 004 (topology goals, the leader's wait, the tracker).
 //! - [`pilot`]: runs the scenario's controller step by step, with what it keeps between steps.
 //! - [`vec2`]: the vector helpers the controllers share.
 //! - [`agent`]: one control step wiring the three together, with no IO.
