@@ -391,6 +391,16 @@ fn dist2(a: Cell, b: Cell) -> f64 {
     dx * dx + dy * dy
 }
 
+/// The M23 formation layer reads this costmap through its [`crate::m23::CostQuery`].
+impl crate::m23::CostQuery for Costmap {
+    fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
+        Some(self.cost_of_point(&p))
+    }
+    fn resolution(&self) -> f64 {
+        self.params.resolution_m
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -712,12 +722,3 @@ mod tests {
     }
 }
 
-/// The M23 formation layer reads this costmap through its [`crate::m23::CostQuery`].
-impl crate::m23::CostQuery for Costmap {
-    fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
-        Some(self.cost_of_point(&p))
-    }
-    fn resolution(&self) -> f64 {
-        self.params.resolution_m
-    }
-}
