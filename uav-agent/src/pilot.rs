@@ -352,7 +352,9 @@ impl M23Pilot {
             own_goal: own,
             previous_goal: self.goal,
         };
-        self.goal = m23::follower_goal(p.topology, &input, &self.costmap, p);
+        // A follower that has never known its reference (anonymous ICP neighbours, or nobody in
+        // range yet) flies to its own goal rather than hovering.
+        self.goal = m23::follower_goal(p.topology, &input, &self.costmap, p).or(Some(own));
         self.path = self.goal.and_then(|g| self.costmap.plan(me.position, g)).map(|path| path.points).unwrap_or_default();
     }
 }
