@@ -9,7 +9,7 @@
 //!   limits, section IV-B); the scenario's `body.max_speed_mps` / `body.max_accel_mps2` apply, so
 //!   they are not repeated here;
 //! - `phi_alone` (φ when no agent is observed): 0, continuous with φ = 0 beyond d_max;
-//! - occupancy grid resolution 0.1 m, inflation 0.5 m, replanning period 1 s and path lookahead
+//! - occupancy grid resolution 0.1 m, inflation 0.7 m, replanning period 1 s and path lookahead
 //!   1 m for the A* path of the navigation vector (section IV-C gives no numbers).
 //!
 //! `validate` checks each range and the orderings the formulas need: d_c < d_0 (λβ of eq. 6
@@ -72,8 +72,10 @@ pub struct A21Params {
     #[serde(default = "d_grid_resolution")]
     pub grid_resolution_m: f64,
     /// Obstacles in the grid are inflated by this distance before A* [m] (seed 003 IV-C:
-    /// "inflated w.r.t the UAV size", no number). 0.5 m: the A21 frame's 22.5 cm arms plus
-    /// propellers (≈ 0.35 m, the 0.3 m default body radius) plus a cell or two of margin.
+    /// "inflated w.r.t the UAV size", no number). 0.7 m: the A21 frame's 22.5 cm arms plus
+    /// propellers (≈ 0.35 m, the 0.3 m default body radius) plus the overshoot of a double
+    /// integrator tracking a path (with 0.5 m, a21-forest-uvdar passed trunks at 0.51 m from the
+    /// centre; with 0.7 m at 0.75 m).
     #[serde(default = "d_inflation")]
     pub inflation_m: f64,
     /// The A* path is planned again every this many seconds of sim time [s] (seed 003 is silent).
@@ -129,7 +131,7 @@ fn d_grid_resolution() -> f64 {
     0.1
 }
 fn d_inflation() -> f64 {
-    0.5
+    0.7
 }
 fn d_replan() -> f64 {
     1.0
