@@ -188,18 +188,29 @@ fn fly_p17(sc: &Scenario, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut p
     );
     *prev_vel = out.velocity_mps;
     let f = &out.forces;
-    Command {
-        kind: CmdKind::Velocity,
-        xy: rot.inverse() * out.velocity_mps,
-        yaw_rate: 0.0,
-        vectors: VectorMagnitudes {
+    odom_velocity(
+        rot,
+        out.velocity_mps,
+        VectorMagnitudes {
             cohesion: f.cohesion.norm() as f32,
             separation: f.separation.norm() as f32,
             avoidance: (f.avoidance_separation + f.avoidance_alignment).norm() as f32,
             navigation: f.navigation.norm() as f32,
             output: out.velocity_mps.norm() as f32,
         },
-    }
+    )
+}
+
+/// A velocity command from a velocity in the odometry frame, with no heading control.
+fn odom_velocity(rot: Rotation2<f64>, vel: Vector2<f64>, vectors: VectorMagnitudes) -> Command {
+    Command { kind: CmdKind::Velocity, xy: rot.inverse() * vel, yaw_rate: 0.0, vectors }
+}
+
+/// The scan points that are not a localized neighbour: what goes into a map.
+fn static_points(sc: &Scenario, v: &View) -> Vec<Point2<f64>> {
+    let near_neighbour =
+        |p: &Point2<f64>| v.neighbours.iter().any(|e| (e.pos_in_body - p.coords).norm() <= sc.perception.neighbour_match_m);
+    v.scan_points.iter().filter(|p| !near_neighbour(p)).copied().collect()
 }
 
 fn fly_a21(
@@ -211,10 +222,7 @@ fn fly_a21(
 ) -> Command {
     let a = &sc.controller.a21;
     let (p0, rot) = pose(v.odom);
-    let near_neighbour = |p: &Point2<f64>| {
-        v.neighbours.iter().any(|e| (e.pos_in_body - p.coords).norm() <= sc.perception.neighbour_match_m)
-    };
-    let static_points: Vec<Point2<f64>> = v.scan_points.iter().filter(|p| !near_neighbour(p)).copied().collect();
+    let static_points = static_points(sc, v);
     grid.update(Pose2 { x: p0.x, y: p0.y, yaw: v.odom.yaw }, &static_points);
     let direction = v.odom.goal.and_then(|g| {
         let due = planned_at.is_none_or(|t| v.t_secs - t >= a.replan_period_s - 1e-9);
@@ -281,10 +289,7 @@ impl M23Pilot {
         let me_id = v.id;
         // The map: the static scan points (a neighbour's hits would leave a trail of lethal cells
         // behind it), and the neighbours as social costs (seed 004 eq. 11).
-        let near_neighbour =
-            |q: &Point2<f64>| v.neighbours.iter().any(|e| (e.pos_in_body - q.coords).norm() <= sc.perception.neighbour_match_m);
-        let static_points: Vec<Point2<f64>> = v.scan_points.iter().filter(|q| !near_neighbour(q)).copied().collect();
-        self.costmap.update(Pose2 { x: p0.x, y: p0.y, yaw: v.odom.yaw }, &static_points);
+        self.costmap.update(Pose2 { x: p0.x, y: p0.y, yaw: v.odom.yaw }, &static_points(sc, v));
         self.tracker.forget_stale(v.t_secs);
         let mut known = Vec::new();
         let mut social = Vec::new();
@@ -308,16 +313,8 @@ impl M23Pilot {
         let others: Vec<Point2<f64>> = social.iter().map(|a| a.position).collect();
         let costs = WithNeighbours { map: &self.costmap, others: &others, radius_m: 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M };
         let out = m23::track(path, Point2::from(p0), vel_odom, sc.dt_secs(), &costs, p);
-        Command {
-            kind: CmdKind::Velocity,
-            xy: rot.inverse() * out.velocity,
-            yaw_rate: 0.0,
-            vectors: VectorMagnitudes {
-                navigation: out.velocity.norm() as f32,
-                output: out.velocity.norm() as f32,
-                ..VectorMagnitudes::default()
-            },
-        }
+        let speed = out.velocity.norm() as f32;
+        odom_velocity(rot, out.velocity, VectorMagnitudes { navigation: speed, output: speed, ..VectorMagnitudes::default() })
     }
 
     /// The leader's wait (seed 004 Fig. 38): while a follower is farther than MAX_DISTANCE, at
