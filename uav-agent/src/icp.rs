@@ -216,13 +216,7 @@ fn degenerate(points: impl Iterator<Item = Point2<f64>> + Clone) -> bool {
         return true;
     }
     c /= n;
-    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-    for q in points {
-        let d = q.coords - c;
-        sxx += d.x * d.x;
-        sxy += d.x * d.y;
-        syy += d.y * d.y;
-    }
+    let (sxx, sxy, syy) = crate::vec2::scatter(points, c);
     let (sxx, sxy, syy) = (sxx / n, sxy / n, syy / n);
     // Not in seed 000 (degeneracy test): eigenvalues of the 2×2 covariance [[sxx, sxy], [sxy, syy]]:
     // λ± = (sxx + syy)/2 ± sqrt(((sxx − syy)/2)² + sxy²).

@@ -391,13 +391,7 @@ pub fn fit_segment(points: &[Point2<f64>]) -> Option<Segment> {
     }
     let n = points.len() as f64;
     let mean = points.iter().fold(Vector2::zeros(), |acc, p| acc + p.coords) / n;
-    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-    for p in points {
-        let q = p.coords - mean;
-        sxx += q.x * q.x;
-        sxy += q.x * q.y;
-        syy += q.y * q.y;
-    }
+    let (sxx, sxy, syy) = crate::vec2::scatter(points.iter().copied(), mean);
     if !(sxx + syy > 0.0 && (sxx + syy).is_finite()) {
         return None;
     }
