@@ -50,6 +50,7 @@ impl ScenarioError {
 
 /// Built-in scenarios, `(name, toml text)`: the files of `scenarios/`, compiled in.
 pub const BUILTIN: &[(&str, &str)] = &[
+    ("a21-forest-uvdar", include_str!("../../scenarios/a21-forest-uvdar.toml")),
     ("compare-4", include_str!("../../scenarios/compare-4.toml")),
     ("forest-5", include_str!("../../scenarios/forest-5.toml")),
     ("forest-5-burst-frozen", include_str!("../../scenarios/forest-5-burst-frozen.toml")),
@@ -70,7 +71,6 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("p17-gap", include_str!("../../scenarios/p17-gap.toml")),
     ("p17-moving-goal", include_str!("../../scenarios/p17-moving-goal.toml")),
     ("p17-wall", include_str!("../../scenarios/p17-wall.toml")),
-    ("a21-forest-uvdar", include_str!("../../scenarios/a21-forest-uvdar.toml")),
     ("example", include_str!("../../scenarios/example.toml")),
 ];
 

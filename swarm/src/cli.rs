@@ -228,9 +228,10 @@ async fn dispatch(cli: Cli) -> Result<ExitCode> {
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::Scenarios => {
+            let width = swarm_config::BUILTIN.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
             for (name, text) in swarm_config::BUILTIN {
                 let desc = Scenario::from_toml_str(text, name).map(|s| s.description).unwrap_or_default();
-                println!("{name:14} {desc}");
+                println!("{name:width$}  {desc}");
             }
             Ok(ExitCode::SUCCESS)
         }
