@@ -145,6 +145,16 @@ pub struct RecordArgs {
     pub zenoh: ZenohArgs,
 }
 
+/// Writes `text` to standard output; a reader that went away (`swarm scenarios | head`) ends the
+/// output quietly instead of a panic.
+fn print_out(text: &str) -> Result<()> {
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
+}
+
 /// Entry point of the binary: parse, set up logging and the runtime, dispatch.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -229,15 +239,17 @@ async fn dispatch(cli: Cli) -> Result<ExitCode> {
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::Scenarios => {
             let width = swarm_config::BUILTIN.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
+            let mut list = String::new();
             for (name, text) in swarm_config::BUILTIN {
                 let desc = Scenario::from_toml_str(text, name).map(|s| s.description).unwrap_or_default();
-                println!("{name:width$}  {desc}");
+                list.push_str(&format!("{name:width$}  {desc}\n"));
             }
+            print_out(&list)?;
             Ok(ExitCode::SUCCESS)
         }
         Cmd::Check { scenario } => {
             let (sc, _) = Scenario::from_arg(&scenario)?;
-            println!("{}", serde_json::to_string_pretty(&sc)?);
+            print_out(&format!("{}\n", serde_json::to_string_pretty(&sc)?))?;
             Ok(ExitCode::SUCCESS)
         }
     }
