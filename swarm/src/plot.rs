@@ -2,6 +2,7 @@
 //! (circle) to its end (triangle), collisions (red crosses), the goal disc. Right, over sim time,
 //! each UAV's distance to the nearest obstacle surface and to the nearest other UAV (seed 000
 //! Figs. 6.5 and 6.6). Plain SVG written by hand: no plotting dependency, opens in any browser.
+//! [`line_chart`] draws the studies' curves (`swarm sweep-error`) with the same axes and colours.
 
 use std::fmt::Write as _;
 use swarm_wire::TruthWorld;
@@ -167,6 +168,49 @@ fn legend(s: &mut String, tracks: &[Track]) {
     }
 }
 
+/// One curve of a [`line_chart`].
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend text.
+    pub label: String,
+    /// `(x, y)` points; non-finite ones are skipped.
+    pub points: Vec<[f64; 2]>,
+    /// Drawn dashed.
+    pub dashed: bool,
+}
+
+/// A chart of curves over a shared x axis, y from 0, with an optional red dashed threshold line.
+pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series], threshold: Option<f64>) -> String {
+    let pts = || series.iter().flat_map(|c| &c.points).filter(|p| p[0].is_finite() && p[1].is_finite());
+    let x_hi = pts().map(|p| p[0]).fold(1.0, f64::max);
+    let y_hi = pts().map(|p| p[1]).chain(threshold).fold(1.0, f64::max) * 1.05;
+    let ax = Axis { lo: 0.0, hi: x_hi, px_lo: 70.0, px_hi: 650.0 };
+    let ay = Axis { lo: 0.0, hi: y_hi, px_lo: 400.0, px_hi: 40.0 };
+    let mut s = String::new();
+    let _ = writeln!(s, r#"<svg xmlns="http://www.w3.org/2000/svg" width="960" height="460" font-family="sans-serif" font-size="12">"#);
+    let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
+    let _ = writeln!(s, r#"<text x="70" y="24" font-size="15">{}</text>"#, escape(title));
+    let _ = writeln!(s, r##"<rect x="70" y="40" width="580" height="360" fill="#fbfbf7" stroke="#999"/>"##);
+    axis_ticks(&mut s, ax, ay, &escape(x_label), &escape(y_label));
+    if let Some(t) = threshold {
+        let _ = writeln!(s, r#"<line x1="70" y1="{0:.1}" x2="650" y2="{0:.1}" stroke="red" stroke-dasharray="4 4"/>"#, ay.at(t));
+    }
+    for (i, c) in series.iter().enumerate() {
+        let line: String = c
+            .points
+            .iter()
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+            .map(|p| format!("{:.1},{:.1} ", ax.at(p[0]), ay.at(p[1])))
+            .collect();
+        let dash = if c.dashed { r#" stroke-dasharray="6 3""# } else { "" };
+        let _ = writeln!(s, r#"<polyline points="{line}" fill="none" stroke="{}" stroke-width="2"{dash}/>"#, color(i));
+        let y = 50.0 + 16.0 * i as f64;
+        let _ = writeln!(s, r#"<rect x="665" y="{:.0}" width="12" height="12" fill="{}"/><text x="683" y="{:.0}">{}</text>"#, y, color(i), y + 11.0, escape(&c.label));
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
 fn nice_step(span: f64) -> f64 {
     let raw = span.max(1e-9) / 8.0;
     let mag = 10f64.powf(raw.log10().floor());
@@ -188,6 +232,19 @@ fn escape(t: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn line_chart_draws_every_series_and_the_threshold() {
+        let series = [
+            Series { label: "a".into(), points: vec![[0.0, 1.0], [2.0, 3.0]], dashed: false },
+            Series { label: "b <x>".into(), points: vec![[0.0, 2.0], [1.0, f64::NAN], [2.0, 1.0]], dashed: true },
+        ];
+        let svg = line_chart("t", "δa [m]", "[m]", &series, Some(0.6));
+        assert_eq!(svg.matches("<polyline").count(), 2);
+        assert_eq!(svg.matches("stroke-dasharray=\"6 3\"").count(), 1);
+        assert!(svg.contains("stroke=\"red\"") && svg.contains("b &lt;x&gt;"));
+        assert!(!svg.contains("NaN"), "non-finite points are skipped");
+    }
 
     #[test]
     fn svg_has_every_tree_path_and_collision() {

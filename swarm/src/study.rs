@@ -14,6 +14,7 @@
 //! under the study's folder, so any of them can be looked at afterwards.
 
 use crate::launch::execute;
+use crate::plot::{line_chart, Series};
 use crate::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -263,54 +264,23 @@ pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
 
 /// Min distances against δa, one line per (world, error on, distance kind).
 fn sweep_svg(points: &[Point]) -> String {
-    let (w, h, m) = (720.0, 420.0, 50.0);
-    let x_max = points.iter().map(|p| p.delta).fold(1.0, f64::max);
-    let y_of = |p: &Point, obstacle: bool| if obstacle { p.s.min_obstacle_distance_m } else { p.s.min_agent_distance_m };
-    let y_max = points
-        .iter()
-        .flat_map(|p| [y_of(p, false), y_of(p, true)])
-        .filter(|v| v.is_finite())
-        .fold(1.0, f64::max);
-    let sx = |x: f64| m + x / x_max * (w - 2.0 * m);
-    let sy = |y: f64| h - m - y / y_max * (h - 2.0 * m);
-    let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-    );
-    let _ = writeln!(s, "<text x=\"{m}\" y=\"20\">min distances against the broadcast error δa (seed 001 section 6)</text>");
-    let _ = writeln!(s, "<line x1=\"{m}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"black\"/>", h - m, w - m, h - m);
-    let _ = writeln!(s, "<line x1=\"{m}\" y1=\"{m}\" x2=\"{m}\" y2=\"{}\" stroke=\"black\"/>", h - m);
-    let _ = writeln!(s, "<text x=\"{}\" y=\"{}\">δa [m]</text>", w / 2.0, h - 15.0);
-    let _ = writeln!(s, "<text x=\"5\" y=\"{}\">[m]</text>", m - 10.0);
-    for k in 0..=4 {
-        let (xv, yv) = (x_max * f64::from(k) / 4.0, y_max * f64::from(k) / 4.0);
-        let _ = writeln!(s, "<text x=\"{}\" y=\"{}\">{xv:.1}</text>", sx(xv) - 8.0, h - m + 15.0);
-        let _ = writeln!(s, "<text x=\"10\" y=\"{}\">{yv:.1}</text>", sy(yv) + 4.0);
-    }
-    // The collision threshold between two bodies of the default radius.
-    let _ = writeln!(s, "<line x1=\"{m}\" y1=\"{0}\" x2=\"{1}\" y2=\"{0}\" stroke=\"red\" stroke-dasharray=\"4 4\"/>", sy(0.6), w - m);
-    let colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"];
-    let mut i = 0;
+    let mut series = Vec::new();
     for world in ["free", "forest"] {
         for who in ["one", "all"] {
             for obstacle in [false, true] {
-                let line: Vec<String> = points
+                let pts: Vec<[f64; 2]> = points
                     .iter()
                     .filter(|p| p.world == world && p.who == who)
-                    .filter(|p| y_of(p, obstacle).is_finite())
-                    .map(|p| format!("{:.1},{:.1}", sx(p.delta), sy(y_of(p, obstacle))))
+                    .map(|p| [p.delta, if obstacle { p.s.min_obstacle_distance_m } else { p.s.min_agent_distance_m }])
+                    .filter(|p| p[1].is_finite())
                     .collect();
-                if line.is_empty() {
-                    continue;
+                if !pts.is_empty() {
+                    let what = if obstacle { "obstacle" } else { "UAV" };
+                    series.push(Series { label: format!("{world}, error on {who}: min {what}"), points: pts, dashed: obstacle });
                 }
-                let c = colors[i % colors.len()];
-                let dash = if obstacle { " stroke-dasharray=\"6 3\"" } else { "" };
-                let _ = writeln!(s, "<polyline points=\"{}\" fill=\"none\" stroke=\"{c}\" stroke-width=\"2\"{dash}/>", line.join(" "));
-                let label = format!("{world}, error on {who}: min {}", if obstacle { "obstacle" } else { "UAV" });
-                let _ = writeln!(s, "<text x=\"{}\" y=\"{}\" fill=\"{c}\">{label}</text>", w - m - 230.0, m + 15.0 * i as f64);
-                i += 1;
             }
         }
     }
-    s.push_str("</svg>\n");
-    s
+    // The red line: two bodies of the default radius touch.
+    line_chart("min distances against the broadcast error δa (seed 001 section 6)", "δa [m]", "distance [m]", &series, Some(0.6))
 }
