@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::{ExitCode, Stdio};
 use std::time::Duration;
 use std::collections::BTreeMap;
-use swarm_config::{FailureKind, Scenario, TimeMode};
+use swarm_config::{FailureKind, Scenario};
 use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, Msg};
 use tokio::io::{AsyncBufReadExt, BufReader};
@@ -30,16 +30,19 @@ fn default_run_id(name: &str) -> String {
     format!("{name}-{secs}-{}", std::process::id())
 }
 
+/// A command-line value for a scenario enum, spelled as in the scenario file (`"realtime"`,
+/// `"a21"`, …); the error lists the accepted spellings.
+pub fn scenario_value<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -> Result<T> {
+    use serde::de::IntoDeserializer;
+    T::deserialize(value.trim().into_deserializer()).map_err(|e: serde::de::value::Error| anyhow::anyhow!("{flag}: {e}"))
+}
+
 /// Runs a scenario end to end and writes the run folder.
 pub async fn run(a: RunArgs) -> Result<ExitCode> {
     let name = a.scenario.as_deref().unwrap_or(swarm_config::DEFAULT_SCENARIO);
     let (mut sc, mut text) = Scenario::from_arg(name)?;
     if let Some(mode) = &a.time_mode {
-        sc.time.mode = match mode.as_str() {
-            "lockstep" => TimeMode::Lockstep,
-            "realtime" => TimeMode::Realtime,
-            other => bail!("--time-mode: expected `lockstep` or `realtime`, got `{other}`"),
-        };
+        sc.time.mode = scenario_value("--time-mode", mode)?;
     }
     if let Some(seed) = a.seed {
         sc.seed = seed;
@@ -516,5 +519,20 @@ impl Recording {
         }
         let _ = self.session.close().await;
         Ok(summary)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scenario_values_are_spelled_as_in_the_file() {
+        let m: swarm_config::TimeMode = scenario_value("--time-mode", "realtime").expect("ok");
+        assert_eq!(m, swarm_config::TimeMode::Realtime);
+        let k: swarm_config::ControllerKind = scenario_value("--controllers", " a21").expect("ok");
+        assert_eq!(k, swarm_config::ControllerKind::A21);
+        let e = scenario_value::<swarm_config::TimeMode>("--time-mode", "fast").expect_err("no such mode").to_string();
+        assert!(e.starts_with("--time-mode") && e.contains("lockstep"), "{e}");
     }
 }

@@ -13,7 +13,7 @@
 //! Each run is a full `swarm run` (hub, agent processes, recorder) with its own run id and folder
 //! under the study's folder, so any of them can be looked at afterwards.
 
-use crate::launch::execute;
+use crate::launch::{execute, scenario_value};
 use crate::plot::{line_chart, Series};
 use crate::summary::Summary;
 use anyhow::{bail, Context, Result};
@@ -75,24 +75,6 @@ fn stamp() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
 }
 
-fn controller(s: &str) -> Result<ControllerKind> {
-    Ok(match s.trim() {
-        "k21" => ControllerKind::K21,
-        "p17" => ControllerKind::P17,
-        "a21" => ControllerKind::A21,
-        other => bail!("unknown controller `{other}` (k21, p17, a21)"),
-    })
-}
-
-fn localization(s: &str) -> Result<LocalizationMode> {
-    Ok(match s {
-        "broadcast" => LocalizationMode::Broadcast,
-        "icp" => LocalizationMode::Icp,
-        "uvdar" => LocalizationMode::Uvdar,
-        other => bail!("unknown localization `{other}` (broadcast, icp, uvdar)"),
-    })
-}
-
 /// Runs `sc` (after re-validating it) as `<out>/<tag>`; returns its summary.
 async fn run_variant(sc: &Scenario, out: &Path, tag: &str) -> Result<Summary> {
     let text = toml::to_string(sc).context("cannot serialize the scenario")?;
@@ -120,14 +102,18 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
     let (base, _) = Scenario::from_arg(&a.scenario)?;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("compare-{}", stamp())));
     let mut rows = Vec::new();
-    for name in a.controllers.split(',') {
+    // Every value is checked before the first run starts.
+    let kinds: Vec<(&str, ControllerKind)> =
+        a.controllers.split(',').map(|n| Ok((n.trim(), scenario_value("--controllers", n)?))).collect::<Result<_>>()?;
+    let mode: Option<LocalizationMode> = a.localization.as_deref().map(|l| scenario_value("--localization", l)).transpose()?;
+    for (name, kind) in kinds {
         let mut sc = base.clone();
-        sc.controller.kind = controller(name)?;
-        if let Some(l) = &a.localization {
-            sc.localization.mode = localization(l)?;
+        sc.controller.kind = kind;
+        if let Some(m) = mode {
+            sc.localization.mode = m;
         }
-        let s = run_variant(&sc, &out, name.trim()).await?;
-        rows.push((name.trim().to_string(), s));
+        let s = run_variant(&sc, &out, name).await?;
+        rows.push((name.to_string(), s));
     }
     let mut t = String::new();
     let _ = writeln!(t, "# {} — same world and start, one controller per run\n", base.name);
