@@ -365,7 +365,7 @@ impl Metrics {
         let localization = LocalizationSummary {
             mode: format!("{:?}", scenario.localization.mode).to_lowercase(),
             estimates_scored: all_errors.len() as u64,
-            mean_error_m: if all_errors.is_empty() { f64::NAN } else { all_errors.iter().sum::<f64>() / all_errors.len() as f64 },
+            mean_error_m: mean_finite(all_errors.iter().copied()),
             p95_error_m: quantile(&all_errors, 0.95),
             stable_neighbour_share: mean_finite(agents.iter().map(|a| a.stable_neighbour_share)),
             bytes_per_share_message: if sent_msgs > 0 { sent_bytes as f64 / sent_msgs as f64 } else { f64::NAN },
@@ -409,10 +409,8 @@ impl Metrics {
     /// nearest-neighbour distance (seed 001 4.1 reports the equilibrium spacing ξ this way).
     fn lattice_spacing(&self) -> (f64, f64) {
         let Some(&(t_end, _)) = self.spacing.last() else { return (f64::NAN, f64::NAN) };
-        let tail: Vec<f64> = self.spacing.iter().filter(|(t, _)| *t >= t_end - LATTICE_WINDOW_S).map(|&(_, d)| d).collect();
-        let mean = tail.iter().sum::<f64>() / tail.len() as f64;
-        let var = tail.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / tail.len() as f64;
-        (mean, var.sqrt())
+        let tail = || self.spacing.iter().filter(move |(t, _)| *t >= t_end - LATTICE_WINDOW_S).map(|&(_, d)| d);
+        (mean_finite(tail()), std_dev(tail()))
     }
 
     /// What the links did, per class, over every agent.
@@ -428,7 +426,7 @@ impl Metrics {
                 ClassSummary {
                     class: class.name().into(),
                     counts: c,
-                    mean_delay_s: if d.is_empty() { f64::NAN } else { d.iter().sum::<f64>() / d.len() as f64 },
+                    mean_delay_s: mean_finite(d.iter().copied()),
                     p95_delay_s: quantile(d, 0.95),
                 }
             })
@@ -508,11 +506,8 @@ fn blocking_time(samples: &[[f64; 5]]) -> f64 {
 /// Standard deviation of the finite values (NaN when there are none).
 fn std_dev(values: impl Iterator<Item = f64>) -> f64 {
     let v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+    let mean = mean_finite(v.iter().copied());
+    mean_finite(v.iter().map(|x| (x - mean).powi(2))).sqrt()
 }
 
 fn formation_metrics(agents: &[AgentSummary]) -> FormationMetrics {
