@@ -303,16 +303,19 @@ impl Scenario {
     }
 
     fn validate_failures(&self) -> Check {
-        for (i, f) in self.failures.iter().enumerate() {
-            non_negative(&format!("failures[{i}].at_s"), f.at_s)?;
-            if f.uav == 0 || f.uav > self.swarm.count {
-                return Err((format!("failures[{i}].uav"), format!("UAV id {} is not in 1..={}", f.uav, self.swarm.count)));
-            }
-            if f.kind.is_link() && self.time.mode != TimeMode::Realtime {
-                // Zenoh leases are wall-clock: a stall of sim seconds in lockstep would last a
-                // few milliseconds of wall time, or stop the run for a tick timeout per tick.
-                return Err((format!("failures[{i}].kind"), "link faults need time.mode = \"realtime\" (Zenoh leases run on wall time)".into()));
-            }
+        self.failures.iter().enumerate().try_for_each(|(i, f)| self.check_failure(i, f))
+    }
+
+    /// Checks failure number `i` (of the scenario or of a timeline) against this scenario.
+    fn check_failure(&self, i: usize, f: &Failure) -> Check {
+        non_negative(&format!("failures[{i}].at_s"), f.at_s)?;
+        if f.uav == 0 || f.uav > self.swarm.count {
+            return Err((format!("failures[{i}].uav"), format!("UAV id {} is not in 1..={}", f.uav, self.swarm.count)));
+        }
+        if f.kind.is_link() && self.time.mode != TimeMode::Realtime {
+            // Zenoh leases are wall-clock: a stall of sim seconds in lockstep would last a
+            // few milliseconds of wall time, or stop the run for a tick timeout per tick.
+            return Err((format!("failures[{i}].kind"), "link faults need time.mode = \"realtime\" (Zenoh leases run on wall time)".into()));
         }
         Ok(())
     }
@@ -390,10 +393,7 @@ impl Scenario {
                 self.check_rule(&format!("netem[{i}]."), r)?;
             }
             for (i, f) in t.failures.iter().enumerate() {
-                non_negative(&format!("failures[{i}].at_s"), f.at_s)?;
-                if f.uav == 0 || f.uav > self.swarm.count {
-                    return Err((format!("failures[{i}].uav"), format!("UAV id {} is not in 1..={}", f.uav, self.swarm.count)));
-                }
+                self.check_failure(i, f)?;
                 if running && f.kind != FailureKind::Freeze {
                     return Err((format!("failures[{i}].kind"), "only `freeze` can be added to a running swarm".into()));
                 }
