@@ -13,12 +13,14 @@ pub struct Radio {
     hysteresis_m: f64,
     distance_loss: Option<swarm_config::DistanceLoss>,
     links: BTreeSet<(usize, usize)>,
+    /// The positions of the last update, for the distance loss.
+    positions: Vec<[f64; 2]>,
 }
 
 impl Radio {
     /// No links yet.
     pub fn new(range_m: f64, hysteresis_m: f64) -> Radio {
-        Radio { range_m, hysteresis_m, distance_loss: None, links: BTreeSet::new() }
+        Radio { range_m, hysteresis_m, distance_loss: None, links: BTreeSet::new(), positions: Vec::new() }
     }
 
     /// The radio of a scenario.
@@ -26,21 +28,22 @@ impl Radio {
         Radio { distance_loss: r.distance_loss, ..Radio::new(r.range_m, r.hysteresis_m) }
     }
 
-    /// The loss probability of each link of `i` (in [`Radio::in_range`] order) at `positions`;
-    /// empty when the radio has no distance loss.
-    pub fn losses(&self, i: usize, positions: &[[f64; 2]]) -> Vec<f32> {
+    /// The loss probability of each link of `i` (in [`Radio::in_range`] order) at the positions of
+    /// the last update; empty when the radio has no distance loss.
+    pub fn losses(&self, i: usize) -> Vec<f32> {
         let Some(l) = self.distance_loss else { return Vec::new() };
+        let p = &self.positions;
         self.in_range(i)
             .into_iter()
-            .map(|j| {
-                let d = (positions[i][0] - positions[j][0]).hypot(positions[i][1] - positions[j][1]);
-                l.at(d, self.range_m) as f32
-            })
+            .map(|j| l.at((p[i][0] - p[j][0]).hypot(p[i][1] - p[j][1]), self.range_m) as f32)
             .collect()
     }
 
     /// Updates the links from positions (index = UAV index).
     pub fn update(&mut self, positions: &[[f64; 2]]) {
+        if self.distance_loss.is_some() {
+            self.positions = positions.to_vec();
+        }
         for i in 0..positions.len() {
             for j in i + 1..positions.len() {
                 let d = (positions[i][0] - positions[j][0]).hypot(positions[i][1] - positions[j][1]);
@@ -95,7 +98,7 @@ mod tests {
         let pos = [[0.0, 0.0], [5.0, 0.0], [0.0, 8.0], [-9.99, 0.0]];
         r.update(&pos);
         assert_eq!(r.in_range(0), vec![1, 2, 3]);
-        let l = r.losses(0, &pos);
+        let l = r.losses(0);
         // 5 m: below the start; 8 m: (8 - 6) / (10 - 6) * 0.4 = 0.2; 9.99 m: 0.399.
         assert_eq!(l[0], 0.0);
         assert!((l[1] - 0.2).abs() < 1e-6, "{l:?}");
@@ -105,7 +108,9 @@ mod tests {
         let mut r = Radio::of(&cfg);
         r.update(&[[0.0, 0.0], [9.0, 0.0]]);
         r.update(&pos);
-        assert!((r.losses(0, &pos)[0] - 0.55).abs() < 1e-6);
-        assert!(Radio::new(10.0, 1.0).losses(0, &pos).is_empty(), "no model, no losses");
+        assert!((r.losses(0)[0] - 0.55).abs() < 1e-6);
+        let mut plain = Radio::new(10.0, 1.0);
+        plain.update(&pos);
+        assert!(plain.losses(0).is_empty(), "no model, no losses");
     }
 }

@@ -158,12 +158,7 @@ impl Sim {
             Gnss { tick, t_secs, x: b.pos.x + ex, y: b.pos.y + ey, yaw: b.yaw, vx: b.vel.x, vy: b.vel.y }
         });
         let in_range = self.radio.in_range(i).into_iter().map(|j| j as u32 + 1).collect();
-        let loss = if self.sc.radio.distance_loss.is_some() {
-            let positions: Vec<[f64; 2]> = self.bodies.iter().map(|b| [b.pos.x, b.pos.y]).collect();
-            self.radio.losses(i, &positions)
-        } else {
-            Vec::new()
-        };
+        let loss = self.radio.losses(i);
         let uvdar = (self.sc.localization.mode == LocalizationMode::Uvdar).then(|| self.uvdar(i, tick, t_secs));
         Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan, uvdar }
     }
