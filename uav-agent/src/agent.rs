@@ -136,7 +136,7 @@ impl Agent {
         let (estimates, icp_counts) = self.localize(scan.t_secs, &circles, gnss, started);
         let trees = self.trees_only(&circles, &estimates);
         let scan_points: Vec<Point2<f64>> = if matches!(self.sc.controller.kind, ControllerKind::A21 | ControllerKind::M23) {
-            perception::group_scan(scan, f64::INFINITY).concat()
+            perception::scan_points(scan)
         } else {
             Vec::new()
         };

@@ -85,6 +85,12 @@ fn beam_point(angle_min: f64, angle_increment: f64, i: usize, range: f32) -> Opt
     Some(Point2::new(r * theta.cos(), r * theta.sin()))
 }
 
+/// Every returned point of the scan, body frame, in beam order.
+pub fn scan_points(scan: &Scan) -> Vec<Point2<f64>> {
+    let (angle_min, angle_increment) = (f64::from(scan.angle_min), f64::from(scan.angle_increment));
+    scan.ranges_m.iter().enumerate().filter_map(|(i, &r)| beam_point(angle_min, angle_increment, i, r)).collect()
+}
+
 /// True when `n` beams spaced by `angle_increment` cover a full turn (to within half a beam), so
 /// that the last beam and beam 0 are neighbours on the ring.
 fn covers_full_turn(n: usize, angle_increment: f64) -> bool {
@@ -663,6 +669,15 @@ mod tests {
                 Point2::new(cx + r * a.cos(), cy + r * a.sin())
             })
             .collect()
+    }
+
+    #[test]
+    fn scan_points_are_the_returned_beams_in_order() {
+        // Four beams from 0 by 90°: 2 m ahead, no return, 1 m behind, a negative range.
+        let scan = scan_from(0.0, TAU / 4.0, vec![2.0, f32::INFINITY, 1.0, -1.0]);
+        let pts = scan_points(&scan);
+        assert_eq!(pts.len(), 2);
+        assert!((pts[0] - Point2::new(2.0, 0.0)).norm() < 1e-9 && (pts[1] - Point2::new(-1.0, 0.0)).norm() < 1e-6, "{pts:?}");
     }
 
     #[test]
