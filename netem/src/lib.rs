@@ -292,9 +292,9 @@ impl<T> Inbox<T> {
         self.waiting.push((f64::INFINITY, msg));
     }
 
-    /// Gives every held message for which `release` is true the delivery instant `now`, and
-    /// returns them by reference count (for accounting: `(how many, the messages' own data)` is
-    /// the caller's business, so this returns how many were released).
+    /// Gives every held message for which `release` is true the delivery instant `now` (it is
+    /// taken out by the next [`Inbox::take_due`]); returns how many were released. `release`
+    /// sees each held message once, so it may also note what it lets go.
     pub fn release(&mut self, now: f64, mut release: impl FnMut(&T) -> bool) -> usize {
         let mut n = 0;
         for (at, m) in &mut self.waiting {

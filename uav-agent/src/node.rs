@@ -347,10 +347,18 @@ impl Node {
         if self.inbox.held().next().is_none() {
             return;
         }
+        // One rule lookup per sender that has held messages.
         let (rules, me) = (&self.netem_rules, self.id);
-        let holding = |from: u32| rules.netem_rule_at(now, from, me).is_some_and(|r| r.hold);
-        let released: Vec<f64> = self.inbox.held().filter(|m| !holding(m.from())).map(Share::t_secs).collect();
-        self.inbox.release(now, |m| !holding(m.from()));
+        let senders: std::collections::BTreeSet<u32> = self.inbox.held().map(Share::from).collect();
+        let open: Vec<u32> = senders.into_iter().filter(|&from| !rules.netem_rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
+        let mut released = Vec::new();
+        self.inbox.release(now, |m| {
+            let go = open.contains(&m.from());
+            if go {
+                released.push(m.t_secs());
+            }
+            go
+        });
         for sent_at in released {
             self.link.on_released(netem::LinkClass::Cut, sent_at, now);
         }
