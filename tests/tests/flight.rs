@@ -347,3 +347,28 @@ fn m23_tnpf_crosses_the_indoor_world() {
     let blocked = f["mean_blocking_time_s"].as_f64().expect("n");
     assert!(blocked < s["time_to_goal_s"].as_f64().expect("t") / 2.0, "mostly moving: {f:#}");
 }
+
+/// Issue 4, hold and release through real agents, from an experiment file: UAV 3 is cut off
+/// from 10 s to 15 s by an `isolate` partition in `hold` mode. Its links store what they would
+/// have dropped and deliver it all when the partition heals, so the cut class holds messages,
+/// releases them, drops none, and their applied delay reaches seconds.
+#[test]
+fn a_holding_partition_delivers_everything_at_the_heal() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let exp = dir.path().join("hold.toml");
+    std::fs::write(
+        &exp,
+        "[[netem]]\nat_s = 10.0\npartition = { scheme = \"isolate\", node = 3 }\nrule = { hold = true }\n\n[[netem]]\nat_s = 15.0\npartition = { scheme = \"healed\" }\n",
+    )
+    .expect("write");
+    let (_run_dir, s) = fly(&["open-field-5", "--experiment", exp.to_str().expect("utf8")], "hold");
+    assert_safe_arrival(&s);
+    let cut = &s["network"][2];
+    assert_eq!(cut["class"], "cut");
+    let (held, released) = (cut["held"].as_u64().expect("n"), cut["released"].as_u64().expect("n"));
+    assert!(held > 50, "{cut:#}");
+    assert_eq!(cut["dropped"], 0, "held, not dropped: {cut:#}");
+    // A neighbour that leaves UAV 3's radio range while held takes its messages with it.
+    assert!(released > held * 9 / 10 && released <= held, "{cut:#}");
+    assert!(cut["p95_delay_s"].as_f64().expect("n") > 2.0, "held up to 5 s: {cut:#}");
+}
