@@ -25,9 +25,14 @@ use tracing::{info, warn};
 /// How long the launcher waits for the hub to print its locator.
 const HUB_START_TIMEOUT: Duration = Duration::from_secs(30);
 
-fn default_run_id(name: &str) -> String {
-    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
-    format!("{name}-{secs}-{}", std::process::id())
+/// Seconds since the Unix epoch (run ids and study folders).
+pub(crate) fn unix_secs() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
+}
+
+/// `<name>-<unix seconds>-<pid>`: unique per run on a machine.
+pub(crate) fn default_run_id(name: &str) -> String {
+    format!("{name}-{}-{}", unix_secs(), std::process::id())
 }
 
 /// A command-line value for a scenario enum, spelled as in the scenario file (`"realtime"`,

@@ -13,9 +13,9 @@
 //! Each run is a full `swarm run` (hub, agent processes, recorder) with its own run id and folder
 //! under the study's folder, so any of them can be looked at afterwards.
 
-use crate::launch::{execute, scenario_value};
+use crate::launch::{default_run_id, execute, scenario_value, unix_secs};
 use crate::plot::{line_chart, Series};
-use crate::summary::Summary;
+use crate::summary::{f, Summary};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::fmt::Write as _;
@@ -71,15 +71,11 @@ pub struct SweepArgs {
     pub out: Option<PathBuf>,
 }
 
-fn stamp() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
-}
-
 /// Runs `sc` (after re-validating it) as `<out>/<tag>`; returns its summary.
 async fn run_variant(sc: &Scenario, out: &Path, tag: &str) -> Result<Summary> {
     let text = toml::to_string(sc).context("cannot serialize the scenario")?;
     let sc = Scenario::from_toml_str(&text, &format!("{} ({tag})", sc.name))?;
-    let run_id = format!("{}-{tag}-{}-{}", sc.name, stamp(), std::process::id()).replace('.', "_");
+    let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace('.', "_");
     eprintln!("{tag}: running");
     let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], true).await?;
     Ok(summary)
@@ -89,18 +85,10 @@ fn opt(v: Option<f64>) -> String {
     v.map_or("-".into(), |v| format!("{v:.1}"))
 }
 
-fn dist(v: f64) -> String {
-    if v.is_finite() {
-        format!("{v:.2}")
-    } else {
-        "-".into()
-    }
-}
-
 /// Runs `swarm compare`.
 pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
     let (base, _) = Scenario::from_arg(&a.scenario)?;
-    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("compare-{}", stamp())));
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("compare-{}", unix_secs())));
     let mut rows = Vec::new();
     // Every value is checked before the first run starts.
     let kinds: Vec<(&str, ControllerKind)> =
@@ -127,8 +115,8 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
             if s.reached_goal { "yes" } else { "no" },
             opt(s.time_to_goal_s),
             s.collisions,
-            dist(s.min_obstacle_distance_m),
-            dist(s.min_agent_distance_m)
+            f(s.min_obstacle_distance_m),
+            f(s.min_agent_distance_m)
         );
     }
     let _ = writeln!(t, "\nseed 000 section 6.5 (4 UAVs, one informed): its method 147 s to the goal, the older one 340 s (2.3x).");
@@ -147,7 +135,7 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
     if !(0.0..=100.0).contains(&a.loss) {
         bail!("--loss: a percentage in [0, 100], got {}", a.loss);
     }
-    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("formations-{}", stamp())));
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("formations-{}", unix_secs())));
     let mut rows = Vec::new();
     for pair in a.scenarios.split(',') {
         let (topology, name) = pair.split_once('=').with_context(|| format!("`{pair}`: expected topology=scenario"))?;
@@ -208,7 +196,7 @@ pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
         .split(',')
         .map(|d| d.trim().parse::<f64>().with_context(|| format!("`{d}` is not a number")))
         .collect::<Result<_>>()?;
-    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("sweep-error-{}", stamp())));
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("sweep-error-{}", unix_secs())));
     let mut points = Vec::new();
     for (world, name) in [("free", &a.free), ("forest", &a.forest)] {
         let (base, _) = Scenario::from_arg(name)?;
@@ -234,8 +222,8 @@ pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
             p.who,
             p.delta,
             p.s.collisions,
-            dist(p.s.min_agent_distance_m),
-            dist(p.s.min_obstacle_distance_m),
+            f(p.s.min_agent_distance_m),
+            f(p.s.min_obstacle_distance_m),
             if p.s.reached_goal { "yes" } else { "no" }
         );
     }
