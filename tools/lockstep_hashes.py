@@ -1,0 +1,77 @@
+#!/usr/bin/env python3
+"""Fingerprints of every shipped lockstep scenario: the oracle for changes meant to keep behaviour.
+
+Flies each built-in lockstep scenario with a fixed run id and prints one line per scenario:
+the SHA-256 of `trajectories.csv` and of `summary.json` with its wall-clock fields removed.
+Run it before and after a refactoring and diff the two outputs:
+
+    cargo build --release
+    python3 tools/lockstep_hashes.py > before.txt
+    ... change the code, rebuild ...
+    python3 tools/lockstep_hashes.py > after.txt && diff before.txt after.txt
+
+Options: --bin PATH (default target/release/swarm), --jobs N (default 2), --only NAME[,NAME].
+"""
+import argparse
+import concurrent.futures
+import hashlib
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+# Fields of summary.json measured on the wall clock, which no refactoring is expected to keep.
+WALL_FIELDS = {"run_id", "wall_time_s", "sim_speed", "mean_step_time_ms", "max_step_time_ms"}
+
+
+def strip_wall(value):
+    if isinstance(value, dict):
+        return {k: strip_wall(v) for k, v in value.items() if k not in WALL_FIELDS}
+    if isinstance(value, list):
+        return [strip_wall(v) for v in value]
+    return value
+
+
+def lockstep_scenarios(root):
+    names = []
+    for path in sorted((root / "scenarios").glob("*.toml")):
+        if path.stem == "example":
+            continue
+        text = path.read_text()
+        if 'time_mode = "realtime"' in text:
+            continue
+        names.append(path.stem)
+    return names
+
+
+def fingerprint(binary, name):
+    with tempfile.TemporaryDirectory() as tmp:
+        out = pathlib.Path(tmp) / "run"
+        proc = subprocess.run(
+            [binary, "run", name, "--run", f"oracle-{name}", "--out", str(out), "--quiet"],
+            capture_output=True, text=True)
+        if not (out / "summary.json").exists():
+            return f"{name} FAILED exit {proc.returncode}: {proc.stderr.strip()[-300:]}"
+        summary = strip_wall(json.loads((out / "summary.json").read_text()))
+        s_hash = hashlib.sha256(json.dumps(summary, sort_keys=True).encode()).hexdigest()[:16]
+        t_hash = hashlib.sha256((out / "trajectories.csv").read_bytes()).hexdigest()[:16]
+        return f"{name} trajectories={t_hash} summary={s_hash}"
+
+
+def main():
+    root = pathlib.Path(__file__).resolve().parent.parent
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bin", default=str(root / "target" / "release" / "swarm"))
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--only", default="")
+    args = ap.parse_args()
+    names = args.only.split(",") if args.only else lockstep_scenarios(root)
+    with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
+        for line in pool.map(lambda n: fingerprint(args.bin, n), names):
+            print(line, flush=True)
+            print(line, file=sys.stderr, flush=True)
+
+
+if __name__ == "__main__":
+    main()
