@@ -25,7 +25,7 @@ pub struct NetemArgs {
     pub op: NetemOp,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: crate::cli::ZenohArgs,
+    pub zenoh: crate::args::ZenohArgs,
 }
 
 /// Which links a rule is for.

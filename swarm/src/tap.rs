@@ -22,7 +22,7 @@ pub struct TapArgs {
     pub keyexpr: String,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: crate::cli::ZenohArgs,
+    pub zenoh: crate::args::ZenohArgs,
     /// Stop after this many messages.
     #[arg(long)]
     pub count: Option<u64>,
@@ -50,7 +50,7 @@ pub struct PutArgs {
     pub hex: Option<String>,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: crate::cli::ZenohArgs,
+    pub zenoh: crate::args::ZenohArgs,
 }
 
 fn parse_hex(h: &str) -> Result<Vec<u8>> {
