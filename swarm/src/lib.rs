@@ -23,8 +23,8 @@
 //! - [`plot`]: `run.svg`, the map of the run and distances over time, and the studies' charts.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
-//! Dependencies run one way: `cli` → the commands → `recorder`, `proxy`, `summary`, `plot` →
-//! `args`; no command imports `cli`.
+//! Dependencies run one way: `cli` → the commands → what they share (`recorder`, `proxy`,
+//! `summary`, `plot`, `args`); no command imports `cli`, and `args` imports nothing of the crate.
 //!
 //! Architecture invariant: the launcher only starts processes and watches them; all simulation
 //! lives in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of
