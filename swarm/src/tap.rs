@@ -12,8 +12,10 @@ use clap::Args;
 use serde_json::{json, Value};
 use std::process::ExitCode;
 use std::time::Duration;
+use swarm_wire::plumbing;
 use swarm_wire::session::{self, Role};
 use swarm_wire::Msg;
+use zenoh::qos::CongestionControl;
 
 /// `swarm tap`.
 #[derive(Args, Debug, Clone)]
@@ -74,7 +76,8 @@ pub async fn put(a: PutArgs) -> Result<ExitCode> {
         (None, None) => anyhow::bail!("give --json or --hex"),
     };
     let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
-    s.put(&a.key, bytes).encoding(session::encoding()).await.map_err(|e| anyhow!("zenoh: {e}"))?;
+    // Zenoh's default for a put: dropped rather than blocking under congestion.
+    plumbing::put_once(&s, &a.key, bytes, CongestionControl::Drop).await?;
     let _ = s.close().await;
     Ok(ExitCode::SUCCESS)
 }

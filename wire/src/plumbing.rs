@@ -1,6 +1,7 @@
 //! The Zenoh plumbing every process of a run needs, written once: subscribe a key into a
 //! channel, watch liveliness tokens, fetch a reply (the scenario text) from a queryable.
-//! Publishers are made by [`crate::session::publisher`].
+//! Publishers are made by [`crate::session::publisher`]; a tool that puts one message uses
+//! [`put_once`] with the same encoding and priority.
 //!
 //! Why channels and callbacks: a callback runs in Zenoh's delivery order, and an unbounded
 //! channel never pushes back on the session, so a process reads its messages in wire order at
@@ -10,6 +11,7 @@
 use crate::{Keys, WireError};
 use std::time::Duration;
 use tokio::sync::{mpsc, watch};
+use zenoh::qos::{CongestionControl, Priority};
 use zenoh::sample::{Sample, SampleKind};
 
 /// A declared subscription (data or liveliness): it delivers until dropped.
@@ -99,4 +101,15 @@ pub async fn fetch(s: &zenoh::Session, key: &str, wait: Duration) -> Result<Vec<
 pub async fn fetch_scenario_text(s: &zenoh::Session, keys: &Keys, wait: Duration) -> Result<String, WireError> {
     let bytes = fetch(s, &keys.scenario(), wait).await?;
     Ok(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+/// Puts one payload on `key` without declaring a publisher (one-shot tools: `swarm put`,
+/// `swarm netem`), with the encoding and priority of [`crate::session::publisher`].
+pub async fn put_once(s: &zenoh::Session, key: &str, bytes: Vec<u8>, cc: CongestionControl) -> Result<(), WireError> {
+    s.put(key, bytes)
+        .encoding(crate::session::encoding())
+        .congestion_control(cc)
+        .priority(Priority::Data)
+        .await
+        .map_err(WireError::zenoh)
 }
