@@ -1,14 +1,19 @@
 //! The physics hub: the simulated world of a swarm run, and the Zenoh router every agent
 //! connects to.
 //!
-//! - [`world`]: trees and walls with an acceleration structure (parry2d BVH) for ray casts and
-//!   clearance queries.
+//! - [`world`]: trees and walls, and the two questions everything asks of them: clearance from a
+//!   point and a ray's first hit (exact in `f64`, pruned by a parry2d BVH).
 //! - [`forest`]: seeded generation of forests and start positions from the scenario.
 //! - [`body`]: a UAV body tracking velocity or acceleration commands within limits.
-//! - [`lidar`]: the 2D LIDAR, ray casting against trees, walls and other UAVs.
-//! - [`radio`]: who can hear whom (range with hysteresis).
-//! - [`sim`]: the pure simulation state and step: sensors out, commands in, ground truth out.
-//! - [`node`]: the Zenoh side: router session, lockstep/realtime loop, liveliness.
+//! - [`lidar`]: the 2D LIDAR scan against trees, walls and other UAVs, by rasterising the nearby
+//!   obstacles onto the beams instead of one ray cast per beam.
+//! - [`radio`]: who can hear whom (range with hysteresis, optional distance-dependent loss).
+//! - [`uvdar`]: onboard relative sensing for the `uvdar` localization mode: which neighbours a
+//!   UAV's cameras see, with noisy range and bearing.
+//! - [`sim`]: the pure simulation state and step: each UAV's sensors (radio, odometry, GNSS,
+//!   UVDAR, scan) out, commands in, collisions, freezes and the end condition, ground truth out.
+//! - [`node`]: the Zenoh side: router session, lockstep/realtime loop, agents' liveliness, the
+//!   scenario and world queryables, the netem timeline (the scenario's plus `swarm netem`'s).
 //!
 //! Entry point: [`run`]. Architecture invariant: the hub is the only holder of ground truth; it
 //! hands each agent only that agent's own sensor data, and publishes truth on `truth/**` for the

@@ -18,13 +18,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use swarm_config::{Scenario, TimeMode};
-use swarm_wire::session::{self, Role};
+use swarm_wire::plumbing::{self, Subscription};
+use swarm_wire::session::{self, publisher, Role};
 use swarm_wire::{Cmd, CmdKind, EndReason, Keys, Msg, TruthStep, WireError};
 use tokio::sync::{mpsc, Notify};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
-use swarm_wire::session::publisher;
 use zenoh::qos::CongestionControl;
-use zenoh::sample::SampleKind;
 use zenoh::Wait;
 
 /// Errors of the hub.
@@ -65,6 +64,25 @@ pub struct HubReport {
 }
 
 type Publisher = zenoh::pubsub::Publisher<'static>;
+
+/// Realtime pacing: the wall-clock instant of each next tick, `real_dt` apart.
+struct Pacer {
+    next_wall: tokio::time::Instant,
+    real_dt: Duration,
+}
+
+impl Pacer {
+    fn new(real_dt_secs: f64) -> Pacer {
+        Pacer { next_wall: tokio::time::Instant::now(), real_dt: Duration::from_secs_f64(real_dt_secs) }
+    }
+
+    /// When the next tick is due. After a stall, pacing starts again from now instead of
+    /// bursting the missed ticks.
+    fn next(&mut self) -> tokio::time::Instant {
+        self.next_wall = (self.next_wall + self.real_dt).max(tokio::time::Instant::now());
+        self.next_wall
+    }
+}
 
 struct UavPubs {
     radio: Publisher,
@@ -154,86 +172,102 @@ async fn declare_world_queryable(
 
 /// Subscriptions that must live as long as the loop.
 struct Subs {
-    _cmd: zenoh::pubsub::Subscriber<()>,
-    _alive: zenoh::pubsub::Subscriber<()>,
-    _netem: zenoh::pubsub::Subscriber<()>,
+    _cmd: Subscription,
+    _alive: Subscription,
+    _netem: Subscription,
+}
+
+/// The sensor publishers of every UAV of the scenario, in id order.
+async fn uav_publishers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<UavPubs>, WireError> {
+    let sensors_cc = match sc.time.mode {
+        TimeMode::Lockstep => CongestionControl::Block,
+        TimeMode::Realtime => CongestionControl::Drop,
+    };
+    let mut uavs = Vec::with_capacity(sc.count());
+    for id in sc.uav_ids() {
+        uavs.push(UavPubs {
+            radio: publisher(s, keys.radio(id), sensors_cc).await?,
+            odom: publisher(s, keys.odom(id), sensors_cc).await?,
+            gnss: publisher(s, keys.gnss(id), sensors_cc).await?,
+            uvdar: publisher(s, keys.uvdar(id), sensors_cc).await?,
+            scan: publisher(s, keys.scan(id), sensors_cc).await?,
+        });
+    }
+    Ok(uavs)
+}
+
+/// The UAV id in `key` when it is one of the scenario's `1..=count`: ids are checked at the door,
+/// so only those ever reach the loop.
+fn valid_id(keys: &Keys, count: u32, key: &str) -> Option<u32> {
+    keys.uav_id_of(key).filter(|&id| id <= count)
+}
+
+/// Every agent's commands, decoded, into one channel; malformed ones are counted in `bad`.
+async fn subscribe_cmds(
+    s: &zenoh::Session,
+    keys: &Keys,
+    count: u32,
+    bad: Arc<AtomicU64>,
+) -> Result<(Subscription, mpsc::UnboundedReceiver<(u32, Cmd)>), WireError> {
+    let (cmd_tx, cmds) = mpsc::unbounded_channel();
+    let k = keys.clone();
+    let sub = plumbing::subscribe(s, keys.cmd_any(), cmd_tx, move |sample| {
+        let id = valid_id(&k, count, sample.key_expr().as_str());
+        match (id, Msg::decode(&sample.payload().to_bytes())) {
+            (Some(id), Ok(Msg::Cmd(c))) => Some((id, c)),
+            (None, _) => {
+                debug!(key = %sample.key_expr(), "command for a UAV not in this scenario ignored");
+                None
+            }
+            (_, other) => {
+                bad.fetch_add(1, Ordering::Relaxed);
+                debug!(key = %sample.key_expr(), ?other, "dropped malformed command");
+                None
+            }
+        }
+    })
+    .await?;
+    Ok((sub, cmds))
+}
+
+/// Keeps `alive` equal to the set of agents holding a liveliness token, and notifies `changed`
+/// on every change.
+async fn watch_agents(
+    s: &zenoh::Session,
+    keys: &Keys,
+    count: u32,
+    alive: Arc<Mutex<BTreeSet<u32>>>,
+    changed: Arc<Notify>,
+) -> Result<Subscription, WireError> {
+    let k = keys.clone();
+    plumbing::on_tokens(s, keys.alive_uav_any(), move |key, up| {
+        let Some(id) = valid_id(&k, count, key) else {
+            warn!(key = %key, "liveliness token of a UAV not in this scenario ignored");
+            return;
+        };
+        let mut set = alive.lock().unwrap_or_else(|p| p.into_inner());
+        if up {
+            info!(uav_id = id, "agent alive");
+            set.insert(id);
+        } else {
+            info!(uav_id = id, "agent gone");
+            set.remove(&id);
+        }
+        changed.notify_one();
+    })
+    .await
 }
 
 impl Net {
     async fn declare(s: zenoh::Session, keys: Keys, sc: &Scenario) -> Result<(Net, Subs), WireError> {
-        let sensors_cc = match sc.time.mode {
-            TimeMode::Lockstep => CongestionControl::Block,
-            TimeMode::Realtime => CongestionControl::Drop,
-        };
-        let mut uavs = Vec::with_capacity(sc.count());
-        for id in sc.uav_ids() {
-            uavs.push(UavPubs {
-                radio: publisher(&s, keys.radio(id), sensors_cc).await?,
-                odom: publisher(&s, keys.odom(id), sensors_cc).await?,
-                gnss: publisher(&s, keys.gnss(id), sensors_cc).await?,
-                uvdar: publisher(&s, keys.uvdar(id), sensors_cc).await?,
-                scan: publisher(&s, keys.scan(id), sensors_cc).await?,
-            });
-        }
-        // Ids are checked at the door: only 1..=count ever reach the loop.
-        let n = sc.swarm.count;
-        let valid_id = move |k: &Keys, key: &str| k.uav_id_of(key).filter(|&id| id <= n);
-        let (cmd_tx, cmds) = mpsc::unbounded_channel();
+        let uavs = uav_publishers(&s, &keys, sc).await?;
         let malformed = Arc::new(AtomicU64::new(0));
-        let bad = malformed.clone();
-        let k = keys.clone();
-        let cmd_sub = s
-            .declare_subscriber(keys.cmd_any())
-            .callback(move |sample| {
-                let id = valid_id(&k, sample.key_expr().as_str());
-                match (id, Msg::decode(&sample.payload().to_bytes())) {
-                    (Some(id), Ok(Msg::Cmd(c))) => {
-                        let _ = cmd_tx.send((id, c));
-                    }
-                    (None, _) => debug!(key = %sample.key_expr(), "command for a UAV not in this scenario ignored"),
-                    (_, other) => {
-                        bad.fetch_add(1, Ordering::Relaxed);
-                        debug!(key = %sample.key_expr(), ?other, "dropped malformed command");
-                    }
-                }
-            })
-            .await
-            .map_err(WireError::zenoh)?;
+        let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.swarm.count, malformed.clone()).await?;
         let alive = Arc::new(Mutex::new(BTreeSet::new()));
         let alive_changed = Arc::new(Notify::new());
-        let (a, changed, k) = (alive.clone(), alive_changed.clone(), keys.clone());
-        let alive_sub = s
-            .liveliness()
-            .declare_subscriber(keys.alive_uav_any())
-            .history(true)
-            .callback(move |sample| {
-                let Some(id) = valid_id(&k, sample.key_expr().as_str()) else {
-                    warn!(key = %sample.key_expr(), "liveliness token of a UAV not in this scenario ignored");
-                    return;
-                };
-                let mut set = a.lock().unwrap_or_else(|p| p.into_inner());
-                match sample.kind() {
-                    SampleKind::Put => {
-                        info!(uav_id = id, "agent alive");
-                        set.insert(id);
-                    }
-                    SampleKind::Delete => {
-                        info!(uav_id = id, "agent gone");
-                        set.remove(&id);
-                    }
-                }
-                changed.notify_one();
-            })
-            .await
-            .map_err(WireError::zenoh)?;
+        let alive_sub = watch_agents(&s, &keys, sc.swarm.count, alive.clone(), alive_changed.clone()).await?;
         let (added_tx, netem_added) = mpsc::unbounded_channel();
-        let netem_sub = s
-            .declare_subscriber(keys.netem_add())
-            .callback(move |sample| {
-                let _ = added_tx.send(sample.payload().to_bytes().into_owned());
-            })
-            .await
-            .map_err(WireError::zenoh)?;
+        let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
             timeline: swarm_config::Timeline { netem: sc.netem.clone(), failures: sc.failures.clone() },
             netem_rules: publisher(&s, keys.netem_rules(), CongestionControl::Block).await?,
@@ -294,8 +328,7 @@ impl Net {
         self.publish_rules().await?;
         let started = Instant::now();
         let mut scan_buf = Vec::new();
-        let mut next_wall = tokio::time::Instant::now();
-        let real_dt = Duration::from_secs_f64(sim.clock().dt_secs / sc.time.realtime_factor);
+        let mut pacer = Pacer::new(sim.clock().dt_secs / sc.time.realtime_factor);
         loop {
             let next_t = sim.t_secs() + sim.clock().dt_secs;
             self.take_added_rules(sc, sim, next_t).await?;
@@ -305,38 +338,40 @@ impl Net {
                 return self.finish(sim, EndReason::NoAgents, started).await;
             }
             self.publish_sensors(sim, &sent, &mut scan_buf).await?;
-            let got = match sc.time.mode {
-                TimeMode::Lockstep => {
-                    let timeout = Duration::from_millis(sc.time.tick_timeout_ms);
-                    tokio::select! {
-                        c = self.collect_lockstep(sim.tick(), &sent, timeout) => c,
-                        _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
-                    }
-                }
-                TimeMode::Realtime => {
-                    next_wall += real_dt;
-                    // After a stall, start pacing again from now instead of bursting the missed ticks.
-                    next_wall = next_wall.max(tokio::time::Instant::now());
-                    tokio::select! {
-                        _ = tokio::time::sleep_until(next_wall) => {},
-                        _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
-                    }
-                    self.collect_available()
-                }
+            let got = tokio::select! {
+                got = self.collect(sc, sim.tick(), &sent, &mut pacer) => got,
+                _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
             };
-            let cmds: Vec<Option<Cmd>> = sc.uav_ids().map(|id| got.get(&id).copied()).collect();
-            let alive = self.alive_now();
-            let alive_flags: Vec<bool> = sc.uav_ids().map(|id| alive.contains(&id)).collect();
-            let step = sim.step(&cmds, &alive_flags, started.elapsed().as_secs_f64());
-            trace!(tick = step.tick, "stepped");
-            for c in &step.collisions {
-                warn!(uav_id = c.id, other = ?c.other_uav, t = step.t_secs, "collision");
-            }
+            let step = self.integrate(sc, sim, &got, started);
             self.publish_step(&step).await?;
             if let Some(end) = step.ended {
                 return self.report(sim, end);
             }
         }
+    }
+
+    /// Step 2 of a tick: the commands to integrate, by the scenario's time mode.
+    async fn collect(&mut self, sc: &Scenario, tick: u64, sent: &BTreeSet<u32>, pacer: &mut Pacer) -> BTreeMap<u32, Cmd> {
+        match sc.time.mode {
+            TimeMode::Lockstep => self.collect_lockstep(tick, sent, Duration::from_millis(sc.time.tick_timeout_ms)).await,
+            TimeMode::Realtime => {
+                tokio::time::sleep_until(pacer.next()).await;
+                self.collect_available()
+            }
+        }
+    }
+
+    /// Step 3 of a tick: integrate the commands `got` (a UAV without one keeps its last).
+    fn integrate(&self, sc: &Scenario, sim: &mut Sim, got: &BTreeMap<u32, Cmd>, started: Instant) -> TruthStep {
+        let cmds: Vec<Option<Cmd>> = sc.uav_ids().map(|id| got.get(&id).copied()).collect();
+        let alive = self.alive_now();
+        let alive_flags: Vec<bool> = sc.uav_ids().map(|id| alive.contains(&id)).collect();
+        let step = sim.step(&cmds, &alive_flags, started.elapsed().as_secs_f64());
+        trace!(tick = step.tick, "stepped");
+        for c in &step.collisions {
+            warn!(uav_id = c.id, other = ?c.other_uav, t = step.t_secs, "collision");
+        }
+        step
     }
 
     /// Timelines added by `swarm netem` count their times from `not_before` (the next tick);

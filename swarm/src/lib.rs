@@ -1,30 +1,44 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
-//! - [`cli`]: argument parsing and dispatch (`swarm run | hub | agent | record | tap | put | netem | scenarios | check`).
-//! - [`launch`]: `swarm run`: starts the hub, one agent process per UAV and the recorder, shows
-//!   progress, stops at the end condition, writes the run folder.
-//! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV) and
-//!   accumulates the metrics of [`summary`].
-//! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
+//! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
+//!   tap | put | netem | compare | formations | sweep-error | scenarios | check`).
+//! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
+//!   `--cfg`), run ids, scenario values on the command line.
+//! - [`launch`]: `swarm run`: starts the hub, one agent process per UAV and a recording, applies
+//!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
+//! - [`pieces`]: `swarm hub` and `swarm agent`, the processes the launcher starts (or a person,
+//!   by hand).
+//! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV), folds
+//!   the metrics of [`summary`] (pure, in `recorder::metrics`); `swarm record` runs it alone.
 //! - [`proxy`]: the TCP proxy `swarm run` puts between an agent and the hub for link-level faults
 //!   (stall, close, restore) that Zenoh itself sees.
-//! - [`study`]: `swarm compare` (one scenario, each controller) and `swarm sweep-error` (seed 001's
-//!   broadcast error study), each a series of full runs with a table and a plot.
-//! - [`plot`]: `run.svg`, the map of the run and distances over time.
-//! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
+//! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
 //!   `swarm put` publishes one.
+//! - [`study`]: `swarm compare` (one scenario, each controller), `swarm formations` (seed 004's
+//!   topologies) and `swarm sweep-error` (seed 001's broadcast error study), each a series of
+//!   full runs with a table and a plot.
+//! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
+//!   resolves to.
+//! - [`plot`]: `run.svg`, the map of the run and distances over time, and the studies' charts.
+//! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
-//! Architecture invariant: the launcher only starts processes and watches; all simulation lives
-//! in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of
+//! Dependencies run one way: `cli` → the commands → what they share (`recorder`, `proxy`,
+//! `summary`, `plot`, `args`); no command imports `cli`, and `args` imports nothing of the crate.
+//!
+//! Architecture invariant: the launcher only starts processes and watches them; all simulation
+//! lives in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of
 //! `truth/**` besides tools a person points at it.
 
+pub mod args;
 pub mod cli;
 pub mod launch;
 pub mod netem_cli;
+pub mod pieces;
 pub mod plot;
 pub mod proxy;
 pub mod recorder;
+pub mod scenarios;
 pub mod study;
 pub mod summary;
 pub mod tap;

@@ -6,10 +6,11 @@
 //! replaces the partition in force, `heal` clears every link and the partition. `apply FILE`
 //! sends a whole experiment file, its times counted from now.
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use std::process::ExitCode;
 use swarm_config::{Failure, FailureKind, NetemRule, Timeline, UavSet};
+use swarm_wire::plumbing;
 use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, Msg};
 use netem::impair::{Impairment, JitterDistribution, LossModel, Partition};
@@ -25,7 +26,7 @@ pub struct NetemArgs {
     pub op: NetemOp,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: crate::cli::ZenohArgs,
+    pub zenoh: crate::args::ZenohArgs,
 }
 
 /// Which links a rule is for.
@@ -203,11 +204,7 @@ pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
     let timeline = timeline_of(&a.op)?;
     let json = serde_json::to_string(&timeline)?;
     let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
-    s.put(keys.netem_add(), Msg::NetemRules(json.clone()).encode()?)
-        .encoding(session::encoding())
-        .congestion_control(zenoh::qos::CongestionControl::Block)
-        .await
-        .map_err(|e| anyhow!("zenoh: {e}"))?;
+    plumbing::put_once(&s, &keys.netem_add(), Msg::NetemRules(json.clone()).encode()?, zenoh::qos::CongestionControl::Block).await?;
     let _ = s.close().await;
     println!("{json}");
     Ok(ExitCode::SUCCESS)

@@ -13,7 +13,8 @@
 //! Each run is a full `swarm run` (hub, agent processes, recorder) with its own run id and folder
 //! under the study's folder, so any of them can be looked at afterwards.
 
-use crate::launch::{default_run_id, execute, scenario_value, unix_secs};
+use crate::args::{default_run_id, scenario_value, unix_secs};
+use crate::launch::execute;
 use crate::plot::{line_chart, Series};
 use crate::summary::{f, Summary};
 use anyhow::{bail, Context, Result};

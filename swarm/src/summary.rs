@@ -303,6 +303,17 @@ pub(crate) fn f(v: f64) -> String {
 }
 
 impl Summary {
+    /// The exit status of `swarm run` / `swarm record`: 0 for a run that ended by its own rule
+    /// (goal or time limit) with the hub exiting cleanly (`hub_ok`), 130 for one stopped by
+    /// Ctrl-C, 1 otherwise (hub failed, vanished, no agents).
+    pub fn exit_code(&self, hub_ok: bool) -> std::process::ExitCode {
+        match self.end_reason.as_str() {
+            "goal" | "time_limit" if hub_ok => std::process::ExitCode::SUCCESS,
+            "stopped" => std::process::ExitCode::from(130),
+            _ => std::process::ExitCode::FAILURE,
+        }
+    }
+
     /// A human rendering for the terminal.
     pub fn human(&self) -> String {
         let mut s = String::new();

@@ -12,8 +12,10 @@ use clap::Args;
 use serde_json::{json, Value};
 use std::process::ExitCode;
 use std::time::Duration;
+use swarm_wire::plumbing;
 use swarm_wire::session::{self, Role};
 use swarm_wire::Msg;
+use zenoh::qos::CongestionControl;
 
 /// `swarm tap`.
 #[derive(Args, Debug, Clone)]
@@ -22,7 +24,7 @@ pub struct TapArgs {
     pub keyexpr: String,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: crate::cli::ZenohArgs,
+    pub zenoh: crate::args::ZenohArgs,
     /// Stop after this many messages.
     #[arg(long)]
     pub count: Option<u64>,
@@ -50,7 +52,7 @@ pub struct PutArgs {
     pub hex: Option<String>,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: crate::cli::ZenohArgs,
+    pub zenoh: crate::args::ZenohArgs,
 }
 
 fn parse_hex(h: &str) -> Result<Vec<u8>> {
@@ -74,7 +76,8 @@ pub async fn put(a: PutArgs) -> Result<ExitCode> {
         (None, None) => anyhow::bail!("give --json or --hex"),
     };
     let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
-    s.put(&a.key, bytes).encoding(session::encoding()).await.map_err(|e| anyhow!("zenoh: {e}"))?;
+    // Zenoh's default for a put: dropped rather than blocking under congestion.
+    plumbing::put_once(&s, &a.key, bytes, CongestionControl::Drop).await?;
     let _ = s.close().await;
     Ok(ExitCode::SUCCESS)
 }
@@ -94,8 +97,6 @@ pub fn describe(key: &str, encoding: &str, bytes: &[u8]) -> Value {
 pub async fn tap(a: TapArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "tap needs --connect <hub endpoint>");
     let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
-    let z = |e: zenoh::Error| anyhow!("zenoh: {e}");
-    let deadline = a.duration.map(|d| tokio::time::Instant::now() + Duration::from_secs_f64(d));
     let limit = a.count.unwrap_or(u64::MAX);
     let mut printed = 0u64;
     // Stop quietly when the reader goes away (`swarm tap ... | head`): no panic on a broken pipe.
@@ -109,48 +110,66 @@ pub async fn tap(a: TapArgs) -> Result<ExitCode> {
         printed < limit
     };
     if a.get {
-        let replies = s.get(&a.keyexpr).timeout(Duration::from_secs(5)).await.map_err(z)?;
-        while let Ok(r) = replies.recv_async().await {
-            let v = match r.result() {
-                Ok(sm) => describe(sm.key_expr().as_str(), &sm.encoding().to_string(), &sm.payload().to_bytes()),
-                Err(e) => json!({ "error": String::from_utf8_lossy(&e.payload().to_bytes()) }),
-            };
-            if !print(v) {
-                break;
-            }
-        }
+        query(&s, &a.keyexpr, &mut print).await?;
     } else {
-        // A ring buffer never pushes back: a tap whose reader stalls (a pager, a full pipe) drops
-        // its oldest samples instead of stalling a lockstep run, whose publishers block.
-        let ring = || zenoh::handlers::RingChannel::new(4096);
-        let sub = if a.alive {
-            s.liveliness().declare_subscriber(&a.keyexpr).history(true).with(ring()).await.map_err(z)?
-        } else {
-            s.declare_subscriber(&a.keyexpr).with(ring()).await.map_err(z)?
-        };
-        loop {
-            let next = async {
-                match deadline {
-                    Some(d) => tokio::time::timeout_at(d, sub.recv_async()).await.ok(),
-                    None => Some(sub.recv_async().await),
-                }
-            };
-            let sample = tokio::select! {
-                r = next => match r { Some(Ok(sm)) => sm, _ => break },
-                _ = tokio::signal::ctrl_c() => break,
-            };
-            let v = if a.alive {
-                json!({ "key": sample.key_expr().as_str(), "alive": sample.kind() == zenoh::sample::SampleKind::Put })
-            } else {
-                describe(sample.key_expr().as_str(), &sample.encoding().to_string(), &sample.payload().to_bytes())
-            };
-            if !print(v) {
-                break;
-            }
-        }
+        follow(&s, &a, &mut print).await?;
     }
     let _ = s.close().await;
     Ok(ExitCode::SUCCESS)
+}
+
+fn zerr(e: zenoh::Error) -> anyhow::Error {
+    anyhow!("zenoh: {e}")
+}
+
+/// `swarm tap --get`: prints every reply to one query, while `print` wants more.
+async fn query(s: &zenoh::Session, keyexpr: &str, print: &mut dyn FnMut(Value) -> bool) -> Result<()> {
+    let replies = s.get(keyexpr).timeout(Duration::from_secs(5)).await.map_err(zerr)?;
+    while let Ok(r) = replies.recv_async().await {
+        let v = match r.result() {
+            Ok(sm) => describe(sm.key_expr().as_str(), &sm.encoding().to_string(), &sm.payload().to_bytes()),
+            Err(e) => json!({ "error": String::from_utf8_lossy(&e.payload().to_bytes()) }),
+        };
+        if !print(v) {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// Prints the samples (or, with `--alive`, liveliness changes) on the tap's key expression until
+/// `--duration`, Ctrl-C, or `print` wants no more.
+async fn follow(s: &zenoh::Session, a: &TapArgs, print: &mut dyn FnMut(Value) -> bool) -> Result<()> {
+    let deadline = a.duration.map(|d| tokio::time::Instant::now() + Duration::from_secs_f64(d));
+    // A ring buffer never pushes back: a tap whose reader stalls (a pager, a full pipe) drops
+    // its oldest samples instead of stalling a lockstep run, whose publishers block.
+    let ring = || zenoh::handlers::RingChannel::new(4096);
+    let sub = if a.alive {
+        s.liveliness().declare_subscriber(&a.keyexpr).history(true).with(ring()).await.map_err(zerr)?
+    } else {
+        s.declare_subscriber(&a.keyexpr).with(ring()).await.map_err(zerr)?
+    };
+    loop {
+        let next = async {
+            match deadline {
+                Some(d) => tokio::time::timeout_at(d, sub.recv_async()).await.ok(),
+                None => Some(sub.recv_async().await),
+            }
+        };
+        let sample = tokio::select! {
+            r = next => match r { Some(Ok(sm)) => sm, _ => break },
+            _ = tokio::signal::ctrl_c() => break,
+        };
+        let v = if a.alive {
+            json!({ "key": sample.key_expr().as_str(), "alive": sample.kind() == zenoh::sample::SampleKind::Put })
+        } else {
+            describe(sample.key_expr().as_str(), &sample.encoding().to_string(), &sample.payload().to_bytes())
+        };
+        if !print(v) {
+            break;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -5,13 +5,17 @@
 //!   appended, so `swarm tap` can decode any key of a run without knowing which it is.
 //! - [`keys`]: the key-expression space, `swarm/{run}/...`, built in one place ([`Keys`]).
 //! - [`session`]: Zenoh configs for the hub (router) and everyone else (clients), with multicast
-//!   scouting off everywhere so parallel runs cannot cross-talk.
+//!   scouting off everywhere so parallel runs cannot cross-talk; [`session::publisher`] makes
+//!   every publisher.
+//! - [`plumbing`]: what every process repeats around its session, written once: subscribe a key
+//!   into a channel, watch liveliness tokens, fetch the scenario text from the hub.
 //!
 //! Architecture invariant: this crate defines shapes, not behaviour. It has no simulation,
 //! perception or control code, and nothing here reads ground truth.
 
 pub mod keys;
 pub mod msg;
+pub mod plumbing;
 pub mod session;
 
 pub use keys::Keys;
@@ -34,6 +38,14 @@ pub enum WireError {
     /// A bad run id or key component.
     #[error("invalid key component {0:?}: use only [A-Za-z0-9_-]")]
     BadKey(String),
+    /// Nothing answered a query before the deadline (no hub serving the run yet).
+    #[error("nothing answered {key} within {wait_s} s")]
+    NoReply {
+        /// The key asked.
+        key: String,
+        /// How long it was asked [s].
+        wait_s: f64,
+    },
     /// Zenoh refused something (its error type is a boxed trait object, kept as text).
     #[error("zenoh: {0}")]
     Zenoh(String),

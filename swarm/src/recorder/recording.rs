@@ -1,0 +1,219 @@
+//! The recorder's Zenoh side: a client session subscribed to `truth/**`, every agent's `state`
+//! and the hub's liveliness token, feeding [`Metrics`] and [`Files`] until the run ends, then
+//! writing `summary.json` and `run.svg`.
+
+use super::files::{decode, Files};
+use super::metrics::Metrics;
+use crate::summary::Summary;
+use anyhow::{Context, Result};
+use indicatif::ProgressBar;
+use std::path::Path;
+use std::time::Duration;
+use swarm_config::Scenario;
+use swarm_wire::plumbing::{self, Subscription};
+use swarm_wire::session::{self, Role};
+use swarm_wire::{Keys, Msg};
+use tokio::process::Child;
+use tokio::sync::{mpsc, watch};
+use tracing::warn;
+
+/// How long a stopping run may take to deliver the hub's last step.
+const STOP_GRACE: Duration = Duration::from_secs(5);
+/// How long the recorder asks the hub for the scenario and the world.
+const ASK_WAIT: Duration = Duration::from_secs(5);
+
+/// The recorder's session and subscriptions.
+pub struct Recording {
+    session: zenoh::Session,
+    keys: Keys,
+    run_id: String,
+    truth: mpsc::UnboundedReceiver<Vec<u8>>,
+    states: mpsc::UnboundedReceiver<Vec<u8>>,
+    hub_alive: watch::Receiver<bool>,
+    _subs: [Subscription; 3],
+    _token: zenoh::liveliness::LivelinessToken,
+}
+
+/// What the recorder writes as it goes.
+struct Sink<'a> {
+    files: Files,
+    m: Metrics,
+    malformed: u64,
+    sc: &'a Scenario,
+    pb: &'a ProgressBar,
+}
+
+impl Sink<'_> {
+    /// Takes one truth payload; returns true on the run's last step.
+    fn truth(&mut self, b: &[u8]) -> Result<bool> {
+        match decode(b, &mut self.malformed) {
+            Some(Msg::TruthStep(s)) => {
+                self.files.write_step(&s)?;
+                self.m.on_step(&s);
+                let g = self.sc.swarm.goal;
+                let d = s.bodies.iter().map(|b| (b.x - g[0]).hypot(b.y - g[1])).fold(0.0, f64::max);
+                self.pb.set_position(s.tick);
+                self.pb.set_message(format!(
+                    "t={:.1}s  farthest UAV {d:.1} m from goal  collisions {}",
+                    s.t_secs,
+                    self.m.collision_count()
+                ));
+                Ok(self.m.ended().is_some())
+            }
+            Some(Msg::TruthWorld(w)) => {
+                self.m.on_world(w);
+                Ok(false)
+            }
+            _ => Ok(false),
+        }
+    }
+
+    /// Takes one agent state payload (states of ids outside the scenario are dropped).
+    fn state(&mut self, b: &[u8]) -> Result<()> {
+        if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
+            if (1..=self.sc.swarm.count).contains(&st.id) {
+                self.files.write_state(&st)?;
+                self.m.on_state(*st);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Recording {
+    /// Opens the recorder's session to `connect`, subscribes, then announces `alive/recorder`.
+    pub async fn start(run_id: &str, connect: &[String], cfg: &[String]) -> Result<Recording> {
+        let keys = Keys::new(run_id)?;
+        let session = session::open(Role::Client, &[], connect, cfg).await?;
+        let (ttx, truth) = mpsc::unbounded_channel();
+        let (stx, states) = mpsc::unbounded_channel();
+        let t_sub = plumbing::subscribe_payloads(&session, keys.truth_all(), ttx).await?;
+        let s_sub = plumbing::subscribe_payloads(&session, keys.state_any(), stx).await?;
+        let (hub_alive, h_sub) = plumbing::watch_token(&session, keys.alive_hub()).await?;
+        // Subscribed: say so, for whoever starts agents by hand and wants the whole run recorded.
+        let token = session
+            .liveliness()
+            .declare_token(keys.alive_recorder())
+            .await
+            .map_err(|e| anyhow::anyhow!("zenoh: {e}"))?;
+        Ok(Recording {
+            session,
+            keys,
+            run_id: run_id.to_string(),
+            truth,
+            states,
+            hub_alive,
+            _subs: [t_sub, s_sub, h_sub],
+            _token: token,
+        })
+    }
+
+    /// The scenario the hub serves.
+    pub async fn fetch_scenario(&self) -> Result<Scenario> {
+        let text = plumbing::fetch_scenario_text(&self.session, &self.keys, ASK_WAIT).await?;
+        Ok(Scenario::from_toml_str(&text, "hub")?)
+    }
+
+    /// Records until the hub marks the last step, the hub goes away, or a Ctrl-C (after which it
+    /// waits up to [`STOP_GRACE`] for the hub's `stopped` step), then writes the run folder's
+    /// summary and map. `on_tick` is called with the sim time of every truth step (the launcher
+    /// applies kills and restarts there).
+    pub async fn record(
+        mut self,
+        out: &Path,
+        sc: &Scenario,
+        pb: &ProgressBar,
+        hub: Option<&mut Child>,
+        on_tick: &mut dyn FnMut(f64) -> Result<()>,
+    ) -> Result<Summary> {
+        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), malformed: 0, sc, pb };
+        // The world is published once; ask for it too, in case that was before we subscribed.
+        match plumbing::fetch(&self.session, &self.keys.truth_world(), ASK_WAIT).await {
+            Ok(b) => {
+                sink.truth(&b)?;
+            }
+            Err(e) => warn!("no world from the hub yet: {e}"),
+        }
+        self.follow(&mut sink, hub, on_tick).await?;
+        self.drain(&mut sink).await?;
+        let Sink { mut files, m, malformed, .. } = sink;
+        files.flush()?;
+        let summary = m.summary(&self.run_id, sc);
+        write_outputs(out, sc, &self.run_id, &summary, &m)?;
+        if malformed > 0 {
+            warn!(malformed, "recorder dropped malformed messages");
+        }
+        let _ = self.session.close().await;
+        Ok(summary)
+    }
+
+    /// Takes truth steps and states as they come until the run ends (see [`Recording::record`]).
+    async fn follow(&mut self, sink: &mut Sink<'_>, mut hub: Option<&mut Child>, on_tick: &mut dyn FnMut(f64) -> Result<()>) -> Result<()> {
+        let mut hub_seen = *self.hub_alive.borrow();
+        let mut stop_at: Option<tokio::time::Instant> = None;
+        loop {
+            let hub_exit = async {
+                match hub.as_mut() {
+                    Some(h) => h.wait().await.ok(),
+                    None => std::future::pending().await,
+                }
+            };
+            let stop = async {
+                match stop_at {
+                    Some(t) => tokio::time::sleep_until(t).await,
+                    None => std::future::pending().await,
+                }
+            };
+            // Biased: every queued truth step is taken before the hub's exit is noticed.
+            tokio::select! {
+                biased;
+                Some(b) = self.truth.recv() => {
+                    if sink.truth(&b)? { break }
+                    if let Some(t) = sink.m.last_step().map(|s| s.t_secs) { on_tick(t)?; }
+                },
+                Some(b) = self.states.recv() => sink.state(&b)?,
+                changed = self.hub_alive.changed() => {
+                    let up = changed.is_ok() && *self.hub_alive.borrow();
+                    if up { hub_seen = true; } else if hub_seen || changed.is_err() { warn!("hub gone before the end of the run"); break; }
+                },
+                status = hub_exit => { warn!(?status, "hub exited before the end of the run"); break; }
+                _ = tokio::signal::ctrl_c(), if stop_at.is_none() => {
+                    warn!("interrupted: waiting for the hub's last step");
+                    stop_at = Some(tokio::time::Instant::now() + STOP_GRACE);
+                }
+                _ = stop => { warn!("the hub's last step did not come"); break; }
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes the truth steps already queued, and the states of the last tick still in flight.
+    async fn drain(&mut self, sink: &mut Sink<'_>) -> Result<()> {
+        while let Ok(b) = self.truth.try_recv() {
+            sink.truth(&b)?;
+        }
+        let drain_until = tokio::time::Instant::now() + Duration::from_millis(200);
+        while let Ok(Some(b)) = tokio::time::timeout_at(drain_until, self.states.recv()).await {
+            sink.state(&b)?;
+        }
+        Ok(())
+    }
+}
+
+/// Writes `summary.json` and, when there is a track, `run.svg` into the run folder `out`.
+fn write_outputs(out: &Path, sc: &Scenario, run_id: &str, summary: &Summary, m: &Metrics) -> Result<()> {
+    let path = out.join("summary.json");
+    std::fs::write(&path, serde_json::to_string_pretty(summary)?).with_context(|| format!("cannot write {}", path.display()))?;
+    let title = format!(
+        "{} ({}): {}, {} collisions",
+        sc.name,
+        run_id,
+        summary.time_to_goal_s.map_or_else(|| format!("goal not reached ({})", summary.end_reason), |t| format!("goal in {t:.1} s")),
+        summary.collisions
+    );
+    if let Some(svg) = m.svg(&title, sc.end.goal_radius_m) {
+        let path = out.join("run.svg");
+        std::fs::write(&path, svg).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,35 @@
+//! `swarm scenarios` and `swarm check`: the built-in scenarios, and what a scenario file
+//! resolves to (every default filled in), for a person writing one.
+
+use anyhow::Result;
+use std::process::ExitCode;
+use swarm_config::Scenario;
+
+/// Writes `text` to standard output; a reader that went away (`swarm scenarios | head`) ends the
+/// output quietly instead of a panic.
+fn print_out(text: &str) -> Result<()> {
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
+}
+
+/// Runs `swarm scenarios`: one line per built-in scenario, its name and description.
+pub fn list() -> Result<ExitCode> {
+    let width = swarm_config::BUILTIN.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
+    let mut list = String::new();
+    for (name, text) in swarm_config::BUILTIN {
+        let desc = Scenario::from_toml_str(text, name).map(|s| s.description).unwrap_or_default();
+        list.push_str(&format!("{name:width$}  {desc}\n"));
+    }
+    print_out(&list)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Runs `swarm check`: validates `scenario` and prints it resolved, as JSON.
+pub fn check(scenario: &str) -> Result<ExitCode> {
+    let (sc, _) = Scenario::from_arg(scenario)?;
+    print_out(&format!("{}\n", serde_json::to_string_pretty(&sc)?))?;
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,115 @@
+//! The Zenoh plumbing every process of a run needs, written once: subscribe a key into a
+//! channel, watch liveliness tokens, fetch a reply (the scenario text) from a queryable.
+//! Publishers are made by [`crate::session::publisher`]; a tool that puts one message uses
+//! [`put_once`] with the same encoding and priority.
+//!
+//! Why channels and callbacks: a callback runs in Zenoh's delivery order, and an unbounded
+//! channel never pushes back on the session, so a process reads its messages in wire order at
+//! its own pace (the lockstep protocol relies on that order). A receiver that went away is not an
+//! error: the process is shutting down.
+
+use crate::{Keys, WireError};
+use std::time::Duration;
+use tokio::sync::{mpsc, watch};
+use zenoh::qos::{CongestionControl, Priority};
+use zenoh::sample::{Sample, SampleKind};
+
+/// A declared subscription (data or liveliness): it delivers until dropped.
+pub type Subscription = zenoh::pubsub::Subscriber<()>;
+
+/// How long one query waits for replies in [`fetch`].
+const QUERY_TIMEOUT: Duration = Duration::from_secs(2);
+/// The pause before [`fetch`] asks again after a round without a reply.
+const RETRY_PAUSE: Duration = Duration::from_millis(200);
+
+/// The payload of a sample, copied out.
+pub fn payload(sample: &Sample) -> Vec<u8> {
+    sample.payload().to_bytes().into_owned()
+}
+
+/// Subscribes to `key` and sends `map(sample)` into `tx` for every sample; `None` sends nothing
+/// (the mapping may count or log what it drops).
+pub async fn subscribe<T: Send + 'static>(
+    s: &zenoh::Session,
+    key: String,
+    tx: mpsc::UnboundedSender<T>,
+    map: impl Fn(&Sample) -> Option<T> + Send + Sync + 'static,
+) -> Result<Subscription, WireError> {
+    s.declare_subscriber(key)
+        .callback(move |sample| {
+            if let Some(m) = map(&sample) {
+                let _ = tx.send(m);
+            }
+        })
+        .await
+        .map_err(WireError::zenoh)
+}
+
+/// Subscribes to `key` and sends every raw payload into `tx`.
+pub async fn subscribe_payloads(
+    s: &zenoh::Session,
+    key: String,
+    tx: mpsc::UnboundedSender<Vec<u8>>,
+) -> Result<Subscription, WireError> {
+    subscribe(s, key, tx, |sample| Some(payload(sample))).await
+}
+
+/// Calls `on_change(token key, alive)` whenever a liveliness token matching `key` appears
+/// (`true`) or goes away (`false`), starting with the tokens already alive (history).
+pub async fn on_tokens(
+    s: &zenoh::Session,
+    key: String,
+    on_change: impl Fn(&str, bool) + Send + Sync + 'static,
+) -> Result<Subscription, WireError> {
+    s.liveliness()
+        .declare_subscriber(key)
+        .history(true)
+        .callback(move |sample| on_change(sample.key_expr().as_str(), sample.kind() == SampleKind::Put))
+        .await
+        .map_err(WireError::zenoh)
+}
+
+/// Watches the one liveliness token `key`: the receiver holds whether it is alive now (`false`
+/// until it is first seen) and wakes on every change.
+pub async fn watch_token(s: &zenoh::Session, key: String) -> Result<(watch::Receiver<bool>, Subscription), WireError> {
+    let (tx, alive) = watch::channel(false);
+    let sub = on_tokens(s, key, move |_, up| {
+        let _ = tx.send(up);
+    })
+    .await?;
+    Ok((alive, sub))
+}
+
+/// Asks the queryable at `key` until one replies or `wait` has passed; returns the first good
+/// reply's payload. A round with no reply (nobody serves the key yet) is retried after a pause.
+pub async fn fetch(s: &zenoh::Session, key: &str, wait: Duration) -> Result<Vec<u8>, WireError> {
+    let deadline = tokio::time::Instant::now() + wait;
+    while tokio::time::Instant::now() < deadline {
+        let replies = s.get(key).timeout(QUERY_TIMEOUT).await.map_err(WireError::zenoh)?;
+        while let Ok(reply) = replies.recv_async().await {
+            if let Ok(sample) = reply.result() {
+                return Ok(payload(sample));
+            }
+        }
+        tokio::time::sleep(RETRY_PAUSE).await;
+    }
+    Err(WireError::NoReply { key: key.to_string(), wait_s: wait.as_secs_f64() })
+}
+
+/// The scenario text the hub serves on `swarm/{run}/scenario`, fetched as [`fetch`] does (TOML;
+/// the caller parses it).
+pub async fn fetch_scenario_text(s: &zenoh::Session, keys: &Keys, wait: Duration) -> Result<String, WireError> {
+    let bytes = fetch(s, &keys.scenario(), wait).await?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+/// Puts one payload on `key` without declaring a publisher (one-shot tools: `swarm put`,
+/// `swarm netem`), with the encoding and priority of [`crate::session::publisher`].
+pub async fn put_once(s: &zenoh::Session, key: &str, bytes: Vec<u8>, cc: CongestionControl) -> Result<(), WireError> {
+    s.put(key, bytes)
+        .encoding(crate::session::encoding())
+        .congestion_control(cc)
+        .priority(Priority::Data)
+        .await
+        .map_err(WireError::zenoh)
+}
