@@ -46,8 +46,9 @@
 use nalgebra::{Point2, Vector2};
 use swarm_config::CostmapParams;
 
-use crate::grid::{
-    octile_cells, Cell, CellSearch, CellSet, CellState, GridChanges, GridParams, OccupancyGrid, Path, Pose2, TileMap,
+use crate::geometry::Pose2;
+use super::grid::{
+    octile_cells, Cell, CellSearch, CellSet, CellState, GridChanges, GridParams, OccupancyGrid, Path, TileMap,
 };
 
 /// costmap_2d: no cost.
@@ -391,8 +392,18 @@ fn dist2(a: Cell, b: Cell) -> f64 {
     dx * dx + dy * dy
 }
 
-/// The M23 formation layer reads this costmap through its [`crate::m23::CostQuery`].
-impl crate::m23::CostQuery for Costmap {
+/// Costs on the ROS scale (0 free … 253 inscribed, 254 lethal), as the formation layer and the
+/// tracker of M23 read them: from this costmap, or from a costmap with more on it.
+pub trait CostQuery {
+    /// Cost of the cell containing `p` (world frame); `None` when unknown or outside the map,
+    /// which is treated as free.
+    fn cost_at(&self, p: Point2<f64>) -> Option<u8>;
+    /// Cell size [m].
+    fn resolution(&self) -> f64;
+}
+
+/// The M23 formation layer reads this costmap through [`CostQuery`].
+impl CostQuery for Costmap {
     fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
         Some(self.cost_of_point(&p))
     }

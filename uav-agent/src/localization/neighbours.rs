@@ -16,7 +16,7 @@
 //! comparison only. The sender id is otherwise kept for metrics ([`Estimate::id`]).
 //!
 //! The ICP itself is not here: the database calls a [`Matcher`], so it is tested with scripted
-//! matchers and driven by the real ICP (`crate::icp`) in the agent.
+//! matchers and driven by the real ICP (`super::icp`) in [`IcpLocalizer`], the `icp` mode's localizer.
 //!
 //! # One control step ([`Database::step`])
 //!
@@ -52,12 +52,17 @@
 //! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
 //! suspended.
 
-use crate::icp::{Match, Transform};
+use super::icp::{Match, Transform};
+use super::Share;
+use crate::geometry::wrap_angle;
+use crate::perception::Circle;
+use crate::sensing::SensorFrame;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
+use std::time::Instant;
 use swarm_config::{IcpParams, Identify};
-
+use swarm_wire::{IcpCounts, ObstacleShare};
 /// The ICP variants the database needs (seed 000 5.1). Implemented by the real ICP, and by
 /// scripted matchers in tests. Both return a transform mapping `source` into `reference`'s frame.
 pub trait Matcher {
@@ -100,9 +105,9 @@ pub struct Estimate {
     pub frmsd: f64,
 }
 
-impl From<Estimate> for crate::localization::Estimate {
+impl From<Estimate> for super::Estimate {
     fn from(e: Estimate) -> Self {
-        crate::localization::Estimate {
+        super::Estimate {
             id: e.id,
             pos_in_body: e.pos_in_body,
             heading: e.heading,
@@ -294,7 +299,7 @@ impl Database {
                     entry: e.key,
                     id: Some(e.sender),
                     pos_in_body: t.translation,
-                    heading: crate::localization::wrap(t.rotation),
+                    heading: wrap_angle(t.rotation),
                     age_secs: (now - e.estimate_t).max(0.0),
                     frmsd: e.frmsd,
                 })
@@ -508,6 +513,95 @@ impl Database {
         }
     }
 }
+
+/// The `icp` localizer (seed 000 3.2, chapter 5): it shares its obstacle set, keeps the newest set
+/// from each neighbour, and places the neighbours by matching those sets to its own through the
+/// [`Database`] and the real ICP.
+#[derive(Debug)]
+pub(crate) struct IcpLocalizer {
+    id: u32,
+    stale_after_s: f64,
+    params: IcpParams,
+    /// Whether a wall-clock step budget applies (realtime runs only, see [`Self::estimates`]).
+    realtime: bool,
+    db: Database,
+    /// The newest obstacle set from each neighbour (one per sender), handed to the database by
+    /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
+    received: Vec<Received>,
+}
+
+impl IcpLocalizer {
+    /// The localizer of UAV `id`.
+    pub(crate) fn new(id: u32, params: IcpParams, stale_after_s: f64, realtime: bool) -> IcpLocalizer {
+        let db = Database::new(params.clone(), stale_after_s);
+        IcpLocalizer { id, stale_after_s, params, realtime, db, received: Vec::new() }
+    }
+
+    /// Keeps a neighbour's obstacle set if it is newer than the one held (our own echo and poses
+    /// are ignored).
+    pub(crate) fn receive(&mut self, share: Share) {
+        let Share::Obstacles(o) = share else { return };
+        if o.from == self.id {
+            return;
+        }
+        let held = self.received.iter().position(|r| r.from == o.from);
+        if held.is_none_or(|i| o.t_secs > self.received[i].t_secs) {
+            let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
+            let set = Received { from: o.from, t_secs: o.t_secs, points };
+            match held {
+                Some(i) => self.received[i] = set,
+                None => self.received.push(set),
+            }
+        }
+    }
+
+    /// The neighbours placed by matching their sets to our `circles` at sim time `now`, and the
+    /// ICP work it took; `started` is when the step began (wall clock).
+    pub(crate) fn estimates(&mut self, now: f64, circles: &[Circle], started: Instant) -> (Vec<super::Estimate>, IcpCounts) {
+        let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
+        let stale = self.stale_after_s;
+        self.received.retain(|r| now - r.t_secs <= stale + 1e-9);
+        // The step-time failsafe (seed 000 6.2) guards a realtime deadline. In lockstep the
+        // hub waits for us, so there is none; and a wall-clock decision would make the run
+        // depend on machine load instead of repeating exactly.
+        let realtime = self.realtime;
+        let mut elapsed_ms = || if realtime { started.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
+        let c = self.db.step(now, &own, &self.received, &mut IcpMatcher(&self.params), &mut elapsed_ms);
+        let estimates = self.db.estimates(now).into_iter().map(Into::into).collect();
+        let counts = IcpCounts {
+            short: c.short,
+            long: c.long,
+            initial: c.initial,
+            deferred: c.skipped_long,
+            entries: self.db.len() as u32,
+            suspended: self.db.suspended_len() as u32,
+        };
+        (estimates, counts)
+    }
+
+    /// seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
+    pub(crate) fn share(&self, frame: &SensorFrame, circles: &[Circle]) -> Share {
+        Share::Obstacles(ObstacleShare {
+            from: self.id,
+            tick: frame.scan.tick,
+            t_secs: frame.scan.t_secs,
+            centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
+        })
+    }
+}
+
+/// The real ICP behind the neighbour database.
+struct IcpMatcher<'a>(&'a IcpParams);
+
+impl Matcher for IcpMatcher<'_> {
+    fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: Transform) -> Option<Match> {
+        super::icp::icp(reference, source, initial, self.0).ok()
+    }
+    fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
+        super::icp::initial_icp(reference, source, self.0).ok()
+    }
+}
+
 
 #[cfg(test)]
 mod tests {
@@ -987,7 +1081,7 @@ mod tests {
         assert_eq!(e.pos_in_body, Vector2::new(1.0, 0.5));
         assert!((e.heading - 0.1).abs() < 1e-12);
         assert!((e.age_secs - 0.1).abs() < 1e-12);
-        let as_loc: crate::localization::Estimate = e.into();
+        let as_loc: super::super::Estimate = e.into();
         assert_eq!(as_loc.pos_in_body, e.pos_in_body);
     }
 

@@ -39,6 +39,7 @@
 
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
+use crate::geometry::wrap_angle as wrap;
 use swarm_config::IcpParams;
 
 /// A rigid transform that maps points from the neighbour's body frame (the source set S) into
@@ -170,16 +171,6 @@ impl Workspace {
     }
 }
 
-/// Wraps an angle to [−π, π).
-fn wrap(a: f64) -> f64 {
-    let w = (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    if w >= std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
-}
-
 /// The rotation matrix of angle `a`.
 fn rot(a: f64) -> Matrix2<f64> {
     let (s, c) = a.sin_cos();
@@ -216,7 +207,7 @@ fn degenerate(points: impl Iterator<Item = Point2<f64>> + Clone) -> bool {
         return true;
     }
     c /= n;
-    let (sxx, sxy, syy) = crate::vec2::scatter(points, c);
+    let (sxx, sxy, syy) = crate::geometry::scatter(points, c);
     let (sxx, sxy, syy) = (sxx / n, sxy / n, syy / n);
     // Not in seed 000 (degeneracy test): eigenvalues of the 2×2 covariance [[sxx, sxy], [sxy, syy]]:
     // λ± = (sxx + syy)/2 ± sqrt(((sxx − syy)/2)² + sxy²).
