@@ -3,7 +3,7 @@
 //! Why this module exists: the A21 navigation vector (seed 003 eq. 7) needs a path to the goal,
 //! planned on the agent's own map (seed 003 section IV-C: Hector SLAM's occupancy grid, obstacles
 //! inflated by the UAV size, A* whose heuristic is "the sum of euclidean distance to the goal and
-//! the closest obstacle", unknown cells free). The M23 costmap ([`crate::costmap`]) is built on
+//! the closest obstacle", unknown cells free). The M23 costmap ([`super::costmap`]) is built on
 //! the same grid and reuses the same A*. The grid lives in the agent's odometry frame (its start
 //! pose, a fixed world-like frame); SLAM itself is not simulated, the odometry pose is used as is.
 //!
