@@ -10,7 +10,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Point2, Rotation2, Vector2};
 use std::hint::black_box;
 use swarm_config::IcpParams;
-use uav_agent::icp::{icp, initial_icp, Transform};
+use uav_agent::icp::{icp, initial_icp, AgentFromNeighbour};
 
 /// SplitMix64, so the bench needs no rand crate and is deterministic.
 struct Rng(u64);
@@ -44,20 +44,20 @@ fn scatter(rng: &mut Rng, n: usize, c: Vector2<f64>, avoid: &[Point2<f64>]) -> V
 }
 
 /// (reference, source, truth): 14 shared trees + 6 one-sided per side, σ = 0.03 m.
-fn scenario(seed: u64) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, Transform) {
+fn scenario(seed: u64) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, AgentFromNeighbour) {
     let mut rng = Rng(seed);
     let reference = scatter(&mut rng, 20, Vector2::zeros(), &[]);
-    let truth = Transform {
-        rotation: rng.range(-std::f64::consts::PI, std::f64::consts::PI),
-        translation: Vector2::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
+    let truth = AgentFromNeighbour {
+        rotation_rad: rng.range(-std::f64::consts::PI, std::f64::consts::PI),
+        translation_m: Vector2::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
     };
     let mut seen = reference[..14].to_vec();
-    seen.extend(scatter(&mut rng, 6, truth.translation, &reference));
-    let inv = Rotation2::new(-truth.rotation);
+    seen.extend(scatter(&mut rng, 6, truth.translation_m, &reference));
+    let inv = Rotation2::new(-truth.rotation_rad);
     let source = seen
         .iter()
         .map(|q| {
-            let p = inv * (q.coords - truth.translation);
+            let p = inv * (q.coords - truth.translation_m);
             Point2::new(p.x + 0.03 * rng.gauss(), p.y + 0.03 * rng.gauss())
         })
         .collect();
@@ -69,12 +69,12 @@ fn bench_icp(c: &mut Criterion) {
     let (reference, source, truth) = scenario(7);
     // Sanity: the benchmarked case is a successful one.
     let solved =
-        initial_icp(&reference, &source, &p).is_ok_and(|m| (m.transform.translation - truth.translation).norm() < 0.1);
+        initial_icp(&reference, &source, &p).is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
     assert!(solved, "the bench scenario must be solvable");
     c.bench_function("icp/initial_20pts", |b| b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p)));
-    let start = Transform {
-        rotation: truth.rotation + 5f64.to_radians(),
-        translation: truth.translation + Vector2::new(0.3, -0.2),
+    let start = AgentFromNeighbour {
+        rotation_rad: truth.rotation_rad + 5f64.to_radians(),
+        translation_m: truth.translation_m + Vector2::new(0.3, -0.2),
     };
     c.bench_function("icp/short_20pts", |b| b.iter(|| icp(black_box(&reference), black_box(&source), start, &p)));
 }

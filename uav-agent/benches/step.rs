@@ -8,7 +8,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use swarm_wire::{Gnss, ObstacleShare, Odom, PoseShare, Scan};
-use uav_agent::agent::{Agent, Share};
+use uav_agent::{Agent, SensorFrame, Share};
 
 /// About 5 trees per 100 m² in a 24 m square around the origin, ≥ 2.5 m apart, none within
 /// 1.5 m of the origin (deterministic: a small LCG).
@@ -55,6 +55,7 @@ fn bench_step(c: &mut Criterion) {
     let scan = forest_scan(750);
     let odom = Odom { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
     let gnss = Gnss { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0 };
+    let frame = SensorFrame { scan, odom, gnss: Some(gnss), uvdar: None };
     for n in [4u32, 8] {
         let mut agent = Agent::new(1, sc.clone());
         c.bench_function(&format!("agent/step_750b_{n}_neighbours"), |b| {
@@ -63,7 +64,7 @@ fn bench_step(c: &mut Criterion) {
                     let a = f64::from(j) * 0.8;
                     agent.on_share(Share::Pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0 }));
                 }
-                black_box(agent.step(black_box(&scan), &odom, Some(&gnss)))
+                black_box(agent.step(black_box(&frame)))
             })
         });
     }
@@ -96,7 +97,7 @@ fn bench_icp_step(c: &mut Criterion) {
                 let t = tick as f64 * 0.1;
                 let scan = Scan { tick, t_secs: t, ..scan.clone() };
                 let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
-                let out = agent.step(black_box(&scan), &odom, None);
+                let out = agent.step(black_box(&SensorFrame { scan, odom, gnss: None, uvdar: None }));
                 tick += 1;
                 black_box(out)
             })
@@ -107,8 +108,8 @@ fn bench_icp_step(c: &mut Criterion) {
         for (j, &p) in poses.iter().enumerate() {
             agent.on_share(share_of(j as u32 + 2, p, tick - 1));
         }
-        let out = agent.step(&Scan { tick, t_secs: t, ..scan.clone() }, &odom, None);
-        assert_eq!(out.state.neighbours.len(), n as usize, "all neighbours localized: {:?}", out.state.icp);
+        let out = agent.step(&SensorFrame { scan: Scan { tick, t_secs: t, ..scan.clone() }, odom, gnss: None, uvdar: None });
+        assert_eq!(out.report.neighbours.len(), n as usize, "all neighbours localized: {:?}", out.report.icp);
     }
 }
 

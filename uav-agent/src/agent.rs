@@ -1,62 +1,27 @@
-//! One control step of the onboard stack, with no IO: sensors and delivered neighbour messages
-//! in; a command, a share message and diagnostics out. The Zenoh loop in `node` feeds it; tests
-//! and benchmarks call it directly.
+//! One control step of the onboard stack, with no IO: a sensor frame and the neighbours' shares
+//! delivered so far in; a command, a share message and a report out. The Zenoh loop in `node`
+//! feeds it; tests and benchmarks call it directly.
+//!
+//! [`Agent::step`] is a pipeline of typed stages, each taking what the one before produced:
+//!
+//! 1. perception: the scan becomes circles, wall segments and points ([`perception::extract`]);
+//! 2. localization: the mode's [`Localizer`] places the neighbours;
+//! 3. the view: the obstacles minus the neighbours the LIDAR sees, built once ([`surroundings`]);
+//! 4. control: the [`Pilot`] turns the view into a command;
+//! 5. out: the command, the share the localizer sends, and a [`StepReport`] that becomes the
+//!    agent's state message once the node adds what its link measured ([`StepReport::into_state`]).
 //!
 //! Architecture invariant: an agent sees the world only through its own sensor messages and its
 //! neighbours' shares. Nothing here can reach ground truth.
 
-use crate::icp::{self, Match, Transform};
-use crate::localization::{BroadcastTable, Estimate};
-use crate::neighbours::{Database, Matcher, Received};
-use crate::perception;
-use crate::pilot::{Pilot, View};
-use nalgebra::{Point2, Vector2};
+use crate::control::{Command, Pilot, View};
+use crate::localization::{Estimate, Localizer, Share};
+use crate::perception::{self, Circle, Extracted};
+use crate::sensing::{FrameCollector, SensorFrame};
+use nalgebra::Point2;
 use std::time::Instant;
-use swarm_config::{ControllerKind, IcpParams, LocalizationMode, Scenario, TimeMode};
-use swarm_wire::{
-    AgentState, Cmd, Gnss, IcpCounts, LinkCounters, Msg, NeighbourEstimate, ObstacleShare, Odom, PoseShare,
-    Scan,
-};
-
-/// What agents tell their neighbours: a pose (`broadcast`) or an obstacle set (`icp`).
-#[derive(Debug, Clone, PartialEq)]
-pub enum Share {
-    /// Broadcast mode.
-    Pose(PoseShare),
-    /// ICP mode.
-    Obstacles(ObstacleShare),
-}
-
-impl Share {
-    /// Sender id.
-    pub fn from(&self) -> u32 {
-        match self {
-            Share::Pose(p) => p.from,
-            Share::Obstacles(o) => o.from,
-        }
-    }
-    /// Tick it was sent at.
-    pub fn tick(&self) -> u64 {
-        match self {
-            Share::Pose(p) => p.tick,
-            Share::Obstacles(o) => o.tick,
-        }
-    }
-    /// Sim time it was sent at [s].
-    pub fn t_secs(&self) -> f64 {
-        match self {
-            Share::Pose(p) => p.t_secs,
-            Share::Obstacles(o) => o.t_secs,
-        }
-    }
-    /// The wire message.
-    pub fn into_msg(self) -> Msg {
-        match self {
-            Share::Pose(p) => Msg::Pose(p),
-            Share::Obstacles(o) => Msg::Obstacles(o),
-        }
-    }
-}
+use swarm_config::Scenario;
+use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, Keys, LinkCounters, NeighbourEstimate, VectorMagnitudes};
 
 /// What one step produces.
 #[derive(Debug, Clone)]
@@ -65,19 +30,58 @@ pub struct StepOutput {
     pub cmd: Cmd,
     /// The message to share with neighbours, if any.
     pub share: Option<Share>,
-    /// Diagnostics (link counters are filled in by the caller).
-    pub state: AgentState,
+    /// What the step saw and did, for the state message.
+    pub report: StepReport,
 }
 
-/// The real ICP behind the neighbour database.
-struct IcpMatcher<'a>(&'a IcpParams);
+/// What one step saw and did: the agent's part of its state message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReport {
+    /// Agent id.
+    pub id: u32,
+    /// Tick of the step.
+    pub tick: u64,
+    /// Sim time [s].
+    pub t_secs: f64,
+    /// Wall time the step took (perception + localization + control) [µs].
+    pub step_time_us: u32,
+    /// Obstacles that are not a neighbour.
+    pub obstacles: u32,
+    /// The neighbour estimates, body frame.
+    pub neighbours: Vec<NeighbourEstimate>,
+    /// Magnitudes of the controller's terms.
+    pub vectors: VectorMagnitudes,
+    /// ICP work (`icp` mode).
+    pub icp: IcpCounts,
+}
 
-impl Matcher for IcpMatcher<'_> {
-    fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: Transform) -> Option<Match> {
-        icp::icp(reference, source, initial, self.0).ok()
-    }
-    fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
-        icp::initial_icp(reference, source, self.0).ok()
+/// What the node's link layer measured, the rest of the state message.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LinkReport {
+    /// Neighbours in radio range (subscribed to).
+    pub in_radio_range: u32,
+    /// The link's counters, including this step's share.
+    pub counters: LinkCounters,
+    /// Delays of the shares delivered since the last report.
+    pub delays: Vec<DelaySample>,
+}
+
+impl StepReport {
+    /// The agent's state message: this report and what the link measured, in one place.
+    pub fn into_state(self, link: LinkReport) -> AgentState {
+        AgentState {
+            id: self.id,
+            tick: self.tick,
+            t_secs: self.t_secs,
+            step_time_us: self.step_time_us,
+            obstacles: self.obstacles,
+            neighbours: self.neighbours,
+            in_radio_range: link.in_radio_range,
+            vectors: self.vectors,
+            link: link.counters,
+            icp: self.icp,
+            delays: link.delays,
+        }
     }
 }
 
@@ -85,212 +89,132 @@ impl Matcher for IcpMatcher<'_> {
 pub struct Agent {
     id: u32,
     sc: Scenario,
-    table: BroadcastTable,
-    db: Database,
-    /// The newest obstacle set from each neighbour (one per sender), handed to the database by
-    /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
-    received: Vec<Received>,
+    /// The localization mode's localizer and what it keeps between steps.
+    localizer: Localizer,
     /// The controller and what it keeps between steps.
     pilot: Pilot,
-    /// The newest onboard relative sensing (`uvdar` mode).
-    uvdar: Option<swarm_wire::Uvdar>,
 }
 
 impl Agent {
     /// The agent of UAV `id` under scenario `sc`.
     pub fn new(id: u32, sc: Scenario) -> Agent {
-        let db = Database::new(sc.localization.icp.clone(), sc.localization.stale_after_s);
+        let localizer = Localizer::new(id, &sc);
         let pilot = Pilot::new(&sc);
-        Agent { id, sc, table: BroadcastTable::default(), db, received: Vec::new(), pilot, uvdar: None }
+        Agent { id, sc, localizer, pilot }
+    }
+
+    /// A collector of the sensor frames this agent's localizer needs.
+    pub fn frame_collector(&self) -> FrameCollector {
+        FrameCollector::new(self.localizer.needs())
+    }
+
+    /// The key UAV `id` shares on in this agent's mode (`None`: the mode never shares).
+    pub fn share_key(&self, keys: &Keys, id: u32) -> Option<String> {
+        self.localizer.share_key(keys, id)
     }
 
     /// Takes a neighbour's share that the link has delivered (our own echo is ignored).
     pub fn on_share(&mut self, share: Share) {
-        match share {
-            Share::Pose(p) if p.from != self.id => self.table.update(p),
-            Share::Obstacles(o) if o.from != self.id => {
-                let held = self.received.iter().position(|r| r.from == o.from);
-                if held.is_none_or(|i| o.t_secs > self.received[i].t_secs) {
-                    let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
-                    let set = Received { from: o.from, t_secs: o.t_secs, points };
-                    match held {
-                        Some(i) => self.received[i] = set,
-                        None => self.received.push(set),
-                    }
-                }
-            }
-            _ => {}
-        }
+        self.localizer.receive(share);
     }
 
-    /// Takes this tick's onboard relative sensing (`uvdar` mode).
-    pub fn on_uvdar(&mut self, u: swarm_wire::Uvdar) {
-        self.uvdar = Some(u);
-    }
-
-    /// Runs perception, localization and control for one tick.
-    pub fn step(&mut self, scan: &Scan, odom: &Odom, gnss: Option<&Gnss>) -> StepOutput {
+    /// Runs perception, localization and control for one frame.
+    pub fn step(&mut self, frame: &SensorFrame) -> StepOutput {
         let started = Instant::now();
-        let seen = perception::extract(scan, &self.sc.perception, &perception::SegmentParams::default());
-        let circles = seen.circles;
-        let (estimates, icp_counts) = self.localize(scan.t_secs, &circles, gnss, started);
-        let trees = self.trees_only(&circles, &estimates);
-        let scan_points: Vec<Point2<f64>> = if matches!(self.sc.controller.kind, ControllerKind::A21 | ControllerKind::M23) {
-            perception::scan_points(scan)
-        } else {
-            Vec::new()
-        };
+        let seen = perception::extract(&frame.scan, &self.sc.perception, &perception::SegmentParams::default());
+        let localized = self.localizer.localize(frame, &seen.circles, started);
+        let estimates = &localized.estimates;
+        let around = surroundings(&seen, estimates, self.sc.perception.neighbour_match_m, self.pilot.maps_the_scan());
         let view = View {
             id: self.id,
-            t_secs: scan.t_secs,
-            odom,
-            neighbours: &estimates,
-            trees: &trees,
+            t_secs: frame.scan.t_secs,
+            odom: &frame.odom,
+            neighbours: estimates,
+            trees: &around.trees,
             walls: &seen.segments,
-            scan_points: &scan_points,
+            static_points: &around.static_points,
         };
-        let out = self.pilot.step(&self.sc, &view);
-        let cmd = Cmd {
-            tick: scan.tick,
-            kind: out.kind,
-            x: out.xy.x as f32,
-            y: out.xy.y as f32,
-            yaw_rate: out.yaw_rate as f32,
-        };
-        let share = match (self.sc.localization.mode, gnss) {
-            (LocalizationMode::Broadcast, Some(g)) => Some(Share::Pose(PoseShare {
-                from: self.id,
-                tick: g.tick,
-                t_secs: g.t_secs,
-                x: g.x,
-                y: g.y,
-                yaw: g.yaw,
-                vx: g.vx,
-                vy: g.vy,
-            })),
-            (LocalizationMode::Broadcast, None) | (LocalizationMode::Uvdar, _) => None,
-            // seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
-            (LocalizationMode::Icp, _) => Some(Share::Obstacles(ObstacleShare {
-                from: self.id,
-                tick: scan.tick,
-                t_secs: scan.t_secs,
-                centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
-            })),
-        };
-        let state = AgentState {
+        let command = self.pilot.step(&self.sc, &view);
+        let share = self.localizer.share(frame, &seen.circles);
+        let report = StepReport {
             id: self.id,
-            tick: scan.tick,
-            t_secs: scan.t_secs,
+            tick: frame.tick(),
+            t_secs: frame.scan.t_secs,
             step_time_us: started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32,
-            obstacles: trees.len() as u32,
-            neighbours: estimates
-                .iter()
-                .map(|e| NeighbourEstimate {
-                    id: e.id,
-                    x: e.pos_in_body.x as f32,
-                    y: e.pos_in_body.y as f32,
-                    heading: e.heading as f32,
-                    age_secs: e.age_secs as f32,
-                })
-                .collect(),
-            in_radio_range: 0,
-            vectors: out.vectors,
-            link: LinkCounters::default(),
-            icp: icp_counts,
-            delays: Vec::new(),
+            obstacles: around.trees.len() as u32,
+            neighbours: estimates.iter().map(neighbour_estimate).collect(),
+            vectors: command.vectors,
+            icp: localized.icp,
         };
-        StepOutput { cmd, share, state }
+        StepOutput { cmd: cmd_of(frame.tick(), &command), share, report }
     }
+}
 
-    /// Neighbour estimates for this step, and the ICP work it took (`icp` mode).
-    fn localize(
-        &mut self,
-        now: f64,
-        circles: &[perception::Circle],
-        gnss: Option<&Gnss>,
-        started: Instant,
-    ) -> (Vec<Estimate>, IcpCounts) {
-        match (self.sc.localization.mode, gnss) {
-            (LocalizationMode::Broadcast, Some(g)) => {
-                (self.table.estimates(g, self.sc.localization.stale_after_s), IcpCounts::default())
-            }
-            // Without its own fix a broadcast agent cannot place anyone: fly on obstacles alone.
-            (LocalizationMode::Broadcast, None) => (Vec::new(), IcpCounts::default()),
-            // UVDAR gives range and bearing of each marker seen this tick; no heading.
-            (LocalizationMode::Uvdar, _) => {
-                let seen = self.uvdar.as_ref().filter(|u| (u.t_secs - now).abs() < 1e-6);
-                let estimates = seen
-                    .map(|u| {
-                        u.seen
-                            .iter()
-                            .map(|s| {
-                                let (r, b) = (f64::from(s.range_m), f64::from(s.bearing_rad));
-                                Estimate { id: Some(s.id), pos_in_body: r * Vector2::new(b.cos(), b.sin()), heading: 0.0, age_secs: 0.0 }
-                            })
-                            .collect()
-                    })
-                    .unwrap_or_default();
-                (estimates, IcpCounts::default())
-            }
-            (LocalizationMode::Icp, _) => {
-                let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
-                let stale = self.sc.localization.stale_after_s;
-                self.received.retain(|r| now - r.t_secs <= stale + 1e-9);
-                // The step-time failsafe (seed 000 6.2) guards a realtime deadline. In lockstep the
-                // hub waits for us, so there is none; and a wall-clock decision would make the run
-                // depend on machine load instead of repeating exactly.
-                let realtime = self.sc.time.mode == TimeMode::Realtime;
-                let mut elapsed_ms = || if realtime { started.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
-                let c = self.db.step(now, &own, &self.received, &mut IcpMatcher(&self.sc.localization.icp), &mut elapsed_ms);
-                let estimates = self.db.estimates(now).into_iter().map(Into::into).collect();
-                let counts = IcpCounts {
-                    short: c.short,
-                    long: c.long,
-                    initial: c.initial,
-                    deferred: c.skipped_long,
-                    entries: self.db.len() as u32,
-                    suspended: self.db.suspended_len() as u32,
-                };
-                (estimates, counts)
-            }
-        }
-    }
+/// The obstacles of a step once the neighbours the LIDAR sees are taken out of them.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Surroundings {
+    /// Circles that are not a localized neighbour.
+    trees: Vec<Circle>,
+    /// Scan points that are not a localized neighbour (only when asked for: a map's input).
+    static_points: Vec<Point2<f64>>,
+}
 
-    /// Obstacle circles minus those that are a localized neighbour seen by the LIDAR.
-    fn trees_only(&self, circles: &[perception::Circle], estimates: &[Estimate]) -> Vec<perception::Circle> {
-        let m = self.sc.perception.neighbour_match_m;
-        circles.iter().filter(|c| estimates.iter().all(|e| (e.pos_in_body - c.center.coords).norm() > m)).copied().collect()
+/// Separates the neighbours from the obstacles `seen`, once for everything downstream: a circle
+/// or point within `match_m` of a neighbour estimate is that neighbour.
+fn surroundings(seen: &Extracted, estimates: &[Estimate], match_m: f64, with_points: bool) -> Surroundings {
+    let is_neighbour = |p: &Point2<f64>| estimates.iter().any(|e| (e.pos_in_body - p.coords).norm() <= match_m);
+    let trees = seen.circles.iter().filter(|c| !is_neighbour(&c.center)).copied().collect();
+    let static_points =
+        if with_points { seen.points.iter().filter(|p| !is_neighbour(p)).copied().collect() } else { Vec::new() };
+    Surroundings { trees, static_points }
+}
+
+/// The pilot's command as the wire message of `tick`.
+fn cmd_of(tick: u64, c: &Command) -> Cmd {
+    Cmd { tick, kind: c.kind, x: c.xy.x as f32, y: c.xy.y as f32, yaw_rate: c.yaw_rate as f32 }
+}
+
+/// A neighbour estimate as the state message reports it.
+fn neighbour_estimate(e: &Estimate) -> NeighbourEstimate {
+    NeighbourEstimate {
+        id: e.id,
+        x: e.pos_in_body.x as f32,
+        y: e.pos_in_body.y as f32,
+        heading: e.heading as f32,
+        age_secs: e.age_secs as f32,
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use swarm_wire::{Gnss, Odom, PoseShare, Scan};
 
     fn scenario() -> Scenario {
         swarm_config::builtin("open-field-5").expect("builtin")
     }
 
-    fn empty_scan(tick: u64) -> Scan {
-        Scan {
-            tick,
-            t_secs: tick as f64 * 0.1,
+    fn frame(goal: Option<[f64; 2]>, gnss: Option<Gnss>) -> SensorFrame {
+        let scan = Scan {
+            tick: 1,
+            t_secs: 0.1,
             angle_min: 0.0,
             angle_increment: std::f32::consts::TAU / 8.0,
             max_range_m: 12.0,
             ranges_m: vec![f32::INFINITY; 8],
-        }
+        };
+        let odom = Odom { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None };
+        SensorFrame { scan, odom, gnss, uvdar: None }
     }
 
-    fn odom(goal: Option<[f64; 2]>) -> Odom {
-        Odom { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None }
+    fn fix() -> Gnss {
+        Gnss { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }
     }
 
     #[test]
     fn alone_in_open_field_an_informed_agent_flies_at_kf_toward_the_goal() {
         let mut a = Agent::new(1, scenario());
-        let g = Gnss { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 };
-        let out = a.step(&empty_scan(1), &odom(Some([30.0, 0.0])), Some(&g));
+        let out = a.step(&frame(Some([30.0, 0.0]), Some(fix())));
         assert_eq!(out.cmd.tick, 1);
         assert!((out.cmd.x - 0.4).abs() < 1e-6 && out.cmd.y.abs() < 1e-6, "{:?}", out.cmd);
         assert!(out.cmd.yaw_rate.abs() < 1e-6);
@@ -301,23 +225,39 @@ mod tests {
     #[test]
     fn goal_to_the_left_turns_left() {
         let mut a = Agent::new(1, scenario());
-        let out = a.step(&empty_scan(1), &odom(Some([0.0, 10.0])), None);
+        let out = a.step(&frame(Some([0.0, 10.0]), None));
         assert!(out.cmd.yaw_rate > 0.0, "{:?}", out.cmd);
+        assert!(out.share.is_none(), "no fix, nothing to share");
     }
 
     #[test]
-    fn a_neighbour_seen_by_lidar_is_not_an_obstacle_and_own_pose_is_ignored() {
+    fn own_pose_is_ignored() {
         let mut a = Agent::new(1, scenario());
         a.on_share(Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
         a.on_share(Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
-        let g = Gnss { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 };
-        let out = a.step(&empty_scan(1), &odom(None), Some(&g));
-        assert_eq!(out.state.neighbours.len(), 1, "own echo ignored");
-        assert_eq!(out.state.neighbours[0].id, Some(2));
-        let circle = perception::Circle { center: nalgebra::Point2::new(3.05, 0.0), radius: 0.3 };
-        let tree = perception::Circle { center: nalgebra::Point2::new(0.0, 5.0), radius: 0.3 };
-        let (est, _) = a.localize(0.1, &[], Some(&g), Instant::now());
-        let left = a.trees_only(&[circle, tree], &est);
-        assert_eq!(left, vec![tree]);
+        let out = a.step(&frame(None, Some(fix())));
+        assert_eq!(out.report.neighbours.len(), 1, "own echo ignored");
+        assert_eq!(out.report.neighbours[0].id, Some(2));
+    }
+
+    #[test]
+    fn a_neighbour_seen_by_lidar_is_not_an_obstacle() {
+        let neighbour = Estimate { id: Some(2), pos_in_body: nalgebra::Vector2::new(3.0, 0.0), heading: 0.0, age_secs: 0.0 };
+        let circle = Circle { center: Point2::new(3.05, 0.0), radius: 0.3 };
+        let tree = Circle { center: Point2::new(0.0, 5.0), radius: 0.3 };
+        let seen = Extracted { circles: vec![circle, tree], segments: Vec::new(), points: vec![circle.center, tree.center] };
+        let around = surroundings(&seen, &[neighbour], 0.5, true);
+        assert_eq!(around, Surroundings { trees: vec![tree], static_points: vec![tree.center] });
+        assert!(surroundings(&seen, &[neighbour], 0.5, false).static_points.is_empty());
+    }
+
+    #[test]
+    fn the_state_message_joins_the_step_and_the_link() {
+        let mut a = Agent::new(1, scenario());
+        let out = a.step(&frame(None, Some(fix())));
+        let link = LinkReport { in_radio_range: 3, counters: LinkCounters { sent_msgs: 1, ..LinkCounters::default() }, delays: Vec::new() };
+        let state = out.report.clone().into_state(link);
+        assert_eq!((state.id, state.tick, state.in_radio_range, state.link.sent_msgs), (1, 1, 3, 1));
+        assert_eq!(state.vectors, out.report.vectors);
     }
 }

@@ -18,13 +18,15 @@
 //!   token, knows the agent will get tick 0) and watches `alive/hub`: when the hub goes, the agent
 //!   commands hover and exits cleanly.
 
-use crate::agent::{Agent, Share};
+use crate::agent::{Agent, LinkReport, StepOutput};
+use crate::localization::Share;
+use crate::sensing::FrameCollector;
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::time::Duration;
-use swarm_config::{LocalizationMode, Scenario, ScenarioError, TimeMode};
+use swarm_config::{Scenario, ScenarioError, TimeMode};
 use swarm_wire::session::{self, Role};
-use swarm_wire::{Cmd, CmdKind, Gnss, Keys, Msg, Odom, Scan, WireError};
+use swarm_wire::{Cmd, CmdKind, Keys, Msg, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
 use swarm_wire::session::publisher;
@@ -122,6 +124,7 @@ async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -> Result<Sc
 }
 
 type Publisher = zenoh::pubsub::Publisher<'static>;
+type Subscriber = zenoh::pubsub::Subscriber<()>;
 
 /// Everything the subscriptions deliver, in one channel so wire order is kept.
 enum Incoming {
@@ -129,6 +132,21 @@ enum Incoming {
     Sense(Option<Msg>),
     /// A neighbour's share: sender id and raw payload.
     Share(u32, Vec<u8>),
+}
+
+/// The subscriptions a node holds for its whole life (dropping one undeclares it).
+struct Inputs {
+    _sense: Subscriber,
+    _radio: Subscriber,
+    _rules: Subscriber,
+    _hub_watch: Subscriber,
+}
+
+/// The node's publishers.
+struct Outputs {
+    cmd: Publisher,
+    share: Publisher,
+    state: Publisher,
 }
 
 struct Node {
@@ -139,9 +157,10 @@ struct Node {
     id: u32,
     dt: f64,
     agent: Agent,
+    /// Assembles each tick's sensor frame from the sensor messages.
+    sensors: FrameCollector,
     link: netem::Link,
     inbox: netem::Inbox<Share>,
-    mode: LocalizationMode,
     /// The scenario's `[[netem]]` rules, applied to every share this agent receives.
     netem_rules: Scenario,
     malformed: u64,
@@ -152,83 +171,86 @@ struct Node {
     /// The radio's distance-dependent loss probability per neighbour in range.
     radio_loss: BTreeMap<u32, f64>,
     hub_alive: watch::Receiver<bool>,
-    neighbour_subs: BTreeMap<u32, zenoh::pubsub::Subscriber<()>>,
-    cmd_pub: Publisher,
-    share_pub: Publisher,
-    state_pub: Publisher,
-    odom: Option<Odom>,
-    gnss: Option<Gnss>,
-    scan: Option<Scan>,
-    needs_gnss: bool,
-    /// `uvdar` mode: a step waits for the tick's onboard relative sensing too.
-    needs_uvdar: bool,
-    uvdar: Option<swarm_wire::Uvdar>,
+    neighbour_subs: BTreeMap<u32, Subscriber>,
+    publish: Outputs,
     /// Last tick stepped, `None` before the first.
     last_tick: Option<u64>,
-    _sense_sub: zenoh::pubsub::Subscriber<()>,
-    _radio_sub: zenoh::pubsub::Subscriber<()>,
-    _rules_sub: zenoh::pubsub::Subscriber<()>,
-    _hub_watch: zenoh::pubsub::Subscriber<()>,
+    _inputs: Inputs,
     _token: Option<zenoh::liveliness::LivelinessToken>,
+}
+
+/// Subscribes the node's own sensor, radio and netem-rule keys into `tx`, and watches the hub's
+/// liveliness token.
+async fn declare_inputs(
+    s: &zenoh::Session,
+    keys: &Keys,
+    id: u32,
+    tx: &mpsc::UnboundedSender<Incoming>,
+) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
+    let (sense_tx, radio_tx, rules_tx) = (tx.clone(), tx.clone(), tx.clone());
+    let decode = |bytes: &[u8]| Incoming::Sense(Msg::decode(bytes).ok());
+    let sense_sub = s
+        .declare_subscriber(keys.sense_all(id))
+        .callback(move |sample| {
+            let _ = sense_tx.send(decode(&sample.payload().to_bytes()));
+        })
+        .await
+        .map_err(WireError::zenoh)?;
+    let radio_sub = s
+        .declare_subscriber(keys.radio(id))
+        .callback(move |sample| {
+            let _ = radio_tx.send(decode(&sample.payload().to_bytes()));
+        })
+        .await
+        .map_err(WireError::zenoh)?;
+    // The rules in force, republished by the hub whenever `swarm netem` changes them.
+    let rules_sub = s
+        .declare_subscriber(keys.netem_rules())
+        .callback(move |sample| {
+            let _ = rules_tx.send(decode(&sample.payload().to_bytes()));
+        })
+        .await
+        .map_err(WireError::zenoh)?;
+    let (hub_tx, hub_alive) = watch::channel(false);
+    let hub_watch = s
+        .liveliness()
+        .declare_subscriber(keys.alive_hub())
+        .history(true)
+        .callback(move |sample| {
+            let _ = hub_tx.send(sample.kind() == SampleKind::Put);
+        })
+        .await
+        .map_err(WireError::zenoh)?;
+    Ok((Inputs { _sense: sense_sub, _radio: radio_sub, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
+}
+
+/// Declares the command, share and state publishers of UAV `id`.
+async fn declare_outputs(s: &zenoh::Session, keys: &Keys, id: u32, agent: &Agent, sc: &Scenario) -> Result<Outputs, AgentError> {
+    let cc = match sc.time.mode {
+        TimeMode::Lockstep => CongestionControl::Block,
+        TimeMode::Realtime => CongestionControl::Drop,
+    };
+    // `uvdar` never shares (no communication): its publisher is on the pose key, and stays silent.
+    let share_key = agent.share_key(keys, id).unwrap_or_else(|| keys.share_pose(id));
+    Ok(Outputs {
+        cmd: publisher(s, keys.cmd(id), CongestionControl::Block).await?,
+        share: publisher(s, share_key, cc).await?,
+        state: publisher(s, keys.state(id), cc).await?,
+    })
 }
 
 impl Node {
     async fn start(s: zenoh::Session, keys: Keys, id: u32, sc: Scenario) -> Result<Node, AgentError> {
-        let cc = match sc.time.mode {
-            TimeMode::Lockstep => CongestionControl::Block,
-            TimeMode::Realtime => CongestionControl::Drop,
-        };
         let (tx, rx) = mpsc::unbounded_channel();
-        let (sense_tx, radio_tx, rules_tx) = (tx.clone(), tx.clone(), tx.clone());
-        let decode = |bytes: &[u8]| Incoming::Sense(Msg::decode(bytes).ok());
-        let sense_sub = s
-            .declare_subscriber(keys.sense_all(id))
-            .callback(move |sample| {
-                let _ = sense_tx.send(decode(&sample.payload().to_bytes()));
-            })
-            .await
-            .map_err(WireError::zenoh)?;
-        let radio_sub = s
-            .declare_subscriber(keys.radio(id))
-            .callback(move |sample| {
-                let _ = radio_tx.send(decode(&sample.payload().to_bytes()));
-            })
-            .await
-            .map_err(WireError::zenoh)?;
-        // The rules in force, republished by the hub whenever `swarm netem` changes them.
-        let rules_sub = s
-            .declare_subscriber(keys.netem_rules())
-            .callback(move |sample| {
-                let _ = rules_tx.send(decode(&sample.payload().to_bytes()));
-            })
-            .await
-            .map_err(WireError::zenoh)?;
-        let (hub_tx, hub_alive) = watch::channel(false);
-        let hub_watch = s
-            .liveliness()
-            .declare_subscriber(keys.alive_hub())
-            .history(true)
-            .callback(move |sample| {
-                let _ = hub_tx.send(sample.kind() == SampleKind::Put);
-            })
-            .await
-            .map_err(WireError::zenoh)?;
-        let node = Node {
-            cmd_pub: publisher(&s, keys.cmd(id), CongestionControl::Block).await?,
-            share_pub: match sc.localization.mode {
-                // `uvdar` never shares (no communication): the pose key stays silent.
-                LocalizationMode::Broadcast | LocalizationMode::Uvdar => publisher(&s, keys.share_pose(id), cc).await?,
-                LocalizationMode::Icp => publisher(&s, keys.share_obstacles(id), cc).await?,
-            },
-            needs_uvdar: sc.localization.mode == LocalizationMode::Uvdar,
-            uvdar: None,
-            state_pub: publisher(&s, keys.state(id), cc).await?,
-            needs_gnss: sc.localization.mode == LocalizationMode::Broadcast,
-            mode: sc.localization.mode,
-            netem_rules: sc.clone(),
+        let (inputs, hub_alive) = declare_inputs(&s, &keys, id, &tx).await?;
+        let agent = Agent::new(id, sc.clone());
+        let publish = declare_outputs(&s, &keys, id, &agent, &sc).await?;
+        Ok(Node {
+            sensors: agent.frame_collector(),
             link: netem::Link::with_seed(sc.seed, id),
             dt: sc.dt_secs(),
-            agent: Agent::new(id, sc),
+            netem_rules: sc,
+            agent,
             inbox: netem::Inbox::new(),
             malformed: 0,
             tx,
@@ -238,20 +260,14 @@ impl Node {
             hub_grace_s: 0.0,
             hub_alive,
             neighbour_subs: BTreeMap::new(),
-            odom: None,
-            gnss: None,
-            scan: None,
+            publish,
             last_tick: None,
-            _sense_sub: sense_sub,
-            _radio_sub: radio_sub,
-            _rules_sub: rules_sub,
-            _hub_watch: hub_watch,
+            _inputs: inputs,
             _token: None,
             s,
             keys,
             id,
-        };
-        Ok(node)
+        })
     }
 
     async fn run_loop(mut self, shutdown: impl Future<Output = ()>) -> Result<AgentExit, AgentError> {
@@ -262,12 +278,11 @@ impl Node {
         info!("agent up");
         let hub_deadline = tokio::time::sleep(Duration::from_secs(30));
         tokio::pin!(hub_deadline);
-        let mut hub_seen = *self.hub_alive.borrow();
+        let mut hub = HubWatch { seen: *self.hub_alive.borrow(), lost: false };
         // While the hub is lost: when to give up.
         let grace = Duration::from_secs_f64(self.hub_grace_s.max(0.0));
         let lost_deadline = tokio::time::sleep(Duration::ZERO);
         tokio::pin!(lost_deadline);
-        let mut hub_lost = false;
         loop {
             tokio::select! {
                 m = self.rx.recv() => match m {
@@ -278,21 +293,18 @@ impl Node {
                 },
                 changed = self.hub_alive.changed() => {
                     let up = changed.is_ok() && *self.hub_alive.borrow();
-                    if up {
-                        if hub_lost { info!("hub back"); }
-                        hub_seen = true;
-                        hub_lost = false;
-                    } else if changed.is_err() || (hub_seen && grace.is_zero()) {
-                        return self.hub_gone().await;
-                    } else if hub_seen && !hub_lost {
-                        warn!(grace_s = grace.as_secs_f64(), "hub lost: hovering, waiting for it to come back");
-                        self.hover().await;
-                        hub_lost = true;
-                        lost_deadline.as_mut().reset(tokio::time::Instant::now() + grace);
+                    match hub.on_change(up, changed.is_err(), grace) {
+                        HubEvent::None => {}
+                        HubEvent::Gone => return self.hub_gone().await,
+                        HubEvent::Lost => {
+                            warn!(grace_s = grace.as_secs_f64(), "hub lost: hovering, waiting for it to come back");
+                            self.hover().await;
+                            lost_deadline.as_mut().reset(tokio::time::Instant::now() + grace);
+                        }
                     }
                 },
-                _ = &mut lost_deadline, if hub_lost => return self.hub_gone().await,
-                _ = &mut hub_deadline, if !hub_seen => return Err(AgentError::NoHub(self.keys.prefix().to_string(), 30)),
+                _ = &mut lost_deadline, if hub.lost => return self.hub_gone().await,
+                _ = &mut hub_deadline, if !hub.seen => return Err(AgentError::NoHub(self.keys.prefix().to_string(), 30)),
                 _ = &mut shutdown => { self.hover().await; return Ok(AgentExit::Stopped); }
             }
         }
@@ -308,16 +320,15 @@ impl Node {
         let tick = self.last_tick.map_or(0, |t| t.saturating_add(1));
         let cmd = Cmd { tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
         if let Ok(b) = Msg::Cmd(cmd).encode() {
-            let _ = self.cmd_pub.put(b).await;
+            let _ = self.publish.cmd.put(b).await;
         }
     }
 
     /// A share message arrived from `from`: count it, keep it only inside the neighbour's
     /// window, let the link decide, hold it in the inbox.
     fn on_share(&mut self, from: u32, bytes: &[u8]) {
-        let share = match Msg::decode(bytes) {
-            Ok(Msg::Pose(p)) if p.from == from => Share::Pose(p),
-            Ok(Msg::Obstacles(o)) if o.from == from => Share::Obstacles(o),
+        let share = match Msg::decode(bytes).map(|m| Share::from_msg(m, from)) {
+            Ok(Ok(share)) => share,
             other => {
                 self.malformed += 1;
                 debug!(from, ?other, "dropped malformed share");
@@ -365,68 +376,76 @@ impl Node {
     }
 
     async fn on_sense(&mut self, msg: Msg) -> Result<(), AgentError> {
-        match msg {
-            Msg::Radio(r) => {
+        match self.sensors.offer(msg) {
+            None => {}
+            Some(Msg::Radio(r)) => {
                 self.radio_loss = r.in_range.iter().zip(&r.loss).map(|(&id, &p)| (id, f64::from(p))).collect();
                 self.update_neighbour_subscriptions(r.tick, &r.in_range).await?
             }
-            Msg::Odom(o) => self.odom = Some(o),
-            Msg::Gnss(g) => self.gnss = Some(g),
-            Msg::Uvdar(u) => self.uvdar = Some(u),
-            Msg::Scan(s) => self.scan = Some(s),
-            Msg::NetemRules(json) => match serde_json::from_str::<swarm_config::Timeline>(&json) {
-                Ok(t) => {
-                    debug!(rules = t.netem.len(), failures = t.failures.len(), "netem timeline in force updated");
-                    self.netem_rules.netem = t.netem;
-                    self.netem_rules.failures = t.failures;
-                }
-                Err(e) => {
-                    self.malformed += 1;
-                    warn!("malformed netem rules dropped: {e}");
-                }
-            },
-            other => trace!(kind = other.kind(), "ignored"),
+            Some(Msg::NetemRules(json)) => self.on_netem_rules(&json),
+            Some(other) => trace!(kind = other.kind(), "ignored"),
         }
         self.try_step().await
     }
 
-    /// Steps once the scan, odometry (and GNSS in broadcast mode) of the same tick are in.
-    async fn try_step(&mut self) -> Result<(), AgentError> {
-        let Some(scan) = &self.scan else { return Ok(()) };
-        let tick = scan.tick;
-        let odom_ready = self.odom.as_ref().is_some_and(|o| o.tick == tick);
-        let gnss_ready = !self.needs_gnss || self.gnss.as_ref().is_some_and(|g| g.tick == tick);
-        let uvdar_ready = !self.needs_uvdar || self.uvdar.as_ref().is_some_and(|u| u.tick == tick);
-        if !(odom_ready && gnss_ready && uvdar_ready) {
-            return Ok(());
+    /// The netem timeline in force changed (`swarm netem`).
+    fn on_netem_rules(&mut self, json: &str) {
+        match serde_json::from_str::<swarm_config::Timeline>(json) {
+            Ok(t) => {
+                debug!(rules = t.netem.len(), failures = t.failures.len(), "netem timeline in force updated");
+                self.netem_rules.netem = t.netem;
+                self.netem_rules.failures = t.failures;
+            }
+            Err(e) => {
+                self.malformed += 1;
+                warn!("malformed netem rules dropped: {e}");
+            }
         }
-        let Some(scan) = self.scan.take() else { return Ok(()) };
+    }
+
+    /// Steps once the sensor frame of a tick is complete.
+    async fn try_step(&mut self) -> Result<(), AgentError> {
+        let Some(frame) = self.sensors.take_ready() else { return Ok(()) };
+        let tick = frame.tick();
         if let Some(last) = self.last_tick.filter(|&last| tick <= last) {
             return Err(AgentError::TickWentBack(last, tick));
         }
         self.last_tick = Some(tick);
-        self.release_held(scan.t_secs);
-        let due = self.inbox.take_due(scan.t_secs);
+        self.deliver_due(frame.scan.t_secs);
+        let out = self.agent.step(&frame);
+        self.publish_step(out).await?;
+        trace!(tick, "stepped");
+        Ok(())
+    }
+
+    /// Hands the agent every share due by `now`.
+    fn deliver_due(&mut self, now: f64) {
+        self.release_held(now);
+        let due = self.inbox.take_due(now);
         self.link.on_delivered(due.len());
         for share in due {
             self.agent.on_share(share);
         }
-        let Some(odom) = self.odom else { return Ok(()) };
-        let gnss = self.gnss.filter(|g| g.tick == tick);
-        if let Some(u) = self.uvdar.take().filter(|u| u.tick == tick) {
-            self.agent.on_uvdar(u);
-        }
-        let mut out = self.agent.step(&scan, &odom, gnss.as_ref());
+    }
+
+    /// Publishes a step's share (through the link), command and state, in that order.
+    async fn publish_step(&mut self, out: StepOutput) -> Result<(), AgentError> {
         if let Some(share) = out.share {
             let bytes = share.into_msg().encode()?;
             if self.link.on_send(bytes.len()) {
-                self.share_pub.put(bytes).await.map_err(WireError::zenoh)?;
+                self.publish.share.put(bytes).await.map_err(WireError::zenoh)?;
             }
         }
-        self.cmd_pub.put(Msg::Cmd(out.cmd).encode()?).await.map_err(WireError::zenoh)?;
+        self.publish.cmd.put(Msg::Cmd(out.cmd).encode()?).await.map_err(WireError::zenoh)?;
+        let state = out.report.into_state(self.link_report());
+        self.publish.state.put(Msg::State(Box::new(state)).encode()?).await.map_err(WireError::zenoh)?;
+        Ok(())
+    }
+
+    /// What the link measured since the last step, for the state message.
+    fn link_report(&mut self) -> LinkReport {
         let c = self.link.counters();
-        out.state.in_radio_range = self.neighbour_subs.len() as u32;
-        out.state.link = swarm_wire::LinkCounters {
+        let counters = swarm_wire::LinkCounters {
             sent_msgs: c.sent_msgs,
             sent_bytes: c.sent_bytes,
             recv_msgs: c.recv_msgs,
@@ -435,15 +454,13 @@ impl Node {
             malformed: self.malformed,
             classes: c.classes,
         };
-        out.state.delays = self
+        let delays = self
             .link
             .take_delays()
             .into_iter()
             .map(|d| swarm_wire::DelaySample { class: d.class as u8, delay_s: d.delay_s as f32 })
             .collect();
-        self.state_pub.put(Msg::State(Box::new(out.state)).encode()?).await.map_err(WireError::zenoh)?;
-        trace!(tick, "stepped");
-        Ok(())
+        LinkReport { in_radio_range: self.neighbour_subs.len() as u32, counters, delays }
     }
 
     /// Subscribes to the share keys of exactly the UAVs in radio range at `tick`, and moves their
@@ -461,12 +478,8 @@ impl Node {
                 continue;
             }
             let tx = self.tx.clone();
-            let key = match self.mode {
-                LocalizationMode::Broadcast => self.keys.share_pose(id),
-                LocalizationMode::Icp => self.keys.share_obstacles(id),
-                // No communication at all: nobody to subscribe to.
-                LocalizationMode::Uvdar => continue,
-            };
+            // No key: the mode has no communication at all, nobody to subscribe to.
+            let Some(key) = self.agent.share_key(&self.keys, id) else { continue };
             let sub = self
                 .s
                 .declare_subscriber(key)
@@ -480,5 +493,44 @@ impl Node {
             self.windows.insert(id, tick.saturating_add(1));
         }
         Ok(())
+    }
+}
+
+/// What the run loop knows of the hub's liveliness.
+struct HubWatch {
+    /// The hub's token has been seen.
+    seen: bool,
+    /// The token went away and the grace period runs.
+    lost: bool,
+}
+
+/// What a change of the hub's liveliness means for the run loop.
+enum HubEvent {
+    /// Nothing to do (the hub came, or came back).
+    None,
+    /// The hub is gone for good: hover and exit.
+    Gone,
+    /// The hub went away: hover and wait for it during the grace period.
+    Lost,
+}
+
+impl HubWatch {
+    /// The hub's token is now `up`; `closed` when the watch itself ended.
+    fn on_change(&mut self, up: bool, closed: bool, grace: Duration) -> HubEvent {
+        if up {
+            if self.lost {
+                info!("hub back");
+            }
+            self.seen = true;
+            self.lost = false;
+            HubEvent::None
+        } else if closed || (self.seen && grace.is_zero()) {
+            HubEvent::Gone
+        } else if self.seen && !self.lost {
+            self.lost = true;
+            HubEvent::Lost
+        } else {
+            HubEvent::None
+        }
     }
 }

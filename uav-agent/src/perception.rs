@@ -85,10 +85,15 @@ fn beam_point(angle_min: f64, angle_increment: f64, i: usize, range: f32) -> Opt
     Some(Point2::new(r * theta.cos(), r * theta.sin()))
 }
 
+/// The point of every beam of the scan, body frame, in beam order (`None`: no return).
+fn beam_points(scan: &Scan) -> Vec<Option<Point2<f64>>> {
+    let (angle_min, angle_increment) = (f64::from(scan.angle_min), f64::from(scan.angle_increment));
+    scan.ranges_m.iter().enumerate().map(|(i, &r)| beam_point(angle_min, angle_increment, i, r)).collect()
+}
+
 /// Every returned point of the scan, body frame, in beam order.
 pub fn scan_points(scan: &Scan) -> Vec<Point2<f64>> {
-    let (angle_min, angle_increment) = (f64::from(scan.angle_min), f64::from(scan.angle_increment));
-    scan.ranges_m.iter().enumerate().filter_map(|(i, &r)| beam_point(angle_min, angle_increment, i, r)).collect()
+    beam_points(scan).into_iter().flatten().collect()
 }
 
 /// True when `n` beams spaced by `angle_increment` cover a full turn (to within half a beam), so
@@ -109,17 +114,20 @@ fn covers_full_turn(n: usize, angle_increment: f64) -> bool {
 /// group's points followed by the first group's, so its points stay contiguous along the ring.
 /// A ring where every beam returned and every step is short is one group, never duplicated.
 pub fn group_scan(scan: &Scan, gap_m: f64) -> Vec<Vec<Point2<f64>>> {
-    let angle_min = f64::from(scan.angle_min);
-    let angle_increment = f64::from(scan.angle_increment);
-    let n = scan.ranges_m.len();
+    group_beams(&beam_points(scan), f64::from(scan.angle_increment), gap_m)
+}
+
+/// [`group_scan`] on the scan's beam points (see [`beam_points`]).
+fn group_beams(beams: &[Option<Point2<f64>>], angle_increment: f64, gap_m: f64) -> Vec<Vec<Point2<f64>>> {
+    let n = beams.len();
 
     let mut groups: Vec<Vec<Point2<f64>>> = Vec::new();
     let mut current: Vec<Point2<f64>> = Vec::new();
     // Does groups[0] start at beam 0?
     let mut first_starts_at_beam_zero = false;
 
-    for (i, &range) in scan.ranges_m.iter().enumerate() {
-        match beam_point(angle_min, angle_increment, i, range) {
+    for (i, &beam) in beams.iter().enumerate() {
+        match beam {
             None => {
                 // No return: the obstacle (if any) ends here.
                 if !current.is_empty() {
@@ -269,13 +277,16 @@ impl Segment {
     }
 }
 
-/// What one scan shows: trunks as circles, walls as segments (see [`extract`]).
+/// What one scan shows: trunks as circles, walls as segments (see [`extract`]), and every point
+/// the scan returned.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Extracted {
     /// Circular obstacles: those of [`extract_obstacles`] minus any whose group is a wall.
     pub circles: Vec<Circle>,
     /// Straight wall faces, from the groups that are not trunks (see [`extract`]).
     pub segments: Vec<Segment>,
+    /// Every returned point, body frame, in beam order (as [`scan_points`]).
+    pub points: Vec<Point2<f64>>,
 }
 
 /// Thresholds of the segment extractor. No seed gives them (seed 001 takes walls as input); each
@@ -397,7 +408,7 @@ pub fn fit_segment(points: &[Point2<f64>]) -> Option<Segment> {
     }
     let n = points.len() as f64;
     let mean = points.iter().fold(Vector2::zeros(), |acc, p| acc + p.coords) / n;
-    let (sxx, sxy, syy) = crate::vec2::scatter(points.iter().copied(), mean);
+    let (sxx, sxy, syy) = crate::geometry::scatter(points.iter().copied(), mean);
     if !(sxx + syy > 0.0 && (sxx + syy).is_finite()) {
         return None;
     }
@@ -551,7 +562,8 @@ pub fn segments_in_group(group: &[Point2<f64>], params: &SegmentParams) -> Vec<S
 /// `extract_obstacles(scan, perception)` only by circles whose groups yielded segments.
 pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParams) -> Extracted {
     let mut out = Extracted::default();
-    for group in group_scan(scan, perception.group_gap_m) {
+    let beams = beam_points(scan);
+    for group in group_beams(&beams, f64::from(scan.angle_increment), perception.group_gap_m) {
         let circle = accepted_circle(&group, perception);
         if let Some(c) =
             circle.filter(|c| rms_circle_residual(&group, c) <= params.circle_max_rms_m)
@@ -567,6 +579,7 @@ pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParam
             out.segments.extend(segments);
         }
     }
+    out.points = beams.into_iter().flatten().collect();
     out
 }
 

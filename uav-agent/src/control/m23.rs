@@ -6,7 +6,8 @@
 //! swarm goal but waits for far followers (Fig. 38–39); each follower derives its goal from the
 //! leader or its predecessors by the topology (Fig. 41–42e), checks it against the costmap and,
 //! if occupied, searches for a cheap cell nearby (Fig. 40, 42b, 42d). The code is pure: poses,
-//! costs (through [`CostQuery`], so this module does not depend on the costmap's implementation)
+//! costs (through the planner's [`CostQuery`], so this module does not depend on the costmap's
+//! implementation)
 //! and the sim time come in as arguments.
 //!
 //! Entry points: [`formation_goal`] / [`formation_target`] (GET_FORMATION_GOAL), [`validate_goal`]
@@ -50,8 +51,10 @@
 use nalgebra::{Point2, Rotation2, Vector2};
 use swarm_config::{LfFrame, M23Params, Topology};
 
-/// ROS costmap_2d values, as the costmap writes them (NO_INFORMATION counts as free here).
-pub use crate::costmap::{INSCRIBED_INFLATED_OBSTACLE as INSCRIBED, LETHAL_OBSTACLE as LETHAL, NO_INFORMATION};
+// ROS costmap_2d values, as the costmap writes them (NO_INFORMATION counts as free here).
+use crate::planning::{CostQuery, INSCRIBED_INFLATED_OBSTACLE as INSCRIBED, NO_INFORMATION};
+#[cfg(test)]
+use crate::planning::LETHAL_OBSTACLE as LETHAL;
 
 /// Lengths below this are treated as zero.
 const EPS: f64 = 1e-9;
@@ -61,15 +64,6 @@ const MAX_SEARCH_RINGS: i64 = 1000;
 const WINDOW_ANGLES: usize = 16;
 /// Rings (fractions of the window radius) sampled in the tracker's dynamic window.
 const WINDOW_RINGS: [f64; 3] = [1.0, 2.0 / 3.0, 1.0 / 3.0];
-
-/// The costs this module needs, on the ROS scale (0 free … 253 inscribed, 254 lethal).
-pub trait CostQuery {
-    /// Cost of the cell containing `p` (world frame); `None` when unknown or outside the map,
-    /// which is treated as free.
-    fn cost_at(&self, p: Point2<f64>) -> Option<u8>;
-    /// Cell size [m].
-    fn resolution(&self) -> f64;
-}
 
 /// A UAV as the formation layer sees it: id and pose in the world frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,41 +1,67 @@
-//! Relative localization, `broadcast` mode (SPEC section 5, seed 001 3.4): every agent sends its
+//! The `broadcast` localization mode (SPEC section 5, seed 001 3.4): every agent sends its
 //! GNSS-like world pose to its neighbours; the receiver subtracts its own, and expresses the
 //! neighbour in its body frame. The newest pose of each sender is kept, extrapolated by its
-//! velocity over its age, and dropped once older than `stale_after_s`.
-//!
-//! The `icp` mode of seed 000 will sit beside this one and produce the same [`Estimate`]s.
+//! velocity over its age, and dropped once older than `stale_after_s`. Without its own fix this
+//! tick an agent can place nobody, and shares nothing.
 
+use super::{Estimate, Share};
+use crate::geometry::wrap_angle;
+use crate::sensing::SensorFrame;
 use nalgebra::{Rotation2, Vector2};
 use std::collections::BTreeMap;
 use swarm_wire::{Gnss, PoseShare};
 
-/// One neighbour as this agent believes it to be.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
-    /// Sender id where known (metrics only).
-    pub id: Option<u32>,
-    /// Relative position, body frame [m].
-    pub pos_in_body: Vector2<f64>,
-    /// Relative heading [rad].
-    pub heading: f64,
-    /// Age of the information [s].
-    pub age_secs: f64,
+/// The `broadcast` localizer: the table of poses heard, and what it shares.
+#[derive(Debug)]
+pub(crate) struct Broadcast {
+    id: u32,
+    stale_after_s: f64,
+    table: BroadcastTable,
+}
+
+impl Broadcast {
+    /// The localizer of UAV `id`, forgetting poses older than `stale_after_s`.
+    pub(crate) fn new(id: u32, stale_after_s: f64) -> Broadcast {
+        Broadcast { id, stale_after_s, table: BroadcastTable::default() }
+    }
+
+    /// Keeps a neighbour's pose (our own echo and obstacle sets are ignored).
+    pub(crate) fn receive(&mut self, share: Share) {
+        match share {
+            Share::Pose(p) if p.from != self.id => self.table.update(p),
+            _ => {}
+        }
+    }
+
+    /// The neighbours, placed relative to this tick's own fix.
+    pub(crate) fn estimates(&mut self, frame: &SensorFrame) -> Vec<Estimate> {
+        match &frame.gnss {
+            Some(g) => self.table.estimates(g, self.stale_after_s),
+            // Without its own fix a broadcast agent cannot place anyone: fly on obstacles alone.
+            None => Vec::new(),
+        }
+    }
+
+    /// This tick's own fix, as a pose share.
+    pub(crate) fn share(&self, frame: &SensorFrame) -> Option<Share> {
+        frame.gnss.as_ref().map(|g| Share::Pose(pose_share(self.id, g)))
+    }
+}
+
+/// What UAV `from` tells its neighbours of its fix `g`: the same pose, signed.
+pub(crate) fn pose_share(from: u32, g: &Gnss) -> PoseShare {
+    PoseShare { from, tick: g.tick, t_secs: g.t_secs, x: g.x, y: g.y, yaw: g.yaw, vx: g.vx, vy: g.vy }
 }
 
 /// Newest broadcast pose per neighbour.
 #[derive(Debug, Default)]
-pub struct BroadcastTable {
+struct BroadcastTable {
     poses: BTreeMap<u32, PoseShare>,
-}
-
-/// Wraps an angle to [−π, π).
-pub(crate) fn wrap(a: f64) -> f64 {
-    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
 
 impl BroadcastTable {
     /// Keeps `p` if it is newer than what we hold for its sender.
-    pub fn update(&mut self, p: PoseShare) {
+    fn update(&mut self, p: PoseShare) {
         let newer = self.poses.get(&p.from).is_none_or(|old| p.t_secs > old.t_secs);
         if newer {
             self.poses.insert(p.from, p);
@@ -43,7 +69,7 @@ impl BroadcastTable {
     }
 
     /// Estimates of every neighbour heard from within `stale_after_s`, in the body frame of `own`.
-    pub fn estimates(&mut self, own: &Gnss, stale_after_s: f64) -> Vec<Estimate> {
+    fn estimates(&mut self, own: &Gnss, stale_after_s: f64) -> Vec<Estimate> {
         let now = own.t_secs;
         self.poses.retain(|_, p| now - p.t_secs <= stale_after_s + 1e-9);
         let body_from_world = Rotation2::new(-own.yaw);
@@ -56,7 +82,7 @@ impl BroadcastTable {
                 Estimate {
                     id: Some(p.from),
                     pos_in_body: body_from_world * (pos_now - own_pos),
-                    heading: wrap(p.yaw - own.yaw),
+                    heading: wrap_angle(p.yaw - own.yaw),
                     age_secs: age,
                 }
             })
@@ -95,6 +121,13 @@ mod tests {
         assert!((e[0].pos_in_body.x - 5.2).abs() < 1e-12, "moved 0.2 m in 0.2 s");
         assert!((e[0].age_secs - 0.2).abs() < 1e-12);
         assert!(t.estimates(&gnss(1.6, 0.0, 0.0, 0.0), 0.5).is_empty(), "stale after 0.5 s");
+    }
+
+    #[test]
+    fn the_share_is_the_fix_signed_by_its_sender() {
+        let g = Gnss { tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1 };
+        let p = pose_share(4, &g);
+        assert_eq!(p, PoseShare { from: 4, tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1 });
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! neighbours through the social layer (2.4, eq. 11). The seed ran ROS `move_base` with
 //! costmap_2d, the ProxemicLayer of `social_navigation_layers` and `global_planner`; this module
 //! reproduces those cost rules with the seed's parameters (Fig. 30a and 33, in
-//! [`CostmapParams`]). The map is a [`crate::grid::OccupancyGrid`] in the odometry frame, so it
+//! [`CostmapParams`]). The map is a [`super::grid::OccupancyGrid`] in the odometry frame, so it
 //! grows as the UAV flies.
 //!
 //! Cost values are costmap_2d's: [`FREE_SPACE`] 0, inflated 1..=252, [`INSCRIBED_INFLATED_OBSTACLE`]
@@ -39,15 +39,16 @@
 //!   seed 003 IV-C: unknown is free), where global_planner would charge them 252. The heuristic is
 //!   neutral × octile distance, admissible since no step costs less than neutral; global_planner's
 //!   A* uses Manhattan distance, which overestimates on an 8-connected grid.
-//! - **Search limits, escape, window**: those of [`crate::grid::astar`] and
-//!   [`crate::grid::OccupancyGrid::plan`]: the search stops after `max_expanded_cells` with a
+//! - **Search limits, escape, window**: those of [`super::grid::astar`] and
+//!   [`super::grid::OccupancyGrid::plan`]: the search stops after `max_expanded_cells` with a
 //!   partial path, and a start inside the inscribed zone first escapes through non-lethal cells.
 
 use nalgebra::{Point2, Vector2};
 use swarm_config::CostmapParams;
 
-use crate::grid::{
-    octile_cells, Cell, CellSearch, CellSet, CellState, GridChanges, GridParams, OccupancyGrid, Path, Pose2, TileMap,
+use crate::geometry::Pose2;
+use super::grid::{
+    octile_cells, Cell, CellSearch, CellSet, CellState, GridChanges, GridParams, OccupancyGrid, Path, TileMap,
 };
 
 /// costmap_2d: no cost.
@@ -391,8 +392,18 @@ fn dist2(a: Cell, b: Cell) -> f64 {
     dx * dx + dy * dy
 }
 
-/// The M23 formation layer reads this costmap through its [`crate::m23::CostQuery`].
-impl crate::m23::CostQuery for Costmap {
+/// Costs on the ROS scale (0 free … 253 inscribed, 254 lethal), as the formation layer and the
+/// tracker of M23 read them: from this costmap, or from a costmap with more on it.
+pub trait CostQuery {
+    /// Cost of the cell containing `p` (world frame); `None` when unknown or outside the map,
+    /// which is treated as free.
+    fn cost_at(&self, p: Point2<f64>) -> Option<u8>;
+    /// Cell size [m].
+    fn resolution(&self) -> f64;
+}
+
+/// The M23 formation layer reads this costmap through [`CostQuery`].
+impl CostQuery for Costmap {
     fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
         Some(self.cost_of_point(&p))
     }

@@ -66,7 +66,7 @@ pub struct Output {
     pub navigation: Vector2<f64>,
 }
 
-use crate::vec2::{is_finite, EPS};
+use crate::geometry::{is_finite, EPS};
 
 /// Clip to unit length: v/|v| if |v| > 1, else v (seed 000, eq. 4.6, 4.13 and 4.2 share it).
 fn clip_unit(v: Vector2<f64>) -> Vector2<f64> {

@@ -39,24 +39,26 @@
 
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
+use crate::geometry::wrap_angle;
 use swarm_config::IcpParams;
 
-/// A rigid transform that maps points from the neighbour's body frame (the source set S) into
-/// this agent's body frame (the reference set R): `p_R = Rot(rotation) · p_S + translation`.
-/// So `translation` is where the neighbour is, and `rotation` its heading, relative to us.
+/// The rigid transform `agent_from_neighbour`: it maps points from the neighbour's body frame
+/// (the source set S) into this agent's body frame (the reference set R),
+/// `p_R = Rot(rotation_rad) · p_S + translation_m`. So `translation_m` is where the neighbour is,
+/// and `rotation_rad` its heading, relative to us.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Transform {
-    /// Relative heading [rad].
-    pub rotation: f64,
-    /// Relative position [m].
-    pub translation: Vector2<f64>,
+pub struct AgentFromNeighbour {
+    /// Relative heading of the neighbour [rad].
+    pub rotation_rad: f64,
+    /// Relative position of the neighbour, this agent's body frame [m].
+    pub translation_m: Vector2<f64>,
 }
 
 /// The outcome of aligning a received set to our own.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Match {
     /// The alignment.
-    pub transform: Transform,
+    pub agent_from_neighbour: AgentFromNeighbour,
     /// Fractional root mean square distance of the kept pairs (seed 000 eq. 3.16).
     pub frmsd: f64,
     /// Pairs kept after FRMSD outlier rejection.
@@ -72,7 +74,7 @@ pub enum NoEstimate {
     /// A coordinate, the initial transform or a parameter is NaN or infinite.
     #[error("non-finite point, transform or parameter")]
     NonFinite,
-    /// The points cannot pin down a 2D rigid transform: a side is all coincident or collinear,
+    /// The points cannot pin down a 2D rigid agent_from_neighbour: a side is all coincident or collinear,
     /// or the pairs kept at the end are.
     #[error("degenerate (coincident or collinear) point set")]
     Degenerate,
@@ -170,16 +172,6 @@ impl Workspace {
     }
 }
 
-/// Wraps an angle to [−π, π).
-fn wrap(a: f64) -> f64 {
-    let w = (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    if w >= std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
-}
-
 /// The rotation matrix of angle `a`.
 fn rot(a: f64) -> Matrix2<f64> {
     let (s, c) = a.sin_cos();
@@ -216,7 +208,7 @@ fn degenerate(points: impl Iterator<Item = Point2<f64>> + Clone) -> bool {
         return true;
     }
     c /= n;
-    let (sxx, sxy, syy) = crate::vec2::scatter(points, c);
+    let (sxx, sxy, syy) = crate::geometry::scatter(points, c);
     let (sxx, sxy, syy) = (sxx / n, sxy / n, syy / n);
     // Not in seed 000 (degeneracy test): eigenvalues of the 2×2 covariance [[sxx, sxy], [sxy, syy]]:
     // λ± = (sxx + syy)/2 ± sqrt(((sxx − syy)/2)² + sxy²).
@@ -228,11 +220,11 @@ fn degenerate(points: impl Iterator<Item = Point2<f64>> + Clone) -> bool {
 }
 
 /// Writes `t(source)` into `moved`.
-fn apply(t: &Transform, source: &[Point2<f64>], moved: &mut Vec<Point2<f64>>) {
-    let r = rot(t.rotation);
+fn apply(t: &AgentFromNeighbour, source: &[Point2<f64>], moved: &mut Vec<Point2<f64>>) {
+    let r = rot(t.rotation_rad);
     moved.clear();
-    // seed 000, eq. 3.12 form (tranSource): p_R = Rot(rotation) · p_S + translation.
-    moved.extend(source.iter().map(|q| Point2::from(r * q.coords + t.translation)));
+    // seed 000, eq. 3.12 form (tranSource): p_R = Rot(rotation_rad) · p_S + translation_m.
+    moved.extend(source.iter().map(|q| Point2::from(r * q.coords + t.translation_m)));
 }
 
 /// Pairs every moved source point with its nearest reference point and sorts the pairs by
@@ -280,7 +272,7 @@ fn best_prefix(sorted_d2: impl Iterator<Item = f64>, weights: &[f64], k_min: usi
 fn evaluate(
     reference: &[Point2<f64>],
     source: &[Point2<f64>],
-    t: &Transform,
+    t: &AgentFromNeighbour,
     moved: &mut Vec<Point2<f64>>,
     pairs: &mut Vec<Pair>,
     weights: &[f64],
@@ -341,7 +333,7 @@ struct Run {
 fn icp_core(
     reference: &[Point2<f64>],
     source: &[Point2<f64>],
-    initial: Transform,
+    initial: AgentFromNeighbour,
     p: &IcpParams,
     ws: &mut Workspace,
 ) -> Result<Run, NoEstimate> {
@@ -370,7 +362,7 @@ fn icp_core(
             / kept.len() as f64;
         let d_rot = r[(1, 0)].atan2(r[(0, 0)]);
         // seed 000, eq. 3.12 (tranSource) composed onto the estimate: p_R = ΔRot (Rot p_S + t) + Δt.
-        let candidate = Transform { rotation: wrap(t.rotation + d_rot), translation: rot(d_rot) * t.translation + tr };
+        let candidate = AgentFromNeighbour { rotation_rad: wrap_angle(t.rotation_rad + d_rot), translation_m: rot(d_rot) * t.translation_m + tr };
         iterations += 1;
         let e_next = evaluate(reference, source, &candidate, moved, next, weights, k_min);
         if !matches!(e_next.frmsd.partial_cmp(&e.frmsd), Some(Ordering::Less | Ordering::Equal)) {
@@ -389,7 +381,7 @@ fn icp_core(
     if degenerate(kept.iter().map(|q| reference[q.r])) || degenerate(kept.iter().map(|q| source[q.s])) {
         return Err(NoEstimate::Degenerate);
     }
-    Ok(Run { m: Match { transform: t, frmsd: e.frmsd, pairs: e.kept }, iterations, stop })
+    Ok(Run { m: Match { agent_from_neighbour: t, frmsd: e.frmsd, pairs: e.kept }, iterations, stop })
 }
 
 /// ICP from an initial transform (the "short ICP" of seed 000 5.1): pair every point of `source`
@@ -407,11 +399,11 @@ fn icp_core(
 pub fn icp(
     reference: &[Point2<f64>],
     source: &[Point2<f64>],
-    initial: Transform,
+    initial: AgentFromNeighbour,
     p: &IcpParams,
 ) -> Result<Match, NoEstimate> {
     let k_min = validate(reference, source, p)?;
-    if !initial.rotation.is_finite() || !initial.translation.iter().all(|x| x.is_finite()) {
+    if !initial.rotation_rad.is_finite() || !initial.translation_m.iter().all(|x| x.is_finite()) {
         return Err(NoEstimate::NonFinite);
     }
     let mut ws = Workspace::new(source.len(), p.lambda, k_min);
@@ -422,7 +414,7 @@ pub fn icp(
 #[derive(Debug, Clone, Copy)]
 struct Start {
     score: f64,
-    transform: Transform,
+    agent_from_neighbour: AgentFromNeighbour,
 }
 
 /// Inserts `s` into `list` (kept ≤ `cap` long, best first) if it ranks, with non-maximum
@@ -434,8 +426,8 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
         return;
     }
     let near = |q: &Start| {
-        q.transform.rotation == s.transform.rotation
-            && (q.transform.translation - s.transform.translation).norm_squared() <= suppress2
+        q.agent_from_neighbour.rotation_rad == s.agent_from_neighbour.rotation_rad
+            && (q.agent_from_neighbour.translation_m - s.agent_from_neighbour.translation_m).norm_squared() <= suppress2
     };
     if let Some(i) = list.iter().position(near) {
         if s.score.total_cmp(&list[i].score).is_ge() {
@@ -500,7 +492,7 @@ pub fn initial_icp(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpPar
     let mut per_heading: Vec<Start> = Vec::with_capacity(headings as usize);
     for k in 0..headings {
         // seed 000, 5.1 ("all relative headings"): θ_k = 2π·k/H, evenly spaced.
-        let heading = wrap(std::f64::consts::TAU * f64::from(k) / f64::from(headings));
+        let heading = wrap_angle(std::f64::consts::TAU * f64::from(k) / f64::from(headings));
         let r = rot(heading);
         ws.rotated.clear();
         ws.rotated.extend(source.iter().map(|q| r * q.coords));
@@ -510,7 +502,7 @@ pub fn initial_icp(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpPar
                 // seed 000, 5.1 and Figure 5.1: grid point g = (i, j)·spacing, centred on the agent.
                 let g = Vector2::new(i as f64, j as f64) * p.grid_spacing_m;
                 let score = first_pass_score(reference, &ws.rotated, g, &mut ws.d2, &ws.weights, k_min);
-                let s = Start { score, transform: Transform { rotation: heading, translation: g } };
+                let s = Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: g } };
                 if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
                     best_here = Some(s);
                 }
@@ -518,14 +510,14 @@ pub fn initial_icp(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpPar
             }
         }
         // The best start of this heading, unless the shortlist already has it.
-        per_heading.extend(best_here.filter(|b| !shortlist.iter().any(|q| q.transform == b.transform)));
+        per_heading.extend(best_here.filter(|b| !shortlist.iter().any(|q| q.agent_from_neighbour == b.agent_from_neighbour)));
     }
 
     // Second pass: full ICP from the shortlist and the per-heading bests; lowest FRMSD wins.
     let mut best: Option<Match> = None;
     let mut first_err = None;
     for s in shortlist.iter().chain(per_heading.iter()) {
-        match icp_core(reference, source, s.transform, p, &mut ws) {
+        match icp_core(reference, source, s.agent_from_neighbour, p, &mut ws) {
             Ok(run) => {
                 if best.is_none_or(|b| run.m.frmsd < b.frmsd) {
                     best = Some(run.m);
@@ -592,33 +584,33 @@ mod tests {
     }
 
     /// Expresses reference-frame points in the neighbour's frame: p_S = Rot(θ)ᵀ (p_R − t).
-    fn to_source(t: &Transform, pts: &[Point2<f64>]) -> Vec<Point2<f64>> {
-        let r = rot(t.rotation).transpose();
-        pts.iter().map(|q| Point2::from(r * (q.coords - t.translation))).collect()
+    fn to_source(t: &AgentFromNeighbour, pts: &[Point2<f64>]) -> Vec<Point2<f64>> {
+        let r = rot(t.rotation_rad).transpose();
+        pts.iter().map(|q| Point2::from(r * (q.coords - t.translation_m))).collect()
     }
 
-    fn random_transform(rng: &mut Rng, max_t: f64) -> Transform {
-        Transform {
-            rotation: rng.range(-PI, PI),
-            translation: Vector2::new(rng.range(-max_t, max_t), rng.range(-max_t, max_t)),
+    fn random_transform(rng: &mut Rng, max_t: f64) -> AgentFromNeighbour {
+        AgentFromNeighbour {
+            rotation_rad: rng.range(-PI, PI),
+            translation_m: Vector2::new(rng.range(-max_t, max_t), rng.range(-max_t, max_t)),
         }
     }
 
     /// `t` perturbed by up to `dt` metres per axis and `da` radians.
-    fn perturb(rng: &mut Rng, t: &Transform, dt: f64, da: f64) -> Transform {
-        Transform {
-            rotation: t.rotation + rng.range(-da, da),
-            translation: t.translation + Vector2::new(rng.range(-dt, dt), rng.range(-dt, dt)),
+    fn perturb(rng: &mut Rng, t: &AgentFromNeighbour, dt: f64, da: f64) -> AgentFromNeighbour {
+        AgentFromNeighbour {
+            rotation_rad: t.rotation_rad + rng.range(-da, da),
+            translation_m: t.translation_m + Vector2::new(rng.range(-dt, dt), rng.range(-dt, dt)),
         }
     }
 
     fn angle_err(a: f64, b: f64) -> f64 {
-        wrap(a - b).abs()
+        wrap_angle(a - b).abs()
     }
 
-    fn close(m: &Match, truth: &Transform, tol_m: f64, tol_rad: f64) -> bool {
-        (m.transform.translation - truth.translation).norm() < tol_m
-            && angle_err(m.transform.rotation, truth.rotation) < tol_rad
+    fn close(m: &Match, truth: &AgentFromNeighbour, tol_m: f64, tol_rad: f64) -> bool {
+        (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < tol_m
+            && angle_err(m.agent_from_neighbour.rotation_rad, truth.rotation_rad) < tol_rad
     }
 
     /// The scenario of the acceptance test: 20 reference points (trees, ≥ 1.5 m apart) in a 20 m ×
@@ -626,11 +618,11 @@ mod tests {
     /// within ±5 m); its set is 14 of the reference points in its frame plus 6 trees only it sees
     /// (in the 20 m square around it, ≥ 1.5 m from every tree), all with Gaussian noise `sigma`,
     /// shuffled. So 30 % of each side is one-sided.
-    fn scenario(rng: &mut Rng, sigma: f64) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, Transform) {
+    fn scenario(rng: &mut Rng, sigma: f64) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, AgentFromNeighbour) {
         let reference = scatter(rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
         let truth = random_transform(rng, 5.0);
         let mut seen = reference[..14].to_vec();
-        seen.extend(scatter(rng, 6, truth.translation, 10.0, 1.5, &reference));
+        seen.extend(scatter(rng, 6, truth.translation_m, 10.0, 1.5, &reference));
         let mut source = to_source(&truth, &seen);
         for q in &mut source {
             q.x += sigma * rng.gauss();
@@ -648,7 +640,7 @@ mod tests {
     fn run(
         reference: &[Point2<f64>],
         source: &[Point2<f64>],
-        initial: Transform,
+        initial: AgentFromNeighbour,
         p: &IcpParams,
     ) -> Result<Run, NoEstimate> {
         let k_min = validate(reference, source, p)?;
@@ -660,15 +652,15 @@ mod tests {
     fn eval_and_step(
         reference: &[Point2<f64>],
         source: &[Point2<f64>],
-        t: &Transform,
+        t: &AgentFromNeighbour,
         p: &IcpParams,
-    ) -> (Eval, Option<Transform>) {
+    ) -> (Eval, Option<AgentFromNeighbour>) {
         let k_min = validate(reference, source, p).expect("valid");
         let mut ws = Workspace::new(source.len(), p.lambda, k_min);
         let e = evaluate(reference, source, t, &mut ws.moved, &mut ws.cur, &ws.weights, k_min);
         let step = estimate(reference, &ws.moved, &ws.cur[..e.kept]).map(|(r, tr)| {
             let d = r[(1, 0)].atan2(r[(0, 0)]);
-            Transform { rotation: wrap(t.rotation + d), translation: rot(d) * t.translation + tr }
+            AgentFromNeighbour { rotation_rad: wrap_angle(t.rotation_rad + d), translation_m: rot(d) * t.translation_m + tr }
         });
         (e, step)
     }
@@ -745,9 +737,9 @@ mod tests {
         assert!((r * c_s + t - c_r).norm() < 1e-12);
         // And ICP on the mirrored set still returns a proper (finite) transform or an error.
         if let Ok(m) =
-            icp(&reference, &moved, Transform { rotation: 0.0, translation: Vector2::zeros() }, &IcpParams::default())
+            icp(&reference, &moved, AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::zeros() }, &IcpParams::default())
         {
-            assert!(m.transform.rotation.is_finite() && m.frmsd.is_finite());
+            assert!(m.agent_from_neighbour.rotation_rad.is_finite() && m.frmsd.is_finite());
         }
     }
 
@@ -810,7 +802,7 @@ mod tests {
             }
             found += 1;
             // The returned FRMSD is that of the pairing at the returned transform ...
-            let (e, next) = eval_and_step(&reference, &source, &r.m.transform, &p);
+            let (e, next) = eval_and_step(&reference, &source, &r.m.agent_from_neighbour, &p);
             assert_eq!(e.frmsd, r.m.frmsd);
             assert_eq!(e.kept, r.m.pairs);
             // ... and one more step would have raised it: that step was refused.
@@ -832,13 +824,13 @@ mod tests {
         // Cap 0: the initial transform comes back, with the FRMSD of its pairing.
         let p0 = IcpParams { max_iterations: 0, ..IcpParams::default() };
         let m = icp(&reference, &source, start, &p0).expect("estimate");
-        assert_eq!(m.transform, start);
+        assert_eq!(m.agent_from_neighbour, start);
         assert_eq!(m.frmsd, eval_and_step(&reference, &source, &start, &p0).0.frmsd);
         // Cap 1: exactly one step, stopped by the cap, equal to the step computed by hand.
         let p1 = IcpParams { max_iterations: 1, tolerance_m: 0.0, ..IcpParams::default() };
         let r = run(&reference, &source, start, &p1).expect("estimate");
         assert_eq!((r.iterations, r.stop), (1, Stop::MaxIterations));
-        assert_eq!(Some(r.m.transform), eval_and_step(&reference, &source, &start, &p1).1);
+        assert_eq!(Some(r.m.agent_from_neighbour), eval_and_step(&reference, &source, &start, &p1).1);
         // Any cap: never more iterations than the cap, over random noisy runs from poor starts.
         for cap in [1, 2, 3, 5, 8] {
             let p = IcpParams { max_iterations: cap, tolerance_m: 0.0, ..IcpParams::default() };
@@ -855,7 +847,7 @@ mod tests {
     #[test]
     fn degenerate_inputs_are_rejected() {
         let p = IcpParams::default();
-        let id = Transform { rotation: 0.0, translation: Vector2::zeros() };
+        let id = AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::zeros() };
         let good = square_ish();
         let both = |r: &[Point2<f64>], s: &[Point2<f64>]| (icp(r, s, id, &p).err(), initial_icp(r, s, &p).err());
         let expect = |r: &[Point2<f64>], s: &[Point2<f64>], e: NoEstimate| {
@@ -878,9 +870,9 @@ mod tests {
             let mut s = good.clone();
             s[2].y = bad;
             expect(&s, &good, NoEstimate::NonFinite);
-            let t = Transform { rotation: bad, translation: Vector2::zeros() };
+            let t = AgentFromNeighbour { rotation_rad: bad, translation_m: Vector2::zeros() };
             assert_eq!(icp(&good, &good, t, &p), Err(NoEstimate::NonFinite));
-            let t = Transform { rotation: 0.0, translation: Vector2::new(0.0, bad) };
+            let t = AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(0.0, bad) };
             assert_eq!(icp(&good, &good, t, &p), Err(NoEstimate::NonFinite));
             let pl = IcpParams { lambda: bad, ..IcpParams::default() };
             assert_eq!(icp(&good, &good, id, &pl), Err(NoEstimate::NonFinite));
@@ -900,7 +892,7 @@ mod tests {
         reference.extend([Point2::new(1.0, 6.0), Point2::new(5.0, -7.0)]);
         let mut source: Vec<Point2<f64>> = (0..6).map(|i| Point2::new(i as f64 * 2.0, 0.0)).collect();
         source.extend([Point2::new(30.0, 30.0), Point2::new(-30.0, 25.0), Point2::new(20.0, -30.0)]);
-        let id = Transform { rotation: 0.0, translation: Vector2::zeros() };
+        let id = AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::zeros() };
         assert_eq!(icp(&reference, &source, id, &IcpParams::default()), Err(NoEstimate::Degenerate));
     }
 
@@ -969,11 +961,11 @@ mod tests {
         #[test]
         fn prop_icp_is_total(reference in points(12), source in points(12), a in -10.0..10.0f64, x in -10.0..10.0f64, y in -10.0..10.0f64) {
             let p = IcpParams::default();
-            match icp(&reference, &source, Transform { rotation: a, translation: Vector2::new(x, y) }, &p) {
+            match icp(&reference, &source, AgentFromNeighbour { rotation_rad: a, translation_m: Vector2::new(x, y) }, &p) {
                 Ok(m) => {
                     prop_assert!(m.frmsd.is_finite() && m.frmsd >= 0.0);
-                    prop_assert!(m.transform.rotation.is_finite() && (-PI..PI).contains(&m.transform.rotation));
-                    prop_assert!(m.transform.translation.iter().all(|v| v.is_finite()));
+                    prop_assert!(m.agent_from_neighbour.rotation_rad.is_finite() && (-PI..PI).contains(&m.agent_from_neighbour.rotation_rad));
+                    prop_assert!(m.agent_from_neighbour.translation_m.iter().all(|v| v.is_finite()));
                     prop_assert!(m.pairs >= 3 && m.pairs <= source.len());
                 }
                 Err(e) => prop_assert!(matches!(e, NoEstimate::TooFewPoints | NoEstimate::NonFinite | NoEstimate::Degenerate)),
@@ -985,7 +977,7 @@ mod tests {
         fn prop_icp_recovers_rigid_motion(seed in any::<u64>(), a in -PI..PI, x in -5.0..5.0f64, y in -5.0..5.0f64, n in 5usize..25) {
             let mut rng = Rng(seed);
             let reference = scatter(&mut rng, n, Vector2::zeros(), 10.0, 1.5, &[]);
-            let truth = Transform { rotation: a, translation: Vector2::new(x, y) };
+            let truth = AgentFromNeighbour { rotation_rad: a, translation_m: Vector2::new(x, y) };
             let source = to_source(&truth, &reference);
             let start = perturb(&mut rng, &truth, 0.3, 3f64.to_radians());
             let m = icp(&reference, &source, start, &IcpParams::default());

@@ -6,8 +6,9 @@
 //! fixed inertial frame chosen by the caller (the agent's odometry frame): the own position p0,
 //! the previous velocity v0[t−1], the neighbours' positions and velocities, the obstacles
 //! (cylinders and walls) and the optional goal. [`step`] returns the new velocity v0[t] (eq. 40–42)
-//! with every component force for logging. [`VelocityTracker`] estimates a neighbour's velocity
-//! from its successive positions (eq. 9) for the alignment force.
+//! with every component force for logging. The neighbours' velocities for the alignment force come
+//! from their successive positions (eq. 9), see
+//! [`VelocityTracker`](super::neighbour_velocity::VelocityTracker).
 //!
 //! Units. Seed 001 counts time in loops: p0[t] = p0[t−1] + v0[t] (eq. 41), so its "velocity" is
 //! the displacement of one loop, and Algorithm 1 limits it to the loop distance. Here the API
@@ -56,7 +57,6 @@
 //! 1.05 and 1.15) the pure navigation loop does not converge and only the loop-distance limit
 //! bounds it; Table 2 (c2 = 0) converges.
 
-use std::collections::BTreeMap;
 
 use nalgebra::{Matrix2, Vector2};
 use swarm_config::P17Values;
@@ -66,7 +66,7 @@ use swarm_config::P17Values;
 pub struct Neighbour {
     /// Position p_j [m].
     pub pos: Vector2<f64>,
-    /// Velocity v_j [m/s] (e.g. from [`VelocityTracker`]; zero when unknown).
+    /// Velocity v_j [m/s] (e.g. from [`VelocityTracker`](super::neighbour_velocity::VelocityTracker); zero when unknown).
     pub vel_mps: Vector2<f64>,
 }
 
@@ -188,7 +188,7 @@ impl Output {
     }
 }
 
-use crate::vec2::{finite_or_zero, is_finite, EPS};
+use crate::geometry::{finite_or_zero, is_finite, EPS};
 
 /// A velocity [m/s] as the move of one loop [m per loop]; non-finite becomes zero.
 fn per_loop(v: &P17Values, vel_mps: Vector2<f64>) -> Vector2<f64> {
@@ -512,82 +512,6 @@ pub fn step(v: &P17Values, input: &Input) -> Output {
     Output { velocity_mps, velocity_per_loop, limited, forces }
 }
 
-/// A neighbour's last position sample and velocity estimate.
-#[derive(Debug, Clone, Copy)]
-struct Track {
-    pos: Vector2<f64>,
-    t_secs: f64,
-    vel_mps: Option<Vector2<f64>>,
-}
-
-/// Estimates each neighbour's velocity from its successive positions (seed 001 eq. 9:
-/// v_j[t−1] = p_j[t] − p_j[t−1], here divided by the time between the samples, so in m/s).
-///
-/// Keyed by a neighbour id; `t_secs` is the sample's own time stamp (the sender's, not the
-/// arrival time, so network delay does not distort the estimate). A sample older than or as old
-/// as the last one (reordered or repeated) is ignored. The first sample of a neighbour gives no
-/// estimate (`None`: the caller uses zero). Entries not updated for `forget_after_secs` are dropped
-/// by [`VelocityTracker::forget_stale`]; a neighbour seen again afterwards starts afresh.
-#[derive(Debug, Clone)]
-pub struct VelocityTracker {
-    forget_after_secs: f64,
-    tracks: BTreeMap<u32, Track>,
-}
-
-impl VelocityTracker {
-    /// A tracker forgetting neighbours not seen for `forget_after_secs`.
-    pub fn new(forget_after_secs: f64) -> Self {
-        VelocityTracker { forget_after_secs, tracks: BTreeMap::new() }
-    }
-
-    /// Records neighbour `id` at `pos` [m] stamped `t_secs`; returns its velocity estimate [m/s].
-    /// Non-finite samples are ignored.
-    pub fn update(&mut self, id: u32, pos: Vector2<f64>, t_secs: f64) -> Option<Vector2<f64>> {
-        if !is_finite(&pos) || !t_secs.is_finite() {
-            return self.velocity(id);
-        }
-        match self.tracks.get_mut(&id) {
-            None => {
-                self.tracks.insert(id, Track { pos, t_secs, vel_mps: None });
-                None
-            }
-            Some(track) if t_secs > track.t_secs => {
-                // seed 001 eq. 9: v_j = (p_j[t] − p_j[t−1]), per second of the sample interval.
-                let vel = (pos - track.pos) / (t_secs - track.t_secs);
-                track.vel_mps = is_finite(&vel).then_some(vel);
-                track.pos = pos;
-                track.t_secs = t_secs;
-                track.vel_mps
-            }
-            Some(track) => track.vel_mps,
-        }
-    }
-
-    /// The velocity estimate of neighbour `id` [m/s], if it has one.
-    pub fn velocity(&self, id: u32) -> Option<Vector2<f64>> {
-        self.tracks.get(&id).and_then(|t| t.vel_mps)
-    }
-
-    /// Drops the neighbours whose last sample is more than `forget_after_secs` older than
-    /// `now_secs`. A non-finite `now_secs` drops nothing.
-    pub fn forget_stale(&mut self, now_secs: f64) {
-        if now_secs.is_finite() {
-            let keep = self.forget_after_secs;
-            self.tracks.retain(|_, t| now_secs - t.t_secs <= keep);
-        }
-    }
-
-    /// Number of neighbours tracked.
-    pub fn len(&self) -> usize {
-        self.tracks.len()
-    }
-
-    /// Whether no neighbour is tracked.
-    pub fn is_empty(&self) -> bool {
-        self.tracks.is_empty()
-    }
-}
-
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
@@ -595,6 +519,7 @@ mod tests {
     use proptest::prelude::*;
     use proptest::test_runner::RngSeed;
     use swarm_config::P17Preset;
+    use super::super::neighbour_velocity::VelocityTracker;
 
     /// Table 1, Fig. 28/29/35: r 10, k1 10, d 4, b1 10, b2 4; the X fields from forest_9:
     /// k2 25, w 4, c1 0.15, c2 0.9; 5 Hz, 0.75 m. A velocity of 5 m/s is 1 m per loop.
@@ -1039,46 +964,6 @@ mod tests {
         close(out.velocity_mps, v(0.0, 0.0), 1e-15);
         // A zero loop rate → hover.
         assert_eq!(step(&P17Values { loop_rate_hz: 0.0, ..p }, &input), Output::zero());
-    }
-
-    #[test]
-    fn velocity_tracker_estimates_from_position_differences() {
-        let mut t = VelocityTracker::new(1.0);
-        // First sample: no estimate.
-        assert_eq!(t.update(7, v(0.0, 0.0), 1.0), None);
-        // (1,2) 0.5 s later: ((1,2) − (0,0))/0.5 = (2,4) m/s (seed 001 eq. 9, per second).
-        close(t.update(7, v(1.0, 2.0), 1.5).unwrap(), v(2.0, 4.0), 1e-12);
-        // The same stamp again, and an older (reordered) sample: ignored.
-        close(t.update(7, v(9.0, 9.0), 1.5).unwrap(), v(2.0, 4.0), 1e-12);
-        close(t.update(7, v(5.0, 5.0), 1.2).unwrap(), v(2.0, 4.0), 1e-12);
-        // NaN sample ignored.
-        close(t.update(7, v(f64::NAN, 5.0), 1.8).unwrap(), v(2.0, 4.0), 1e-12);
-        // (2,2) at 2.0: ((2,2) − (1,2))/0.5 = (2,0).
-        close(t.update(7, v(2.0, 2.0), 2.0).unwrap(), v(2.0, 0.0), 1e-12);
-        close(t.velocity(7).unwrap(), v(2.0, 0.0), 1e-12);
-        assert_eq!(t.velocity(8), None);
-        // Another neighbour last seen at 0.5; at now = 2.0 it is 1.5 s old > 1 s → forgotten,
-        // neighbour 7 (0 s old) is kept.
-        t.update(8, v(0.0, 0.0), 0.2);
-        t.update(8, v(0.3, 0.0), 0.5);
-        close(t.velocity(8).unwrap(), v(1.0, 0.0), 1e-12);
-        assert_eq!(t.len(), 2);
-        t.forget_stale(2.0);
-        assert_eq!(t.len(), 1);
-        assert_eq!(t.velocity(8), None);
-        // Seen again: starts afresh.
-        assert_eq!(t.update(8, v(5.0, 0.0), 2.1), None);
-        assert_eq!(t.len(), 2);
-        // At 3.0 neighbour 7 (last 2.0) is exactly 1 s old: kept. At 3.05 it goes, 8 (last 2.1,
-        // 0.95 s old) stays. A NaN time drops nothing; at 3.2 both are gone.
-        t.forget_stale(3.0);
-        assert_eq!(t.len(), 2);
-        t.forget_stale(3.05);
-        assert_eq!((t.len(), t.velocity(7)), (1, None));
-        t.forget_stale(f64::NAN);
-        assert_eq!(t.len(), 1);
-        t.forget_stale(3.2);
-        assert!(t.is_empty());
     }
 
     /// Nearest-neighbour spacing of one moment [m]: mean, min and max over the agents.

@@ -16,7 +16,7 @@
 //! comparison only. The sender id is otherwise kept for metrics ([`Estimate::id`]).
 //!
 //! The ICP itself is not here: the database calls a [`Matcher`], so it is tested with scripted
-//! matchers and driven by the real ICP (`crate::icp`) in the agent.
+//! matchers and driven by the real ICP (`super::icp`) in [`IcpLocalizer`], the `icp` mode's localizer.
 //!
 //! # One control step ([`Database::step`])
 //!
@@ -52,12 +52,17 @@
 //! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
 //! suspended.
 
-use crate::icp::{Match, Transform};
+use super::icp::{Match, AgentFromNeighbour};
+use super::Share;
+use crate::geometry::wrap_angle;
+use crate::perception::Circle;
+use crate::sensing::SensorFrame;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
+use std::time::Instant;
 use swarm_config::{IcpParams, Identify};
-
+use swarm_wire::{IcpCounts, ObstacleShare};
 /// The ICP variants the database needs (seed 000 5.1). Implemented by the real ICP, and by
 /// scripted matchers in tests. Both return a transform mapping `source` into `reference`'s frame.
 pub trait Matcher {
@@ -66,7 +71,7 @@ pub trait Matcher {
         &mut self,
         reference: &[Point2<f64>],
         source: &[Point2<f64>],
-        initial: Transform,
+        initial: AgentFromNeighbour,
     ) -> Option<Match>;
     /// Full-grid ICP (iICP for a new entry, lICP for a periodic check).
     fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match>;
@@ -100,9 +105,9 @@ pub struct Estimate {
     pub frmsd: f64,
 }
 
-impl From<Estimate> for crate::localization::Estimate {
+impl From<Estimate> for super::Estimate {
     fn from(e: Estimate) -> Self {
-        crate::localization::Estimate {
+        super::Estimate {
             id: e.id,
             pos_in_body: e.pos_in_body,
             heading: e.heading,
@@ -140,7 +145,7 @@ struct Entry {
     /// Internal number, in creation order: the stable iteration order and the priority tie-break.
     key: u64,
     /// Algorithm 5 `rotation` + `translation`; `None` until an iICP has placed the neighbour.
-    transform: Option<Transform>,
+    agent_from_neighbour: Option<AgentFromNeighbour>,
     /// Algorithm 5 `last long`: last successful full-grid ICP; −∞ if never.
     last_long: f64,
     /// Algorithm 5 `ID`: the obstacle set received last, used to recognise the next one.
@@ -184,7 +189,7 @@ pub struct Database {
 /// Slack on time comparisons, so that steps on a 0.1 s grid hit 5 s and 0.5 s thresholds.
 const EPS: f64 = 1e-9;
 
-const IDENTITY: Transform = Transform { rotation: 0.0, translation: Vector2::new(0.0, 0.0) };
+const IDENTITY: AgentFromNeighbour = AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(0.0, 0.0) };
 
 impl Database {
     /// An empty database. `stale_after_s` is `Localization::stale_after_s` (seed 000 5.3: 0.5 s).
@@ -268,7 +273,7 @@ impl Database {
             } else {
                 counts.skipped_long += 1;
                 let e = &self.entries[idx];
-                if e.transform.is_some() && !e.suspended {
+                if e.agent_from_neighbour.is_some() && !e.suspended {
                     self.run_short(now, own, idx, set, m, &mut counts);
                 }
             }
@@ -289,12 +294,12 @@ impl Database {
             .iter()
             .filter(|e| e.chosen && !e.suspended)
             .filter_map(|e| {
-                let t = e.transform?;
+                let t = e.agent_from_neighbour?;
                 Some(Estimate {
                     entry: e.key,
                     id: Some(e.sender),
-                    pos_in_body: t.translation,
-                    heading: crate::localization::wrap(t.rotation),
+                    pos_in_body: t.translation_m,
+                    heading: wrap_angle(t.rotation_rad),
                     age_secs: (now - e.estimate_t).max(0.0),
                     frmsd: e.frmsd,
                 })
@@ -368,8 +373,8 @@ impl Database {
             for (idx, e) in self.entries.iter().enumerate() {
                 counts.matching += 1;
                 if let Some(found) = m.short(&e.id_set, &set.points, IDENTITY) {
-                    let shift = found.transform.translation.norm();
-                    let plausible = shift <= self.params.match_shift_m && found.transform.rotation.abs() <= max_turn;
+                    let shift = found.agent_from_neighbour.translation_m.norm();
+                    let plausible = shift <= self.params.match_shift_m && found.agent_from_neighbour.rotation_rad.abs() <= max_turn;
                     if found.frmsd <= self.params.match_frmsd && plausible {
                         candidates.push((shift, found.frmsd, s, idx));
                     }
@@ -400,7 +405,7 @@ impl Database {
     fn push_new_entry(&mut self, now: f64, set: &Received) -> usize {
         self.entries.push(Entry {
             key: self.next_key,
-            transform: None,
+            agent_from_neighbour: None,
             last_long: f64::NEG_INFINITY,
             id_set: Vec::new(),
             suspended: false,
@@ -425,7 +430,7 @@ impl Database {
             } else {
                 Want::Long(staleness)
             }
-        } else if e.transform.is_none() || staleness + EPS >= self.params.long_every_s {
+        } else if e.agent_from_neighbour.is_none() || staleness + EPS >= self.params.long_every_s {
             Want::Long(staleness)
         } else {
             Want::Short
@@ -442,7 +447,7 @@ impl Database {
         m: &mut impl Matcher,
         counts: &mut StepCounts,
     ) {
-        let initial = self.entries[idx].transform.unwrap_or(IDENTITY);
+        let initial = self.entries[idx].agent_from_neighbour.unwrap_or(IDENTITY);
         counts.short += 1;
         let found = m.short(own, &set.points, initial);
         self.apply(now, idx, set, found, false, counts);
@@ -458,7 +463,7 @@ impl Database {
         m: &mut impl Matcher,
         counts: &mut StepCounts,
     ) {
-        if self.entries[idx].transform.is_some() {
+        if self.entries[idx].agent_from_neighbour.is_some() {
             counts.long += 1;
         } else {
             counts.initial += 1;
@@ -482,7 +487,7 @@ impl Database {
         let e = &mut self.entries[idx];
         match found {
             Some(found) if found.frmsd <= threshold => {
-                e.transform = Some(found.transform);
+                e.agent_from_neighbour = Some(found.agent_from_neighbour);
                 e.frmsd = found.frmsd;
                 e.estimate_t = set.t_secs;
                 e.suspended = false;
@@ -508,6 +513,95 @@ impl Database {
         }
     }
 }
+
+/// The `icp` localizer (seed 000 3.2, chapter 5): it shares its obstacle set, keeps the newest set
+/// from each neighbour, and places the neighbours by matching those sets to its own through the
+/// [`Database`] and the real ICP.
+#[derive(Debug)]
+pub(crate) struct IcpLocalizer {
+    id: u32,
+    stale_after_s: f64,
+    params: IcpParams,
+    /// Whether a wall-clock step budget applies (realtime runs only, see [`Self::estimates`]).
+    realtime: bool,
+    db: Database,
+    /// The newest obstacle set from each neighbour (one per sender), handed to the database by
+    /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
+    received: Vec<Received>,
+}
+
+impl IcpLocalizer {
+    /// The localizer of UAV `id`.
+    pub(crate) fn new(id: u32, params: IcpParams, stale_after_s: f64, realtime: bool) -> IcpLocalizer {
+        let db = Database::new(params.clone(), stale_after_s);
+        IcpLocalizer { id, stale_after_s, params, realtime, db, received: Vec::new() }
+    }
+
+    /// Keeps a neighbour's obstacle set if it is newer than the one held (our own echo and poses
+    /// are ignored).
+    pub(crate) fn receive(&mut self, share: Share) {
+        let Share::Obstacles(o) = share else { return };
+        if o.from == self.id {
+            return;
+        }
+        let held = self.received.iter().position(|r| r.from == o.from);
+        if held.is_none_or(|i| o.t_secs > self.received[i].t_secs) {
+            let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
+            let set = Received { from: o.from, t_secs: o.t_secs, points };
+            match held {
+                Some(i) => self.received[i] = set,
+                None => self.received.push(set),
+            }
+        }
+    }
+
+    /// The neighbours placed by matching their sets to our `circles` at sim time `now`, and the
+    /// ICP work it took; `started` is when the step began (wall clock).
+    pub(crate) fn estimates(&mut self, now: f64, circles: &[Circle], started: Instant) -> (Vec<super::Estimate>, IcpCounts) {
+        let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
+        let stale = self.stale_after_s;
+        self.received.retain(|r| now - r.t_secs <= stale + 1e-9);
+        // The step-time failsafe (seed 000 6.2) guards a realtime deadline. In lockstep the
+        // hub waits for us, so there is none; and a wall-clock decision would make the run
+        // depend on machine load instead of repeating exactly.
+        let realtime = self.realtime;
+        let mut elapsed_ms = || if realtime { started.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
+        let c = self.db.step(now, &own, &self.received, &mut IcpMatcher(&self.params), &mut elapsed_ms);
+        let estimates = self.db.estimates(now).into_iter().map(Into::into).collect();
+        let counts = IcpCounts {
+            short: c.short,
+            long: c.long,
+            initial: c.initial,
+            deferred: c.skipped_long,
+            entries: self.db.len() as u32,
+            suspended: self.db.suspended_len() as u32,
+        };
+        (estimates, counts)
+    }
+
+    /// seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
+    pub(crate) fn share(&self, frame: &SensorFrame, circles: &[Circle]) -> Share {
+        Share::Obstacles(ObstacleShare {
+            from: self.id,
+            tick: frame.scan.tick,
+            t_secs: frame.scan.t_secs,
+            centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
+        })
+    }
+}
+
+/// The real ICP behind the neighbour database.
+struct IcpMatcher<'a>(&'a IcpParams);
+
+impl Matcher for IcpMatcher<'_> {
+    fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: AgentFromNeighbour) -> Option<Match> {
+        super::icp::icp(reference, source, initial, self.0).ok()
+    }
+    fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
+        super::icp::initial_icp(reference, source, self.0).ok()
+    }
+}
+
 
 #[cfg(test)]
 mod tests {
@@ -550,7 +644,7 @@ mod tests {
     struct Call {
         kind: Kind,
         neighbour: u32,
-        initial: Option<Transform>,
+        initial: Option<AgentFromNeighbour>,
     }
 
     /// Scripted ICP. findBestMatch: FRMSD = |Δt| for two sets of one neighbour, 5 otherwise (so
@@ -572,9 +666,9 @@ mod tests {
             }
             let kf = f64::from(k);
             Some(Match {
-                transform: Transform {
-                    rotation: 0.1 * kf,
-                    translation: Vector2::new(kf + self.shift, 0.5 * kf),
+                agent_from_neighbour: AgentFromNeighbour {
+                    rotation_rad: 0.1 * kf,
+                    translation_m: Vector2::new(kf + self.shift, 0.5 * kf),
                 },
                 frmsd: self.frmsd_own.get(&k).copied().unwrap_or(0.2),
                 pairs: 3,
@@ -593,7 +687,7 @@ mod tests {
             &mut self,
             reference: &[Point2<f64>],
             source: &[Point2<f64>],
-            initial: Transform,
+            initial: AgentFromNeighbour,
         ) -> Option<Match> {
             let (k, t) = tag(source);
             if is_own(reference) {
@@ -603,7 +697,7 @@ mod tests {
             self.calls.push(Call { kind: Kind::Match, neighbour: k, initial: Some(initial) });
             let (k_ref, t_ref) = tag(reference);
             let frmsd = if k_ref == k { (t - t_ref).abs() } else { 5.0 };
-            Some(Match { transform: IDENTITY, frmsd, pairs: 3 })
+            Some(Match { agent_from_neighbour: IDENTITY, frmsd, pairs: 3 })
         }
 
         fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
@@ -675,7 +769,7 @@ mod tests {
         assert_eq!((c.created, c.matching, c.short, c.long, c.initial), (0, 1, 1, 0, 0));
         // findBestMatch from the identity; the sICP from the entry's transform.
         assert_eq!(m.calls[0].initial, Some(IDENTITY));
-        let first = Transform { rotation: 0.1, translation: Vector2::new(1.0, 0.5) };
+        let first = AgentFromNeighbour { rotation_rad: 0.1, translation_m: Vector2::new(1.0, 0.5) };
         assert_eq!(m.calls[1], Call { kind: Kind::Short, neighbour: 1, initial: Some(first) });
         assert_eq!(d.estimates(0.1)[0].pos_in_body, Vector2::new(1.3, 0.5));
     }
@@ -743,14 +837,14 @@ mod tests {
     /// stored set of neighbour j only by their separation, |k − j| metres.
     struct Shifted;
     impl Matcher for Shifted {
-        fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], _: Transform) -> Option<Match> {
+        fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], _: AgentFromNeighbour) -> Option<Match> {
             let (k, _) = tag(source);
             let offset = if is_own(reference) { 0.0 } else { (f64::from(k) - f64::from(tag(reference).0)).abs() };
             let frmsd = if offset > 0.0 { 0.05 } else { 0.1 }; // the wrong entry even aligns better
-            Some(Match { transform: Transform { rotation: 0.0, translation: Vector2::new(offset, 0.0) }, frmsd, pairs: 5 })
+            Some(Match { agent_from_neighbour: AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(offset, 0.0) }, frmsd, pairs: 5 })
         }
         fn long(&mut self, _: &[Point2<f64>], _: &[Point2<f64>]) -> Option<Match> {
-            Some(Match { transform: IDENTITY, frmsd: 0.1, pairs: 5 })
+            Some(Match { agent_from_neighbour: IDENTITY, frmsd: 0.1, pairs: 5 })
         }
     }
 
@@ -987,7 +1081,7 @@ mod tests {
         assert_eq!(e.pos_in_body, Vector2::new(1.0, 0.5));
         assert!((e.heading - 0.1).abs() < 1e-12);
         assert!((e.age_secs - 0.1).abs() < 1e-12);
-        let as_loc: crate::localization::Estimate = e.into();
+        let as_loc: super::super::Estimate = e.into();
         assert_eq!(as_loc.pos_in_body, e.pos_in_body);
     }
 

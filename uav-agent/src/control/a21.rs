@@ -74,7 +74,7 @@ pub struct Output {
     pub phi: f64,
 }
 
-use crate::vec2::{finite_or_zero, is_finite, EPS};
+use crate::geometry::{finite_or_zero, is_finite, EPS};
 
 /// Length and unit vector of a finite vector longer than 1e-9 m, else `None`.
 fn length_and_direction(v: &Vector2<f64>) -> Option<(f64, Vector2<f64>)> {

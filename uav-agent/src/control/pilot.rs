@@ -4,7 +4,7 @@
 //! Why a module of its own: the controllers ([`k21`], [`p17`], [`a21`]) are pure functions of
 //! their seeds' inputs, each in its own frame and units. The pilot owns what they need to keep
 //! between steps (P17's previous velocity and its neighbours' velocity tracker, A21's occupancy
-//! grid and planned path) and does the conversions, so `agent` stays one readable pipeline.
+//! grid and planned path) and does the conversions, so the agent's step stays one readable pipeline.
 //!
 //! Frames: perception and localization give everything in the body frame. K21 and A21 work in
 //! it; P17 works in the agent's odometry frame (its steering update integrates velocities, which
@@ -24,17 +24,19 @@
 //!   and subtracts `damping_per_s`·v from eq. 1's acceleration (the seed's tracker damps; ours
 //!   is a bare double integrator).
 
-use crate::costmap::{Costmap, SocialAgent};
-use crate::grid::{Heuristic, OccupancyGrid, PlanParams, Pose2};
-use crate::m23::{self, FollowerInput, LeaderWait, UavState};
+use super::m23::{self, FollowerInput, LeaderWait, UavState};
+use super::neighbour_velocity::VelocityTracker;
+use super::{a21, k21, p17};
+use crate::geometry::{wrap_angle, Pose2};
 use crate::localization::Estimate;
 use crate::perception::{Circle, Segment};
-use crate::{a21, k21, p17};
+use crate::planning::{CostQuery, Costmap, GridParams, Heuristic, OccupancyGrid, PlanParams, SocialAgent, LETHAL_OBSTACLE};
 use nalgebra::{Point2, Rotation2, Vector2};
 use swarm_config::{ControllerKind, Scenario};
 use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
-/// What one step saw, in the body frame.
+/// What one step saw, in the body frame: the neighbours, and the obstacles once the neighbours
+/// the LIDAR sees are taken out of them (built once per step by the agent).
 #[derive(Debug, Clone, Copy)]
 pub struct View<'a> {
     /// This UAV's id.
@@ -49,8 +51,9 @@ pub struct View<'a> {
     pub trees: &'a [Circle],
     /// Wall faces.
     pub walls: &'a [Segment],
-    /// Every returned scan point.
-    pub scan_points: &'a [Point2<f64>],
+    /// The scan points that are not a localized neighbour: what goes into a map (empty unless the
+    /// controller keeps one, see [`Pilot::maps_the_scan`]).
+    pub static_points: &'a [Point2<f64>],
 }
 
 /// A command in the body frame, with the magnitudes of the controller's terms.
@@ -76,7 +79,7 @@ pub enum Pilot {
         /// v[t−1] of seed 001 eq. 40 [m/s], odometry frame.
         prev_vel: Vector2<f64>,
         /// Neighbour velocities from position differences (eq. 9).
-        tracker: p17::VelocityTracker,
+        tracker: VelocityTracker,
     },
     /// M23 (boxed: it is by far the largest).
     M23(Box<M23Pilot>),
@@ -96,20 +99,23 @@ impl Pilot {
     pub fn new(sc: &Scenario) -> Pilot {
         match sc.controller.kind {
             ControllerKind::P17 => {
-                Pilot::P17 { prev_vel: Vector2::zeros(), tracker: p17::VelocityTracker::new(sc.localization.stale_after_s) }
+                Pilot::P17 { prev_vel: Vector2::zeros(), tracker: VelocityTracker::new(sc.localization.stale_after_s) }
             }
             ControllerKind::A21 => {
                 let a = &sc.controller.a21;
-                let params = crate::grid::GridParams {
-                    resolution_m: a.grid_resolution_m,
-                    max_range_m: sc.lidar.max_range_m,
-                    ..crate::grid::GridParams::default()
-                };
+                let params =
+                    GridParams { resolution_m: a.grid_resolution_m, max_range_m: sc.lidar.max_range_m, ..GridParams::default() };
                 Pilot::A21 { grid: Box::new(OccupancyGrid::new(params)), path: Vec::new(), planned_at: None }
             }
             ControllerKind::M23 => Pilot::M23(Box::new(M23Pilot::new(sc))),
             ControllerKind::K21 => Pilot::K21,
         }
+    }
+
+    /// Whether the controller builds a map from the scan (A21's grid, M23's costmap), and so needs
+    /// [`View::static_points`].
+    pub fn maps_the_scan(&self) -> bool {
+        matches!(self, Pilot::A21 { .. } | Pilot::M23(_))
     }
 
     /// One control step.
@@ -125,7 +131,7 @@ impl Pilot {
 
 /// The goal's bearing in the body frame (seed 000 eq. 4.15 minus own heading).
 fn goal_heading(odom: &Odom) -> Option<f64> {
-    odom.goal.map(|g| crate::localization::wrap((g[1] - odom.y).atan2(g[0] - odom.x) - odom.yaw))
+    odom.goal.map(|g| wrap_angle((g[1] - odom.y).atan2(g[0] - odom.x) - odom.yaw))
 }
 
 fn fly_k21(sc: &Scenario, v: &View) -> Command {
@@ -155,7 +161,7 @@ fn pose(odom: &Odom) -> (Vector2<f64>, Rotation2<f64>) {
     (Vector2::new(odom.x, odom.y), Rotation2::new(odom.yaw))
 }
 
-fn fly_p17(sc: &Scenario, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut p17::VelocityTracker) -> Command {
+fn fly_p17(sc: &Scenario, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut VelocityTracker) -> Command {
     let (p0, rot) = pose(v.odom);
     let to_odom = |b: Vector2<f64>| p0 + rot * b;
     tracker.forget_stale(v.t_secs);
@@ -206,13 +212,6 @@ fn odom_velocity(rot: Rotation2<f64>, vel: Vector2<f64>, vectors: VectorMagnitud
     Command { kind: CmdKind::Velocity, xy: rot.inverse() * vel, yaw_rate: 0.0, vectors }
 }
 
-/// The scan points that are not a localized neighbour: what goes into a map.
-fn static_points(sc: &Scenario, v: &View) -> Vec<Point2<f64>> {
-    let near_neighbour =
-        |p: &Point2<f64>| v.neighbours.iter().any(|e| (e.pos_in_body - p.coords).norm() <= sc.perception.neighbour_match_m);
-    v.scan_points.iter().filter(|p| !near_neighbour(p)).copied().collect()
-}
-
 fn fly_a21(
     sc: &Scenario,
     v: &View,
@@ -222,8 +221,7 @@ fn fly_a21(
 ) -> Command {
     let a = &sc.controller.a21;
     let (p0, rot) = pose(v.odom);
-    let static_points = static_points(sc, v);
-    grid.update(Pose2 { x: p0.x, y: p0.y, yaw: v.odom.yaw }, &static_points);
+    grid.update(Pose2::new(p0.x, p0.y, v.odom.yaw), v.static_points);
     let direction = v.odom.goal.and_then(|g| {
         let due = planned_at.is_none_or(|t| v.t_secs - t >= a.replan_period_s - 1e-9);
         if due {
@@ -236,7 +234,7 @@ fn fly_a21(
     });
     let neighbours: Vec<Vector2<f64>> = v.neighbours.iter().map(|e| e.pos_in_body).collect();
     let obstacle_points: Vec<Vector2<f64>> =
-        static_points.iter().map(|p| p.coords).filter(|p| p.norm() <= a.dr_m).collect();
+        v.static_points.iter().map(|p| p.coords).filter(|p| p.norm() <= a.dr_m).collect();
     let out = a21::step(a, &a21::Input { neighbours: &neighbours, obstacle_points: &obstacle_points, path_direction: direction });
     // The damping the seed's trajectory tracker provides (see `A21Params::damping_per_s`).
     let vel_body = rot.inverse() * Vector2::new(v.odom.vx, v.odom.vy);
@@ -265,7 +263,7 @@ fn fly_a21(
 pub struct M23Pilot {
     costmap: Costmap,
     wait: LeaderWait,
-    tracker: p17::VelocityTracker,
+    tracker: VelocityTracker,
     goal: Option<Point2<f64>>,
     goal_at: Option<f64>,
     path: Vec<Point2<f64>>,
@@ -276,7 +274,7 @@ impl M23Pilot {
         M23Pilot {
             costmap: Costmap::new(&sc.controller.m23.costmap),
             wait: LeaderWait::default(),
-            tracker: p17::VelocityTracker::new(sc.localization.stale_after_s),
+            tracker: VelocityTracker::new(sc.localization.stale_after_s),
             goal: None,
             goal_at: None,
             path: Vec::new(),
@@ -289,7 +287,7 @@ impl M23Pilot {
         let me_id = v.id;
         // The map: the static scan points (a neighbour's hits would leave a trail of lethal cells
         // behind it), and the neighbours as social costs (seed 004 eq. 11).
-        self.costmap.update(Pose2 { x: p0.x, y: p0.y, yaw: v.odom.yaw }, &static_points(sc, v));
+        self.costmap.update(Pose2::new(p0.x, p0.y, v.odom.yaw), v.static_points);
         self.tracker.forget_stale(v.t_secs);
         let mut known = Vec::new();
         let mut social = Vec::new();
@@ -366,14 +364,14 @@ struct WithNeighbours<'a> {
     radius_m: f64,
 }
 
-impl m23::CostQuery for WithNeighbours<'_> {
+impl CostQuery for WithNeighbours<'_> {
     fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
         if self.others.iter().any(|o| (o - p).norm() < self.radius_m) {
-            return Some(crate::costmap::LETHAL_OBSTACLE);
+            return Some(LETHAL_OBSTACLE);
         }
-        m23::CostQuery::cost_at(self.map, p)
+        CostQuery::cost_at(self.map, p)
     }
     fn resolution(&self) -> f64 {
-        m23::CostQuery::resolution(self.map)
+        CostQuery::resolution(self.map)
     }
 }

@@ -3,7 +3,7 @@
 //! Why this module exists: the A21 navigation vector (seed 003 eq. 7) needs a path to the goal,
 //! planned on the agent's own map (seed 003 section IV-C: Hector SLAM's occupancy grid, obstacles
 //! inflated by the UAV size, A* whose heuristic is "the sum of euclidean distance to the goal and
-//! the closest obstacle", unknown cells free). The M23 costmap ([`crate::costmap`]) is built on
+//! the closest obstacle", unknown cells free). The M23 costmap ([`super::costmap`]) is built on
 //! the same grid and reuses the same A*. The grid lives in the agent's odometry frame (its start
 //! pose, a fixed world-like frame); SLAM itself is not simulated, the odometry pose is used as is.
 //!
@@ -48,6 +48,8 @@ use std::collections::{BinaryHeap, HashMap, HashSet, VecDeque};
 use std::hash::{BuildHasherDefault, Hasher};
 
 use nalgebra::Point2;
+
+use crate::geometry::Pose2;
 
 /// Cells per side of a storage tile.
 const TILE: i32 = 16;
@@ -193,39 +195,6 @@ impl<T: Copy> TileMap<T> {
     }
 }
 
-/// A pose in the odometry frame: where the LIDAR is and where it looks.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pose2 {
-    /// Position x [m], odometry frame.
-    pub x: f64,
-    /// Position y [m], odometry frame.
-    pub y: f64,
-    /// Heading [rad], odometry frame.
-    pub yaw: f64,
-}
-
-impl Pose2 {
-    /// The pose (x, y, yaw).
-    pub fn new(x: f64, y: f64, yaw: f64) -> Self {
-        Pose2 { x, y, yaw }
-    }
-
-    fn is_finite(&self) -> bool {
-        self.x.is_finite() && self.y.is_finite() && self.yaw.is_finite()
-    }
-
-    /// The position as a point of the odometry frame.
-    pub fn position(&self) -> Point2<f64> {
-        Point2::new(self.x, self.y)
-    }
-
-    /// A body-frame point expressed in the odometry frame: `world_from_body · p`.
-    pub fn world_from_body(&self, p: &Point2<f64>) -> Point2<f64> {
-        let (s, c) = self.yaw.sin_cos();
-        Point2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
-    }
-}
-
 /// Map-building parameters. The defaults are seed 004's Hector mapping and costmap values.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GridParams {
@@ -319,11 +288,6 @@ impl OccupancyGrid {
             known: None,
             scan: 0,
         }
-    }
-
-    /// The parameters.
-    pub fn params(&self) -> &GridParams {
-        &self.params
     }
 
     /// Cell size [m].
@@ -463,13 +427,13 @@ impl OccupancyGrid {
         }
         let max = self.params.max_range_m;
         if range <= max {
-            return self.cell_of(&pose.world_from_body(p)).map(|c| (c, true));
+            return self.cell_of(&pose.odom_from_body(p)).map(|c| (c, true));
         }
         if max.is_nan() || max <= 0.0 {
             return None;
         }
         let p_max = Point2::from(p.coords * (max / range));
-        self.cell_of(&pose.world_from_body(&p_max)).map(|c| (c, false))
+        self.cell_of(&pose.odom_from_body(&p_max)).map(|c| (c, false))
     }
 
     /// Applies one hit or pass-through to cell `c`, at most once per scan; a hit of this scan is
@@ -1132,9 +1096,9 @@ mod tests {
         let pts = scan_circle(3.0, 0.0, 0.3, 720);
         assert!(pts.len() > 10);
         g.update(pose, &pts);
-        let trunk = pose.world_from_body(&Point2::new(3.0, 0.0));
+        let trunk = pose.odom_from_body(&Point2::new(3.0, 0.0));
         // The hit closest to the UAV: 2.7 m ahead.
-        let near_side = g.cell_of(&pose.world_from_body(&Point2::new(2.7, 0.0))).expect("cell");
+        let near_side = g.cell_of(&pose.odom_from_body(&Point2::new(2.7, 0.0))).expect("cell");
         assert!(g.is_occupied(near_side));
         let b = g.known_bounds().expect("bounds");
         assert!(b.contains(g.cell_of(&pose.position()).expect("cell")));
@@ -1142,7 +1106,7 @@ mod tests {
         // Only the area seen is stored: 9 m range, 16 × 0.1 m tiles -> well under 1000 tiles.
         assert!(g.tile_count() < 1000, "{}", g.tile_count());
         // Plan past the trunk to a goal 20 m beyond it, in space never seen (unknown = free).
-        let goal = pose.world_from_body(&Point2::new(23.0, 0.0));
+        let goal = pose.odom_from_body(&Point2::new(23.0, 0.0));
         let path = g.plan(pose.position(), goal, &PlanParams::default()).expect("path");
         assert!(path.reached_goal);
         assert_eq!(path.points.last(), Some(&goal));

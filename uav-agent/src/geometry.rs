@@ -1,0 +1,112 @@
+//! The geometry every stage shares, kept below all of them so no stage reaches sideways into
+//! another for it: the odometry-frame pose [`Pose2`] and its frame change, the one angle-wrap
+//! convention ([`wrap_angle`], to [−π, π)), and the small 2D vector helpers (what counts as zero,
+//! how non-finite values are kept out of a command, scatter sums).
+
+use nalgebra::{Point2, Vector2};
+
+/// A pose in the odometry frame: where the LIDAR is and where it looks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose2 {
+    /// Position x [m], odometry frame.
+    pub x: f64,
+    /// Position y [m], odometry frame.
+    pub y: f64,
+    /// Heading [rad], odometry frame.
+    pub yaw: f64,
+}
+
+impl Pose2 {
+    /// The pose (x, y, yaw).
+    pub fn new(x: f64, y: f64, yaw: f64) -> Self {
+        Pose2 { x, y, yaw }
+    }
+
+    /// Whether every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite() && self.yaw.is_finite()
+    }
+
+    /// The position as a point of the odometry frame.
+    pub fn position(&self) -> Point2<f64> {
+        Point2::new(self.x, self.y)
+    }
+
+    /// A body-frame point expressed in the odometry frame: `odom_from_body · p`.
+    pub fn odom_from_body(&self, p: &Point2<f64>) -> Point2<f64> {
+        let (s, c) = self.yaw.sin_cos();
+        Point2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
+    }
+}
+
+/// Wraps an angle to [−π, π) [rad]. The one convention of the onboard stack (the hub keeps its
+/// own (−π, π] for the true headings it integrates).
+pub fn wrap_angle(a: f64) -> f64 {
+    let w = (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    // `rem_euclid` can round up to τ itself; that is −π, not π.
+    if w >= std::f64::consts::PI {
+        w - std::f64::consts::TAU
+    } else {
+        w
+    }
+}
+
+/// Lengths below this are treated as zero (directions undefined) [m].
+pub const EPS: f64 = 1e-9;
+
+/// Whether both components are finite.
+pub fn is_finite(v: &Vector2<f64>) -> bool {
+    v.x.is_finite() && v.y.is_finite()
+}
+
+/// `v`, or zero when a component is not finite (a command never carries NaN).
+pub fn finite_or_zero(v: Vector2<f64>) -> Vector2<f64> {
+    if is_finite(&v) {
+        v
+    } else {
+        Vector2::zeros()
+    }
+}
+
+/// The scatter sums Σ dx², Σ dx·dy, Σ dy² of the points about `centre` (unnormalised).
+pub fn scatter(points: impl Iterator<Item = nalgebra::Point2<f64>>, centre: Vector2<f64>) -> (f64, f64, f64) {
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let d = p.coords - centre;
+        sxx += d.x * d.x;
+        sxy += d.x * d.y;
+        syy += d.y * d.y;
+    }
+    (sxx, sxy, syy)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn non_finite_vectors_become_zero() {
+        assert_eq!(finite_or_zero(Vector2::new(1.0, -2.0)), Vector2::new(1.0, -2.0));
+        assert_eq!(finite_or_zero(Vector2::new(f64::NAN, 1.0)), Vector2::zeros());
+        assert!(!is_finite(&Vector2::new(1.0, f64::INFINITY)));
+        let pts = [nalgebra::Point2::new(0.0, 0.0), nalgebra::Point2::new(2.0, 2.0)];
+        assert_eq!(scatter(pts.into_iter(), Vector2::new(1.0, 1.0)), (2.0, 2.0, 2.0));
+    }
+
+    #[test]
+    fn angles_wrap_to_minus_pi_inclusive_pi_exclusive() {
+        use std::f64::consts::PI;
+        assert_eq!(wrap_angle(PI), -PI);
+        assert_eq!(wrap_angle(-PI), -PI);
+        assert!((wrap_angle(3.0 * PI / 2.0) + PI / 2.0).abs() < 1e-12);
+        assert!((wrap_angle(-5.0 * PI / 2.0) + PI / 2.0).abs() < 1e-12);
+        assert_eq!(wrap_angle(0.25), 0.25);
+    }
+
+    #[test]
+    fn odom_from_body_turns_then_shifts() {
+        let pose = Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+        let p = pose.odom_from_body(&Point2::new(1.0, 0.0));
+        assert!((p - Point2::new(1.0, 3.0)).norm() < 1e-12, "{p:?}");
+    }
+}

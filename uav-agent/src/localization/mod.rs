@@ -1,0 +1,171 @@
+//! Relative localization: where the neighbours are, in this UAV's body frame. Three modes, one
+//! localizer each, chosen once when the agent is built ([`Localizer::new`]):
+//!
+//! - `broadcast` (`broadcast`, SPEC section 5): share the own GNSS pose, subtract it from the
+//!   neighbours' poses.
+//! - `icp` ([`icp`], `neighbours`; seed 000 chapters 3 and 5): share the obstacle set, place each
+//!   neighbour by matching its set to our own, remembered in the neighbour database.
+//! - `uvdar` (`uvdar`): onboard relative sensing, no communication.
+//!
+//! Each localizer says what share it sends, what it does with the shares it receives, and what it
+//! makes of a sensor frame: the same [`Estimate`]s whatever the mode.
+
+mod broadcast;
+pub mod icp;
+// Database API kept whole and tested, partly unused by the localizer (see `lib.rs`).
+#[cfg_attr(not(test), allow(dead_code))]
+mod neighbours;
+mod uvdar;
+
+use crate::perception::Circle;
+use crate::sensing::{Needs, SensorFrame};
+use nalgebra::Vector2;
+use std::time::Instant;
+use swarm_config::{LocalizationMode, Scenario, TimeMode};
+use swarm_wire::{IcpCounts, Keys, Msg, ObstacleShare, PoseShare};
+
+/// One neighbour as this agent believes it to be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Sender id where known (metrics only).
+    pub id: Option<u32>,
+    /// Relative position, body frame [m].
+    pub pos_in_body: Vector2<f64>,
+    /// Relative heading [rad].
+    pub heading: f64,
+    /// Age of the information [s].
+    pub age_secs: f64,
+}
+
+/// What agents tell their neighbours: a pose (`broadcast`) or an obstacle set (`icp`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Share {
+    /// Broadcast mode.
+    Pose(PoseShare),
+    /// ICP mode.
+    Obstacles(ObstacleShare),
+}
+
+impl Share {
+    /// Sender id.
+    pub fn from(&self) -> u32 {
+        match self {
+            Share::Pose(p) => p.from,
+            Share::Obstacles(o) => o.from,
+        }
+    }
+    /// Tick it was sent at.
+    pub fn tick(&self) -> u64 {
+        match self {
+            Share::Pose(p) => p.tick,
+            Share::Obstacles(o) => o.tick,
+        }
+    }
+    /// Sim time it was sent at [s].
+    pub fn t_secs(&self) -> f64 {
+        match self {
+            Share::Pose(p) => p.t_secs,
+            Share::Obstacles(o) => o.t_secs,
+        }
+    }
+    /// The wire message.
+    pub fn into_msg(self) -> Msg {
+        match self {
+            Share::Pose(p) => Msg::Pose(p),
+            Share::Obstacles(o) => Msg::Obstacles(o),
+        }
+    }
+    /// The share in a wire message, if it is one signed by `from` (the sender its key names).
+    pub fn from_msg(msg: Msg, from: u32) -> Result<Share, Msg> {
+        match msg {
+            Msg::Pose(p) if p.from == from => Ok(Share::Pose(p)),
+            Msg::Obstacles(o) if o.from == from => Ok(Share::Obstacles(o)),
+            other => Err(other),
+        }
+    }
+}
+
+/// What localization made of one sensor frame.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Localized {
+    /// The neighbours, body frame.
+    pub(crate) estimates: Vec<Estimate>,
+    /// The ICP work it took (`icp` mode; zero otherwise).
+    pub(crate) icp: IcpCounts,
+}
+
+/// The localizer of the scenario's mode, with the state it keeps between steps.
+#[derive(Debug)]
+pub(crate) enum Localizer {
+    /// `broadcast`.
+    Broadcast(broadcast::Broadcast),
+    /// `icp` (boxed: the database is large).
+    Icp(Box<neighbours::IcpLocalizer>),
+    /// `uvdar`: keeps nothing.
+    Uvdar,
+}
+
+impl Localizer {
+    /// The localizer of UAV `id` for the scenario's mode.
+    pub(crate) fn new(id: u32, sc: &Scenario) -> Localizer {
+        let stale_after_s = sc.localization.stale_after_s;
+        match sc.localization.mode {
+            LocalizationMode::Broadcast => Localizer::Broadcast(broadcast::Broadcast::new(id, stale_after_s)),
+            LocalizationMode::Icp => {
+                let realtime = sc.time.mode == TimeMode::Realtime;
+                let icp = neighbours::IcpLocalizer::new(id, sc.localization.icp.clone(), stale_after_s, realtime);
+                Localizer::Icp(Box::new(icp))
+            }
+            LocalizationMode::Uvdar => Localizer::Uvdar,
+        }
+    }
+
+    /// The sensors a step waits for besides scan and odometry.
+    pub(crate) fn needs(&self) -> Needs {
+        match self {
+            Localizer::Broadcast(_) => Needs { gnss: true, uvdar: false },
+            Localizer::Icp(_) => Needs::default(),
+            Localizer::Uvdar => Needs { gnss: false, uvdar: true },
+        }
+    }
+
+    /// The key UAV `id` shares on in this mode; `None` in `uvdar` mode, which never shares.
+    pub(crate) fn share_key(&self, keys: &Keys, id: u32) -> Option<String> {
+        match self {
+            Localizer::Broadcast(_) => Some(keys.share_pose(id)),
+            Localizer::Icp(_) => Some(keys.share_obstacles(id)),
+            Localizer::Uvdar => None,
+        }
+    }
+
+    /// Takes a neighbour's share that the link has delivered.
+    pub(crate) fn receive(&mut self, share: Share) {
+        match self {
+            Localizer::Broadcast(b) => b.receive(share),
+            Localizer::Icp(i) => i.receive(share),
+            Localizer::Uvdar => {}
+        }
+    }
+
+    /// The neighbours in this frame; `circles` are our own obstacles, `started` when the step
+    /// began (wall clock).
+    pub(crate) fn localize(&mut self, frame: &SensorFrame, circles: &[Circle], started: Instant) -> Localized {
+        match self {
+            Localizer::Broadcast(b) => Localized { estimates: b.estimates(frame), icp: IcpCounts::default() },
+            Localizer::Icp(i) => {
+                let (estimates, icp) = i.estimates(frame.scan.t_secs, circles, started);
+                Localized { estimates, icp }
+            }
+            Localizer::Uvdar => Localized { estimates: uvdar::estimates(frame), icp: IcpCounts::default() },
+        }
+    }
+
+    /// What this agent tells its neighbours of this frame, if anything.
+    pub(crate) fn share(&self, frame: &SensorFrame, circles: &[Circle]) -> Option<Share> {
+        match self {
+            Localizer::Broadcast(b) => b.share(frame),
+            Localizer::Icp(i) => Some(i.share(frame, circles)),
+            Localizer::Uvdar => None,
+        }
+    }
+}
