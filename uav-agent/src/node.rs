@@ -142,8 +142,9 @@ struct Node {
     link: netem::Link,
     inbox: netem::Inbox<Share>,
     mode: LocalizationMode,
-    /// The scenario's `[[netem]]` rules, applied to every share this agent receives.
-    netem_rules: Scenario,
+    /// The netem timeline in force (the scenario's, then the hub's), applied to every share this
+    /// agent receives.
+    netem_rules: netem::Timeline,
     malformed: u64,
     tx: mpsc::UnboundedSender<Incoming>,
     rx: mpsc::UnboundedReceiver<Incoming>,
@@ -225,7 +226,7 @@ impl Node {
             state_pub: publisher(&s, keys.state(id), cc).await?,
             needs_gnss: sc.localization.mode == LocalizationMode::Broadcast,
             mode: sc.localization.mode,
-            netem_rules: sc.clone(),
+            netem_rules: netem::Timeline::from_scenario(&sc),
             link: netem::Link::with_seed(sc.seed, id),
             dt: sc.dt_secs(),
             agent: Agent::new(id, sc),
@@ -329,7 +330,7 @@ impl Node {
             return;
         }
         let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
-        let rule = self.netem_rules.netem_rule_at(share.t_secs(), from, self.id);
+        let rule = self.netem_rules.rule_at(share.t_secs(), from, self.id);
         let radio_loss = self.radio_loss.get(&from).copied().unwrap_or(0.0);
         match self.link.on_receive_with(rule, radio_loss, from, share.t_secs(), now, self.dt, bytes.len()) {
             netem::Verdict::DeliverAt(at) => self.inbox.push(at, share),
@@ -350,7 +351,7 @@ impl Node {
         // One rule lookup per sender that has held messages.
         let (rules, me) = (&self.netem_rules, self.id);
         let senders: std::collections::BTreeSet<u32> = self.inbox.held().map(Share::from).collect();
-        let open: Vec<u32> = senders.into_iter().filter(|&from| !rules.netem_rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
+        let open: Vec<u32> = senders.into_iter().filter(|&from| !rules.rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
         let mut released = Vec::new();
         self.inbox.release(now, |m| {
             let go = open.contains(&m.from());
@@ -374,11 +375,10 @@ impl Node {
             Msg::Gnss(g) => self.gnss = Some(g),
             Msg::Uvdar(u) => self.uvdar = Some(u),
             Msg::Scan(s) => self.scan = Some(s),
-            Msg::NetemRules(json) => match serde_json::from_str::<swarm_config::Timeline>(&json) {
+            Msg::NetemRules(json) => match serde_json::from_str::<netem::Timeline>(&json) {
                 Ok(t) => {
-                    debug!(rules = t.netem.len(), failures = t.failures.len(), "netem timeline in force updated");
-                    self.netem_rules.netem = t.netem;
-                    self.netem_rules.failures = t.failures;
+                    debug!(rules = t.rules().len(), failures = t.failures().len(), "netem timeline in force updated");
+                    self.netem_rules = t;
                 }
                 Err(e) => {
                     self.malformed += 1;
@@ -433,7 +433,7 @@ impl Node {
             recv_bytes: c.recv_bytes,
             delivered_msgs: c.delivered_msgs,
             malformed: self.malformed,
-            classes: c.classes,
+            classes: c.classes.map(class_counts),
         };
         out.state.delays = self
             .link
@@ -480,5 +480,18 @@ impl Node {
             self.windows.insert(id, tick.saturating_add(1));
         }
         Ok(())
+    }
+}
+
+/// netem's counts of one link class in the wire's shape.
+fn class_counts(c: netem::ClassCounters) -> swarm_wire::ClassCounts {
+    use netem::Outcome::*;
+    swarm_wire::ClassCounts {
+        offered: c.get(Offered),
+        delivered: c.get(Delivered),
+        dropped: c.get(Dropped),
+        duplicated: c.get(Duplicated),
+        held: c.get(Held),
+        released: c.get(Released),
     }
 }
