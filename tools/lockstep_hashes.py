@@ -20,9 +20,18 @@ import pathlib
 import subprocess
 import sys
 import tempfile
+import tomllib
 
 # Fields of summary.json measured on the wall clock, which no refactoring is expected to keep.
-WALL_FIELDS = {"run_id", "wall_time_s", "sim_speed", "mean_step_time_ms", "max_step_time_ms"}
+# `messages_received`, `bytes_received` and the `network` classes count shares as they *arrive*,
+# and an agent's last state is published while its neighbours' shares of that same tick may or
+# may not have arrived yet: they vary by one tick's worth between runs of the same build.
+WALL_FIELDS = {"run_id", "wall_time_s", "sim_speed", "mean_step_time_ms", "max_step_time_ms",
+               "messages_received", "bytes_received", "network"}
+
+# Scenarios whose outcome depends on the wall clock although they run in lockstep: a restarted
+# agent joins at whatever tick the hub has reached when its liveliness token appears.
+WALL_CLOCK_SCENARIOS = {"open-field-5-restart"}
 
 
 def strip_wall(value):
@@ -36,10 +45,10 @@ def strip_wall(value):
 def lockstep_scenarios(root):
     names = []
     for path in sorted((root / "scenarios").glob("*.toml")):
-        if path.stem == "example":
+        if path.stem == "example" or path.stem in WALL_CLOCK_SCENARIOS:
             continue
-        text = path.read_text()
-        if 'time_mode = "realtime"' in text:
+        scenario = tomllib.loads(path.read_text())
+        if scenario.get("time", {}).get("mode") == "realtime":
             continue
         names.append(path.stem)
     return names
