@@ -91,23 +91,16 @@ impl Timeline {
 mod tests {
     use super::*;
 
-    const MINIMAL: &str = r#"
-name = "t"
-[swarm]
-count = 2
-start_positions = [[0.0, 0.0], [1.0, 0.0]]
-goal = [10.0, 0.0]
-"#;
-
-    fn timeline(toml: &str) -> Timeline {
-        Timeline::from_scenario(&Scenario::from_toml_str(toml, "t.toml").expect("valid"))
+    /// A timeline from `[[netem]]` and `[[failures]]` tables, as in a scenario file.
+    fn timeline(tables: &str) -> Timeline {
+        Timeline::from(toml::from_str::<swarm_config::Timeline>(tables).expect("valid tables"))
     }
 
     #[test]
     fn netem_rules_in_force_follow_time_and_links() {
-        let tl = timeline(&format!(
-            "{MINIMAL}\n[[netem]]\nat_s = 0.0\nrule = {{ delay_s = 0.1 }}\n\n[[netem]]\nat_s = 5.0\nfrom = [2]\nrule = {{ loss = {{ model = \"random\", p = 0.3 }} }}\n\n[[netem]]\nat_s = 9.0\nfrom = [2]\n"
-        ));
+        let tl = timeline(
+            "[[netem]]\nat_s = 0.0\nrule = { delay_s = 0.1 }\n\n[[netem]]\nat_s = 5.0\nfrom = [2]\nrule = { loss = { model = \"random\", p = 0.3 } }\n\n[[netem]]\nat_s = 9.0\nfrom = [2]\n",
+        );
         assert_eq!(tl.rule_at(1.0, 2, 1).map(|r| r.delay_s), Some(0.1));
         assert!(tl.rule_at(6.0, 2, 1).is_some_and(|r| r.delay_s == 0.0 && !r.is_identity()), "the later rule replaces");
         assert_eq!(tl.rule_at(6.0, 1, 2).map(|r| r.delay_s), Some(0.1), "other links keep the first rule");
@@ -116,7 +109,7 @@ goal = [10.0, 0.0]
 
     #[test]
     fn a_frozen_sender_is_mute_from_its_freeze_on() {
-        let tl = timeline(&format!("{MINIMAL}\n[[failures]]\nat_s = 3.0\nuav = 2\nkind = \"freeze\"\n"));
+        let tl = timeline("[[failures]]\nat_s = 3.0\nuav = 2\nkind = \"freeze\"\n");
         assert!(!tl.frozen_at(2, 2.9) && tl.frozen_at(2, 3.0));
         assert!(tl.rule_at(2.9, 2, 1).is_none());
         assert!(tl.rule_at(3.5, 2, 1).is_some_and(|r| r.blocked), "mute");
@@ -127,11 +120,6 @@ goal = [10.0, 0.0]
     fn a_partition_event_cuts_its_links_over_per_link_rules_until_healed() {
         let tl = timeline(
             r#"
-name = "p"
-[swarm]
-count = 4
-start_positions = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]
-goal = [10.0, 0.0]
 [[netem]]
 at_s = 1.0
 rule = { delay_s = 0.2 }
@@ -161,7 +149,7 @@ partition = { scheme = "healed" }
 
     #[test]
     fn equal_times_go_to_the_later_in_list_order_and_additions_extend_the_list() {
-        let mut tl = timeline(&format!("{MINIMAL}\n[[netem]]\nat_s = 1.0\nrule = {{ delay_s = 0.1 }}\n"));
+        let mut tl = timeline("[[netem]]\nat_s = 1.0\nrule = { delay_s = 0.1 }\n");
         let added = |delay_s| swarm_config::Timeline {
             netem: vec![NetemRule::link(1.0, Default::default(), Default::default(), Impairment { delay_s, ..Impairment::IDENTITY })],
             failures: vec![Failure { at_s: 2.0, uav: 1, kind: FailureKind::Freeze }],
