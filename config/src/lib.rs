@@ -9,22 +9,30 @@
 //! Entry points: [`Scenario::from_file`], [`Scenario::from_toml_str`], [`builtin`] (the scenarios
 //! shipped in `scenarios/`, compiled in so `swarm run` works with no argument).
 //!
-//! Architecture invariant: this crate is pure data plus validation. It knows nothing of Zenoh,
-//! of geometry libraries or of how the world is simulated; forest generation lives in
-//! `physics-hub`, which is the only holder of ground truth. The `[[netem]]` rules reuse the
-//! impairment type of the pure `netem` crate, so the schema and the model cannot drift apart.
+//! Architecture invariant: this crate is pure data plus validation, and depends on no other crate
+//! of the workspace. It knows nothing of Zenoh, of geometry libraries or of how the world is
+//! simulated; forest generation lives in `physics-hub`, which is the only holder of ground truth.
+//! The `[[netem]]` rules and `[[failures]]` are data here too ([`Impairment`], [`Partition`],
+//! [`NetemRule`], [`Timeline`]); which rule is in force at a sim time, and what it does to a
+//! message, is the `netem` crate's (`netem::Timeline`, `netem::impair`).
+//!
+//! Modules (private, their items re-exported at the root): `schema` (the scenario structs),
+//! `impairment` (a netem rule's impairment and partition, and their validation), and one module
+//! per controller or sensor with parameters of its own (`p17`, `a21`, `m23`, `costmap`, `uvdar`).
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 mod a21;
 mod costmap;
+mod impairment;
 mod m23;
 mod p17;
 mod schema;
 mod uvdar;
 pub use a21::*;
 pub use costmap::*;
+pub use impairment::*;
 pub use m23::*;
 pub use p17::*;
 pub use schema::*;
@@ -349,11 +357,6 @@ impl Scenario {
             })
     }
 
-    /// Whether UAV `id` is frozen at sim time `t` (a `freeze` failure at or before `t`).
-    pub fn frozen_at(&self, id: u32, t: f64) -> bool {
-        self.failures.iter().any(|f| f.uav == id && f.kind == FailureKind::Freeze && f.at_s <= t + 1e-9)
-    }
-
     fn validate_netem(&self) -> Check {
         for (i, r) in self.netem.iter().enumerate() {
             self.check_rule(&format!("netem[{i}]."), r)?;
@@ -371,7 +374,7 @@ impl Scenario {
             if r.from != UavSet::default() || r.to != UavSet::default() {
                 return Err((format!("{at}partition"), "a partition names its nodes itself: leave `from` and `to` out".into()));
             }
-            let only_hold = netem::impair::Impairment { hold: r.rule.hold, ..netem::impair::Impairment::IDENTITY };
+            let only_hold = Impairment { hold: r.rule.hold, ..Impairment::IDENTITY };
             if r.rule != only_hold {
                 return Err((format!("{at}rule"), "with a partition, `rule` may only set `hold`".into()));
             }
@@ -401,32 +404,6 @@ impl Scenario {
             Ok(())
         };
         check().map_err(|(field, msg)| format!("field `{field}`: {msg}"))
-    }
-
-    /// The netem rule in force at sim time `t` for messages from `from` to `to`. A frozen sender
-    /// says nothing: its links are blocked from its freeze on. Then the partition in force (the
-    /// latest partition event at or before `t`) blocks, or holds, the links it cuts. Otherwise
-    /// the last per-link rule (in file order among equal times) with `at_s <= t` that covers the
-    /// link applies; none = identity.
-    pub fn netem_rule_at(&self, t: f64, from: u32, to: u32) -> Option<&netem::impair::Impairment> {
-        use netem::impair::Impairment;
-        if self.frozen_at(from, t) {
-            return Some(&Impairment::BLOCKED);
-        }
-        let due = |r: &&NetemRule| r.at_s <= t + 1e-9;
-        let latest = |a: &&NetemRule, b: &&NetemRule| a.at_s.total_cmp(&b.at_s);
-        let partition = self.netem.iter().filter(due).filter(|r| r.partition.is_some()).max_by(latest);
-        if let Some(r) = partition {
-            if r.partition.as_ref().is_some_and(|p| p.blocked(from, to)) {
-                return Some(if r.rule.hold { &Impairment::HOLD } else { &Impairment::BLOCKED });
-            }
-        }
-        self.netem
-            .iter()
-            .filter(due)
-            .filter(|r| r.partition.is_none() && r.from.contains(from) && r.to.contains(to))
-            .max_by(latest)
-            .map(|r| &r.rule)
     }
 
     fn validate_world(&self) -> Check {

@@ -148,10 +148,10 @@ impl UavSet {
 }
 
 /// One timed network rule: from `at_s` on, messages from a UAV in `from` to one in `to` pass
-/// `rule` (Linux netem semantics, see `netem::impair`).
+/// `rule` (Linux netem semantics, modelled by `netem::impair`).
 ///
 /// With `partition` set instead, the event is a partition (Jepsen's schemes, see
-/// `netem::impair::Partition`): from `at_s` on it replaces the partition in force, the links it
+/// [`crate::Partition`]): from `at_s` on it replaces the partition in force, the links it
 /// cuts are blocked (or held, with `rule = { hold = true }`) whatever other rules say, and the
 /// rest keep their per-link rules. `partition = { scheme = "healed" }` ends it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -168,22 +168,22 @@ pub struct NetemRule {
     pub to: UavSet,
     /// The impairment.
     #[serde(default)]
-    pub rule: netem::impair::Impairment,
+    pub rule: crate::Impairment,
     /// A partition event instead of a per-link rule (then `from`/`to` must stay `"all"` and
     /// `rule` may only set `hold`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub partition: Option<netem::impair::Partition>,
+    pub partition: Option<crate::Partition>,
 }
 
 impl NetemRule {
     /// A per-link rule.
-    pub fn link(at_s: f64, from: UavSet, to: UavSet, rule: netem::impair::Impairment) -> NetemRule {
+    pub fn link(at_s: f64, from: UavSet, to: UavSet, rule: crate::Impairment) -> NetemRule {
         NetemRule { at_s, from, to, rule, partition: None }
     }
 
     /// A partition event; `hold` stores the cut links' messages instead of dropping them.
-    pub fn partition(at_s: f64, partition: netem::impair::Partition, hold: bool) -> NetemRule {
-        let rule = if hold { netem::impair::Impairment::HOLD } else { netem::impair::Impairment::IDENTITY };
+    pub fn partition(at_s: f64, partition: crate::Partition, hold: bool) -> NetemRule {
+        let rule = if hold { crate::Impairment::HOLD } else { crate::Impairment::IDENTITY };
         NetemRule { at_s, from: UavSet::default(), to: UavSet::default(), rule, partition: Some(partition) }
     }
 }

@@ -124,31 +124,6 @@ fn from_arg_resolves_builtin_and_reports_unknown() {
 }
 
 #[test]
-fn netem_rules_in_force_follow_time_and_links() {
-    let sc = Scenario::from_toml_str(
-        &format!(
-            "{MINIMAL}\n[[netem]]\nat_s = 0.0\nrule = {{ delay_s = 0.1 }}\n\n[[netem]]\nat_s = 5.0\nfrom = [2]\nrule = {{ loss = {{ model = \"random\", p = 0.3 }} }}\n\n[[netem]]\nat_s = 9.0\nfrom = [2]\n"
-        ),
-        "n.toml",
-    )
-    .expect("valid");
-    assert_eq!(sc.netem_rule_at(1.0, 2, 1).map(|r| r.delay_s), Some(0.1));
-    assert!(sc.netem_rule_at(6.0, 2, 1).is_some_and(|r| r.delay_s == 0.0 && !r.is_identity()), "the later rule replaces");
-    assert_eq!(sc.netem_rule_at(6.0, 1, 2).map(|r| r.delay_s), Some(0.1), "other links keep the first rule");
-    assert!(sc.netem_rule_at(9.5, 2, 1).is_some_and(|r| r.is_identity()), "an empty rule heals");
-}
-
-#[test]
-fn a_frozen_sender_is_mute_from_its_freeze_on() {
-    let sc = Scenario::from_toml_str(&format!("{MINIMAL}\n[[failures]]\nat_s = 3.0\nuav = 2\nkind = \"freeze\"\n"), "f.toml")
-        .expect("valid");
-    assert!(!sc.frozen_at(2, 2.9) && sc.frozen_at(2, 3.0));
-    assert!(sc.netem_rule_at(2.9, 2, 1).is_none());
-    assert!(sc.netem_rule_at(3.5, 2, 1).is_some_and(|r| r.blocked), "mute");
-    assert!(sc.netem_rule_at(3.5, 1, 2).is_none(), "others still reach it");
-}
-
-#[test]
 fn goals_change_by_mission_time_and_uav() {
     let sc = Scenario::from_toml_str(
         &format!("{MINIMAL}\n[[mission]]\nat_s = 5.0\nuavs = [1]\ngoal = [0.0, 9.0]\n\n[[mission]]\nat_s = 8.0\ngoal = [20.0, 0.0]\n"),
@@ -159,44 +134,6 @@ fn goals_change_by_mission_time_and_uav() {
     assert_eq!(sc.goal_of(1, 5.0), [0.0, 9.0]);
     assert_eq!(sc.goal_of(2, 6.0), [10.0, 0.0], "the change was for UAV 1 only");
     assert_eq!(sc.goal_of(2, 8.0), [20.0, 0.0], "a change for all");
-}
-
-#[test]
-fn a_partition_event_cuts_its_links_over_per_link_rules_until_healed() {
-    let sc = Scenario::from_toml_str(
-        r#"
-name = "p"
-[swarm]
-count = 4
-start_positions = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]
-goal = [10.0, 0.0]
-[[netem]]
-at_s = 1.0
-rule = { delay_s = 0.2 }
-[[netem]]
-at_s = 2.0
-partition = { scheme = "halves", nodes = [1, 2, 3, 4] }
-[[netem]]
-at_s = 3.0
-partition = { scheme = "bridge", nodes = [1, 2, 3, 4] }
-rule = { hold = true }
-[[netem]]
-at_s = 4.0
-partition = { scheme = "healed" }
-"#,
-        "p.toml",
-    )
-    .expect("parses");
-    let rule = |t, a, b| sc.netem_rule_at(t, a, b).cloned();
-    assert_eq!(rule(1.5, 1, 3).map(|r| r.delay_s), Some(0.2));
-    // Halves {1,2} | {3,4}: across is blocked, within keeps the per-link rule.
-    assert!(rule(2.5, 1, 3).is_some_and(|r| r.blocked));
-    assert_eq!(rule(2.5, 1, 2).map(|r| r.delay_s), Some(0.2));
-    // Bridge {1,2} | 3 | {4}: the new partition replaces the old one, and holds instead of drops.
-    assert!(rule(3.5, 1, 4).is_some_and(|r| r.hold && !r.blocked));
-    assert_eq!(rule(3.5, 1, 3).map(|r| r.delay_s), Some(0.2), "3 is the bridge");
-    // Healed: only the per-link rule is left.
-    assert_eq!(rule(4.5, 1, 4).map(|r| r.delay_s), Some(0.2));
 }
 
 #[test]

@@ -1,31 +1,39 @@
 //! The one seam every inter-agent message passes through.
 //!
 //! An agent hands each outgoing share message to [`Link::on_send`] and each incoming one to
-//! [`Link::on_receive`], which decides when (and, later, whether) it is delivered; delivered
-//! messages wait in an [`Inbox`] until their sim-time delivery instant and are taken out at the
-//! tick that reaches it. Today the link passes everything with the minimum latency of one tick
-//! and only counts messages and bytes; delay, jitter, loss, burst loss, partitions and the rest
-//! plug into [`Link`] later without touching the agents.
+//! [`Link::on_receive_with`], under the rule its [`Timeline`] says is in force on that link at the
+//! send instant; the link decides whether and when the message is delivered (delay, jitter, loss
+//! and burst loss, duplication, reordering, rate, the radio's distance loss, partitions that block
+//! or hold), never sooner than one tick after it was sent. Delivered messages wait in an [`Inbox`]
+//! until their sim-time delivery instant and are taken out at the tick that reaches it; held ones
+//! wait until their link stops holding.
 //!
 //! Architecture invariant: pure logic, no IO, no clock of its own. Time is sim time handed in by
 //! the caller, so a run is as lossy at 50× real time as at 1×, and every decision is repeatable.
-//! Onboard wiring (sensor and command keys) never passes through here.
+//! Onboard wiring (sensor and command keys) never passes through here. The rules are the
+//! scenario's data (`swarm_config`: [`impair::Impairment`], [`impair::Partition`], the
+//! `[[netem]]` and `[[failures]]` tables); this crate is their behaviour.
 //!
 //! Modules: [`impair`], the pure impairment core (delay, jitter, loss and burst loss, duplication,
-//! reordering, rate, partitions, hold) following Linux netem; [`Link`] runs one seeded
-//! [`impair::LinkSim`] per sender under the rule the caller says is in force.
+//! reordering, rate, partitions, hold) following Linux netem; `timeline` ([`Timeline`]: which rule
+//! is in force on a link at a sim time, who is frozen). [`Link`] runs one seeded
+//! [`impair::LinkSim`] per sender under the rule the caller looked up.
 //!
 //! Metrics: every message is counted under the class of the rule in force on its link when it was
-//! sent ([`LinkClass`]: clean, impaired, blocked/held), and the delay actually applied to every
-//! delivered copy (delivery instant − send instant, the one-tick floor included) is kept until the
-//! caller takes it with [`Link::take_delays`], so a recorder can report mean and p95 per class.
+//! sent ([`LinkClass`]: clean, impaired, blocked/held), one count per [`Outcome`] in
+//! [`ClassCounters`], and the delay actually applied to every delivered copy (delivery instant −
+//! send instant, the one-tick floor included) is kept until the caller takes it with
+//! [`Link::take_delays`], so a recorder can report mean and p95 per class.
 
 use serde::{Deserialize, Serialize};
 
 pub mod impair;
+mod timeline;
+
+pub use timeline::Timeline;
 
 /// Counters of one agent's inter-agent traffic.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counters {
     /// Messages this agent published to neighbours.
     pub sent_msgs: u64,
@@ -78,23 +86,40 @@ impl LinkClass {
     pub const ALL: [LinkClass; 3] = [LinkClass::Clean, LinkClass::Impaired, LinkClass::Cut];
 }
 
-/// What the links of one class did to incoming messages.
+/// What can happen to a message arriving on a link, each counted per [`LinkClass`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// It arrived on a link of this class.
+    Offered = 0,
+    /// A copy was scheduled for delivery (duplicates and released messages included).
+    Delivered = 1,
+    /// It was dropped (loss model, radio loss, cut).
+    Dropped = 2,
+    /// It was duplicated.
+    Duplicated = 3,
+    /// It was stored by a holding link.
+    Held = 4,
+    /// Stored earlier, it was delivered when its link released.
+    Released = 5,
+}
+
+/// What the links of one class did to incoming messages: a count per [`Outcome`].
 ///
-/// `delivered = offered − dropped − held + duplicated + released`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ClassCounters {
-    /// Messages that arrived on links of this class.
-    pub offered: u64,
-    /// Copies scheduled for delivery (duplicates and released messages included).
-    pub delivered: u64,
-    /// Messages dropped (loss model, radio loss, cut).
-    pub dropped: u64,
-    /// Messages duplicated.
-    pub duplicated: u64,
-    /// Messages stored by a holding link.
-    pub held: u64,
-    /// Stored messages delivered when their link released.
-    pub released: u64,
+/// `delivered = offered − dropped − held + duplicated + released`. The wire carries these under
+/// names of its own (`swarm_wire::ClassCounts`); netem only counts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ClassCounters([u64; 6]);
+
+impl ClassCounters {
+    /// How many messages had `outcome`.
+    pub fn get(&self, outcome: Outcome) -> u64 {
+        self.0[outcome as usize]
+    }
+
+    /// Counts `n` more messages with `outcome`.
+    fn add(&mut self, outcome: Outcome, n: u64) {
+        self.0[outcome as usize] += n;
+    }
 }
 
 /// What the link decided for one incoming message.
@@ -119,20 +144,6 @@ pub struct Link {
     me: u32,
     sims: std::collections::BTreeMap<u32, impair::LinkSim>,
     delays: Vec<AppliedDelay>,
-}
-
-impl std::ops::Add for ClassCounters {
-    type Output = ClassCounters;
-    fn add(self, o: ClassCounters) -> ClassCounters {
-        ClassCounters {
-            offered: self.offered + o.offered,
-            delivered: self.delivered + o.delivered,
-            dropped: self.dropped + o.dropped,
-            duplicated: self.duplicated + o.duplicated,
-            held: self.held + o.held,
-            released: self.released + o.released,
-        }
-    }
 }
 
 /// The delay one delivered copy was given: delivery instant − send instant [s].
@@ -177,7 +188,7 @@ impl Link {
         }
         self.counters.recv_msgs += 1;
         self.counters.recv_bytes += bytes as u64;
-        self.counters.classes[class as usize].offered += 1;
+        self.counters.classes[class as usize].add(Outcome::Offered, 1);
         let (seed, me) = (self.seed, self.me);
         let sim = self.sims.entry(from).or_insert_with(|| impair::LinkSim::new(seed, from, me));
         let decision = if sim.radio_loss(radio_loss) {
@@ -202,17 +213,17 @@ impl Link {
         let delay = |at: f64, delays: &mut Vec<AppliedDelay>| delays.push(AppliedDelay { class, delay_s: at - sent_at });
         match verdict {
             Verdict::Drop => {
-                c.dropped += 1;
+                c.add(Outcome::Dropped, 1);
                 self.counters.dropped_msgs += 1;
             }
-            Verdict::Hold => c.held += 1,
+            Verdict::Hold => c.add(Outcome::Held, 1),
             Verdict::DeliverAt(a) => {
-                c.delivered += 1;
+                c.add(Outcome::Delivered, 1);
                 delay(a, &mut self.delays);
             }
             Verdict::DeliverTwice(a, b) => {
-                c.delivered += 2;
-                c.duplicated += 1;
+                c.add(Outcome::Delivered, 2);
+                c.add(Outcome::Duplicated, 1);
                 delay(a, &mut self.delays);
                 delay(b, &mut self.delays);
             }
@@ -223,8 +234,8 @@ impl Link {
     /// sim time `now` (it is delivered now).
     pub fn on_released(&mut self, class: LinkClass, sent_at: f64, now: f64) {
         let c = &mut self.counters.classes[class as usize];
-        c.released += 1;
-        c.delivered += 1;
+        c.add(Outcome::Released, 1);
+        c.add(Outcome::Delivered, 1);
         self.delays.push(AppliedDelay { class, delay_s: now - sent_at });
     }
 
@@ -246,7 +257,7 @@ impl Link {
     pub fn on_receive(&mut self, _from: u32, sent_at: f64, now: f64, dt: f64, bytes: usize) -> Verdict {
         self.counters.recv_msgs += 1;
         self.counters.recv_bytes += bytes as u64;
-        self.counters.classes[LinkClass::Clean as usize].offered += 1;
+        self.counters.classes[LinkClass::Clean as usize].add(Outcome::Offered, 1);
         let verdict = Verdict::DeliverAt((sent_at + dt).max(now));
         self.account(LinkClass::Clean, sent_at, verdict);
         verdict
@@ -346,6 +357,7 @@ impl<T> Inbox<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use Outcome::{Delivered, Dropped, Held, Offered, Released};
 
     #[test]
     fn counts_messages_and_bytes_both_ways() {
@@ -424,14 +436,14 @@ mod tests {
         }
         let c = l.counters();
         let [clean, impaired, cut] = c.classes;
-        assert_eq!((clean.offered, clean.delivered, clean.dropped), (1000, 1000, 0));
-        assert_eq!(impaired.offered, 1000);
-        assert!((430..570).contains(&impaired.dropped), "{impaired:?}");
-        assert_eq!(impaired.delivered + impaired.dropped, 1000);
-        assert_eq!((cut.offered, cut.dropped, cut.delivered), (1000, 1000, 0));
-        assert_eq!(c.dropped_msgs, impaired.dropped + cut.dropped);
+        assert_eq!((clean.get(Offered), clean.get(Delivered), clean.get(Dropped)), (1000, 1000, 0));
+        assert_eq!(impaired.get(Offered), 1000);
+        assert!((430..570).contains(&impaired.get(Dropped)), "{impaired:?}");
+        assert_eq!(impaired.get(Delivered) + impaired.get(Dropped), 1000);
+        assert_eq!((cut.get(Offered), cut.get(Dropped), cut.get(Delivered)), (1000, 1000, 0));
+        assert_eq!(c.dropped_msgs, impaired.get(Dropped) + cut.get(Dropped));
         let delays = l.take_delays();
-        assert_eq!(delays.len() as u64, clean.delivered + impaired.delivered);
+        assert_eq!(delays.len() as u64, clean.get(Delivered) + impaired.get(Delivered));
         for d in &delays {
             let want = if d.class == LinkClass::Clean { 0.1 } else { 0.3 };
             assert!((d.delay_s - want).abs() < 1e-9, "{d:?}");
@@ -474,7 +486,7 @@ mod tests {
         }
         assert_eq!(due.len(), 5);
         let cut = l.counters().classes[LinkClass::Cut as usize];
-        assert_eq!((cut.offered, cut.held, cut.released, cut.delivered), (5, 5, 5, 5));
+        assert_eq!((cut.get(Offered), cut.get(Held), cut.get(Released), cut.get(Delivered)), (5, 5, 5, 5));
         let waits: Vec<f64> = l.take_delays().iter().map(|d| d.delay_s).collect();
         assert_eq!(waits, vec![10.0, 9.0, 8.0, 7.0, 6.0]);
     }

@@ -105,7 +105,7 @@ struct Net {
     malformed: Arc<AtomicU64>,
     /// The `[[netem]]` rules and failures in force: the scenario's, plus those added while
     /// running (`swarm netem`).
-    timeline: swarm_config::Timeline,
+    timeline: netem::Timeline,
     netem_rules: Publisher,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
 }
@@ -269,7 +269,7 @@ impl Net {
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
-            timeline: swarm_config::Timeline { netem: sc.netem.clone(), failures: sc.failures.clone() },
+            timeline: netem::Timeline::from_scenario(sc),
             netem_rules: publisher(&s, keys.netem_rules(), CongestionControl::Block).await?,
             netem_added,
             clock: publisher(&s, keys.clock(), CongestionControl::Block).await?,
@@ -398,8 +398,7 @@ impl Net {
             t.failures.iter_mut().for_each(|f| f.at_s += not_before);
             info!(rules = t.netem.len(), failures = t.failures.len(), from_s = not_before, "netem timeline added");
             sim.add_failures(&t.failures);
-            self.timeline.netem.extend(t.netem);
-            self.timeline.failures.extend(t.failures);
+            self.timeline.extend(t);
             changed = true;
         }
         if changed {

@@ -34,6 +34,8 @@ pub struct Sensors {
 /// The whole simulated world.
 pub struct Sim {
     sc: Scenario,
+    /// The run's netem timeline, for its freezes (the scenario's, plus those added while running).
+    timeline: netem::Timeline,
     world: World,
     bodies: Vec<Body>,
     starts: Vec<[f64; 3]>,
@@ -80,6 +82,7 @@ impl Sim {
             tick: 0,
             dt: sc.dt_secs(),
             goal_reached_at: None,
+            timeline: netem::Timeline::from_scenario(sc),
             sc: sc.clone(),
         }
     }
@@ -188,9 +191,9 @@ impl Sim {
         [len * dir.cos(), len * dir.sin()]
     }
 
-    /// Adds failures (freezes from `swarm netem freeze`) to the run's scenario.
+    /// Adds failures (freezes from `swarm netem freeze`) to the run's timeline.
     pub fn add_failures(&mut self, failures: &[swarm_config::Failure]) {
-        self.sc.failures.extend_from_slice(failures);
+        self.timeline.extend(swarm_config::Timeline { netem: Vec::new(), failures: failures.to_vec() });
     }
 
     /// Integrates one tick. `cmds[i]` is UAV i+1's command for this tick, `None` when it did not
@@ -199,7 +202,7 @@ impl Sim {
     pub fn step(&mut self, cmds: &[Option<Cmd>], alive: &[bool], wall_secs: f64) -> TruthStep {
         let t_now = self.t_secs();
         for (i, b) in self.bodies.iter_mut().enumerate() {
-            if self.sc.frozen_at(i as u32 + 1, t_now) {
+            if self.timeline.frozen_at(i as u32 + 1, t_now) {
                 // A frozen UAV hovers where it is, whatever its agent says (seed 000 6.2).
                 self.last_cmds[i] = Cmd { tick: self.tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
             } else if let Some(Some(c)) = cmds.get(i) {
@@ -311,7 +314,7 @@ impl Sim {
         let flying: Vec<Vector2<f64>> = self
             .sc
             .agent_ids()
-            .filter(|&id| !self.sc.frozen_at(id, t))
+            .filter(|&id| !self.timeline.frozen_at(id, t))
             .map(|id| self.bodies[(id - 1) as usize].pos)
             .collect();
         match self.sc.end.goal_rule {

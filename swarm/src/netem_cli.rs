@@ -228,7 +228,8 @@ mod tests {
         let p = timeline_of(&op("1,2/3/4", None, false)).expect("ok").netem;
         assert_eq!(p.len(), 1);
         let part = p[0].partition.as_ref().expect("a partition event");
-        assert!(part.blocked(1, 3) && part.blocked(4, 2) && !part.blocked(1, 2));
+        let blocked = |from, to| netem::impair::blocked(part, from, to);
+        assert!(blocked(1, 3) && blocked(4, 2) && !blocked(1, 2));
         assert!(!p[0].rule.hold);
         let held = timeline_of(&op("1,2,3,4,5", Some(Scheme::Bridge), true)).expect("ok").netem;
         assert_eq!(held[0].partition, Some(Partition::Bridge { nodes: vec![1, 2, 3, 4, 5] }));

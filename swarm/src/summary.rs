@@ -157,7 +157,7 @@ pub struct ClassSummary {
     pub class: String,
     /// `offered`, `delivered`, `dropped`, `duplicated`, `held`, `released` (netem's counters).
     #[serde(flatten)]
-    pub counts: netem::ClassCounters,
+    pub counts: swarm_wire::ClassCounts,
     /// Mean applied delay [s] (null: nothing delivered).
     #[serde(with = "inf_as_null")]
     pub mean_delay_s: f64,

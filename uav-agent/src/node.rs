@@ -25,13 +25,12 @@ use std::collections::BTreeMap;
 use std::future::Future;
 use std::time::Duration;
 use swarm_config::{Scenario, ScenarioError, TimeMode};
-use swarm_wire::session::{self, Role};
+use swarm_wire::plumbing::{self, Subscription as Subscriber};
+use swarm_wire::session::{self, publisher, Role};
 use swarm_wire::{Cmd, CmdKind, Keys, Msg, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
-use swarm_wire::session::publisher;
 use zenoh::qos::CongestionControl;
-use zenoh::sample::SampleKind;
 
 /// Errors of an agent.
 #[derive(Debug, thiserror::Error)]
@@ -103,28 +102,17 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
     result
 }
 
+/// The scenario the hub serves, waited for up to 30 s.
 async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -> Result<Scenario, AgentError> {
     const WAIT_SECS: u64 = 30;
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(WAIT_SECS);
-    while tokio::time::Instant::now() < deadline {
-        let replies = s
-            .get(keys.scenario())
-            .timeout(Duration::from_secs(2))
-            .await
-            .map_err(WireError::zenoh)?;
-        while let Ok(reply) = replies.recv_async().await {
-            if let Ok(sample) = reply.result() {
-                let text = String::from_utf8_lossy(&sample.payload().to_bytes()).into_owned();
-                return Ok(Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?);
-            }
-        }
-        tokio::time::sleep(Duration::from_millis(200)).await;
-    }
-    Err(AgentError::NoHub(run.to_string(), WAIT_SECS))
+    let text = plumbing::fetch_scenario_text(s, keys, Duration::from_secs(WAIT_SECS)).await.map_err(|e| match e {
+        WireError::NoReply { .. } => AgentError::NoHub(run.to_string(), WAIT_SECS),
+        e => e.into(),
+    })?;
+    Ok(Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?)
 }
 
 type Publisher = zenoh::pubsub::Publisher<'static>;
-type Subscriber = zenoh::pubsub::Subscriber<()>;
 
 /// Everything the subscriptions deliver, in one channel so wire order is kept.
 enum Incoming {
@@ -161,8 +149,9 @@ struct Node {
     sensors: FrameCollector,
     link: netem::Link,
     inbox: netem::Inbox<Share>,
-    /// The scenario's `[[netem]]` rules, applied to every share this agent receives.
-    netem_rules: Scenario,
+    /// The netem timeline in force (the scenario's, then the hub's), applied to every share this
+    /// agent receives.
+    netem_rules: netem::Timeline,
     malformed: u64,
     tx: mpsc::UnboundedSender<Incoming>,
     rx: mpsc::UnboundedReceiver<Incoming>,
@@ -187,40 +176,12 @@ async fn declare_inputs(
     id: u32,
     tx: &mpsc::UnboundedSender<Incoming>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
-    let (sense_tx, radio_tx, rules_tx) = (tx.clone(), tx.clone(), tx.clone());
-    let decode = |bytes: &[u8]| Incoming::Sense(Msg::decode(bytes).ok());
-    let sense_sub = s
-        .declare_subscriber(keys.sense_all(id))
-        .callback(move |sample| {
-            let _ = sense_tx.send(decode(&sample.payload().to_bytes()));
-        })
-        .await
-        .map_err(WireError::zenoh)?;
-    let radio_sub = s
-        .declare_subscriber(keys.radio(id))
-        .callback(move |sample| {
-            let _ = radio_tx.send(decode(&sample.payload().to_bytes()));
-        })
-        .await
-        .map_err(WireError::zenoh)?;
+    let decode = |sample: &zenoh::sample::Sample| Some(Incoming::Sense(Msg::decode(&plumbing::payload(sample)).ok()));
+    let sense_sub = plumbing::subscribe(s, keys.sense_all(id), tx.clone(), decode).await?;
+    let radio_sub = plumbing::subscribe(s, keys.radio(id), tx.clone(), decode).await?;
     // The rules in force, republished by the hub whenever `swarm netem` changes them.
-    let rules_sub = s
-        .declare_subscriber(keys.netem_rules())
-        .callback(move |sample| {
-            let _ = rules_tx.send(decode(&sample.payload().to_bytes()));
-        })
-        .await
-        .map_err(WireError::zenoh)?;
-    let (hub_tx, hub_alive) = watch::channel(false);
-    let hub_watch = s
-        .liveliness()
-        .declare_subscriber(keys.alive_hub())
-        .history(true)
-        .callback(move |sample| {
-            let _ = hub_tx.send(sample.kind() == SampleKind::Put);
-        })
-        .await
-        .map_err(WireError::zenoh)?;
+    let rules_sub = plumbing::subscribe(s, keys.netem_rules(), tx.clone(), decode).await?;
+    let (hub_alive, hub_watch) = plumbing::watch_token(s, keys.alive_hub()).await?;
     Ok((Inputs { _sense: sense_sub, _radio: radio_sub, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
 }
 
@@ -249,7 +210,7 @@ impl Node {
             sensors: agent.frame_collector(),
             link: netem::Link::with_seed(sc.seed, id),
             dt: sc.dt_secs(),
-            netem_rules: sc,
+            netem_rules: netem::Timeline::from_scenario(&sc),
             agent,
             inbox: netem::Inbox::new(),
             malformed: 0,
@@ -340,7 +301,7 @@ impl Node {
             return;
         }
         let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
-        let rule = self.netem_rules.netem_rule_at(share.t_secs(), from, self.id);
+        let rule = self.netem_rules.rule_at(share.t_secs(), from, self.id);
         let radio_loss = self.radio_loss.get(&from).copied().unwrap_or(0.0);
         match self.link.on_receive_with(rule, radio_loss, from, share.t_secs(), now, self.dt, bytes.len()) {
             netem::Verdict::DeliverAt(at) => self.inbox.push(at, share),
@@ -361,7 +322,7 @@ impl Node {
         // One rule lookup per sender that has held messages.
         let (rules, me) = (&self.netem_rules, self.id);
         let senders: std::collections::BTreeSet<u32> = self.inbox.held().map(Share::from).collect();
-        let open: Vec<u32> = senders.into_iter().filter(|&from| !rules.netem_rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
+        let open: Vec<u32> = senders.into_iter().filter(|&from| !rules.rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
         let mut released = Vec::new();
         self.inbox.release(now, |m| {
             let go = open.contains(&m.from());
@@ -390,11 +351,10 @@ impl Node {
 
     /// The netem timeline in force changed (`swarm netem`).
     fn on_netem_rules(&mut self, json: &str) {
-        match serde_json::from_str::<swarm_config::Timeline>(json) {
+        match serde_json::from_str::<netem::Timeline>(json) {
             Ok(t) => {
-                debug!(rules = t.netem.len(), failures = t.failures.len(), "netem timeline in force updated");
-                self.netem_rules.netem = t.netem;
-                self.netem_rules.failures = t.failures;
+                debug!(rules = t.rules().len(), failures = t.failures().len(), "netem timeline in force updated");
+                self.netem_rules = t;
             }
             Err(e) => {
                 self.malformed += 1;
@@ -452,7 +412,7 @@ impl Node {
             recv_bytes: c.recv_bytes,
             delivered_msgs: c.delivered_msgs,
             malformed: self.malformed,
-            classes: c.classes,
+            classes: c.classes.map(class_counts),
         };
         let delays = self
             .link
@@ -480,14 +440,7 @@ impl Node {
             let tx = self.tx.clone();
             // No key: the mode has no communication at all, nobody to subscribe to.
             let Some(key) = self.agent.share_key(&self.keys, id) else { continue };
-            let sub = self
-                .s
-                .declare_subscriber(key)
-                .callback(move |sample| {
-                    let _ = tx.send(Incoming::Share(id, sample.payload().to_bytes().into_owned()));
-                })
-                .await
-                .map_err(WireError::zenoh)?;
+            let sub = plumbing::subscribe(&self.s, key, tx, move |sample| Some(Incoming::Share(id, plumbing::payload(sample)))).await?;
             debug!(neighbour = id, "subscribed");
             self.neighbour_subs.insert(id, sub);
             self.windows.insert(id, tick.saturating_add(1));
@@ -532,5 +485,18 @@ impl HubWatch {
         } else {
             HubEvent::None
         }
+    }
+}
+
+/// netem's counts of one link class in the wire's shape.
+fn class_counts(c: netem::ClassCounters) -> swarm_wire::ClassCounts {
+    use netem::Outcome::*;
+    swarm_wire::ClassCounts {
+        offered: c.get(Offered),
+        delivered: c.get(Delivered),
+        dropped: c.get(Dropped),
+        duplicated: c.get(Duplicated),
+        held: c.get(Held),
+        released: c.get(Released),
     }
 }

@@ -309,8 +309,39 @@ pub struct LinkCounters {
     pub classes: [ClassCounts; 3],
 }
 
-/// What the links of one class did to the messages an agent received.
-pub use netem::ClassCounters as ClassCounts;
+/// What the links of one class did to the messages an agent received (netem counts them; this
+/// is their shape on the wire and in `summary.json`).
+///
+/// `delivered = offered − dropped − held + duplicated + released`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClassCounts {
+    /// Messages that arrived on links of this class.
+    pub offered: u64,
+    /// Copies scheduled for delivery (duplicates and released messages included).
+    pub delivered: u64,
+    /// Messages dropped (loss model, radio loss, cut).
+    pub dropped: u64,
+    /// Messages duplicated.
+    pub duplicated: u64,
+    /// Messages stored by a holding link.
+    pub held: u64,
+    /// Stored messages delivered when their link released.
+    pub released: u64,
+}
+
+impl std::ops::Add for ClassCounts {
+    type Output = ClassCounts;
+    fn add(self, o: ClassCounts) -> ClassCounts {
+        ClassCounts {
+            offered: self.offered + o.offered,
+            delivered: self.delivered + o.delivered,
+            dropped: self.dropped + o.dropped,
+            duplicated: self.duplicated + o.duplicated,
+            held: self.held + o.held,
+            released: self.released + o.released,
+        }
+    }
+}
 
 /// The delay one delivered copy got: delivery instant − send instant.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -487,6 +518,13 @@ mod tests {
         assert_eq!(b[2], vec![5, 2, 0, 0, 0, 128, 62, 0, 0, 0, 191, 0, 0, 0, 0]);
         // Radio: tick 4, id 2, in_range [1, 3], loss [0.0, 0.25] as two little-endian f32.
         assert_eq!(b[3], vec![4, 4, 2, 2, 1, 3, 2, 0, 0, 0, 0, 0, 0, 128, 62]);
+    }
+
+    /// Pins the link counters of `AgentState`: six varints in field order.
+    #[test]
+    fn class_counts_golden_bytes() {
+        let c = ClassCounts { offered: 1, delivered: 2, dropped: 3, duplicated: 4, held: 5, released: 300 };
+        assert_eq!(postcard::to_stdvec(&c).expect("encodes"), vec![1, 2, 3, 4, 5, 172, 2]);
     }
 
     #[test]

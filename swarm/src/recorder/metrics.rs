@@ -434,13 +434,14 @@ impl Metrics {
         let mut series: Vec<(f64, usize)> = Vec::new();
         let mut across = 0u64;
         let grace = sc.localization.stale_after_s + sc.dt_secs();
+        let timeline = netem::Timeline::from_scenario(sc);
         for (t, known) in self.known.values() {
             let n = components(known);
             if changes.last().is_none_or(|c| c.components != n) {
                 changes.push(ComponentsAt { t_s: *t, components: n });
             }
             series.push((*t, n));
-            let blocked = |from: u32, to: u32, at: f64| sc.netem_rule_at(at, from, to).is_some_and(|r| r.blocked);
+            let blocked = |from: u32, to: u32, at: f64| timeline.rule_at(at, from, to).is_some_and(|r| r.blocked);
             for (&i, ids) in known {
                 across += ids.iter().filter(|&&j| blocked(j, i, *t) && blocked(j, i, t - grace)).count() as u64;
             }
