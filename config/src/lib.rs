@@ -9,6 +9,10 @@
 //! Entry points: [`Scenario::from_file`], [`Scenario::from_toml_str`], [`builtin`] (the scenarios
 //! shipped in `scenarios/`, compiled in so `swarm run` works with no argument).
 //!
+//! Modules (private, their types re-exported here): `schema` (the scenario structs), and the
+//! parameters of each controller and sensor that has many (K21's live in `schema`): `p17`,
+//! `a21`, `m23` (formations), `costmap` (seed 004's map and planner) and `uvdar`.
+//!
 //! Architecture invariant: this crate is pure data plus validation. It knows nothing of Zenoh,
 //! of geometry libraries or of how the world is simulated; forest generation lives in
 //! `physics-hub`, which is the only holder of ground truth. The `[[netem]]` rules reuse the

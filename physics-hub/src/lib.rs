@@ -7,6 +7,7 @@
 //! - [`body`]: a UAV body tracking velocity or acceleration commands within limits.
 //! - [`lidar`]: the 2D LIDAR, ray casting against trees, walls and other UAVs.
 //! - [`radio`]: who can hear whom (range with hysteresis).
+//! - [`uvdar`]: seed 003's onboard relative sensing (range and bearing of the neighbours in view).
 //! - [`sim`]: the pure simulation state and step: sensors out, commands in, ground truth out.
 //! - [`node`]: the Zenoh side: router session, lockstep/realtime loop, liveliness.
 //!

@@ -2,7 +2,8 @@
 //!
 //! - [`perception`]: scan grouping, least-squares circle fit (the obstacle set, seed 000 3.2) and
 //!   wall segments.
-//! - [`localization`]: where the neighbours are, relative to this UAV (`broadcast` mode).
+//! - [`localization`]: where the neighbours are, relative to this UAV (`broadcast` mode);
+//!   [`icp`] and [`neighbours`]: the same by ICP on shared obstacle sets (`icp` mode).
 //! - [`k21`]: the Boids-style K21 controller of seed 000 chapter 4.
 //! - [`p17`]: the P17 controller of seed 001 chapter 3 (β-agents for cylinders and walls).
 //! - [`a21`]: the A21 controller of seed 003 section III (proximal control, φ-limited navigation).
