@@ -163,7 +163,7 @@ fn keys_rs_functions() -> BTreeSet<String> {
     read(&path)
         .lines()
         .filter_map(|l| l.trim().strip_prefix("pub fn "))
-        .map(|l| l.split(|c: char| c == '(' || c == '<').next().expect("a name").to_string())
+        .map(|l| l.split(['(', '<']).next().expect("a name").to_string())
         .collect()
 }
 
