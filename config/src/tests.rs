@@ -1,3 +1,6 @@
+//! Unit tests of the schema: parsing, defaults, validation errors with their dotted paths, the
+//! built-in scenarios and the commented example file.
+
 use super::*;
 
 const MINIMAL: &str = r#"

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{run_id, start_hub, Proc, SWARM};
+use common::{output_within, run_id, start_hub, wait_output, Proc, SWARM, TOOL_LIMIT};
 use std::process::Command;
 use std::time::Duration;
 
@@ -17,7 +17,7 @@ fn start_recorder(run: &str, loc: &str, out: &std::path::Path, dir: &std::path::
 }
 
 fn tap(args: &[&str]) -> String {
-    let out = Command::new(SWARM).arg("tap").args(args).output().expect("tap runs");
+    let out = output_within(Command::new(SWARM).arg("tap").args(args), TOOL_LIMIT);
     assert!(out.status.success(), "tap failed: {}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).expect("utf8")
 }
@@ -52,7 +52,7 @@ fn pieces_by_hand_fly_and_tap_decodes_the_key_space() {
         })
         .collect();
 
-    let tapped = truth_tap.wait_with_output().expect("tap output");
+    let tapped = wait_output(truth_tap, TOOL_LIMIT, "tap of truth/step");
     let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&tapped.stdout)
         .lines()
         .map(|l| serde_json::from_str(l).expect("each line is JSON"))
@@ -99,10 +99,7 @@ fn agent_with_an_id_outside_the_scenario_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
     let run = run_id("badid");
     let (_hub, loc) = start_hub("forest-5", &run, dir.path());
-    let out = Command::new(SWARM)
-        .args(["agent", "--run", &run, "--id", "9", "--connect", &loc])
-        .output()
-        .expect("agent runs");
+    let out = output_within(Command::new(SWARM).args(["agent", "--run", &run, "--id", "9", "--connect", &loc]), TOOL_LIMIT);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("UAV id 9 is not in this scenario"), "{err}");
@@ -167,7 +164,7 @@ fn malformed_messages_are_counted_and_dropped() {
     let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
     assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "5", "--duration", "60"]).lines().count(), 5);
     let put = |key: String, payload: &[&str]| {
-        let o = Command::new(SWARM).args(["put", &key, "--connect", &loc]).args(payload).output().expect("put");
+        let o = output_within(Command::new(SWARM).args(["put", &key, "--connect", &loc]).args(payload), TOOL_LIMIT);
         assert!(o.status.success(), "put: {}", String::from_utf8_lossy(&o.stderr));
     };
     put(format!("swarm/{run}/uav/1/sense/scan"), &["--hex", "ff ff ff ff 01"]);
@@ -277,12 +274,12 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
         .map(|id| Proc::start(&["agent", "--run", &run, "--id", &id.to_string(), "--connect", &loc], &dir.path().join(format!("a{id}.log"))))
         .collect();
     assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]).lines().count(), 20);
-    let o = Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "isolate", "3"]).output().expect("netem");
+    let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "isolate", "3"]), TOOL_LIMIT);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("\"scheme\":\"isolate\""));
-    let o = Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "2"]).output().expect("netem");
+    let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "2"]), TOOL_LIMIT);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "9"]).output().expect("netem");
+    let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "9"]), TOOL_LIMIT);
     assert!(o.status.success(), "sent; the hub refuses it: {}", String::from_utf8_lossy(&o.stderr));
     assert!(rec.wait_for(Duration::from_secs(60)).expect("the run ends").success());
     assert!(hub.wait_for(Duration::from_secs(20)).is_some());

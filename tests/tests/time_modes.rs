@@ -52,7 +52,7 @@ fn lockstep_goes_on_when_an_agent_dies() {
     let out = dir.path().join("rec");
     let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
     let tap = |args: &[&str]| {
-        let o = Command::new(SWARM).arg("tap").args(args).output().expect("tap");
+        let o = common::output_within(Command::new(SWARM).arg("tap").args(args), common::TOOL_LIMIT);
         String::from_utf8_lossy(&o.stdout).into_owned()
     };
     assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));

@@ -1,24 +1,20 @@
-//! The key-expression space of one run. ARCHITECTURE.md carries the same table; change both.
+//! The key-expression space of one run, `swarm/{run}/...`: [`Keys`] is the one place key strings
+//! are made, so a key cannot be misspelt at one end only.
 //!
-//! ```text
-//! swarm/{run}/clock                        Clock        hub -> all
-//! swarm/{run}/scenario                     (queryable)  hub answers with the scenario TOML
-//! swarm/{run}/uav/{id}/sense/scan          Scan         hub -> agent {id}
-//! swarm/{run}/uav/{id}/sense/odom          Odom         hub -> agent {id}
-//! swarm/{run}/uav/{id}/sense/gnss          Gnss         hub -> agent {id} (broadcast mode only)
-//! swarm/{run}/uav/{id}/cmd                 Cmd          agent {id} -> hub
-//! swarm/{run}/uav/{id}/share/pose          PoseShare    agent {id} -> neighbours (broadcast mode)
-//! swarm/{run}/uav/{id}/share/obstacles     ObstacleShare agent {id} -> neighbours (icp mode)
-//! swarm/{run}/uav/{id}/state               AgentState   agent {id} -> recorder, tools
-//! swarm/{run}/radio/{id}                   RadioSet     hub -> agent {id}
-//! swarm/{run}/truth/world                  TruthWorld   hub -> recorder (once, at tick 0)
-//! swarm/{run}/truth/step                   TruthStep    hub -> recorder (every tick)
-//! swarm/{run}/alive/hub                    liveliness token of the hub
-//! swarm/{run}/alive/uav/{id}               liveliness token of agent {id}
-//! swarm/{run}/alive/recorder               liveliness token of the recorder
-//! swarm/{run}/netem/rules                  NetemRules   hub -> all (the [[netem]] rules in force)
-//! swarm/{run}/netem/add                    NetemRules   tools -> hub (rules to add, `swarm netem`)
-//! ```
+//! Each method's doc shows the key it builds. ARCHITECTURE.md's key table says what travels on
+//! each key and from whom to whom; `tests/tests/tidy.rs` fails when the table and these methods
+//! disagree (a method added here needs its row there). The families:
+//! - run-wide: `clock`, `scenario` (a queryable answering the scenario TOML), `radio/{id}`,
+//!   `netem/rules` and `netem/add` (the `[[netem]]` and `[[failures]]` timeline, as JSON text);
+//! - one UAV's: `uav/{id}/sense/{scan,odom,gnss,uvdar}` (hub -> agent), `uav/{id}/cmd`
+//!   (agent -> hub), `uav/{id}/share/{pose,obstacles}` (agent -> neighbours), `uav/{id}/state`;
+//! - ground truth for the recorder: `truth/world`, `truth/step`;
+//! - liveliness tokens: `alive/hub`, `alive/uav/{id}`, `alive/recorder`;
+//! - wildcards for subscribers: `uav/{id}/sense/**`, `uav/*/cmd`, `uav/*/state`, `truth/**`,
+//!   `alive/uav/*`.
+//!
+//! Run ids are checked ([`check_component`]), and [`Keys::uav_id_of`] reads a UAV id back from a
+//! key of this run.
 
 use crate::WireError;
 

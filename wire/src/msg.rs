@@ -2,7 +2,7 @@
 //!
 //! Postcard is positional and not self-describing, so the rules are: variants of [`Msg`] are only
 //! ever appended; a struct may only grow at its end. The golden-bytes test below pins the
-//! encoding of each message so an accidental reorder fails CI. Times are sim seconds; frames are
+//! encoding of every variant so an accidental reorder fails CI. Times are sim seconds; frames are
 //! named in field docs (world, odom = the UAV's own start frame, body = the UAV's rotational
 //! frame, seed 000 section 2.4).
 
@@ -38,8 +38,9 @@ pub enum Msg {
     /// `.../share/obstacles`
     Obstacles(ObstacleShare),
     /// `swarm/{run}/netem/rules` (the rules in force, hub -> all) and `swarm/{run}/netem/add`
-    /// (a rule to add, tools -> hub): JSON text of the scenario's `[[netem]]` entries, since the
-    /// rule types are self-describing serde enums that postcard cannot carry.
+    /// (a timeline to add, tools -> hub): JSON text of a timeline of `[[netem]]` rules and
+    /// `[[failures]]`, since the rule types are self-describing serde enums that postcard cannot
+    /// carry.
     NetemRules(String),
     /// `.../sense/uvdar`: onboard relative sensing of neighbours (`uvdar` localization mode).
     Uvdar(Uvdar),
@@ -485,39 +486,165 @@ pub struct TruthStep {
 mod tests {
     use super::*;
 
-    fn samples() -> Vec<Msg> {
+    /// Variant index of `m`, by an exhaustive match: a new variant does not compile here until it
+    /// is given its golden bytes in [`golden`].
+    fn variant_index(m: &Msg) -> u8 {
+        match m {
+            Msg::Clock(_) => 0,
+            Msg::Scan(_) => 1,
+            Msg::Odom(_) => 2,
+            Msg::Gnss(_) => 3,
+            Msg::Radio(_) => 4,
+            Msg::Cmd(_) => 5,
+            Msg::Pose(_) => 6,
+            Msg::State(_) => 7,
+            Msg::TruthWorld(_) => 8,
+            Msg::TruthStep(_) => 9,
+            Msg::Obstacles(_) => 10,
+            Msg::NetemRules(_) => 11,
+            Msg::Uvdar(_) => 12,
+        }
+    }
+
+    /// One representative value of every variant and its exact postcard bytes (hex). Values use
+    /// small integers, exact binary fractions, `Some` and non-empty vectors so every field shows
+    /// in the bytes.
+    fn golden() -> Vec<(Msg, &'static str)> {
+        let state = AgentState {
+            id: 2,
+            tick: 7,
+            t_secs: 0.5,
+            step_time_us: 300,
+            obstacles: 4,
+            neighbours: vec![NeighbourEstimate { id: Some(3), x: 1.5, y: -2.0, heading: 0.25, age_secs: 0.125 }],
+            in_radio_range: 1,
+            vectors: VectorMagnitudes { cohesion: 0.5, separation: 1.0, avoidance: 2.0, navigation: 0.25, output: 1.5 },
+            link: LinkCounters {
+                sent_msgs: 1,
+                sent_bytes: 200,
+                recv_msgs: 3,
+                recv_bytes: 4,
+                delivered_msgs: 5,
+                malformed: 6,
+                classes: [
+                    ClassCounts { offered: 7, delivered: 8, dropped: 9, duplicated: 10, held: 11, released: 12 },
+                    ClassCounts { offered: 13, delivered: 14, dropped: 15, duplicated: 16, held: 17, released: 18 },
+                    ClassCounts { offered: 19, delivered: 20, dropped: 21, duplicated: 22, held: 23, released: 24 },
+                ],
+            },
+            icp: IcpCounts { short: 1, long: 2, initial: 3, deferred: 4, entries: 5, suspended: 6 },
+            delays: vec![DelaySample { class: 1, delay_s: 0.5 }],
+        };
+        let body = |id: u32, colliding: bool| TruthBody {
+            id,
+            x: 1.0,
+            y: -1.0,
+            yaw: 0.5,
+            vx: 0.25,
+            vy: 0.0,
+            alive: true,
+            cmd_on_time: !colliding,
+            obstacle_distance_m: 2.0,
+            agent_distance_m: 4.0,
+            colliding,
+        };
         vec![
-            Msg::Clock(Clock { tick: 3, t_secs: 0.3, dt_secs: 0.1 }),
-            Msg::Scan(Scan {
-                tick: 1,
-                t_secs: 0.1,
-                angle_min: 0.0,
-                angle_increment: 0.5,
-                max_range_m: 12.0,
-                ranges_m: vec![1.0, f32::INFINITY],
-            }),
-            Msg::Cmd(Cmd { tick: 2, kind: CmdKind::Velocity, x: 0.25, y: -0.5, yaw_rate: 0.0 }),
-            Msg::Radio(RadioSet { tick: 4, id: 2, in_range: vec![1, 3], loss: vec![0.0, 0.25] }),
+            (Msg::Clock(Clock { tick: 3, t_secs: 0.25, dt_secs: 0.125 }), "0003000000000000d03f000000000000c03f"),
+            (
+                Msg::Scan(Scan {
+                    tick: 1,
+                    t_secs: 0.125,
+                    angle_min: 0.0,
+                    angle_increment: 0.5,
+                    max_range_m: 12.0,
+                    ranges_m: vec![1.0, f32::INFINITY],
+                }),
+                "0101000000000000c03f000000000000003f00004041020000803f0000807f",
+            ),
+            (
+                Msg::Odom(Odom {
+                    tick: 2,
+                    t_secs: 0.25,
+                    x: 1.0,
+                    y: -2.0,
+                    yaw: 0.5,
+                    vx: 0.25,
+                    vy: -0.125,
+                    goal: Some([30.0, 0.0]),
+                    goal_vel: None,
+                }),
+                "0202000000000000d03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf010000000000003e40000000000000000000",
+            ),
+            (
+                Msg::Gnss(Gnss { tick: 2, t_secs: 0.25, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125 }),
+                "0302000000000000d03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf",
+            ),
+            (Msg::Radio(RadioSet { tick: 4, id: 2, in_range: vec![1, 3], loss: vec![0.0, 0.25] }), "04040202010302000000000000803e"),
+            (Msg::Cmd(Cmd { tick: 2, kind: CmdKind::Velocity, x: 0.25, y: -0.5, yaw_rate: 0.0 }), "0502000000803e000000bf00000000"),
+            (
+                Msg::Pose(PoseShare { from: 3, tick: 5, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125 }),
+                "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf",
+            ),
+            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f"),
+            (
+                Msg::TruthWorld(TruthWorld {
+                    trees: vec![[1.0, 2.0, 0.25]],
+                    walls: vec![[0.0, 0.0, 4.0, 0.0, 0.5]],
+                    starts: vec![[0.0, 1.0, 0.5]],
+                    goal: [30.0, 0.0],
+                    body_radius_m: 0.25,
+                }),
+                "0801000000000000f03f0000000000000040000000000000d03f010000000000000000000000000000000000000000000010400000000000000000000000000000e03f010000000000000000000000000000f03f000000000000e03f0000000000003e400000000000000000000000000000d03f",
+            ),
+            (
+                Msg::TruthStep(TruthStep {
+                    tick: 9,
+                    t_secs: 1.0,
+                    bodies: vec![body(1, false), body(2, true)],
+                    collisions: vec![CollisionEvent { id: 2, other_uav: None, x: 1.0, y: -1.0 }],
+                    goal_reached_at: Some(0.5),
+                    ended: Some(EndReason::Goal),
+                    wall_secs: 2.0,
+                }),
+                "0909000000000000f03f0201000000000000f03f000000000000f0bf000000000000e03f000000000000d03f00000000000000000101000000000000004000000000000010400002000000000000f03f000000000000f0bf000000000000e03f000000000000d03f000000000000000001000000000000000040000000000000104001010200000000000000f03f000000000000f0bf01000000000000e03f01000000000000000040",
+            ),
+            (Msg::Obstacles(ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: vec![[150, -200], [-1, 0]] }), "0a0364000000000000244002ac028f030100"),
+            (Msg::NetemRules(r#"{"netem":[],"failures":[]}"#.to_string()), "0b1a7b226e6574656d223a5b5d2c226661696c75726573223a5b5d7d"),
+            (
+                Msg::Uvdar(Uvdar { tick: 6, t_secs: 0.5, seen: vec![UvdarSeen { id: 4, range_m: 2.5, bearing_rad: -0.5 }] }),
+                "0c06000000000000e03f010400002040000000bf",
+            ),
         ]
+    }
+
+    fn hex(bytes: &[u8]) -> String {
+        bytes.iter().map(|b| format!("{b:02x}")).collect()
     }
 
     #[test]
     fn roundtrip() {
-        for m in samples() {
+        for (m, _) in golden() {
             let b = m.encode().expect("encodes");
             assert_eq!(Msg::decode(&b).expect("decodes"), m);
         }
     }
 
-    /// Pins the layout: a reordered variant or field changes these bytes.
+    /// Pins the layout of every variant: a reordered variant or field, a changed integer width or
+    /// a new field in the middle changes these bytes.
     #[test]
     fn golden_bytes() {
-        let b: Vec<Vec<u8>> = samples().iter().map(|m| m.encode().expect("encodes")).collect();
-        assert_eq!(b[0][0], 0, "Clock is variant 0");
-        assert_eq!(b[0][1], 3, "tick varint");
-        assert_eq!(b[2], vec![5, 2, 0, 0, 0, 128, 62, 0, 0, 0, 191, 0, 0, 0, 0]);
-        // Radio: tick 4, id 2, in_range [1, 3], loss [0.0, 0.25] as two little-endian f32.
-        assert_eq!(b[3], vec![4, 4, 2, 2, 1, 3, 2, 0, 0, 0, 0, 0, 0, 128, 62]);
+        let table = golden();
+        let indices: Vec<u8> = table.iter().map(|(m, _)| variant_index(m)).collect();
+        let all: Vec<u8> = (0..indices.len() as u8).collect();
+        assert_eq!(indices, all, "one golden value per Msg variant, in variant order");
+        let wrong: Vec<String> = table
+            .iter()
+            .filter_map(|(m, want)| {
+                let got = hex(&m.encode().expect("encodes"));
+                (got != *want).then(|| format!("{} (variant {}):\n  want {want}\n  got  {got}", m.kind(), variant_index(m)))
+            })
+            .collect();
+        assert!(wrong.is_empty(), "wire shape changed; append, never reorder:\n{}", wrong.join("\n"));
     }
 
     /// Pins the link counters of `AgentState`: six varints in field order.

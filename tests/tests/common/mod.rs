@@ -1,11 +1,15 @@
 //! Shared harness of the end-to-end tests: the `swarm` binary under test, unique run ids, a hub
 //! started by hand whose locator is read from its stdout, and a bounded wait for processes.
+//!
+//! Every wait on a child is bounded: [`output_within`] and [`wait_output`] kill a child that
+//! outlives its limit and fail the test saying which command hung; [`Proc::wait_for`] returns
+//! `None` for the caller to fail on; [`Proc`]'s drop kills before it reaps.
 
 #![allow(dead_code)]
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
-use std::process::{Child, ChildStdin, Command, Output, Stdio};
+use std::process::{Child, ChildStdin, Command, ExitStatus, Output, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
@@ -18,9 +22,65 @@ pub fn run_id(tag: &str) -> String {
     format!("t{}-{}-{tag}", std::process::id(), N.fetch_add(1, Ordering::Relaxed))
 }
 
-/// Runs `swarm run` to completion and returns its output.
+/// The longest a whole `swarm run` may take before the test fails (a loaded machine flies the
+/// longest scenario in well under this).
+pub const RUN_LIMIT: Duration = Duration::from_secs(600);
+
+/// The longest a tool (`tap`, `put`, `netem`, an agent refused at the door) may take.
+pub const TOOL_LIMIT: Duration = Duration::from_secs(120);
+
+/// Runs `swarm run` to completion (at most [`RUN_LIMIT`]) and returns its output.
 pub fn swarm_run(args: &[&str]) -> Output {
-    Command::new(SWARM).arg("run").args(args).arg("--quiet").output().expect("swarm runs")
+    output_within(Command::new(SWARM).arg("run").args(args).arg("--quiet"), RUN_LIMIT)
+}
+
+/// Runs `cmd` to completion like [`Command::output`] (stdin null, stdout and stderr captured), but
+/// kills it and fails the test if it has not exited within `limit`.
+pub fn output_within(cmd: &mut Command, limit: Duration) -> Output {
+    let what = format!("{cmd:?}");
+    let child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot start {what}: {e}"));
+    wait_output(child, limit, &what)
+}
+
+/// Waits for `child` to exit and collects what it wrote to its piped stdout and stderr (empty
+/// where not piped); kills it and fails the test, naming `what`, if it outlives `limit`.
+pub fn wait_output(mut child: Child, limit: Duration, what: &str) -> Output {
+    let read_all = |pipe: Option<Box<dyn Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_end(&mut bytes);
+            }
+            bytes
+        })
+    };
+    let stdout = read_all(child.stdout.take().map(|p| Box::new(p) as Box<dyn Read + Send>));
+    let stderr = read_all(child.stderr.take().map(|p| Box::new(p) as Box<dyn Read + Send>));
+    let Some(status) = exit_within(&mut child, limit) else {
+        let _ = child.kill();
+        let _ = child.wait();
+        panic!("{what} still running after {limit:?}: killed");
+    };
+    Output { status, stdout: stdout.join().expect("stdout reader"), stderr: stderr.join().expect("stderr reader") }
+}
+
+/// Polls `child` for its exit up to `limit`; `None` if it is still running.
+fn exit_within(child: &mut Child, limit: Duration) -> Option<ExitStatus> {
+    let end = Instant::now() + limit;
+    loop {
+        if let Some(s) = child.try_wait().expect("try_wait") {
+            return Some(s);
+        }
+        if Instant::now() >= end {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
 }
 
 /// Parses the summary of a run folder.
@@ -59,15 +119,8 @@ impl Proc {
     }
 
     /// Waits for exit up to `limit`; `None` if it is still running.
-    pub fn wait_for(&mut self, limit: Duration) -> Option<std::process::ExitStatus> {
-        let end = Instant::now() + limit;
-        while Instant::now() < end {
-            if let Some(s) = self.child.try_wait().expect("try_wait") {
-                return Some(s);
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        None
+    pub fn wait_for(&mut self, limit: Duration) -> Option<ExitStatus> {
+        exit_within(&mut self.child, limit)
     }
 }
 

@@ -1,0 +1,370 @@
+//! Tidy tests, after rust-analyzer's `xtask/src/tidy.rs`: the docs that can drift from the code are
+//! read back and checked against it, so a change that makes them false fails here, naming the file
+//! and what to add.
+//!
+//! The checks walk the workspace as it is (its `Cargo.toml` members, their `src/` and `benches/`),
+//! so moving or adding a module or a crate needs no change here:
+//! - every `.rs` file under a crate's `src/` and `benches/` opens with a `//!` module doc;
+//! - every file that declares modules (`lib.rs`, `main.rs`, a folder module) names each of them in
+//!   that doc, as `` `x` `` or [`x`];
+//! - ARCHITECTURE.md's key-expression table lists exactly the keys `swarm_wire::Keys` builds, and
+//!   every wildcard it builds matches some row of the table;
+//! - ARCHITECTURE.md's codemap has a section per crate, naming each of the crate's top-level
+//!   modules;
+//! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on.
+//!
+//! Pure file reading: no process is spawned and nothing is built.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// The workspace root (this crate is one of its members).
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate lives in the workspace").to_path_buf()
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
+}
+
+/// `path` relative to the workspace root, for messages.
+fn rel(path: &Path) -> String {
+    path.strip_prefix(root()).unwrap_or(path).display().to_string()
+}
+
+/// One workspace member: its folder (relative to the root) and its package name.
+struct Member {
+    dir: String,
+    package: String,
+}
+
+/// The members of the root `Cargo.toml`, with their package names.
+fn members() -> Vec<Member> {
+    let manifest: toml::Table = read(&root().join("Cargo.toml")).parse().expect("root Cargo.toml parses");
+    let dirs = manifest["workspace"]["members"].as_array().expect("workspace.members");
+    dirs.iter()
+        .map(|d| {
+            let dir = d.as_str().expect("member path").to_string();
+            let own: toml::Table = read(&root().join(&dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
+            let package = own["package"]["name"].as_str().expect("package.name").to_string();
+            Member { dir, package }
+        })
+        .collect()
+}
+
+/// Every `.rs` file under `dir`, recursively, sorted.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else { return out };
+    for entry in entries.map(|e| e.expect("directory entry").path()) {
+        if entry.is_dir() {
+            out.extend(rust_files(&entry));
+        } else if entry.extension().is_some_and(|e| e == "rs") {
+            out.push(entry);
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The source files the checks cover: each member's `src/` and `benches/`.
+fn source_files() -> Vec<PathBuf> {
+    members().iter().flat_map(|m| ["src", "benches"].map(|sub| root().join(&m.dir).join(sub))).flat_map(|d| rust_files(&d)).collect()
+}
+
+/// The file's module doc: its `//!` lines in the leading block of comments and inner attributes
+/// (empty when it has none).
+fn module_doc(text: &str) -> String {
+    text.lines()
+        .map(str::trim)
+        .take_while(|l| l.is_empty() || l.starts_with("//") || l.starts_with("#!["))
+        .filter_map(|l| l.strip_prefix("//!"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The modules a file declares with `mod x;` (any visibility), leaving out `#[cfg(test)]` ones.
+fn declared_modules(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut test_only = false;
+    for line in text.lines().map(str::trim) {
+        if line.starts_with("#[cfg(test)]") {
+            test_only = true;
+            continue;
+        }
+        let item = line.strip_prefix("pub ").or_else(|| line.split_once(") ").filter(|(v, _)| v.starts_with("pub(")).map(|(_, r)| r));
+        let item = item.unwrap_or(line);
+        if let Some(name) = item.strip_prefix("mod ").and_then(|r| r.strip_suffix(';')) {
+            if !test_only {
+                out.push(name.trim().to_string());
+            }
+        }
+        if !line.starts_with("#[") && !line.is_empty() {
+            test_only = false;
+        }
+    }
+    out
+}
+
+/// `text` names module `name`: as `` `name` ``, [`name`], or a path starting with it
+/// (`` `name::Item` ``, `` `name/` ``).
+fn names_module(text: &str, name: &str) -> bool {
+    ["`", "::", "/"].iter().any(|end| text.contains(&format!("`{name}{end}")))
+}
+
+#[test]
+fn every_source_file_has_a_module_doc() {
+    let missing: Vec<String> = source_files()
+        .iter()
+        .filter(|f| module_doc(&read(f)).trim().is_empty())
+        .map(|f| format!("{}: add a `//!` module doc at the top saying what the module is for", rel(f)))
+        .collect();
+    assert!(missing.is_empty(), "files without a module doc:\n{}", missing.join("\n"));
+}
+
+#[test]
+fn every_module_is_named_in_its_parents_doc() {
+    let mut missing = Vec::new();
+    for file in source_files() {
+        let text = read(&file);
+        let doc = module_doc(&text);
+        for m in declared_modules(&text).iter().filter(|m| !names_module(&doc, m)) {
+            missing.push(format!("{}: name module `{m}` in the `//!` doc (e.g. \"- [`{m}`]: what it is for\")", rel(&file)));
+        }
+    }
+    assert!(missing.is_empty(), "modules their parent's doc does not name:\n{}", missing.join("\n"));
+}
+
+/// ARCHITECTURE.md.
+fn architecture() -> String {
+    read(&root().join("ARCHITECTURE.md"))
+}
+
+/// The lines of section `## title` of `text` (up to the next `## `).
+fn section<'a>(text: &'a str, title: &str) -> Vec<&'a str> {
+    let heading = format!("## {title}");
+    let mut lines = text.lines().skip_while(|l| l.trim() != heading);
+    assert!(lines.next().is_some(), "ARCHITECTURE.md: add a `{heading}` section");
+    lines.take_while(|l| !l.starts_with("## ")).collect()
+}
+
+/// The keys in the first column of ARCHITECTURE.md's key-expression table.
+fn table_keys() -> BTreeSet<String> {
+    let text = architecture();
+    section(&text, "Key expressions")
+        .iter()
+        .filter_map(|l| l.strip_prefix("| `"))
+        .filter_map(|l| l.split_once('`').map(|(key, _)| key.to_string()))
+        .collect()
+}
+
+/// The names of the `pub fn`s of `wire/src/keys.rs`.
+fn keys_rs_functions() -> BTreeSet<String> {
+    let path = root().join("wire/src/keys.rs");
+    read(&path)
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("pub fn "))
+        .map(|l| l.split(['(', '<']).next().expect("a name").to_string())
+        .collect()
+}
+
+/// What a `pub fn` of `wire/src/keys.rs` is to the table.
+enum KeyFn {
+    /// Builds one key: a row of the table.
+    Key(fn(&swarm_wire::Keys, u32) -> String),
+    /// Builds a wildcard subscription: it must match some row.
+    Wildcard(fn(&swarm_wire::Keys, u32) -> String),
+    /// Not a key (constructor, parser, prefix).
+    Other,
+}
+
+/// Every `pub fn` of `wire/src/keys.rs`, called. A function added there and not here fails
+/// [`key_table_matches_wire_keys`]: add it here, and its row to ARCHITECTURE.md if it is a key.
+fn key_fns() -> Vec<(&'static str, KeyFn)> {
+    use swarm_wire::Keys;
+    use KeyFn::{Key, Other, Wildcard};
+    vec![
+        ("check_component", Other),
+        ("new", Other),
+        ("prefix", Other),
+        ("uav_id_of", Other),
+        ("clock", Key(|k: &Keys, _| k.clock())),
+        ("scenario", Key(|k: &Keys, _| k.scenario())),
+        ("scan", Key(|k: &Keys, id| k.scan(id))),
+        ("odom", Key(|k: &Keys, id| k.odom(id))),
+        ("gnss", Key(|k: &Keys, id| k.gnss(id))),
+        ("uvdar", Key(|k: &Keys, id| k.uvdar(id))),
+        ("sense_all", Wildcard(|k: &Keys, id| k.sense_all(id))),
+        ("cmd", Key(|k: &Keys, id| k.cmd(id))),
+        ("cmd_any", Wildcard(|k: &Keys, _| k.cmd_any())),
+        ("share_pose", Key(|k: &Keys, id| k.share_pose(id))),
+        ("share_obstacles", Key(|k: &Keys, id| k.share_obstacles(id))),
+        ("state", Key(|k: &Keys, id| k.state(id))),
+        ("state_any", Wildcard(|k: &Keys, _| k.state_any())),
+        ("radio", Key(|k: &Keys, id| k.radio(id))),
+        ("netem_rules", Key(|k: &Keys, _| k.netem_rules())),
+        ("netem_add", Key(|k: &Keys, _| k.netem_add())),
+        ("truth_world", Key(|k: &Keys, _| k.truth_world())),
+        ("truth_step", Key(|k: &Keys, _| k.truth_step())),
+        ("truth_all", Wildcard(|k: &Keys, _| k.truth_all())),
+        ("alive_hub", Key(|k: &Keys, _| k.alive_hub())),
+        ("alive_uav", Key(|k: &Keys, id| k.alive_uav(id))),
+        ("alive_recorder", Key(|k: &Keys, _| k.alive_recorder())),
+        ("alive_uav_any", Wildcard(|k: &Keys, _| k.alive_uav_any())),
+    ]
+}
+
+/// A key of run `RUNID` and UAV 4242 written as the table writes it (`{run}`, `{id}`).
+fn as_pattern(key: &str) -> String {
+    key.replace("RUNID", "{run}").replace("4242", "{id}")
+}
+
+/// Zenoh key-expression matching, enough for our keys: `*` is one chunk, a final `**` the rest.
+fn matches(wildcard: &str, key: &str) -> bool {
+    let (w, k): (Vec<_>, Vec<_>) = (wildcard.split('/').collect(), key.split('/').collect());
+    if w.last() == Some(&"**") {
+        let fixed = &w[..w.len() - 1];
+        return k.len() > fixed.len() && fixed.iter().zip(&k).all(|(a, b)| *a == "*" || a == b);
+    }
+    w.len() == k.len() && w.iter().zip(&k).all(|(a, b)| *a == "*" || a == b)
+}
+
+#[test]
+fn key_table_matches_wire_keys() {
+    let fns = key_fns();
+    let listed: BTreeSet<String> = fns.iter().map(|(n, _)| n.to_string()).collect();
+    let parsed = keys_rs_functions();
+    let new_fns: Vec<_> = parsed.difference(&listed).collect();
+    let gone_fns: Vec<_> = listed.difference(&parsed).collect();
+    assert!(
+        new_fns.is_empty() && gone_fns.is_empty(),
+        "wire/src/keys.rs and tests/tests/tidy.rs `key_fns` disagree: add {new_fns:?} to `key_fns` (and a row to \
+         ARCHITECTURE.md's key table if it builds a key); remove {gone_fns:?} from `key_fns`"
+    );
+    let keys = swarm_wire::Keys::new("RUNID").expect("valid run id");
+    let table = table_keys();
+    let mut problems = Vec::new();
+    let mut built = BTreeSet::new();
+    for (name, f) in &fns {
+        match f {
+            KeyFn::Key(make) => {
+                let key = as_pattern(&make(&keys, 4242));
+                if !table.contains(&key) {
+                    problems.push(format!("ARCHITECTURE.md: add a row for `{key}` (built by `Keys::{name}`) to the key table"));
+                }
+                built.insert(key);
+            }
+            KeyFn::Wildcard(make) => {
+                let w = as_pattern(&make(&keys, 4242));
+                if !table.iter().any(|row| matches(&w, row)) {
+                    problems.push(format!("ARCHITECTURE.md: `Keys::{name}` subscribes to `{w}`, which matches no row of the key table"));
+                }
+            }
+            KeyFn::Other => {}
+        }
+    }
+    for row in table.difference(&built) {
+        problems.push(format!("ARCHITECTURE.md: the key table lists `{row}`, which `swarm_wire::Keys` does not build: remove the row or add the key to wire/src/keys.rs"));
+    }
+    assert!(problems.is_empty(), "the key table and the code disagree:\n{}", problems.join("\n"));
+}
+
+/// The codemap's sections: each `### ` heading with the text under it.
+fn codemap_sections() -> Vec<(String, String)> {
+    let text = architecture();
+    let mut out: Vec<(String, String)> = Vec::new();
+    for line in section(&text, "Codemap") {
+        if let Some(heading) = line.strip_prefix("### ") {
+            out.push((heading.to_string(), String::new()));
+        } else if let Some((_, body)) = out.last_mut() {
+            body.push_str(line);
+            body.push('\n');
+        }
+    }
+    out
+}
+
+/// The crate root of a member: `src/lib.rs`, or `src/main.rs` for a binary-only crate.
+fn crate_root(member: &Member) -> PathBuf {
+    let src = root().join(&member.dir).join("src");
+    let lib = src.join("lib.rs");
+    if lib.exists() { lib } else { src.join("main.rs") }
+}
+
+#[test]
+fn codemap_names_every_crate_and_top_level_module() {
+    let sections = codemap_sections();
+    let mut problems = Vec::new();
+    for m in members() {
+        let named = |h: &str| names_module(h, &m.dir) || names_module(h, &m.package);
+        let Some((_, body)) = sections.iter().find(|(h, _)| named(h)) else {
+            problems.push(format!("ARCHITECTURE.md: add a codemap section \"### `{}` (crate `{}`)\" saying what the crate is for", m.dir, m.package));
+            continue;
+        };
+        let root_file = crate_root(&m);
+        for module in declared_modules(&read(&root_file)).iter().filter(|x| !names_module(body, x)) {
+            problems.push(format!(
+                "ARCHITECTURE.md: name `{module}` (a module of {}) in the codemap section of `{}`",
+                rel(&root_file),
+                m.dir
+            ));
+        }
+    }
+    assert!(problems.is_empty(), "the codemap and the workspace disagree:\n{}", problems.join("\n"));
+}
+
+/// The `name -> a, b` lines of ARCHITECTURE.md's crate-dependency list, as package -> deps.
+fn documented_dependencies() -> BTreeMap<String, BTreeSet<String>> {
+    let text = architecture();
+    section(&text, "Crate dependencies")
+        .into_iter()
+        .filter_map(|l| l.split_once(" -> "))
+        .map(|(name, deps)| {
+            let deps = deps.split(',').map(str::trim).filter(|d| !d.is_empty() && *d != "(none)").map(String::from).collect();
+            (name.trim().to_string(), deps)
+        })
+        .collect()
+}
+
+/// Each member's normal (not dev, not build) dependencies on other members, from its Cargo.toml.
+fn manifest_dependencies() -> BTreeMap<String, BTreeSet<String>> {
+    let members = members();
+    let packages: BTreeSet<&str> = members.iter().map(|m| m.package.as_str()).collect();
+    members
+        .iter()
+        .map(|m| {
+            let own: toml::Table = read(&root().join(&m.dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
+            let deps = own.get("dependencies").and_then(|d| d.as_table()).map(|t| t.keys().cloned().collect::<Vec<_>>()).unwrap_or_default();
+            (m.package.clone(), deps.into_iter().filter(|d| packages.contains(d.as_str())).collect())
+        })
+        .collect()
+}
+
+#[test]
+fn crate_dependency_list_matches_the_manifests() {
+    let (documented, actual) = (documented_dependencies(), manifest_dependencies());
+    let mut wrong = Vec::new();
+    for (package, deps) in &actual {
+        match documented.get(package) {
+            None => wrong.push(format!("ARCHITECTURE.md: add `{package} -> ...` to `## Crate dependencies`")),
+            Some(d) if d != deps => wrong.push(format!("ARCHITECTURE.md: `{package}` depends on {deps:?} (its Cargo.toml), not {d:?}")),
+            Some(_) => {}
+        }
+    }
+    for package in documented.keys().filter(|p| !actual.contains_key(*p)) {
+        wrong.push(format!("ARCHITECTURE.md: `{package}` in `## Crate dependencies` is not a workspace member"));
+    }
+    assert!(wrong.is_empty(), "the crate dependencies and ARCHITECTURE.md disagree:\n{}", wrong.join("\n"));
+}
+
+#[test]
+fn the_helpers_parse_what_they_should() {
+    let text = "//! Doc of [`a`] and `b::C`.\n#![allow(x)]\n//! More.\n\npub mod a;\nmod b;\npub(crate) mod c;\n#[cfg(test)]\nmod tests;\n";
+    assert_eq!(declared_modules(text), ["a", "b", "c"]);
+    let doc = module_doc(text);
+    assert!(names_module(&doc, "a") && names_module(&doc, "b") && !names_module(&doc, "c"));
+    assert!(doc.contains("More."));
+    assert!(module_doc("use x;\n//! late").is_empty());
+    assert!(matches("s/r/uav/*/cmd", "s/r/uav/{id}/cmd") && !matches("s/r/uav/*/cmd", "s/r/uav/{id}/state"));
+    assert!(matches("s/r/truth/**", "s/r/truth/step") && !matches("s/r/truth/**", "s/r/clock"));
+}
