@@ -11,7 +11,8 @@
 //!   every wildcard it builds matches some row of the table;
 //! - ARCHITECTURE.md's codemap has a section per crate, naming each of the crate's top-level
 //!   modules;
-//! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on.
+//! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on;
+//! - no function in the agent's node, the hub's node or the launcher is over 60 lines.
 //!
 //! Pure file reading: no process is spawned and nothing is built.
 
@@ -357,8 +358,50 @@ fn crate_dependency_list_matches_the_manifests() {
     assert!(wrong.is_empty(), "the crate dependencies and ARCHITECTURE.md disagree:\n{}", wrong.join("\n"));
 }
 
+/// The files whose functions must stay short: the three places where Zenoh plumbing and control
+/// flow meet, which grow long loops unless held to it.
+const SHORT_FUNCTION_FILES: [&str; 3] = ["uav-agent/src/node.rs", "physics-hub/src/node.rs", "swarm/src/launch.rs"];
+
+/// Longest function allowed there, in lines from `fn` to its closing brace.
+const MAX_FUNCTION_LINES: usize = 60;
+
+/// `(name, lines)` of every function with a body in `text`: from its `fn` line to the first line
+/// after it that closes at the same indentation.
+fn function_lengths(text: &str) -> Vec<(String, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut out = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let code = line.trim_start();
+        let indent = line.len() - code.len();
+        let Some(at) = code.find("fn ").filter(|&at| at == 0 || code[..at].ends_with(' ')) else { continue };
+        let is_item = ["pub", "async", "const", "unsafe"].iter().any(|w| code.starts_with(w)) || at == 0;
+        if !is_item || code.ends_with(';') || code.starts_with("//") {
+            continue;
+        }
+        let name: String = code[at + 3..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        let close = format!("{}}}", " ".repeat(indent));
+        if let Some(end) = lines[i + 1..].iter().position(|l| l.starts_with(&close) && l.len() - l.trim_start().len() == indent) {
+            out.push((name, end + 2));
+        }
+    }
+    out
+}
+
+#[test]
+fn functions_in_the_nodes_and_the_launcher_stay_short() {
+    let mut long = Vec::new();
+    for file in SHORT_FUNCTION_FILES {
+        for (name, n) in function_lengths(&read(&root().join(file))).into_iter().filter(|(_, n)| *n > MAX_FUNCTION_LINES) {
+            long.push(format!("{file}: `{name}` is {n} lines; split it into named steps (at most {MAX_FUNCTION_LINES})"));
+        }
+    }
+    assert!(long.is_empty(), "{}", long.join("\n"));
+}
+
 #[test]
 fn the_helpers_parse_what_they_should() {
+    let code = "fn a() {\n    x();\n}\n\nimpl B {\n    pub async fn b(&self) -> u32 {\n        1\n    }\n    fn c(&self);\n}\n";
+    assert_eq!(function_lengths(code), vec![("a".to_string(), 3), ("b".to_string(), 3)]);
     let text = "//! Doc of [`a`] and `b::C`.\n#![allow(x)]\n//! More.\n\npub mod a;\nmod b;\npub(crate) mod c;\n#[cfg(test)]\nmod tests;\n";
     assert_eq!(declared_modules(text), ["a", "b", "c"]);
     let doc = module_doc(text);
