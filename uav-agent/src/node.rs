@@ -149,6 +149,8 @@ struct Node {
     sensors: FrameCollector,
     link: netem::Link,
     inbox: netem::Inbox<Share>,
+    /// Shares sent at a tick this agent has not stepped yet, in arrival order, with their size.
+    early: Vec<(u32, Share, usize)>,
     /// The netem timeline in force (the scenario's, then the hub's), applied to every share this
     /// agent receives.
     netem_rules: netem::Timeline,
@@ -213,6 +215,7 @@ impl Node {
             netem_rules: netem::Timeline::from_scenario(&sc),
             agent,
             inbox: netem::Inbox::new(),
+            early: Vec::new(),
             malformed: 0,
             tx,
             rx,
@@ -285,8 +288,9 @@ impl Node {
         }
     }
 
-    /// A share message arrived from `from`: count it, keep it only inside the neighbour's
-    /// window, let the link decide, hold it in the inbox.
+    /// A share message arrived from `from`. One sent at a tick this agent has not stepped yet
+    /// waits in `early` for the hub's next message (see [`Node::admit_early`]); the others are
+    /// admitted now.
     fn on_share(&mut self, from: u32, bytes: &[u8]) {
         let share = match Msg::decode(bytes).map(|m| Share::from_msg(m, from)) {
             Ok(Ok(share)) => share,
@@ -296,6 +300,34 @@ impl Node {
                 return;
             }
         };
+        if self.last_tick.is_none_or(|last| share.tick() > last) {
+            self.early.push((from, share, bytes.len()));
+        } else {
+            self.admit(from, share, bytes.len());
+        }
+    }
+
+    /// Admits the shares that arrived before this agent stepped the tick they were sent at, once
+    /// it has. A neighbour's share of tick k may reach us before or after our own step k,
+    /// depending on which process ran first; counting it only after our step k (at the hub's
+    /// next message, which comes after every share of tick k) makes what each state message
+    /// counts the same in every lockstep run. Delivery is unchanged: a share is due one tick
+    /// after it was sent at the earliest, whenever it is admitted.
+    fn admit_early(&mut self) {
+        let Some(last) = self.last_tick else { return };
+        if self.early.iter().all(|(_, share, _)| share.tick() > last) {
+            return;
+        }
+        let (due, later) = std::mem::take(&mut self.early).into_iter().partition(|(_, share, _)| share.tick() <= last);
+        self.early = later;
+        for (from, share, len) in due {
+            self.admit(from, share, len);
+        }
+    }
+
+    /// Counts a share, keeps it only inside the neighbour's window, lets the link decide, holds
+    /// it in the inbox.
+    fn admit(&mut self, from: u32, share: Share, len: usize) {
         if self.windows.get(&from).is_none_or(|&first| share.tick() < first) {
             trace!(from, tick = share.tick(), "share outside the neighbour's window");
             return;
@@ -303,7 +335,7 @@ impl Node {
         let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
         let rule = self.netem_rules.rule_at(share.t_secs(), from, self.id);
         let radio_loss = self.radio_loss.get(&from).copied().unwrap_or(0.0);
-        match self.link.on_receive_with(rule, radio_loss, from, share.t_secs(), now, self.dt, bytes.len()) {
+        match self.link.on_receive_with(rule, radio_loss, from, share.t_secs(), now, self.dt, len) {
             netem::Verdict::DeliverAt(at) => self.inbox.push(at, share),
             netem::Verdict::DeliverTwice(a, b) => {
                 self.inbox.push(a, share.clone());
@@ -337,6 +369,7 @@ impl Node {
     }
 
     async fn on_sense(&mut self, msg: Msg) -> Result<(), AgentError> {
+        self.admit_early();
         match self.sensors.offer(msg) {
             None => {}
             Some(Msg::Radio(r)) => {
