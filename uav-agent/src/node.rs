@@ -10,7 +10,9 @@
 //!   wire order; and a neighbour's share counts only if it was sent inside the neighbour's
 //!   window: from the tick after its subscription was declared (every later share is sure to be
 //!   routed to us, since the declaration reached the router before our command did) to the tick
-//!   before it left radio range. Which shares arrive no longer depends on timing.
+//!   before it left radio range. Which shares arrive no longer depends on timing. A share sent at
+//!   a tick this agent has not stepped yet waits for the hub's next message before it is counted
+//!   and passed to netem, so what each state message counts does not depend on timing either.
 //! - Every share message in or out passes the [`netem::Link`] seam, which applies the scenario's
 //!   `[[netem]]` rule in force for that link at the send time (loss, delay, jitter, ...); the
 //!   survivors wait in an [`netem::Inbox`] until their sim-time delivery instant.
