@@ -165,7 +165,7 @@ fn surroundings(seen: &Extracted, estimates: &[Estimate], match_m: f64, with_poi
     let is_neighbour = |p: &Point2<f64>| estimates.iter().any(|e| (e.pos_in_body - p.coords).norm() <= match_m);
     let trees = seen.circles.iter().filter(|c| !is_neighbour(&c.center)).copied().collect();
     let static_points =
-        if with_points { seen.points.iter().filter(|p| !is_neighbour(p)).copied().collect() } else { Vec::new() };
+        if with_points { seen.points().filter(|p| !is_neighbour(p)).copied().collect() } else { Vec::new() };
     Surroundings { trees, static_points }
 }
 
@@ -245,7 +245,7 @@ mod tests {
         let neighbour = Estimate { id: Some(2), pos_in_body: nalgebra::Vector2::new(3.0, 0.0), heading: 0.0, age_secs: 0.0 };
         let circle = Circle { center: Point2::new(3.05, 0.0), radius: 0.3 };
         let tree = Circle { center: Point2::new(0.0, 5.0), radius: 0.3 };
-        let seen = Extracted { circles: vec![circle, tree], segments: Vec::new(), points: vec![circle.center, tree.center] };
+        let seen = Extracted { circles: vec![circle, tree], segments: Vec::new(), beams: vec![Some(circle.center), Some(tree.center)] };
         let around = surroundings(&seen, &[neighbour], 0.5, true);
         assert_eq!(around, Surroundings { trees: vec![tree], static_points: vec![tree.center] });
         assert!(surroundings(&seen, &[neighbour], 0.5, false).static_points.is_empty());

@@ -285,8 +285,16 @@ pub struct Extracted {
     pub circles: Vec<Circle>,
     /// Straight wall faces, from the groups that are not trunks (see [`extract`]).
     pub segments: Vec<Segment>,
+    /// Each beam's point, body frame (`None`: no return); kept as the scan gave them, since
+    /// only the map-building controllers want them (see [`Extracted::points`]).
+    pub(crate) beams: Vec<Option<Point2<f64>>>,
+}
+
+impl Extracted {
     /// Every returned point, body frame, in beam order (as [`scan_points`]).
-    pub points: Vec<Point2<f64>>,
+    pub fn points(&self) -> impl Iterator<Item = &Point2<f64>> {
+        self.beams.iter().flatten()
+    }
 }
 
 /// Thresholds of the segment extractor. No seed gives them (seed 001 takes walls as input); each
@@ -579,7 +587,7 @@ pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParam
             out.segments.extend(segments);
         }
     }
-    out.points = beams.into_iter().flatten().collect();
+    out.beams = beams;
     out
 }
 
