@@ -23,6 +23,10 @@
 //! - [`plot`]: `run.svg`, the map of the run and distances over time, and the studies' charts.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
+//! Public surface: [`cli::main`] (what the `swarm` binary and the end-to-end tests' copy of it
+//! call) and [`summary`] (the `summary.json` schema, for programs that read run folders); every
+//! other module is private.
+//!
 //! Dependencies run one way: `cli` → the commands → what they share (`recorder`, `proxy`,
 //! `summary`, `plot`, `args`); no command imports `cli`, and `args` imports nothing of the crate.
 //!
@@ -30,15 +34,15 @@
 //! lives in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of
 //! `truth/**` besides tools a person points at it.
 
-pub mod args;
+mod args;
 pub mod cli;
-pub mod launch;
-pub mod netem_cli;
-pub mod pieces;
-pub mod plot;
-pub mod proxy;
-pub mod recorder;
-pub mod scenarios;
-pub mod study;
+mod launch;
+mod netem_cli;
+mod pieces;
+mod plot;
+mod proxy;
+mod recorder;
+mod scenarios;
+mod study;
 pub mod summary;
-pub mod tap;
+mod tap;

@@ -80,6 +80,7 @@ impl LinkProxy {
     }
 
     /// What the link does now.
+    #[cfg(test)]
     pub fn state(&self) -> LinkState {
         *self.state.borrow()
     }
