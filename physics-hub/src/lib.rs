@@ -15,17 +15,20 @@
 //! - [`node`]: the Zenoh side: router session, lockstep/realtime loop, agents' liveliness, the
 //!   scenario and world queryables, the netem timeline (the scenario's plus `swarm netem`'s).
 //!
-//! Entry point: [`run`]. Architecture invariant: the hub is the only holder of ground truth; it
+//! Entry point: [`run`]. Public surface: [`run`] and its options, report and error; [`world`] and
+//! [`lidar`] for the LIDAR benchmark; every other module is private.
+//!
+//! Architecture invariant: the hub is the only holder of ground truth; it
 //! hands each agent only that agent's own sensor data, and publishes truth on `truth/**` for the
 //! recorder alone.
 
-pub mod body;
-pub mod forest;
+mod body;
+mod forest;
 pub mod lidar;
-pub mod node;
-pub mod radio;
-pub mod sim;
-pub mod uvdar;
+mod node;
+mod radio;
+mod sim;
+mod uvdar;
 pub mod world;
 
 pub use node::{run, HubError, HubOptions, HubReport};

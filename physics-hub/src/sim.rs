@@ -102,11 +102,6 @@ impl Sim {
         Clock { tick: self.tick, t_secs: self.t_secs(), dt_secs: self.dt }
     }
 
-    /// The static world.
-    pub fn world(&self) -> &World {
-        &self.world
-    }
-
     /// Bodies, index = id − 1.
     pub fn bodies(&self) -> &[Body] {
         &self.bodies
