@@ -178,10 +178,7 @@ async fn agent_host(a: AgentArgs, scenario: Option<Scenario>) -> Result<ExitCode
     for (id, end) in ends {
         match end {
             Ok(exit) => tracing::info!(uav_id = id, ?exit, "agent done"),
-            Err(e) => {
-                tracing::error!(uav_id = id, "agent failed: {e}");
-                failed.push(format!("UAV {id}: {e}"));
-            }
+            Err(e) => failed.push(format!("UAV {id}: {e}")),
         }
     }
     anyhow::ensure!(failed.is_empty(), "{} of the {n} agents of this host failed:\n  {}", failed.len(), failed.join("\n  "));

@@ -16,7 +16,7 @@ use swarm_config::Scenario;
 use swarm_wire::session::{self, Role};
 use swarm_wire::Keys;
 use tokio::sync::watch;
-use tracing::{info_span, Instrument};
+use tracing::{error, info_span, Instrument};
 
 /// Which UAVs, which run, which hub.
 #[derive(Debug, Clone, Default)]
@@ -72,8 +72,15 @@ async fn fly_all(
             let _ = stop.wait_for(|v| *v).await;
         };
         let span = info_span!("agent", uav_id = id, run = %opts.run);
-        let fly = node::fly(s.clone(), keys.clone(), id, sc.clone(), opts.hub_grace_s, stopped).instrument(span);
-        tasks.push((id, tokio::spawn(fly)));
+        let fly = node::fly(s.clone(), keys.clone(), id, sc.clone(), opts.hub_grace_s, stopped);
+        let reported = async move {
+            let r = fly.await;
+            if let Err(e) = &r {
+                error!("agent failed: {e}");
+            }
+            r
+        };
+        tasks.push((id, tokio::spawn(reported.instrument(span))));
     }
     let all = async {
         let mut out = Vec::with_capacity(tasks.len());
