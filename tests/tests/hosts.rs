@@ -4,8 +4,7 @@
 
 mod common;
 
-use common::{run_id, start_hub, summary, swarm_run, Proc, SWARM, TOOL_LIMIT};
-use std::path::Path;
+use common::{alive_changes, run_id, start_hub, summary, swarm_run, tap, Proc};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -35,26 +34,6 @@ fn lockstep_trajectories_do_not_depend_on_agents_per_process() {
 fn signal(p: &Proc, signal: &str) {
     let st = Command::new("kill").args([&format!("-{signal}"), &p.child.id().to_string()]).status().expect("kill");
     assert!(st.success(), "kill -{signal}");
-}
-
-/// (t_s, alive) at each change of UAV `id`'s alive column in `trajectories.csv`.
-fn alive_changes(dir: &Path, id: &str) -> Vec<(f64, bool)> {
-    let traj = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
-    let mut v: Vec<(f64, bool)> = Vec::new();
-    // Columns: tick,t_s,id,...,colliding,alive,cmd_on_time
-    for c in traj.lines().skip(1).map(|l| l.split(',').collect::<Vec<_>>()).filter(|c| c[2] == id) {
-        let (t, a) = (c[1].parse::<f64>().expect("t"), c[11] == "1");
-        if v.last().is_none_or(|&(_, prev)| prev != a) {
-            v.push((t, a));
-        }
-    }
-    v
-}
-
-fn tap(args: &[&str]) -> String {
-    let out = common::output_within(Command::new(SWARM).arg("tap").args(args), TOOL_LIMIT);
-    assert!(out.status.success(), "tap failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf8")
 }
 
 /// open-field-5 in lockstep, UAVs 1-3 (the informed ones among them) in processes of their own
