@@ -37,13 +37,13 @@ fn signal(p: &Proc, signal: &str) {
 }
 
 /// open-field-5 in lockstep, UAVs 1-3 (the informed ones among them) in processes of their own
-/// and 4-5 in one host, which is killed outright mid-run. To kill it at a tick the run has
-/// surely not finished, agent 1 is stopped (SIGSTOP) first, which holds the lockstep hub. Both
-/// agents of the host disappear, the hub stops waiting for them, and the other three fly on to
-/// the goal.
+/// and 4-5 in one host, which is killed outright mid-run. To act at a tick the run has surely
+/// not finished, agent 1 is stopped (SIGSTOP) first, which holds the lockstep hub. Both agents
+/// of the host disappear, the hub stops waiting for them, and the other three fly on; a new host
+/// for 4-5 brings them back, localizing their neighbours again, and the swarm reaches the goal.
 #[cfg(target_os = "linux")]
 #[test]
-fn a_killed_agent_host_takes_its_agents_down_and_the_swarm_flies_on() {
+fn a_killed_agent_host_takes_its_agents_down_and_a_new_one_brings_them_back() {
     let dir = tempfile::tempdir().expect("tempdir");
     let run = run_id("hostkill");
     let (mut hub, loc) = start_hub("open-field-5", &run, dir.path());
@@ -55,14 +55,27 @@ fn a_killed_agent_host_takes_its_agents_down_and_the_swarm_flies_on() {
         Proc::start(&["agent", "--run", &run, flag, ids, "--connect", &loc, "--exit-with-stdin"], &dir.path().join(log))
     };
     let solo: Vec<Proc> = (1..=3).map(|id| agent("--id", &id.to_string(), &format!("agent-{id}.log"))).collect();
-    let host = agent("--ids", "4-5", "host.log");
+    let mut host = agent("--ids", "4-5", "host.log");
+    let ticks = |n: &str| {
+        let got = tap(&[&format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", n, "--duration", "60"]);
+        assert_eq!(got.lines().count().to_string(), n, "the swarm flies: {got}");
+    };
     // Wait until the swarm flies, then hold the hub by stopping agent 1, and kill the host.
-    let flying = tap(&[&format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", "20", "--duration", "60"]);
-    assert_eq!(flying.lines().count(), 20, "the swarm flies: {flying}");
+    ticks("20");
     signal(&solo[0], "STOP");
     std::thread::sleep(Duration::from_millis(300));
     signal(&host, "KILL");
+    assert!(host.wait_for(Duration::from_secs(10)).is_some(), "the killed host is gone");
     std::thread::sleep(Duration::from_millis(500));
+    signal(&solo[0], "CONT");
+    // The swarm flies on without them; then, holding the hub again, a new host takes them back.
+    ticks("30");
+    signal(&solo[0], "STOP");
+    let _host_again = agent("--ids", "4-5", "host-again.log");
+    for id in ["4", "5"] {
+        let up = tap(&[&format!("swarm/{run}/alive/uav/{id}"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+        assert!(up.contains("\"alive\":true"), "UAV {id} is back: {up}");
+    }
     signal(&solo[0], "CONT");
 
     let status = rec.wait_for(Duration::from_secs(120)).expect("the run ends without the host's agents");
@@ -76,9 +89,13 @@ fn a_killed_agent_host_takes_its_agents_down_and_the_swarm_flies_on() {
     assert!(!events.iter().any(alive_only), "living UAVs collided: {events:?}");
     for id in ["4", "5"] {
         let a = alive_changes(&out, id);
-        assert_eq!(a.len(), 2, "UAV {id}: alive, then dead with its host: {a:?}");
-        assert!(a[0].1 && !a[1].1 && a[1].0 > 0.0, "UAV {id}: {a:?}");
+        assert_eq!(a.len(), 3, "UAV {id}: alive, dead with its host, alive with the new one: {a:?}");
+        assert!(a[0].1 && !a[1].1 && a[2].1 && a[1].0 > 0.0, "UAV {id}: {a:?}");
     }
+    let back_at = alive_changes(&out, "4")[2].0;
+    let events = s["agents"][3]["contact_events"].as_array().expect("events");
+    let regained = events.iter().any(|e| e["regained"] == true && e["t_s"].as_f64().expect("t") >= back_at);
+    assert!(regained, "UAV 4 of the new host localized its neighbours: {events:?}");
     for id in ["1", "2", "3"] {
         let a = alive_changes(&out, id);
         assert!(a.len() == 1 && a[0].1, "UAV {id} in its own process lives on: {a:?}");
