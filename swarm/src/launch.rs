@@ -316,12 +316,9 @@ impl<'a> Agents<'a> {
         schedule.sort_by(|x, y| x.0.total_cmp(&y.0));
         let mut agents =
             Agents { launcher, sc, locators, proxies, running: BTreeMap::new(), hosts: Vec::new(), schedule, restarts: 0 };
-        let (solo, shared): (Vec<u32>, Vec<u32>) = sc.agent_ids().partition(|&id| per_process <= 1 || agents.has_failures(id));
-        for group in shared.chunks(per_process.max(1) as usize) {
-            match group {
-                [id] => agents.start_solo(*id)?,
-                _ => agents.hosts.push(launcher.host(group, &agents.locators)?),
-            }
+        let (solo, hosts) = spread(sc.agent_ids(), per_process, |id| agents.has_failures(id));
+        for group in hosts {
+            agents.hosts.push(launcher.host(&group, &agents.locators)?);
         }
         for id in solo {
             agents.start_solo(id)?;
@@ -407,6 +404,21 @@ impl<'a> Agents<'a> {
     }
 }
 
+/// Spreads UAVs `ids` over processes, `per_process` to a host in id order: returns the UAVs
+/// that get a process of their own (those `alone` picks, and a last group of one) and the hosts.
+fn spread(ids: impl Iterator<Item = u32>, per_process: u32, alone: impl Fn(u32) -> bool) -> (Vec<u32>, Vec<Vec<u32>>) {
+    let (mut solo, shared): (Vec<u32>, Vec<u32>) = ids.partition(|&id| per_process <= 1 || alone(id));
+    let mut hosts = Vec::new();
+    for group in shared.chunks(per_process.max(1) as usize) {
+        match group {
+            [id] => solo.push(*id),
+            _ => hosts.push(group.to_vec()),
+        }
+    }
+    solo.sort_unstable();
+    (solo, hosts)
+}
+
 async fn read_locators(hub: &mut Child, logs: &Path) -> Result<Vec<String>> {
     let stdout = hub.stdout.take().context("hub stdout not piped")?;
     let mut lines = BufReader::new(stdout).lines();
@@ -424,5 +436,32 @@ async fn read_locators(hub: &mut Child, logs: &Path) -> Result<Vec<String>> {
     match line {
         Ok(Some(l)) if !l.is_empty() => Ok(l),
         _ => bail!("the hub did not start; see {}", logs.join("hub.log").display()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_swarms_get_a_process_per_uav_and_large_ones_hosts() {
+        assert_eq!(agents_per_process(5, None), 1);
+        assert_eq!(agents_per_process(10, None), 1);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get() as u32);
+        assert_eq!(agents_per_process(40, None), 40u32.div_ceil(cores));
+        assert_eq!(agents_per_process(5, Some(5)), 5);
+    }
+
+    #[test]
+    fn uavs_with_failures_keep_a_process_of_their_own() {
+        let (solo, hosts) = spread(1..=7, 3, |id| id == 2);
+        assert_eq!(hosts, vec![vec![1, 3, 4], vec![5, 6, 7]]);
+        assert_eq!(solo, vec![2]);
+        let (solo, hosts) = spread(1..=5, 2, |_| false);
+        assert_eq!(hosts, vec![vec![1, 2], vec![3, 4]]);
+        assert_eq!(solo, vec![5], "a group of one is a plain agent");
+        let (solo, hosts) = spread(1..=3, 1, |_| false);
+        assert!(hosts.is_empty());
+        assert_eq!(solo, vec![1, 2, 3]);
     }
 }
