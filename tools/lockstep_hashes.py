@@ -10,7 +10,8 @@ Run it before and after a refactoring and diff the two outputs:
     ... change the code, rebuild ...
     python3 tools/lockstep_hashes.py > after.txt && diff before.txt after.txt
 
-Options: --bin PATH (default target/release/swarm), --jobs N (default 2), --only NAME[,NAME].
+Options: --bin PATH (default target/release/swarm), --jobs N (default 2), --only NAME[,NAME],
+--agents-per-process N (passed to `swarm run`: the hashes must not depend on it).
 """
 import argparse
 import concurrent.futures
@@ -50,11 +51,11 @@ def lockstep_scenarios(root):
     return names
 
 
-def fingerprint(binary, name):
+def fingerprint(binary, name, extra):
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp) / "run"
         proc = subprocess.run(
-            [binary, "run", name, "--run", f"oracle-{name}", "--out", str(out), "--quiet"],
+            [binary, "run", name, "--run", f"oracle-{name}", "--out", str(out), "--quiet", *extra],
             capture_output=True, text=True)
         if not (out / "summary.json").exists():
             return f"{name} FAILED exit {proc.returncode}: {proc.stderr.strip()[-300:]}"
@@ -70,10 +71,12 @@ def main():
     ap.add_argument("--bin", default=str(root / "target" / "release" / "swarm"))
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--only", default="")
+    ap.add_argument("--agents-per-process", default="")
     args = ap.parse_args()
+    extra = ["--agents-per-process", args.agents_per_process] if args.agents_per_process else []
     names = args.only.split(",") if args.only else lockstep_scenarios(root)
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-        for line in pool.map(lambda n: fingerprint(args.bin, n), names):
+        for line in pool.map(lambda n: fingerprint(args.bin, n, extra), names):
             print(line, flush=True)
             print(line, file=sys.stderr, flush=True)
 

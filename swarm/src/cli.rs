@@ -17,11 +17,12 @@ pub struct Cli {
 /// Subcommands.
 #[derive(Subcommand, Debug)]
 pub enum Cmd {
-    /// Run a scenario end to end: hub, one agent process per UAV, recorder; write the run folder.
+    /// Run a scenario end to end: hub, agents (a process per UAV or agent hosts), recorder; write
+    /// the run folder.
     Run(crate::launch::RunArgs),
     /// Start the physics hub (a Zenoh router) by hand.
     Hub(crate::pieces::HubArgs),
-    /// Start one UAV agent by hand (a Zenoh client of the hub).
+    /// Start one UAV agent (`--id`) or an agent host (`--ids`) by hand (a Zenoh client of the hub).
     Agent(crate::pieces::AgentArgs),
     /// Record a run started by hand: write the run folder when the hub ends the run.
     Record(crate::recorder::RecordArgs),

@@ -1,6 +1,7 @@
 //! `swarm run`: the launcher. It starts the hub (`swarm hub`, a Zenoh router on a free loopback
-//! port), reads the locator the hub prints, starts the recorder ([`Recording`]), then one
-//! `swarm agent` process per UAV, and watches them: kills, restarts and link faults of the
+//! port), reads the locator the hub prints, starts the recorder ([`Recording`]), then the
+//! agents: one `swarm agent` process per UAV for small swarms, agent hosts (`swarm agent --ids`,
+//! many agents in one process) for large ones ([`agents_per_process`]), and watches them: kills, restarts and link faults of the
 //! scenario's `[[failures]]` are applied as sim time passes, and the children are stopped at the
 //! end. Children are this same executable; each gets a piped stdin and `--exit-with-stdin`, so
 //! they die with the launcher even if it is killed outright, and `kill_on_drop` covers the
@@ -56,6 +57,26 @@ pub struct RunArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Agents per process: 1 is one process per UAV; more starts agent hosts. Default: 1 up to
+    /// 10 UAVs, else one host per core. UAVs with kills, restarts or link faults in
+    /// `[[failures]]` always get a process of their own.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub agents_per_process: Option<u32>,
+}
+
+/// Up to this many UAVs, `swarm run` starts one process per UAV by default.
+const SOLO_UP_TO_UAVS: u32 = 10;
+
+/// How many agents `swarm run` puts in one process: `asked`, else 1 for swarms of up to
+/// [`SOLO_UP_TO_UAVS`], else the swarm spread evenly over one host per core.
+pub fn agents_per_process(uavs: usize, asked: Option<u32>) -> u32 {
+    let uavs = u32::try_from(uavs).unwrap_or(u32::MAX);
+    let cores = std::thread::available_parallelism().map_or(1, |n| u32::try_from(n.get()).unwrap_or(1));
+    match asked {
+        Some(n) => n,
+        None if uavs <= SOLO_UP_TO_UAVS => 1,
+        None => uavs.div_ceil(cores),
+    }
 }
 
 /// Runs a scenario end to end and writes the run folder.
@@ -63,7 +84,8 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     let (sc, text) = resolve(&a)?;
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
-    let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &a.cfg, a.quiet).await?;
+    let per_process = agents_per_process(sc.count(), a.agents_per_process);
+    let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &a.cfg, a.quiet, per_process).await?;
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
     Ok(summary.exit_code(hub_ok))
@@ -99,7 +121,16 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
 
 /// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
 /// writes the run folder `out`, and returns the summary and whether the hub exited cleanly.
-pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, zenoh_cfg: &[String], quiet: bool) -> Result<(Summary, bool)> {
+/// `per_process` agents share a process (see [`agents_per_process`]).
+pub async fn execute(
+    sc: &Scenario,
+    text: &str,
+    run_id: &str,
+    out: &Path,
+    zenoh_cfg: &[String],
+    quiet: bool,
+    per_process: u32,
+) -> Result<(Summary, bool)> {
     Keys::new(run_id)?;
     let logs = out.join("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("cannot create {}", logs.display()))?;
@@ -119,7 +150,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, zenoh_
     let proxies = start_proxies(sc, &locators).await?;
 
     let rec = Recording::start(run_id, &locators, zenoh_cfg).await?;
-    let mut agents = Agents::start(&launcher, sc, locators, proxies)?;
+    let mut agents = Agents::start(&launcher, sc, locators, proxies, per_process)?;
     let progress = progress_bar(sc, quiet);
     let summary = rec.record(out, sc, &progress, Some(&mut hub.child), &mut |t| agents.on_tick(t)).await?;
     progress.finish_and_clear();
@@ -210,8 +241,19 @@ impl Launcher {
     /// Starts `swarm agent` for UAV `id`, connected through its link proxy (with a hub grace
     /// long enough for the scenario's outages) or straight to the hub's `locators`.
     fn agent(&self, id: u32, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
+        self.agents(&id.to_string(), "--id", log, proxy, locators)
+    }
+
+    /// Starts `swarm agent --ids ids` (an agent host) straight on the hub's `locators`.
+    fn host(&self, ids: &[u32], locators: &[String]) -> Result<Piece> {
+        let list = ids.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
+        let log = format!("agents-{}-{}.log", ids[0], ids[ids.len() - 1]);
+        self.agents(&list, "--ids", &log, None, locators)
+    }
+
+    fn agents(&self, ids: &str, flag: &str, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
         self.spawn(log, false, |c| {
-            c.arg("agent").args(["--run", &self.run_id, "--id", &id.to_string(), "--exit-with-stdin"]);
+            c.arg("agent").args(["--run", &self.run_id, flag, ids, "--exit-with-stdin"]);
             match proxy {
                 Some((p, grace_s)) => {
                     c.args(["--connect", &p.locator(), "--hub-grace-s", &grace_s.to_string()]);
@@ -242,20 +284,29 @@ impl Launcher {
 }
 
 /// The agent processes of a run, their link proxies, and the kills, restarts and link faults of
-/// `[[failures]]` still to come, in time order.
+/// `[[failures]]` still to come, in time order. A UAV that `[[failures]]` kills, restarts or
+/// cuts off has a process of its own (in `running`), so those act on it alone; the others may
+/// share agent hosts (`hosts`), which run to the end.
 struct Agents<'a> {
     launcher: &'a Launcher,
     sc: &'a Scenario,
     locators: Vec<String>,
     proxies: BTreeMap<u32, LinkProxy>,
     running: BTreeMap<u32, Piece>,
+    hosts: Vec<Piece>,
     schedule: Vec<(f64, u32, FailureKind)>,
     restarts: u32,
 }
 
 impl<'a> Agents<'a> {
-    /// Starts one agent per UAV of the scenario.
-    fn start(launcher: &'a Launcher, sc: &'a Scenario, locators: Vec<String>, proxies: BTreeMap<u32, LinkProxy>) -> Result<Agents<'a>> {
+    /// Starts the agents of every UAV of the scenario, `per_process` to a process.
+    fn start(
+        launcher: &'a Launcher,
+        sc: &'a Scenario,
+        locators: Vec<String>,
+        proxies: BTreeMap<u32, LinkProxy>,
+        per_process: u32,
+    ) -> Result<Agents<'a>> {
         let mut schedule: Vec<(f64, u32, FailureKind)> = sc
             .failures
             .iter()
@@ -263,12 +314,28 @@ impl<'a> Agents<'a> {
             .map(|f| (f.at_s, f.uav, f.kind))
             .collect();
         schedule.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let mut agents = Agents { launcher, sc, locators, proxies, running: BTreeMap::new(), schedule, restarts: 0 };
-        for id in sc.agent_ids() {
-            let piece = agents.spawn(id, &format!("agent-{id}.log"))?;
-            agents.running.insert(id, piece);
+        let mut agents =
+            Agents { launcher, sc, locators, proxies, running: BTreeMap::new(), hosts: Vec::new(), schedule, restarts: 0 };
+        let (solo, hosts) = spread(sc.agent_ids(), per_process, |id| agents.has_failures(id));
+        for group in hosts {
+            agents.hosts.push(launcher.host(&group, &agents.locators)?);
+        }
+        for id in solo {
+            agents.start_solo(id)?;
         }
         Ok(agents)
+    }
+
+    /// Starts UAV `id`'s agent in a process of its own.
+    fn start_solo(&mut self, id: u32) -> Result<()> {
+        let piece = self.spawn(id, &format!("agent-{id}.log"))?;
+        self.running.insert(id, piece);
+        Ok(())
+    }
+
+    /// Whether `[[failures]]` kills, restarts or cuts off UAV `id`.
+    fn has_failures(&self, id: u32) -> bool {
+        self.schedule.iter().any(|&(_, uav, _)| uav == id)
     }
 
     fn spawn(&self, id: u32, log: &str) -> Result<Piece> {
@@ -325,7 +392,7 @@ impl<'a> Agents<'a> {
                 false
             }
         };
-        for mut a in self.running.into_values() {
+        for mut a in self.running.into_values().chain(self.hosts) {
             // Closing its stdin tells an agent to stop (else it would wait out its hub grace).
             drop(a._stdin.take());
             if tokio::time::timeout(grace, a.child.wait()).await.is_err() {
@@ -335,6 +402,21 @@ impl<'a> Agents<'a> {
         }
         hub_ok
     }
+}
+
+/// Spreads UAVs `ids` over processes, `per_process` to a host in id order: returns the UAVs
+/// that get a process of their own (those `alone` picks, and a last group of one) and the hosts.
+fn spread(ids: impl Iterator<Item = u32>, per_process: u32, alone: impl Fn(u32) -> bool) -> (Vec<u32>, Vec<Vec<u32>>) {
+    let (mut solo, shared): (Vec<u32>, Vec<u32>) = ids.partition(|&id| per_process <= 1 || alone(id));
+    let mut hosts = Vec::new();
+    for group in shared.chunks(per_process.max(1) as usize) {
+        match group {
+            [id] => solo.push(*id),
+            _ => hosts.push(group.to_vec()),
+        }
+    }
+    solo.sort_unstable();
+    (solo, hosts)
 }
 
 async fn read_locators(hub: &mut Child, logs: &Path) -> Result<Vec<String>> {
@@ -354,5 +436,32 @@ async fn read_locators(hub: &mut Child, logs: &Path) -> Result<Vec<String>> {
     match line {
         Ok(Some(l)) if !l.is_empty() => Ok(l),
         _ => bail!("the hub did not start; see {}", logs.join("hub.log").display()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn small_swarms_get_a_process_per_uav_and_large_ones_hosts() {
+        assert_eq!(agents_per_process(5, None), 1);
+        assert_eq!(agents_per_process(10, None), 1);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get() as u32);
+        assert_eq!(agents_per_process(40, None), 40u32.div_ceil(cores));
+        assert_eq!(agents_per_process(5, Some(5)), 5);
+    }
+
+    #[test]
+    fn uavs_with_failures_keep_a_process_of_their_own() {
+        let (solo, hosts) = spread(1..=7, 3, |id| id == 2);
+        assert_eq!(hosts, vec![vec![1, 3, 4], vec![5, 6, 7]]);
+        assert_eq!(solo, vec![2]);
+        let (solo, hosts) = spread(1..=5, 2, |_| false);
+        assert_eq!(hosts, vec![vec![1, 2], vec![3, 4]]);
+        assert_eq!(solo, vec![5], "a group of one is a plain agent");
+        let (solo, hosts) = spread(1..=3, 1, |_| false);
+        assert!(hosts.is_empty());
+        assert_eq!(solo, vec![1, 2, 3]);
     }
 }

@@ -34,8 +34,12 @@ pub struct AgentArgs {
     #[arg(long)]
     pub run: String,
     /// UAV id (1-based).
-    #[arg(long)]
-    pub id: u32,
+    #[arg(long, required_unless_present = "ids", conflicts_with = "ids")]
+    pub id: Option<u32>,
+    /// Run many agents in this one process (an agent host), e.g. `1-250` or `1-4,7`; each keeps
+    /// its own keys, subscriptions, netem link and liveliness token.
+    #[arg(long, value_parser = parse_ids)]
+    pub ids: Option<UavIds>,
     /// Use this scenario file instead of fetching the scenario from the hub.
     #[arg(long)]
     pub scenario: Option<String>,
@@ -106,16 +110,46 @@ pub async fn hub(a: HubArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Runs `swarm agent`.
+/// UAV ids given as ranges and lists: `1-4,7`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UavIds(pub Vec<u32>);
+
+/// Parses `1-4,7` into `[1, 2, 3, 4, 7]`: ascending ranges, no repeats, ids from 1.
+fn parse_ids(text: &str) -> Result<UavIds, String> {
+    let mut ids: Vec<u32> = Vec::new();
+    for part in text.split(',').map(str::trim) {
+        let num = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` in `{text}` is not a UAV id"));
+        let (lo, hi) = match part.split_once('-') {
+            Some((a, b)) => (num(a)?, num(b)?),
+            None => (num(part)?, num(part)?),
+        };
+        if lo == 0 || hi < lo {
+            return Err(format!("`{part}` in `{text}`: ids start at 1 and ranges go up"));
+        }
+        ids.extend(lo..=hi);
+    }
+    let mut sorted = ids.clone();
+    sorted.sort_unstable();
+    sorted.dedup();
+    if sorted.len() != ids.len() {
+        return Err(format!("`{text}` names a UAV twice"));
+    }
+    Ok(UavIds(ids))
+}
+
+/// Runs `swarm agent`: one agent on its own session with `--id`, an agent host with `--ids`.
 pub async fn agent(a: AgentArgs) -> Result<ExitCode> {
     let scenario = match &a.scenario {
         Some(s) => Some(Scenario::from_arg(s)?.0),
         None => None,
     };
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "an agent needs --connect <hub endpoint>");
+    let Some(id) = a.id else {
+        return agent_host(a, scenario).await;
+    };
     let opts = uav_agent::AgentOptions {
         run: a.run,
-        id: a.id,
+        id,
         connect: a.zenoh.connect,
         zenoh_cfg: a.zenoh.cfg,
         scenario,
@@ -124,4 +158,44 @@ pub async fn agent(a: AgentArgs) -> Result<ExitCode> {
     let exit = uav_agent::run(opts, shutdown_signal(a.exit_with_stdin)).await.context("agent failed")?;
     tracing::info!(?exit, "agent done");
     Ok(ExitCode::SUCCESS)
+}
+
+/// Runs `swarm agent --ids`: every agent in this process; each failed one is reported by id,
+/// and the host fails if any did.
+async fn agent_host(a: AgentArgs, scenario: Option<Scenario>) -> Result<ExitCode> {
+    let ids = a.ids.map(|i| i.0).unwrap_or_default();
+    let n = ids.len();
+    let opts = uav_agent::HostOptions {
+        run: a.run,
+        ids,
+        connect: a.zenoh.connect,
+        zenoh_cfg: a.zenoh.cfg,
+        scenario,
+        hub_grace_s: a.hub_grace_s,
+    };
+    let ends = uav_agent::run_host(opts, shutdown_signal(a.exit_with_stdin)).await.context("agent host failed")?;
+    let mut failed = Vec::new();
+    for (id, end) in ends {
+        match end {
+            Ok(exit) => tracing::info!(uav_id = id, ?exit, "agent done"),
+            Err(e) => failed.push(format!("UAV {id}: {e}")),
+        }
+    }
+    anyhow::ensure!(failed.is_empty(), "{} of the {n} agents of this host failed:\n  {}", failed.len(), failed.join("\n  "));
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_take_ranges_and_lists() {
+        assert_eq!(parse_ids("1-4,7"), Ok(UavIds(vec![1, 2, 3, 4, 7])));
+        assert_eq!(parse_ids("5"), Ok(UavIds(vec![5])));
+        assert!(parse_ids("0-3").is_err());
+        assert!(parse_ids("4-2").is_err());
+        assert!(parse_ids("1-3,2").expect_err("twice").contains("twice"));
+        assert!(parse_ids("1,x").expect_err("not a number").contains("`x`"));
+    }
 }

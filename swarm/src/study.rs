@@ -14,7 +14,7 @@
 //! under the study's folder, so any of them can be looked at afterwards.
 
 use crate::args::{default_run_id, scenario_value, unix_secs};
-use crate::launch::execute;
+use crate::launch::{agents_per_process, execute};
 use crate::plot::{line_chart, Series};
 use crate::summary::{f, Summary};
 use anyhow::{bail, Context, Result};
@@ -78,7 +78,7 @@ async fn run_variant(sc: &Scenario, out: &Path, tag: &str) -> Result<Summary> {
     let sc = Scenario::from_toml_str(&text, &format!("{} ({tag})", sc.name))?;
     let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace('.', "_");
     eprintln!("{tag}: running");
-    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], true).await?;
+    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], true, agents_per_process(sc.count(), None)).await?;
     Ok(summary)
 }
 

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{run_id, summary, swarm_run};
+use common::{alive_changes, run_id, summary, swarm_run};
 
 /// Runs a scenario to completion in a fresh folder and returns the folder and its summary.
 fn fly(args: &[&str], tag: &str) -> (tempfile::TempDir, serde_json::Value) {
@@ -206,23 +206,6 @@ fn partition_and_rejoin() {
     let r = &c["reconnections"][0];
     assert_eq!(r["heal_at_s"], 30.0);
     assert!(r["reconnected_after_s"].as_f64().is_some() && r["stays_connected_after_s"].as_f64().is_some(), "{c:#}");
-}
-
-/// The alive column of one UAV in `trajectories.csv`, as (sim time, alive) at each change.
-fn alive_changes(dir: &std::path::Path, id: &str) -> Vec<(f64, bool)> {
-    let traj = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
-    // Columns: tick,t_s,id,...,colliding,alive,cmd_on_time
-    traj.lines()
-        .skip(1)
-        .map(|l| l.split(',').collect::<Vec<_>>())
-        .filter(|c| c[2] == id)
-        .map(|c| (c[1].parse::<f64>().expect("t"), c[11] == "1"))
-        .fold(Vec::new(), |mut v: Vec<(f64, bool)>, (t, a)| {
-            if v.last().is_none_or(|&(_, prev)| prev != a) {
-                v.push((t, a));
-            }
-            v
-        })
 }
 
 /// Issue 4, link-level faults: `swarm run` puts a TCP proxy between UAV 3's agent and the hub,

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{output_within, run_id, start_hub, wait_output, Proc, SWARM, TOOL_LIMIT};
+use common::{output_within, run_id, start_hub, tap, wait_output, Proc, SWARM, TOOL_LIMIT};
 use std::process::Command;
 use std::time::Duration;
 
@@ -14,12 +14,6 @@ fn start_recorder(run: &str, loc: &str, out: &std::path::Path, dir: &std::path::
     let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", loc, "--count", "1", "--duration", "30"]);
     assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
     rec
-}
-
-fn tap(args: &[&str]) -> String {
-    let out = output_within(Command::new(SWARM).arg("tap").args(args), TOOL_LIMIT);
-    assert!(out.status.success(), "tap failed: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf8")
 }
 
 #[test]

@@ -1,4 +1,5 @@
-//! The onboard stack of one UAV, run as its own process and talking to the swarm over Zenoh.
+//! The onboard stack of one UAV, run as its own process or with others in an agent host, and
+//! talking to the swarm over Zenoh.
 //!
 //! A tour, in the order a tick flows through it:
 //!
@@ -19,6 +20,8 @@
 //! - `agent`: [`Agent::step`], the pipeline of one tick with no IO.
 //! - `node`: the Zenoh side: sensor and radio subscriptions, neighbour subscriptions that follow
 //!   the radio set, the netem link seam, liveliness. Entry point: [`run`].
+//! - `host`: many agents in one process on one shared Zenoh session, each with its own node
+//!   ([`run_host`]).
 //!
 //! Dependencies run one way: agent → control → planning → geometry, agent → localization →
 //! geometry; nothing below points back up to the agent or the node. Architecture invariant: an
@@ -30,6 +33,7 @@
 mod agent;
 mod control;
 mod geometry;
+mod host;
 mod localization;
 mod node;
 #[cfg_attr(not(test), allow(dead_code))]
@@ -41,5 +45,6 @@ mod sensing;
 pub use agent::{Agent, LinkReport, StepOutput, StepReport};
 pub use localization::icp;
 pub use localization::Share;
+pub use host::{run_host, HostOptions};
 pub use node::{run, AgentError, AgentExit, AgentOptions};
 pub use sensing::{FrameCollector, Needs, SensorFrame};

@@ -52,6 +52,9 @@ pub enum AgentError {
     /// The hub's ticks went backwards: another hub run took over the keys.
     #[error("tick went back from {0} to {1}: the hub restarted; start the agent again for the new run")]
     TickWentBack(u64, u64),
+    /// An agent's task of an agent host panicked.
+    #[error("the agent's task panicked: {0}")]
+    Panicked(String),
 }
 
 /// Which UAV, which run, which hub.
@@ -91,12 +94,7 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
             Some(sc) => sc,
             None => fetch_scenario(&s, &keys, &opts.run).await?,
         };
-        if opts.id == 0 || opts.id > sc.swarm.count {
-            return Err(AgentError::BadId(opts.id, sc.swarm.count));
-        }
-        let mut node = Node::start(s.clone(), keys, opts.id, sc).await?;
-        node.hub_grace_s = opts.hub_grace_s;
-        node.run_loop(shutdown).await
+        fly(s.clone(), keys, opts.id, sc, opts.hub_grace_s, shutdown).await
     }
     .instrument(span)
     .await;
@@ -104,8 +102,26 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
     result
 }
 
+/// Flies UAV `id` of `sc` on session `s` (its own or shared with other agents of a host) until
+/// the hub goes away or `shutdown` resolves.
+pub(crate) async fn fly(
+    s: zenoh::Session,
+    keys: Keys,
+    id: u32,
+    sc: Scenario,
+    hub_grace_s: f64,
+    shutdown: impl Future<Output = ()>,
+) -> Result<AgentExit, AgentError> {
+    if id == 0 || id > sc.swarm.count {
+        return Err(AgentError::BadId(id, sc.swarm.count));
+    }
+    let mut node = Node::start(s, keys, id, sc).await?;
+    node.hub_grace_s = hub_grace_s;
+    node.run_loop(shutdown).await
+}
+
 /// The scenario the hub serves, waited for up to 30 s.
-async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -> Result<Scenario, AgentError> {
+pub(crate) async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -> Result<Scenario, AgentError> {
     const WAIT_SECS: u64 = 30;
     let text = plumbing::fetch_scenario_text(s, keys, Duration::from_secs(WAIT_SECS)).await.map_err(|e| match e {
         WireError::NoReply { .. } => AgentError::NoHub(run.to_string(), WAIT_SECS),

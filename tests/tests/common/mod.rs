@@ -143,3 +143,27 @@ pub fn start_hub(scenario: &str, run: &str, dir: &Path) -> (Proc, String) {
     assert!(locator.starts_with("tcp/127.0.0.1:"), "{locator}");
     (hub, locator)
 }
+
+/// The alive column of one UAV in `trajectories.csv`, as (sim time, alive) at each change.
+pub fn alive_changes(dir: &std::path::Path, id: &str) -> Vec<(f64, bool)> {
+    let traj = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
+    // Columns: tick,t_s,id,...,colliding,alive,cmd_on_time
+    traj.lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|c| c[2] == id)
+        .map(|c| (c[1].parse::<f64>().expect("t"), c[11] == "1"))
+        .fold(Vec::new(), |mut v: Vec<(f64, bool)>, (t, a)| {
+            if v.last().is_none_or(|&(_, prev)| prev != a) {
+                v.push((t, a));
+            }
+            v
+        })
+}
+
+/// Runs `swarm tap ARGS` (at most [`TOOL_LIMIT`]) and returns what it printed.
+pub fn tap(args: &[&str]) -> String {
+    let out = output_within(Command::new(SWARM).arg("tap").args(args), TOOL_LIMIT);
+    assert!(out.status.success(), "tap failed: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("utf8")
+}

@@ -1,0 +1,127 @@
+//! End to end: agent hosts (`swarm agent --ids`, many agents in one process). Lockstep results
+//! must not depend on how the agents are spread over processes; a killed host takes exactly
+//! its agents down and the swarm flies on; a bad id in a host is reported by id.
+
+mod common;
+
+use common::{alive_changes, run_id, start_hub, summary, swarm_run, tap, Proc};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// forest-5 (ICP shares) in lockstep with one process per UAV, hosts of 2 (shares both inside a
+/// session and across sessions) and one host of all 5: the same trajectories, byte for byte.
+#[test]
+fn lockstep_trajectories_do_not_depend_on_agents_per_process() {
+    let mut runs = Vec::new();
+    for per in ["1", "2", "5"] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let out = swarm_run(&["forest-5", "--agents-per-process", per, "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("per")]);
+        assert!(out.status.success(), "--agents-per-process {per}: {}", String::from_utf8_lossy(&out.stderr));
+        let logs: Vec<String> =
+            std::fs::read_dir(dir.path().join("logs")).expect("logs").map(|e| e.expect("entry").file_name().to_string_lossy().into_owned()).collect();
+        let hosts = logs.iter().filter(|l| l.starts_with("agents-")).count();
+        assert_eq!(hosts, [0, 2, 1][runs.len()], "agent hosts started with --agents-per-process {per}: {logs:?}");
+        let s = summary(dir.path());
+        assert_eq!(s["reached_goal"], true, "{s:#}");
+        runs.push(std::fs::read(dir.path().join("trajectories.csv")).expect("csv"));
+    }
+    assert!(runs[0].len() > 1000);
+    assert!(runs[0] == runs[1], "hosts of 2 fly differently from one process per UAV");
+    assert!(runs[0] == runs[2], "one host of 5 flies differently from one process per UAV");
+}
+
+/// Sends `signal` (`STOP`, `CONT`, `KILL`) to a child.
+fn signal(p: &Proc, signal: &str) {
+    let st = Command::new("kill").args([&format!("-{signal}"), &p.child.id().to_string()]).status().expect("kill");
+    assert!(st.success(), "kill -{signal}");
+}
+
+/// open-field-5 in lockstep, UAVs 1-3 (the informed ones among them) in processes of their own
+/// and 4-5 in one host, which is killed outright mid-run. To act at a tick the run has surely
+/// not finished, agent 1 is stopped (SIGSTOP) first, which holds the lockstep hub. Both agents
+/// of the host disappear, the hub stops waiting for them, and the other three fly on; a new host
+/// for 4-5 brings them back, localizing their neighbours again, and the swarm reaches the goal.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_killed_agent_host_takes_its_agents_down_and_a_new_one_brings_them_back() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("hostkill");
+    let (mut hub, loc) = start_hub("open-field-5", &run, dir.path());
+    let out = dir.path().join("rec");
+    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
+    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
+    let agent = |flag: &str, ids: &str, log: &str| {
+        Proc::start(&["agent", "--run", &run, flag, ids, "--connect", &loc, "--exit-with-stdin"], &dir.path().join(log))
+    };
+    let solo: Vec<Proc> = (1..=3).map(|id| agent("--id", &id.to_string(), &format!("agent-{id}.log"))).collect();
+    let mut host = agent("--ids", "4-5", "host.log");
+    let ticks = |n: &str| {
+        let got = tap(&[&format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", n, "--duration", "60"]);
+        assert_eq!(got.lines().count().to_string(), n, "the swarm flies: {got}");
+    };
+    // Wait until the swarm flies, then hold the hub by stopping agent 1, and kill the host.
+    ticks("20");
+    signal(&solo[0], "STOP");
+    std::thread::sleep(Duration::from_millis(300));
+    signal(&host, "KILL");
+    assert!(host.wait_for(Duration::from_secs(10)).is_some(), "the killed host is gone");
+    std::thread::sleep(Duration::from_millis(500));
+    signal(&solo[0], "CONT");
+    // The swarm flies on without them; then, holding the hub again, a new host takes them back.
+    ticks("30");
+    signal(&solo[0], "STOP");
+    let _host_again = agent("--ids", "4-5", "host-again.log");
+    for id in ["4", "5"] {
+        let up = tap(&[&format!("swarm/{run}/alive/uav/{id}"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+        assert!(up.contains("\"alive\":true"), "UAV {id} is back: {up}");
+    }
+    signal(&solo[0], "CONT");
+
+    let status = rec.wait_for(Duration::from_secs(120)).expect("the run ends without the host's agents");
+    assert!(status.success());
+    let s = summary(&out);
+    assert_eq!(s["reached_goal"], true, "{s:#}");
+    // The dead UAVs' bodies stay in the world with no agent to share their poses, so a living
+    // UAV may touch one; the living ones must never touch each other.
+    let events = s["collision_events"].as_array().expect("events");
+    let alive_only = |e: &serde_json::Value| [&e["id"], &e["other_uav"]].iter().all(|v| v.as_u64().is_some_and(|id| id <= 3));
+    assert!(!events.iter().any(alive_only), "living UAVs collided: {events:?}");
+    for id in ["4", "5"] {
+        let a = alive_changes(&out, id);
+        assert_eq!(a.len(), 3, "UAV {id}: alive, dead with its host, alive with the new one: {a:?}");
+        assert!(a[0].1 && !a[1].1 && a[2].1 && a[1].0 > 0.0, "UAV {id}: {a:?}");
+    }
+    let back_at = alive_changes(&out, "4")[2].0;
+    let events = s["agents"][3]["contact_events"].as_array().expect("events");
+    let regained = events.iter().any(|e| e["regained"] == true && e["t_s"].as_f64().expect("t") >= back_at);
+    assert!(regained, "UAV 4 of the new host localized its neighbours: {events:?}");
+    for id in ["1", "2", "3"] {
+        let a = alive_changes(&out, id);
+        assert!(a.len() == 1 && a[0].1, "UAV {id} in its own process lives on: {a:?}");
+    }
+    assert!(hub.wait_for(Duration::from_secs(20)).expect("hub exits after the run").success());
+}
+
+/// A host given an id outside the scenario flies the others, reports the bad one by id in its
+/// log at once, and fails naming it when it stops.
+#[test]
+fn a_host_reports_an_agent_with_a_bad_id() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("hostbadid");
+    let (_hub, loc) = start_hub("forest-5", &run, dir.path());
+    let log = dir.path().join("host.log");
+    let mut host = Proc::start(&["agent", "--run", &run, "--ids", "5-6", "--connect", &loc, "--exit-with-stdin"], &log);
+    let alive = tap(&[&format!("swarm/{run}/alive/uav/5"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    assert!(alive.contains("\"alive\":true"), "UAV 5 of the host flies: {alive}");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !std::fs::read_to_string(&log).expect("log").contains("UAV id 6 is not in this scenario") {
+        assert!(Instant::now() < deadline, "the bad id is never reported");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    drop(host.stdin.take());
+    let st = host.wait_for(Duration::from_secs(20)).expect("host stops when told");
+    assert!(!st.success(), "a host with a failed agent fails");
+    let text = std::fs::read_to_string(&log).expect("log");
+    assert!(text.contains("1 of the 2 agents of this host failed") && text.contains("UAV 6:"), "{text}");
+}

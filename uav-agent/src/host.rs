@@ -1,0 +1,100 @@
+//! An agent host: many agents in one process, so a large swarm does not pay one process (and
+//! one Zenoh session, about 15 MB resident) per UAV.
+//!
+//! Each agent keeps everything it has alone: its [`Node`](crate::node) state, subscriptions,
+//! netem link, publishers and `alive/uav/{id}` token, so the hub, netem, the recorder and tools
+//! see exactly the keys of one process per UAV. The agents of a host share one Zenoh session:
+//! a share published by one is delivered to a subscriber of another in the same session by
+//! Zenoh's local routing (never through memory of this crate), after the neighbour window
+//! checks as for any share, so lockstep results do not depend on how agents are spread over
+//! processes. Each agent is its own task; one that fails is reported with its id and the others
+//! fly on.
+
+use crate::node::{self, AgentError, AgentExit};
+use std::future::Future;
+use swarm_config::Scenario;
+use swarm_wire::session::{self, Role};
+use swarm_wire::Keys;
+use tokio::sync::watch;
+use tracing::{error, info_span, Instrument};
+
+/// Which UAVs, which run, which hub.
+#[derive(Debug, Clone, Default)]
+pub struct HostOptions {
+    /// Run id.
+    pub run: String,
+    /// UAV ids, 1-based.
+    pub ids: Vec<u32>,
+    /// Hub endpoints, e.g. `tcp/10.0.0.5:7447`.
+    pub connect: Vec<String>,
+    /// `KEY:JSON5` Zenoh config overrides.
+    pub zenoh_cfg: Vec<String>,
+    /// Use this scenario instead of fetching it from the hub.
+    pub scenario: Option<Scenario>,
+    /// See [`AgentOptions::hub_grace_s`](crate::AgentOptions::hub_grace_s).
+    pub hub_grace_s: f64,
+}
+
+/// Runs the agents `opts.ids` in this process on one Zenoh session until each has ended (hub
+/// gone, error) or `shutdown` resolves; returns how each ended, by id, in the order given.
+/// Only a failure shared by all (no session, no scenario) is an `Err`.
+pub async fn run_host(
+    opts: HostOptions,
+    shutdown: impl Future<Output = ()>,
+) -> Result<Vec<(u32, Result<AgentExit, AgentError>)>, AgentError> {
+    let keys = Keys::new(&opts.run)?;
+    let s = session::open(Role::Client, &[], &opts.connect, &opts.zenoh_cfg).await?;
+    let sc = match opts.scenario.clone() {
+        Some(sc) => Ok(sc),
+        None => node::fetch_scenario(&s, &keys, &opts.run).await,
+    };
+    let result = match sc {
+        Ok(sc) => Ok(fly_all(&s, &keys, &opts, sc, shutdown).await),
+        Err(e) => Err(e),
+    };
+    let _ = s.close().await;
+    result
+}
+
+/// Starts one task per agent and waits for all of them; `shutdown` reaches every agent.
+async fn fly_all(
+    s: &zenoh::Session,
+    keys: &Keys,
+    opts: &HostOptions,
+    sc: Scenario,
+    shutdown: impl Future<Output = ()>,
+) -> Vec<(u32, Result<AgentExit, AgentError>)> {
+    let (stop_tx, stop_rx) = watch::channel(false);
+    let mut tasks = Vec::with_capacity(opts.ids.len());
+    for &id in &opts.ids {
+        let mut stop = stop_rx.clone();
+        let stopped = async move {
+            let _ = stop.wait_for(|v| *v).await;
+        };
+        let span = info_span!("agent", uav_id = id, run = %opts.run);
+        let fly = node::fly(s.clone(), keys.clone(), id, sc.clone(), opts.hub_grace_s, stopped);
+        let reported = async move {
+            let r = fly.await;
+            if let Err(e) = &r {
+                error!("agent failed: {e}");
+            }
+            r
+        };
+        tasks.push((id, tokio::spawn(reported.instrument(span))));
+    }
+    let all = async {
+        let mut out = Vec::with_capacity(tasks.len());
+        for (id, t) in tasks {
+            let r = t.await.unwrap_or_else(|e| Err(AgentError::Panicked(e.to_string())));
+            out.push((id, r));
+        }
+        out
+    };
+    tokio::pin!(all);
+    tokio::select! {
+        out = &mut all => return out,
+        _ = shutdown => {}
+    }
+    let _ = stop_tx.send(true);
+    all.await
+}
