@@ -28,7 +28,10 @@
 //!    against every entry's ID set, from the identity (two scans of the same neighbour at nearby
 //!    times); an entry matches when FRMSD ≤ `match_frmsd`. Each entry takes at most one set per
 //!    step; conflicts are settled globally by lowest FRMSD, so the result does not depend on the
-//!    order the sets arrived in. `Key`: the entry whose last sender id equals the set's.
+//!    order the sets arrived in. Only entries placed near where the set's sender is expected are
+//!    tried (the [`Gate`]; an entry farther away could only be reached by an implausible shift),
+//!    so identification costs about one short ICP per nearby neighbour instead of one per entry
+//!    (quadratic in the crowd). `Key`: the entry whose last sender id equals the set's.
 //!    A set with no match creates a new, not yet placed, entry (addNewEntry). Every entry that
 //!    got a set: ID := the set, `last_used` := now, `chosen` := true.
 //! 4. Planning, per entry that got a set (Algorithm 6):
@@ -368,9 +371,11 @@ impl Database {
         // previous set is reached by a small shift and turn (its motion since), another's only by
         // their separation. So a match must also be plausible motion, and the smallest wins.
         let max_turn = self.params.match_turn_deg.to_radians();
+        let gate = Gate::new(&self.entries, self.params.match_shift_m + GATE_MARGIN_M);
         let mut candidates: Vec<(f64, f64, usize, usize)> = Vec::new();
         for (s, set) in sets.iter().enumerate() {
-            for (idx, e) in self.entries.iter().enumerate() {
+            for idx in gate.candidates(set.from) {
+                let e = &self.entries[idx];
                 counts.matching += 1;
                 if let Some(found) = m.short(&e.id_set, &set.points, IDENTITY) {
                     let shift = found.agent_from_neighbour.translation_m.norm();
@@ -511,6 +516,66 @@ impl Database {
                 e.suspension_time = now;
             }
         }
+    }
+}
+
+/// Slack of the [`Gate`] beyond `match_shift_m` [m]: what the two neighbours and this agent may
+/// have moved, and the placements may be off, between the estimates the gate compares (entries in
+/// use were placed at most `stale_after_s` = 0.5 s apart, at walking-pace speeds of about 1 m/s).
+const GATE_MARGIN_M: f64 = 2.0;
+
+/// Which entries a received set is matched against: the ones placed near where its sender should
+/// be, instead of every entry (which made identification quadratic in the neighbours).
+///
+/// Matching a set to an entry's ID set succeeds only by a plausible motion, a shift of at most
+/// `match_shift_m` (seed 000 5.2 as refined here). The shift that aligns neighbour a's new set
+/// with neighbour b's last one is |p_a − p_b|, their separation (a rigid alignment preserves
+/// distance), so an entry whose neighbour was placed farther than `match_shift_m` (plus the
+/// [`GATE_MARGIN_M`] slack) from where the set's sender is expected cannot be the match. Where the
+/// sender is expected: where the entry that took the last set on the same link was placed. The
+/// link only says where to look; the entry is still chosen by matching, so anonymity is kept. A
+/// set with no such located entry (a new link, or its entry is unplaced or suspended) is matched
+/// against every entry, and entries with no position (unplaced or suspended) are always tried.
+#[derive(Debug)]
+struct Gate {
+    /// Per entry, its neighbour's position in this agent's body frame [m], if placed and usable.
+    located: Vec<Option<Vector2<f64>>>,
+    /// Entries by the sender of the set they took last.
+    by_sender: BTreeMap<u32, Vec<usize>>,
+    /// Candidates lie within this distance of an expected position [m].
+    radius_m: f64,
+}
+
+impl Gate {
+    fn new(entries: &[Entry], radius_m: f64) -> Gate {
+        let located = entries
+            .iter()
+            .map(|e| e.agent_from_neighbour.filter(|_| !e.suspended).map(|t| t.translation_m))
+            .collect();
+        let mut by_sender: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+        for (idx, e) in entries.iter().enumerate() {
+            by_sender.entry(e.sender).or_default().push(idx);
+        }
+        Gate { located, by_sender, radius_m }
+    }
+
+    /// The entries a set from `sender` is matched against, in entry order.
+    fn candidates(&self, sender: u32) -> Vec<usize> {
+        let expected: Vec<Vector2<f64>> = self
+            .by_sender
+            .get(&sender)
+            .into_iter()
+            .flatten()
+            .filter_map(|&idx| self.located[idx])
+            .collect();
+        let all = 0..self.located.len();
+        if expected.is_empty() {
+            return all.collect();
+        }
+        all.filter(|&idx| {
+            self.located[idx].is_none_or(|p| expected.iter().any(|q| (p - q).norm() <= self.radius_m))
+        })
+        .collect()
     }
 }
 
@@ -859,6 +924,64 @@ mod tests {
         assert_eq!(c.created, 0, "no new entry");
         let entries: Vec<u64> = d.estimates(0.1).iter().map(|e| e.entry).collect();
         assert_eq!(entries, vec![1], "the set went to the second entry, made from sender 2's set");
+    }
+
+    #[test]
+    fn gate_finds_each_set_its_entry_among_many_trying_only_nearby_entries() {
+        // Scripted places neighbour k at (k, 0.5k): 1.12 m apart, so within the gate radius
+        // (1 + 2 m) of neighbour k lie k − 2 ..= k + 2 only.
+        let ks: Vec<u32> = (1..=30).collect();
+        let (mut d, mut m) = (db(), Scripted::default());
+        run(&mut d, &mut m, &ks, 0.0, 2.0);
+        assert_eq!(d.estimates(2.0).len(), 30, "all placed");
+        let sets: Vec<Received> = ks.iter().map(|&k| recv(k, k, 2.1)).collect();
+        let c = step(&mut d, &mut m, 2.1, &sets);
+        assert_eq!(c.created, 0);
+        let ids: Vec<Option<u32>> = d.estimates(2.1).iter().map(|e| e.id).collect();
+        assert_eq!(ids, ks.iter().map(|&k| Some(k)).collect::<Vec<_>>(), "every set found its entry");
+        // 5 candidates in the middle, 3 or 4 at the ends: 30·5 − 2·3 = 144, not 30·30 = 900.
+        assert_eq!(c.matching, 144);
+        // A set on a new link has no expected place: it is tried against every entry.
+        let c = step(&mut d, &mut m, 2.2, &[recv(99, 99, 2.2)]);
+        assert_eq!((c.matching, c.created), (30, 1));
+    }
+
+    /// Every set aligns with every other neighbour's set at the identity, better (FRMSD 0.01) than
+    /// with its own (0.1): sets that look alike. Against own, neighbour k sits at (k, 0.5k).
+    #[derive(Default)]
+    struct LookAlike {
+        /// (source neighbour, reference neighbour) of every findBestMatch ICP.
+        tried: Vec<(u32, u32)>,
+    }
+    impl Matcher for LookAlike {
+        fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], _: AgentFromNeighbour) -> Option<Match> {
+            let k = tag(source).0;
+            if is_own(reference) {
+                return self.long(reference, source);
+            }
+            self.tried.push((k, tag(reference).0));
+            let frmsd = if tag(reference).0 == k { 0.1 } else { 0.01 };
+            Some(Match { agent_from_neighbour: IDENTITY, frmsd, pairs: 5 })
+        }
+        fn long(&mut self, _: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
+            let kf = f64::from(tag(source).0);
+            let at = AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(kf, 0.5 * kf) };
+            Some(Match { agent_from_neighbour: at, frmsd: 0.1, pairs: 5 })
+        }
+    }
+
+    #[test]
+    fn an_entry_placed_far_from_where_the_set_is_expected_is_not_tried() {
+        let mut d = db();
+        let mut m = LookAlike::default();
+        // Neighbours 1 (at 1.1 m) and 20 (at 22 m), each on its own link: two new entries, placed.
+        d.step(0.0, &own_set(), &[recv(1, 1, 0.0), recv(20, 20, 0.0)], &mut m, &mut || 0.0);
+        assert_eq!(d.estimates(0.0).len(), 2);
+        // Without the gate, 20's set would go to 1's entry (same shift, lower FRMSD) and 1's to 20's.
+        d.step(0.1, &own_set(), &[recv(1, 1, 0.1), recv(20, 20, 0.1)], &mut m, &mut || 0.0);
+        assert_eq!(m.tried, vec![(1, 1), (20, 20)], "each set tried only against the entry near its sender");
+        let placed: Vec<(u64, Option<u32>, f64)> = d.estimates(0.1).iter().map(|e| (e.entry, e.id, e.pos_in_body.x)).collect();
+        assert_eq!(placed, vec![(0, Some(1), 1.0), (1, Some(20), 20.0)]);
     }
 
     #[test]
