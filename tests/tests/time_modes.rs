@@ -51,10 +51,7 @@ fn lockstep_goes_on_when_an_agent_dies() {
     let (mut hub, loc) = start_hub(&sc, &run, dir.path());
     let out = dir.path().join("rec");
     let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
-    let tap = |args: &[&str]| {
-        let o = common::output_within(Command::new(SWARM).arg("tap").args(args), common::TOOL_LIMIT);
-        String::from_utf8_lossy(&o.stdout).into_owned()
-    };
+    let tap = common::tap;
     assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
     let mut a1 = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("a1.log"));
     let a2 = Proc::start(&["agent", "--run", &run, "--id", "2", "--connect", &loc], &dir.path().join("a2.log"));
