@@ -14,7 +14,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 use swarm_wire::plumbing;
 use swarm_wire::session::{self, Role};
-use swarm_wire::Msg;
+use swarm_wire::{Msg, WireError};
 use zenoh::qos::CongestionControl;
 
 /// `swarm tap`.
@@ -118,13 +118,10 @@ pub async fn tap(a: TapArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn zerr(e: zenoh::Error) -> anyhow::Error {
-    anyhow!("zenoh: {e}")
-}
 
 /// `swarm tap --get`: prints every reply to one query, while `print` wants more.
 async fn query(s: &zenoh::Session, keyexpr: &str, print: &mut dyn FnMut(Value) -> bool) -> Result<()> {
-    let replies = s.get(keyexpr).timeout(Duration::from_secs(5)).await.map_err(zerr)?;
+    let replies = s.get(keyexpr).timeout(Duration::from_secs(5)).await.map_err(WireError::zenoh)?;
     while let Ok(r) = replies.recv_async().await {
         let v = match r.result() {
             Ok(sm) => describe(sm.key_expr().as_str(), &sm.encoding().to_string(), &sm.payload().to_bytes()),
@@ -145,9 +142,9 @@ async fn follow(s: &zenoh::Session, a: &TapArgs, print: &mut dyn FnMut(Value) ->
     // its oldest samples instead of stalling a lockstep run, whose publishers block.
     let ring = || zenoh::handlers::RingChannel::new(4096);
     let sub = if a.alive {
-        s.liveliness().declare_subscriber(&a.keyexpr).history(true).with(ring()).await.map_err(zerr)?
+        s.liveliness().declare_subscriber(&a.keyexpr).history(true).with(ring()).await.map_err(WireError::zenoh)?
     } else {
-        s.declare_subscriber(&a.keyexpr).with(ring()).await.map_err(zerr)?
+        s.declare_subscriber(&a.keyexpr).with(ring()).await.map_err(WireError::zenoh)?
     };
     loop {
         let next = async {

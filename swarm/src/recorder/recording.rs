@@ -95,7 +95,7 @@ impl Recording {
             .liveliness()
             .declare_token(keys.alive_recorder())
             .await
-            .map_err(|e| anyhow::anyhow!("zenoh: {e}"))?;
+            .map_err(swarm_wire::WireError::zenoh)?;
         Ok(Recording {
             session,
             keys,
