@@ -70,8 +70,13 @@ const SOLO_UP_TO_UAVS: u32 = 10;
 /// How many agents `swarm run` puts in one process: `asked`, else 1 for swarms of up to
 /// [`SOLO_UP_TO_UAVS`], else the swarm spread evenly over one host per core.
 pub fn agents_per_process(uavs: usize, asked: Option<u32>) -> u32 {
-    let uavs = u32::try_from(uavs).unwrap_or(u32::MAX);
     let cores = std::thread::available_parallelism().map_or(1, |n| u32::try_from(n.get()).unwrap_or(1));
+    per_process(uavs, cores, asked)
+}
+
+/// [`agents_per_process`] on a machine of `cores` cores.
+fn per_process(uavs: usize, cores: u32, asked: Option<u32>) -> u32 {
+    let uavs = u32::try_from(uavs).unwrap_or(u32::MAX);
     match asked {
         Some(n) => n,
         None if uavs <= SOLO_UP_TO_UAVS => 1,
@@ -445,11 +450,13 @@ mod tests {
 
     #[test]
     fn small_swarms_get_a_process_per_uav_and_large_ones_hosts() {
-        assert_eq!(agents_per_process(5, None), 1);
-        assert_eq!(agents_per_process(10, None), 1);
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get() as u32);
-        assert_eq!(agents_per_process(40, None), 40u32.div_ceil(cores));
-        assert_eq!(agents_per_process(5, Some(5)), 5);
+        assert_eq!(per_process(5, 2, None), 1);
+        assert_eq!(per_process(10, 2, None), 1);
+        assert_eq!(per_process(40, 2, None), 20);
+        assert_eq!(per_process(40, 8, None), 5);
+        assert_eq!(per_process(41, 2, None), 21, "the last host takes the remainder");
+        assert_eq!(per_process(11, 16, None), 1);
+        assert_eq!(per_process(5, 2, Some(5)), 5);
     }
 
     #[test]
