@@ -168,7 +168,7 @@ struct Node {
     link: netem::Link,
     inbox: netem::Inbox<Share>,
     /// Shares sent at a tick this agent has not stepped yet, in arrival order, with their size.
-    early: Vec<(u32, Share, usize)>,
+    early: Vec<(Share, usize)>,
     /// The netem timeline in force (the scenario's, then the hub's), applied to every share this
     /// agent receives.
     netem_rules: netem::Timeline,
@@ -319,9 +319,9 @@ impl Node {
             }
         };
         if self.last_tick.is_none_or(|last| share.tick() > last) {
-            self.early.push((from, share, bytes.len()));
+            self.early.push((share, bytes.len()));
         } else {
-            self.admit(from, share, bytes.len());
+            self.admit(share, bytes.len());
         }
     }
 
@@ -333,19 +333,20 @@ impl Node {
     /// after it was sent at the earliest, whenever it is admitted.
     fn admit_early(&mut self) {
         let Some(last) = self.last_tick else { return };
-        if self.early.iter().all(|(_, share, _)| share.tick() > last) {
+        if self.early.iter().all(|(share, _)| share.tick() > last) {
             return;
         }
-        let (due, later) = std::mem::take(&mut self.early).into_iter().partition(|(_, share, _)| share.tick() <= last);
+        let (due, later) = std::mem::take(&mut self.early).into_iter().partition(|(share, _)| share.tick() <= last);
         self.early = later;
-        for (from, share, len) in due {
-            self.admit(from, share, len);
+        for (share, len) in due {
+            self.admit(share, len);
         }
     }
 
     /// Counts a share, keeps it only inside the neighbour's window, lets the link decide, holds
     /// it in the inbox.
-    fn admit(&mut self, from: u32, share: Share, len: usize) {
+    fn admit(&mut self, share: Share, len: usize) {
+        let from = share.from();
         if self.windows.get(&from).is_none_or(|&first| share.tick() < first) {
             trace!(from, tick = share.tick(), "share outside the neighbour's window");
             return;
