@@ -4,7 +4,8 @@
 //!   tap | put | netem | compare | formations | sweep-error | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`), run ids, scenario values on the command line.
-//! - [`launch`]: `swarm run`: starts the hub, one agent process per UAV and a recording, applies
+//! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
+//!   swarms) and a recording, applies
 //!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
 //! - [`pieces`]: `swarm hub` and `swarm agent`, the processes the launcher starts (or a person,
 //!   by hand).

@@ -74,7 +74,7 @@ pub enum NoEstimate {
     /// A coordinate, the initial transform or a parameter is NaN or infinite.
     #[error("non-finite point, transform or parameter")]
     NonFinite,
-    /// The points cannot pin down a 2D rigid agent_from_neighbour: a side is all coincident or collinear,
+    /// The points cannot pin down a 2D rigid transform: a side is all coincident or collinear,
     /// or the pairs kept at the end are.
     #[error("degenerate (coincident or collinear) point set")]
     Degenerate,

@@ -163,9 +163,9 @@ struct Entry {
     chosen: bool,
     /// Sender id of the set received last (metrics; identity only for `identify = Key`).
     sender: u32,
-    /// FRMSD of the ICP that produced `transform`.
+    /// FRMSD of the ICP that produced `agent_from_neighbour`.
     frmsd: f64,
-    /// Time stamp of the set that produced `transform`.
+    /// Time stamp of the set that produced `agent_from_neighbour`.
     estimate_t: f64,
 }
 
