@@ -103,9 +103,6 @@ struct Net {
     alive_changed: Arc<Notify>,
     cmds: mpsc::UnboundedReceiver<(u32, Cmd)>,
     malformed: Arc<AtomicU64>,
-    /// The `[[netem]]` rules and failures in force: the scenario's, plus those added while
-    /// running (`swarm netem`).
-    timeline: netem::Timeline,
     netem_rules: Publisher,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
 }
@@ -269,7 +266,6 @@ impl Net {
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
-            timeline: netem::Timeline::from_scenario(sc),
             netem_rules: publisher(&s, keys.netem_rules(), CongestionControl::Block).await?,
             netem_added,
             clock: publisher(&s, keys.clock(), CongestionControl::Block).await?,
@@ -325,7 +321,7 @@ impl Net {
             _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, Instant::now()).await,
         }
         put(&self.truth_world, &Msg::TruthWorld(sim.truth_world())).await?;
-        self.publish_rules().await?;
+        self.publish_rules(&sim).await?;
         let started = Instant::now();
         let mut scan_buf = Vec::new();
         let mut pacer = Pacer::new(sim.clock().dt_secs / sc.time.realtime_factor);
@@ -397,18 +393,18 @@ impl Net {
             t.netem.iter_mut().for_each(|r| r.at_s += not_before);
             t.failures.iter_mut().for_each(|f| f.at_s += not_before);
             info!(rules = t.netem.len(), failures = t.failures.len(), from_s = not_before, "netem timeline added");
-            sim.add_failures(&t.failures);
-            self.timeline.extend(t);
+            sim.extend_timeline(t);
             changed = true;
         }
         if changed {
-            self.publish_rules().await?;
+            self.publish_rules(sim).await?;
         }
         Ok(())
     }
 
-    async fn publish_rules(&self) -> Result<(), WireError> {
-        let json = serde_json::to_string(&self.timeline).map_err(|e| WireError::zenoh(e.to_string()))?;
+    /// Publishes the timeline in force (the simulation's: the scenario's plus every addition).
+    async fn publish_rules(&self, sim: &Sim) -> Result<(), WireError> {
+        let json = serde_json::to_string(sim.timeline()).map_err(|e| WireError::zenoh(e.to_string()))?;
         put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 

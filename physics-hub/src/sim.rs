@@ -34,7 +34,8 @@ pub struct Sensors {
 /// The whole simulated world.
 pub struct Sim {
     sc: Scenario,
-    /// The run's netem timeline, for its freezes (the scenario's, plus those added while running).
+    /// The run's netem timeline in force: the scenario's `[[netem]]` rules and failures, plus those
+    /// `swarm netem` added while running. The sim reads its freezes; the node republishes it.
     timeline: netem::Timeline,
     world: World,
     bodies: Vec<Body>,
@@ -186,9 +187,14 @@ impl Sim {
         [len * dir.cos(), len * dir.sin()]
     }
 
-    /// Adds failures (freezes from `swarm netem freeze`) to the run's timeline.
-    pub fn add_failures(&mut self, failures: &[swarm_config::Failure]) {
-        self.timeline.extend(swarm_config::Timeline { netem: Vec::new(), failures: failures.to_vec() });
+    /// Adds a timeline (from `swarm netem`, times already in sim time) to the one in force.
+    pub fn extend_timeline(&mut self, added: swarm_config::Timeline) {
+        self.timeline.extend(added);
+    }
+
+    /// The netem timeline in force.
+    pub fn timeline(&self) -> &netem::Timeline {
+        &self.timeline
     }
 
     /// Integrates one tick. `cmds[i]` is UAV i+1's command for this tick, `None` when it did not
