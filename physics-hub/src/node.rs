@@ -321,7 +321,7 @@ impl Net {
             _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, Instant::now()).await,
         }
         put(&self.truth_world, &Msg::TruthWorld(sim.truth_world())).await?;
-        self.publish_rules(&sim).await?;
+        self.publish_rules(sim).await?;
         let started = Instant::now();
         let mut scan_buf = Vec::new();
         let mut pacer = Pacer::new(sim.clock().dt_secs / sc.time.realtime_factor);

@@ -3,8 +3,7 @@
 
 mod common;
 
-use common::{run_id, start_hub, summary, swarm_run, Proc, SWARM};
-use std::process::Command;
+use common::{run_id, start_hub, summary, swarm_run, Proc};
 use std::time::Duration;
 
 fn write_scenario(dir: &std::path::Path, name: &str, body: &str) -> String {
