@@ -524,6 +524,7 @@ impl K21Params {
             ("avoidance_gain_m", self.avoidance_gain_m),
             ("obstacle_near_m", self.obstacle_near_m),
             ("heading_gain", self.heading_gain),
+            ("neighbour_radius_m", self.neighbour_radius_m),
         ] {
             positive(&format!("{at}.{name}"), v)?;
         }
