@@ -516,6 +516,7 @@ impl K21Params {
         ] {
             non_negative(&format!("{at}.{name}"), v)?;
         }
+        non_negative(&format!("{at}.separation_all_around_m"), self.separation_all_around_m)?;
         for (name, v) in [
             ("kf", self.kf),
             ("cohesion_radius_m", self.cohesion_radius_m),

@@ -646,6 +646,11 @@ pub struct K21Params {
     /// inside the 2.5 m dead radius of eq. 4.4, so only a UAV with a gap beside it is pulled.
     #[serde(default = "d_nb_r")]
     pub neighbour_radius_m: f64,
+    /// Neighbours closer than this count in separation whatever their direction [m]. Section
+    /// 4.3's 180° sector alone leaves two UAVs flying side by side with slightly different
+    /// headings each just behind the other's beam, blind to each other (forest-100 came to 0.78 m).
+    #[serde(default = "d_sep_all")]
+    pub separation_all_around_m: f64,
     /// How the separation terms v_i of eq. 4.8 combine into v_s (eq. 4.9).
     #[serde(default)]
     pub separation_combine: SeparationCombine,
@@ -667,6 +672,9 @@ pub enum SeparationCombine {
     /// pushes as hard as it would alone, and several never push harder than 1.
     #[default]
     ClippedSum,
+}
+fn d_sep_all() -> f64 {
+    1.2
 }
 fn d_nb_r() -> f64 {
     5.0
@@ -718,6 +726,7 @@ impl Default for K21Params {
             obstacle_near_m: d_near(),
             heading_gain: 1.0,
             neighbour_radius_m: d_nb_r(),
+            separation_all_around_m: d_sep_all(),
             separation_combine: SeparationCombine::ClippedSum,
             obstacle_priority: true,
         }

@@ -123,7 +123,7 @@ pub fn cohesion(p: &K21Params, neighbours: &[Neighbour], obstacle_near: bool) ->
 /// Separation vector v_s (seed 000, section 4.3, eq. 4.7–4.9).
 ///
 /// Only neighbours in the 180° sector around `desired_dir` count (x_i·d ≥ 0; a neighbour exactly
-/// abeam counts). For each, k_i = max(−1, 1 − separation_scale_m/|x_i|) and
+/// abeam counts), and those closer than `separation_all_around_m` from any direction. For each, k_i = max(−1, 1 − separation_scale_m/|x_i|) and
 /// v_i = k_i·x_i/|x_i| if |x_i| ≤ separation_radius_m, else 0. v_s is the mean of the v_i over the
 /// neighbours in the sector and inside the radius — N of eq. 4.9 ("the number of all agents used
 /// to calculate v_s") is read as the agents that contribute — with `SeparationCombine::Mean`;
@@ -145,12 +145,13 @@ pub fn separation(
     let mut sum = Vector2::zeros();
     let mut count = 0usize;
     for x in neighbours.iter().map(|n| n.pos).filter(is_finite) {
+        let dist = x.norm();
         // seed 000 section 4.3: neighbours outside the 180° sector around the desired direction
-        // of movement are ignored.
-        if x.dot(&d) < 0.0 {
+        // of movement are ignored — except those closer than separation_all_around_m (our
+        // choice, module doc: side by side, each UAV may see the other just behind its beam).
+        if x.dot(&d) < 0.0 && dist >= p.separation_all_around_m {
             continue;
         }
-        let dist = x.norm();
         // seed 000, eq. 4.8: v_i = 0 if |x_i| > 2 (2 = separation_radius_m).
         if dist > p.separation_radius_m {
             continue;
@@ -377,10 +378,11 @@ mod tests {
             ),
             (2.5, 3.0, 2.0, 2.0, 135.0, 0.4)
         );
-        // Our choices where the seed is silent (module doc): 5 m reach, clipped sum, priority.
+        // Our choices where the seed is silent (module doc): 5 m reach, 1.2 m all around,
+        // clipped sum, priority.
         assert_eq!(
-            (p.neighbour_radius_m, p.separation_combine, p.obstacle_priority),
-            (5.0, SeparationCombine::ClippedSum, true)
+            (p.neighbour_radius_m, p.separation_all_around_m, p.separation_combine, p.obstacle_priority),
+            (5.0, 1.2, SeparationCombine::ClippedSum, true)
         );
     }
 
@@ -452,14 +454,29 @@ mod tests {
     fn separation_ignores_neighbours_behind() {
         let p = params();
         let x = v(1.0, 0.0);
-        // (−1,0): x·d = −1 < 0 → ignored, N = 0 → zero.
-        close(separation(&p, &[nb(-1.0, 0.0)], x), v(0.0, 0.0), 1e-15);
-        // (1,0) and (−1,0): only (1,0) counts, N = 1 → (−1,0).
-        close(separation(&p, &[nb(1.0, 0.0), nb(-1.0, 0.0)], x), v(-1.0, 0.0), 1e-12);
+        // (−1.5,0): x·d = −1.5 < 0 and 1.5 m ≥ 1.2 m → ignored, N = 0 → zero.
+        close(separation(&p, &[nb(-1.5, 0.0)], x), v(0.0, 0.0), 1e-15);
+        // (1,0) and (−1.5,0): only (1,0) counts, N = 1 → (−1,0).
+        close(separation(&p, &[nb(1.0, 0.0), nb(-1.5, 0.0)], x), v(-1.0, 0.0), 1e-12);
         // (0,1.5) exactly abeam: x·d = 0 ≥ 0 → counts; k = −1 → (0,−1).
         close(separation(&p, &[nb(0.0, 1.5)], x), v(0.0, -1.0), 1e-12);
-        // Desired direction (0,1): (1,0) abeam counts → (−1,0); (0,−1) behind is ignored.
-        close(separation(&p, &[nb(1.0, 0.0), nb(0.0, -1.0)], v(0.0, 3.0)), v(-1.0, 0.0), 1e-12);
+        // Desired direction (0,1): (1,0) abeam counts → (−1,0); (0,−1.5) behind is ignored.
+        close(separation(&p, &[nb(1.0, 0.0), nb(0.0, -1.5)], v(0.0, 3.0)), v(-1.0, 0.0), 1e-12);
+    }
+
+    #[test]
+    fn separation_counts_a_very_close_neighbour_behind() {
+        let p = params();
+        let x = v(1.0, 0.0);
+        // Side by side, just behind the beam: (−0.03,0.8), |x| = 0.80056 < 1.2 m → counts,
+        // k = −1 → v = −(−0.03,0.8)/0.80056 = (0.03747,−0.99930).
+        let s = separation(&p, &[nb(-0.03, 0.8)], x);
+        close(s, -v(-0.03, 0.8) / v(-0.03, 0.8).norm(), 1e-12);
+        // The same neighbour at 1.3 m behind the beam is ignored (section 4.3's sector).
+        close(separation(&p, &[nb(-0.05, 1.3)], x), v(0.0, 0.0), 1e-15);
+        // With the all-around distance at 0 the sector rule alone applies.
+        let sector_only = K21Params { separation_all_around_m: 0.0, ..params() };
+        close(separation(&sector_only, &[nb(-0.03, 0.8)], x), v(0.0, 0.0), 1e-15);
     }
 
     #[test]
