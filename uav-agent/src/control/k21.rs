@@ -488,9 +488,9 @@ mod tests {
         // One neighbour at 0.6 m among three beyond 2 m: full push, k = max(−1, 1 − 3/0.6) = −1.
         let crowd = [nb(0.6, 0.0), nb(3.0, 1.0), nb(4.0, -1.0), nb(2.5, 0.5)];
         close(separation(&p, &crowd, x), v(-1.0, 0.0), 1e-12);
-        // (1,0) → (−1,0); (0,−2) → k = −0.5, (0,0.5); (−1,0) ignored; N = 2 → (−0.5,0.25).
+        // (1,0) → (−1,0); (0,−2) → k = −0.5, (0,0.5); (−1.5,0) behind, ignored; N = 2 → (−0.5,0.25).
         let mean = K21Params { separation_combine: SeparationCombine::Mean, ..params() };
-        let three = [nb(1.0, 0.0), nb(0.0, -2.0), nb(-1.0, 0.0)];
+        let three = [nb(1.0, 0.0), nb(0.0, -2.0), nb(-1.5, 0.0)];
         close(separation(&mean, &three, x), v(-0.5, 0.25), 1e-12);
         // Clipped sum: (−1,0.5), |·| = 1.11803 > 1 → (−0.89443,0.44721).
         close(separation(&p, &three, x), v(-1.0, 0.5) / 1.25f64.sqrt(), 1e-12);
@@ -575,8 +575,8 @@ mod tests {
         let p = params();
         // A neighbour at our own position is taken as straight ahead: v = −d = (−1,0).
         close(separation(&p, &[nb(0.0, 0.0)], v(1.0, 0.0)), v(-1.0, 0.0), 1e-12);
-        // Zero desired direction → body x.
-        close(separation(&p, &[nb(1.0, 0.0), nb(-1.0, 0.0)], v(0.0, 0.0)), v(-1.0, 0.0), 1e-12);
+        // Zero desired direction → body x: (−1.5,0) is behind it.
+        close(separation(&p, &[nb(1.0, 0.0), nb(-1.5, 0.0)], v(0.0, 0.0)), v(-1.0, 0.0), 1e-12);
         // Non-finite neighbour ignored.
         let nan = Neighbour { pos: v(f64::NAN, 0.5), heading: 0.0 };
         close(separation(&p, &[nan], v(1.0, 0.0)), v(0.0, 0.0), 1e-15);
