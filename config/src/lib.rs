@@ -66,6 +66,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
     ("forest-40", include_str!("../../scenarios/forest-40.toml")),
+    ("forest-100", include_str!("../../scenarios/forest-100.toml")),
     ("m23-indoor-lf", include_str!("../../scenarios/m23-indoor-lf.toml")),
     ("m23-indoor-none", include_str!("../../scenarios/m23-indoor-none.toml")),
     ("m23-indoor-pf", include_str!("../../scenarios/m23-indoor-pf.toml")),
@@ -515,6 +516,7 @@ impl K21Params {
         ] {
             non_negative(&format!("{at}.{name}"), v)?;
         }
+        non_negative(&format!("{at}.separation_all_around_m"), self.separation_all_around_m)?;
         for (name, v) in [
             ("kf", self.kf),
             ("cohesion_radius_m", self.cohesion_radius_m),
@@ -524,6 +526,7 @@ impl K21Params {
             ("avoidance_gain_m", self.avoidance_gain_m),
             ("obstacle_near_m", self.obstacle_near_m),
             ("heading_gain", self.heading_gain),
+            ("neighbour_radius_m", self.neighbour_radius_m),
         ] {
             positive(&format!("{at}.{name}"), v)?;
         }

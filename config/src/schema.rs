@@ -639,6 +639,48 @@ pub struct K21Params {
     /// Heading alignment: yaw rate = heading_gain · α (eq. 4.14) [1/s].
     #[serde(default = "one")]
     pub heading_gain: f64,
+    /// K21 uses only the neighbours closer than this (cohesion, separation, alignment) [m].
+    /// Seed 000 does not give the reach of its 40-UAV controller-only run (section 6.4); its ICP
+    /// held a neighbour to about 6.5 m (section 6.2). 5 m keeps cohesion quiet inside a crowd:
+    /// the centroid of a half disc of uniformly spread neighbours lies 4R/(3π) = 2.1 m away,
+    /// inside the 2.5 m dead radius of eq. 4.4, so only a UAV with a gap beside it is pulled.
+    #[serde(default = "d_nb_r")]
+    pub neighbour_radius_m: f64,
+    /// Neighbours closer than this count in separation whatever their direction [m]. Section
+    /// 4.3's 180° sector alone leaves two UAVs flying side by side with slightly different
+    /// headings each just behind the other's beam, blind to each other (forest-100 came to 0.78 m).
+    #[serde(default = "d_sep_all")]
+    pub separation_all_around_m: f64,
+    /// How the separation terms v_i of eq. 4.8 combine into v_s (eq. 4.9).
+    #[serde(default)]
+    pub separation_combine: SeparationCombine,
+    /// Cohesion and separation may not push towards "an obstacle nearby" (section 4.2's
+    /// `obstacle_near_m`): their component along the closest obstacle is removed, so avoidance
+    /// keeps the priority section 4.6 gives it.
+    #[serde(default = "d_true")]
+    pub obstacle_priority: bool,
+}
+
+/// How K21's separation terms combine (seed 000 eq. 4.9).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SeparationCombine {
+    /// The mean of eq. 4.9 as written: in a crowd, pushes from several sides dilute the push
+    /// from the closest neighbour (forest-40: contacts).
+    Mean,
+    /// The sum of the v_i, clipped to unit length like eq. 4.6 and 4.13: one close neighbour
+    /// pushes as hard as it would alone, and several never push harder than 1.
+    #[default]
+    ClippedSum,
+}
+fn d_sep_all() -> f64 {
+    1.2
+}
+fn d_nb_r() -> f64 {
+    5.0
+}
+fn d_true() -> bool {
+    true
 }
 fn one() -> f64 {
     1.0
@@ -683,6 +725,10 @@ impl Default for K21Params {
             avoidance_ignore_deg: d_avoid_ignore(),
             obstacle_near_m: d_near(),
             heading_gain: 1.0,
+            neighbour_radius_m: d_nb_r(),
+            separation_all_around_m: d_sep_all(),
+            separation_combine: SeparationCombine::ClippedSum,
+            obstacle_priority: true,
         }
     }
 }

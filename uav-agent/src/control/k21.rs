@@ -26,7 +26,7 @@
 //!   output (possible only with non-finite parameters) becomes zero, i.e. hover.
 
 use nalgebra::{Matrix2, Vector2};
-use swarm_config::K21Params;
+use swarm_config::{K21Params, SeparationCombine};
 
 /// A neighbouring UAV as this UAV's relative localization sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -123,11 +123,13 @@ pub fn cohesion(p: &K21Params, neighbours: &[Neighbour], obstacle_near: bool) ->
 /// Separation vector v_s (seed 000, section 4.3, eq. 4.7–4.9).
 ///
 /// Only neighbours in the 180° sector around `desired_dir` count (x_i·d ≥ 0; a neighbour exactly
-/// abeam counts). For each, k_i = max(−1, 1 − separation_scale_m/|x_i|) and
+/// abeam counts), and those closer than `separation_all_around_m` from any direction. For each, k_i = max(−1, 1 − separation_scale_m/|x_i|) and
 /// v_i = k_i·x_i/|x_i| if |x_i| ≤ separation_radius_m, else 0. v_s is the mean of the v_i over the
 /// neighbours in the sector and inside the radius — N of eq. 4.9 ("the number of all agents used
-/// to calculate v_s") is read as the agents that contribute. Counting those beyond the radius
-/// would let far neighbours dilute the push of a close one. No such neighbour gives zero.
+/// to calculate v_s") is read as the agents that contribute — with `SeparationCombine::Mean`;
+/// with `SeparationCombine::ClippedSum` (the default, see the module doc) v_s is their sum clipped
+/// to unit length. Counting those beyond the radius would let far neighbours dilute the push of a
+/// close one. No such neighbour gives zero.
 ///
 /// `step` passes the body x axis as `desired_dir`: it is the direction the navigation vector
 /// propels the UAV (section 4.5), and the heading is aligned with the group and the goal.
@@ -143,12 +145,13 @@ pub fn separation(
     let mut sum = Vector2::zeros();
     let mut count = 0usize;
     for x in neighbours.iter().map(|n| n.pos).filter(is_finite) {
+        let dist = x.norm();
         // seed 000 section 4.3: neighbours outside the 180° sector around the desired direction
-        // of movement are ignored.
-        if x.dot(&d) < 0.0 {
+        // of movement are ignored — except those closer than separation_all_around_m (our
+        // choice, module doc: side by side, each UAV may see the other just behind its beam).
+        if x.dot(&d) < 0.0 && dist >= p.separation_all_around_m {
             continue;
         }
-        let dist = x.norm();
         // seed 000, eq. 4.8: v_i = 0 if |x_i| > 2 (2 = separation_radius_m).
         if dist > p.separation_radius_m {
             continue;
@@ -171,8 +174,12 @@ pub fn separation(
     if count == 0 {
         return Vector2::zeros();
     }
-    // seed 000, eq. 4.9: v_s = 1/N · Σ v_i.
-    sum / count as f64
+    match p.separation_combine {
+        // seed 000, eq. 4.9: v_s = 1/N · Σ v_i.
+        SeparationCombine::Mean => sum / count as f64,
+        // Our reading for crowds (see the module doc): Σ v_i clipped to unit length like eq. 4.6.
+        SeparationCombine::ClippedSum => clip_unit(sum),
+    }
 }
 
 /// Obstacle-avoidance vector v_o (seed 000, section 4.4, eq. 4.10–4.13).
@@ -265,26 +272,52 @@ pub fn alignment(neighbours: &[Neighbour], goal_heading: Option<f64>) -> f64 {
     sum_sin.atan2(sum_cos)
 }
 
+/// The closest finite obstacle centre [m], body frame.
+fn nearest_obstacle(obstacles: &[Vector2<f64>]) -> Option<Vector2<f64>> {
+    obstacles.iter().copied().filter(is_finite).min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))
+}
+
+/// The neighbours closer than `neighbour_radius_m`, in their original order (so that with every
+/// neighbour in reach the sums below add in the same order as without the filter).
+pub fn within_reach(p: &K21Params, neighbours: &[Neighbour]) -> Vec<Neighbour> {
+    neighbours.iter().copied().filter(|n| n.pos.norm() <= p.neighbour_radius_m).collect()
+}
+
+/// `v` without its component towards the obstacle centre `y` (body frame); a component away
+/// from it is kept. Our reading of seed 000 section 4.6 ("prioritize the obstacle avoidance
+/// vector"): near a tree, the crowd's cohesion and separation may slide a UAV along the tree or
+/// away from it, never into it, so the tangential avoidance vector (eq. 4.12) keeps its room.
+pub fn not_towards(v: Vector2<f64>, y: Vector2<f64>) -> Vector2<f64> {
+    let y_hat = direction_or_x(y);
+    let towards = v.dot(&y_hat);
+    if towards > 0.0 {
+        v - towards * y_hat
+    } else {
+        v
+    }
+}
+
 /// One K21 control step (seed 000, section 4.1, Algorithm 4; eq. 4.1–4.2).
 ///
-/// "An obstacle nearby" for cohesion: the nearest obstacle centre is closer than
-/// `p.obstacle_near_m`, whatever its direction. Separation uses the body x axis as the desired
-/// direction. Then p = v_c + v_s + v_n1 with v_n1 = navigation(v_c, v_s, 0), v_o = avoidance(p),
+/// Only the neighbours within `p.neighbour_radius_m` are used ([`within_reach`]). "An obstacle
+/// nearby" for cohesion: the nearest obstacle centre is closer than `p.obstacle_near_m`, whatever
+/// its direction; with `p.obstacle_priority` v_c and v_s then lose their component towards it
+/// ([`not_towards`]). Separation uses the body x axis as the desired direction. Then p = v_c + v_s + v_n1 with v_n1 = navigation(v_c, v_s, 0), v_o = avoidance(p),
 /// v_n = navigation(v_c, v_s, v_o), v = kc·v_c + ks·v_s + ko·v_o + kn·v_n, normalised if |v| > 1,
 /// times kf. yaw_rate = heading_gain·α. A non-finite velocity or yaw rate (only possible with
 /// non-finite parameters) is replaced by zero.
 pub fn step(p: &K21Params, input: &Input) -> Output {
-    let nearest_obstacle = input
-        .obstacles
-        .iter()
-        .filter(|y| is_finite(y))
-        .map(|y| y.norm())
-        .fold(f64::INFINITY, f64::min);
+    let nearest = nearest_obstacle(input.obstacles);
     // seed 000 section 4.2: "an obstacle nearby" switches cohesion to the closest neighbour.
-    let obstacle_near = nearest_obstacle < p.obstacle_near_m;
+    let near_obstacle = nearest.filter(|y| y.norm() < p.obstacle_near_m);
+    let neighbours = within_reach(p, input.neighbours);
 
-    let vc = cohesion(p, input.neighbours, obstacle_near);
-    let vs = separation(p, input.neighbours, Vector2::x());
+    let mut vc = cohesion(p, &neighbours, near_obstacle.is_some());
+    let mut vs = separation(p, &neighbours, Vector2::x());
+    if let (true, Some(y)) = (p.obstacle_priority, near_obstacle) {
+        vc = not_towards(vc, y);
+        vs = not_towards(vs, y);
+    }
     let vn1 = navigation(p, vc, vs, Vector2::zeros());
     // seed 000 section 4.1: p = v_c + v_s + v_n, the desired direction for avoidance.
     let desired = vc + vs + vn1;
@@ -300,7 +333,7 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     }
 
     // seed 000, eq. 4.14: turn towards the mean relative heading α.
-    let mut yaw_rate = p.heading_gain * alignment(input.neighbours, input.goal_heading);
+    let mut yaw_rate = p.heading_gain * alignment(&neighbours, input.goal_heading);
     if !yaw_rate.is_finite() {
         yaw_rate = 0.0;
     }
@@ -344,6 +377,12 @@ mod tests {
                 p.kf
             ),
             (2.5, 3.0, 2.0, 2.0, 135.0, 0.4)
+        );
+        // Our choices where the seed is silent (module doc): 5 m reach, 1.2 m all around,
+        // clipped sum, priority.
+        assert_eq!(
+            (p.neighbour_radius_m, p.separation_all_around_m, p.separation_combine, p.obstacle_priority),
+            (5.0, 1.2, SeparationCombine::ClippedSum, true)
         );
     }
 
@@ -415,14 +454,29 @@ mod tests {
     fn separation_ignores_neighbours_behind() {
         let p = params();
         let x = v(1.0, 0.0);
-        // (−1,0): x·d = −1 < 0 → ignored, N = 0 → zero.
-        close(separation(&p, &[nb(-1.0, 0.0)], x), v(0.0, 0.0), 1e-15);
-        // (1,0) and (−1,0): only (1,0) counts, N = 1 → (−1,0).
-        close(separation(&p, &[nb(1.0, 0.0), nb(-1.0, 0.0)], x), v(-1.0, 0.0), 1e-12);
+        // (−1.5,0): x·d = −1.5 < 0 and 1.5 m ≥ 1.2 m → ignored, N = 0 → zero.
+        close(separation(&p, &[nb(-1.5, 0.0)], x), v(0.0, 0.0), 1e-15);
+        // (1,0) and (−1.5,0): only (1,0) counts, N = 1 → (−1,0).
+        close(separation(&p, &[nb(1.0, 0.0), nb(-1.5, 0.0)], x), v(-1.0, 0.0), 1e-12);
         // (0,1.5) exactly abeam: x·d = 0 ≥ 0 → counts; k = −1 → (0,−1).
         close(separation(&p, &[nb(0.0, 1.5)], x), v(0.0, -1.0), 1e-12);
-        // Desired direction (0,1): (1,0) abeam counts → (−1,0); (0,−1) behind is ignored.
-        close(separation(&p, &[nb(1.0, 0.0), nb(0.0, -1.0)], v(0.0, 3.0)), v(-1.0, 0.0), 1e-12);
+        // Desired direction (0,1): (1,0) abeam counts → (−1,0); (0,−1.5) behind is ignored.
+        close(separation(&p, &[nb(1.0, 0.0), nb(0.0, -1.5)], v(0.0, 3.0)), v(-1.0, 0.0), 1e-12);
+    }
+
+    #[test]
+    fn separation_counts_a_very_close_neighbour_behind() {
+        let p = params();
+        let x = v(1.0, 0.0);
+        // Side by side, just behind the beam: (−0.03,0.8), |x| = 0.80056 < 1.2 m → counts,
+        // k = −1 → v = −(−0.03,0.8)/0.80056 = (0.03747,−0.99930).
+        let s = separation(&p, &[nb(-0.03, 0.8)], x);
+        close(s, -v(-0.03, 0.8) / v(-0.03, 0.8).norm(), 1e-12);
+        // The same neighbour at 1.3 m behind the beam is ignored (section 4.3's sector).
+        close(separation(&p, &[nb(-0.05, 1.3)], x), v(0.0, 0.0), 1e-15);
+        // With the all-around distance at 0 the sector rule alone applies.
+        let sector_only = K21Params { separation_all_around_m: 0.0, ..params() };
+        close(separation(&sector_only, &[nb(-0.03, 0.8)], x), v(0.0, 0.0), 1e-15);
     }
 
     #[test]
@@ -434,12 +488,86 @@ mod tests {
         // One neighbour at 0.6 m among three beyond 2 m: full push, k = max(−1, 1 − 3/0.6) = −1.
         let crowd = [nb(0.6, 0.0), nb(3.0, 1.0), nb(4.0, -1.0), nb(2.5, 0.5)];
         close(separation(&p, &crowd, x), v(-1.0, 0.0), 1e-12);
-        // (1,0) → (−1,0); (0,−2) → k = −0.5, (0,0.5); (−1,0) ignored; N = 2 → (−0.5,0.25).
-        close(
-            separation(&p, &[nb(1.0, 0.0), nb(0.0, -2.0), nb(-1.0, 0.0)], x),
-            v(-0.5, 0.25),
-            1e-12,
-        );
+        // (1,0) → (−1,0); (0,−2) → k = −0.5, (0,0.5); (−1.5,0) behind, ignored; N = 2 → (−0.5,0.25).
+        let mean = K21Params { separation_combine: SeparationCombine::Mean, ..params() };
+        let three = [nb(1.0, 0.0), nb(0.0, -2.0), nb(-1.5, 0.0)];
+        close(separation(&mean, &three, x), v(-0.5, 0.25), 1e-12);
+        // Clipped sum: (−1,0.5), |·| = 1.11803 > 1 → (−0.89443,0.44721).
+        close(separation(&p, &three, x), v(-1.0, 0.5) / 1.25f64.sqrt(), 1e-12);
+    }
+
+    #[test]
+    fn separation_in_a_crowd_pushes_away_from_the_nearest() {
+        // One neighbour 0.7 m ahead and two symmetric pairs within 2 m: (0.7,0) → k = −1, (−1,0);
+        // (1.5,±1.2): |x| = 1.92094, k = −0.56173, v = (−0.43862,∓0.35089);
+        // (0.3,±1.9): |x| = 1.92354, k = −0.55963, v = (−0.08728,∓0.55277).
+        let crowd = [nb(0.7, 0.0), nb(1.5, 1.2), nb(1.5, -1.2), nb(0.3, 1.9), nb(0.3, -1.9)];
+        let x = v(1.0, 0.0);
+        // Clipped sum: Σ = (−2.05185,0) → (−1,0), the full push away from the nearest.
+        close(separation(&params(), &crowd, x), v(-1.0, 0.0), 1e-12);
+        // Eq. 4.9's mean: (−0.41037,0), which would leave navigation 0.59 of its thrust towards
+        // the neighbour at 0.7 m.
+        let mean = K21Params { separation_combine: SeparationCombine::Mean, ..params() };
+        close(separation(&mean, &crowd, x), v(-0.410_369_6, 0.0), 1e-6);
+    }
+
+    #[test]
+    fn within_reach_keeps_near_neighbours_in_order() {
+        let p = params();
+        let ns = [nb(0.0, 4.9), nb(5.1, 0.0), nb(-3.0, -4.0), nb(1.0, 0.0)];
+        // |x| = 4.9, 5.1, 5.0 (on the boundary: kept), 1.0.
+        assert_eq!(within_reach(&p, &ns), vec![ns[0], ns[2], ns[3]]);
+        let nan = Neighbour { pos: v(f64::NAN, 0.0), heading: 0.0 };
+        assert_eq!(within_reach(&p, &[nan]), vec![]);
+    }
+
+    #[test]
+    fn not_towards_removes_only_the_approach() {
+        // Obstacle at (2,0): (1,1) loses its x part → (0,1); (−1,1) moves away → kept.
+        close(not_towards(v(1.0, 1.0), v(2.0, 0.0)), v(0.0, 1.0), 1e-15);
+        close(not_towards(v(-1.0, 1.0), v(2.0, 0.0)), v(-1.0, 1.0), 1e-15);
+        // Obstacle at (1,1): (1,0)·ŷ = 0.70711 → (1,0) − 0.5·(1,1) = (0.5,−0.5).
+        close(not_towards(v(1.0, 0.0), v(1.0, 1.0)), v(0.5, -0.5), 1e-12);
+    }
+
+    #[test]
+    fn step_front_of_a_crowd_flies_on() {
+        // The UAV leads a 5 × 7 lattice of 2.1 m spacing (34 neighbours, 8.4 m deep), no obstacle.
+        let ns: Vec<Neighbour> = (0..5)
+            .flat_map(|i| (-3..=3).map(move |j| nb(-2.1 * f64::from(i), 2.1 * f64::from(j))))
+            .filter(|n| n.pos.norm() > 0.0)
+            .collect();
+        let input = Input { neighbours: &ns, obstacles: &[], goal_heading: Some(0.0) };
+        // Within 5 m: 12 neighbours, c = (−21.32,0)/13 = (−1.77692,0), inside 2.5 m → v_c = 0;
+        // none within 2 m → v_s = 0; v_n = (1,0) → (0.4,0).
+        let out = step(&params(), &input);
+        close(out.cohesion, v(0.0, 0.0), 1e-15);
+        close(out.velocity, v(0.4, 0.0), 1e-12);
+        // Seeing all 34: c = (−142.8,0)/35 = (−4.2,0), k = 1 − 2.5/4.2 → v_c = (−1.7,0) clipped to
+        // (−1,0), v_n = 0: the front flies backwards into the crowd (the issue's drift).
+        let all = K21Params { neighbour_radius_m: 100.0, ..params() };
+        let out = step(&all, &input);
+        close(out.cohesion, v(-1.0, 0.0), 1e-12);
+        close(out.velocity, v(-0.4, 0.0), 1e-12);
+    }
+
+    #[test]
+    fn step_crowd_does_not_push_into_a_tree() {
+        // Neighbour abeam at (0,−1.2) → v_s = (0,1) (k = −1); tree centre at (0,2) is nearby
+        // (2 m < 2.5 m) and 90° off the desired direction, so v_o is tangential, (1,0)·(2/2) = (1,0).
+        let ns = [nb(0.0, -1.2)];
+        let input = Input { neighbours: &ns, obstacles: &[v(0.0, 2.0)], goal_heading: Some(0.0) };
+        // With priority v_s loses its part towards the tree → 0; p = (1,0), v_o = (1,0), v_n = 0:
+        // v_f = (0.4,0), along the tree.
+        let out = step(&params(), &input);
+        close(out.separation, v(0.0, 0.0), 1e-15);
+        close(out.velocity, v(0.4, 0.0), 1e-12);
+        // Without: v_s = (0,1), v_n1 = 0, p = (0,1) points at the tree → v_o = ŷ rotated +90° ·
+        // 2/2 = (−1,0); v = (−1,1) → v_f = 0.4·(−1,1)/√2: towards the tree.
+        let off = K21Params { obstacle_priority: false, ..params() };
+        let out = step(&off, &input);
+        close(out.separation, v(0.0, 1.0), 1e-12);
+        close(out.velocity, 0.4 * v(-1.0, 1.0) / 2f64.sqrt(), 1e-12);
     }
 
     #[test]
@@ -447,8 +575,8 @@ mod tests {
         let p = params();
         // A neighbour at our own position is taken as straight ahead: v = −d = (−1,0).
         close(separation(&p, &[nb(0.0, 0.0)], v(1.0, 0.0)), v(-1.0, 0.0), 1e-12);
-        // Zero desired direction → body x.
-        close(separation(&p, &[nb(1.0, 0.0), nb(-1.0, 0.0)], v(0.0, 0.0)), v(-1.0, 0.0), 1e-12);
+        // Zero desired direction → body x: (−1.5,0) is behind it.
+        close(separation(&p, &[nb(1.0, 0.0), nb(-1.5, 0.0)], v(0.0, 0.0)), v(-1.0, 0.0), 1e-12);
         // Non-finite neighbour ignored.
         let nan = Neighbour { pos: v(f64::NAN, 0.5), heading: 0.0 };
         close(separation(&p, &[nan], v(1.0, 0.0)), v(0.0, 0.0), 1e-15);
@@ -632,8 +760,10 @@ mod tests {
         // Obstacle (−2,0) is behind (no avoidance) but 2 m < 2.5 m away → cohesion uses only the
         // closest neighbour (6,0): v_c = (0.5,0) (see cohesion_obstacle_near_uses_closest_only).
         let ns = [nb(0.0, 20.0), nb(6.0, 0.0)];
+        // Both neighbours beyond the default 5 m reach: widen it so that they count.
+        let wide = K21Params { neighbour_radius_m: 100.0, ..params() };
         let out = step(
-            &params(),
+            &wide,
             &Input { neighbours: &ns, obstacles: &[v(-2.0, 0.0)], goal_heading: None },
         );
         close(out.cohesion, v(0.5, 0.0), 1e-12);
@@ -641,7 +771,7 @@ mod tests {
         // v_s = 0 ((6,0) beyond 2 m, (0,20) beyond 2 m; N = 2); v_n = (0.5,0); v = (1,0) → (0.4,0).
         close(out.velocity, v(0.4, 0.0), 1e-12);
         // Without the obstacle all neighbours count and v_c = c/|c| (clipped).
-        let out = step(&params(), &Input { neighbours: &ns, obstacles: &[], goal_heading: None });
+        let out = step(&wide, &Input { neighbours: &ns, obstacles: &[], goal_heading: None });
         close(out.cohesion, v(2.0, 20.0 / 3.0).normalize(), 1e-12);
     }
 
