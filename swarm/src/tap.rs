@@ -146,6 +146,8 @@ async fn follow(s: &zenoh::Session, a: &TapArgs, print: &mut dyn FnMut(Value) ->
     } else {
         s.declare_subscriber(&a.keyexpr).with(ring()).await.map_err(WireError::zenoh)?
     };
+    // Scripts (and tests) that must not miss the first samples wait for this line on stderr.
+    tracing::info!(keyexpr = %a.keyexpr, "tap listening");
     loop {
         let next = async {
             match deadline {

@@ -43,30 +43,33 @@ fn realtime_mode_flies_and_never_outruns_its_factor() {
 #[test]
 fn lockstep_goes_on_when_an_agent_dies() {
     let dir = tempfile::tempdir().expect("tempdir");
-    // A goal out of reach in 15 s: the run must end by its time limit, tick after tick.
-    let far = TWO_UAVS.replace("goal = [6.0, 1.0]", "goal = [60.0, 1.0]");
-    let sc = write_scenario(dir.path(), "die", &format!("{far}\ntime_limit_s = 15.0\n"));
+    // A goal out of reach in 60 s: the run must end by its time limit, tick after tick. 600
+    // ticks leave the kill below ample room to land mid-run.
+    let far = TWO_UAVS.replace("goal = [6.0, 1.0]", "goal = [600.0, 1.0]");
+    let sc = write_scenario(dir.path(), "die", &format!("{far}\ntime_limit_s = 60.0\n"));
     let run = run_id("die");
     let (mut hub, loc) = start_hub(&sc, &run, dir.path());
     let out = dir.path().join("rec");
     let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
     let tap = common::tap;
     assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    // The hub ticks only once both agents are alive, and may then fly hundreds of ticks in less
+    // than a tap takes to start: listen to the clock before the second agent comes.
+    let clock = common::tap_listening(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]);
     let mut a1 = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("a1.log"));
     let a2 = Proc::start(&["agent", "--run", &run, "--id", "2", "--connect", &loc], &dir.path().join("a2.log"));
     // Let the swarm fly a few ticks, then kill agent 2 outright.
-    let ticks = tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]);
-    assert_eq!(ticks.lines().count(), 20, "the hub ticks with both agents");
+    assert_eq!(clock.output().lines().count(), 20, "the hub ticks with both agents");
     drop(a2);
 
     assert!(rec.wait_for(Duration::from_secs(120)).expect("the run ends").success());
     let s = summary(&out);
     assert_eq!(s["end_reason"], "time_limit", "{s:#}");
-    assert_eq!(s["ticks"], 150, "every tick of 15 s at 10 Hz was integrated");
+    assert_eq!(s["ticks"], 600, "every tick of 60 s at 10 Hz was integrated");
     let traj = std::fs::read_to_string(out.join("trajectories.csv")).expect("csv");
     let last: Vec<&str> = traj.lines().rev().take(2).collect();
     // Columns: ...,colliding,alive,cmd_on_time
-    let alive = |row: &str, id: &str| row.starts_with("150,") && row.split(',').nth(2) == Some(id) && row.split(',').nth(11) == Some("1");
+    let alive = |row: &str, id: &str| row.starts_with("600,") && row.split(',').nth(2) == Some(id) && row.split(',').nth(11) == Some("1");
     assert!(last.iter().any(|r| alive(r, "1")), "UAV 1 alive to the end: {last:?}");
     assert!(!last.iter().any(|r| alive(r, "2")), "UAV 2 marked dead: {last:?}");
     assert!(hub.wait_for(Duration::from_secs(20)).is_some());

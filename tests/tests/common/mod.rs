@@ -167,3 +167,52 @@ pub fn tap(args: &[&str]) -> String {
     assert!(out.status.success(), "tap failed: {}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).expect("utf8")
 }
+
+/// A `swarm tap` started in the background that is already listening: for samples a run may
+/// publish right after the caller's next step (a lockstep run of a few UAVs can fly its whole
+/// time limit in less than a tap's start-up).
+pub struct Listening {
+    child: Child,
+    stderr: std::thread::JoinHandle<String>,
+}
+
+/// Starts `swarm tap ARGS` and returns once it says it is listening (its subscription is
+/// declared), failing the test if it does not within [`TOOL_LIMIT`].
+pub fn tap_listening(args: &[&str]) -> Listening {
+    let mut child = Command::new(SWARM)
+        .arg("tap")
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn swarm tap");
+    let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+    let mut lines = BufReader::new(child.stderr.take().expect("piped stderr")).lines();
+    let stderr = std::thread::spawn(move || {
+        let mut all = String::new();
+        for line in lines.by_ref().map_while(Result::ok) {
+            if line.contains("tap listening") {
+                let _ = ready_tx.send(());
+            }
+            all.push_str(&line);
+            all.push('\n');
+        }
+        all
+    });
+    if ready_rx.recv_timeout(TOOL_LIMIT).is_err() {
+        let _ = child.kill();
+        panic!("swarm tap {args:?} never said it was listening");
+    }
+    Listening { child, stderr }
+}
+
+impl Listening {
+    /// Waits for the tap to end (at most [`TOOL_LIMIT`]) and returns what it printed.
+    pub fn output(self) -> String {
+        let out = wait_output(self.child, TOOL_LIMIT, "swarm tap");
+        let stderr = self.stderr.join().unwrap_or_default();
+        assert!(out.status.success(), "tap failed: {stderr}");
+        String::from_utf8(out.stdout).expect("utf8")
+    }
+}
