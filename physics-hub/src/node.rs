@@ -347,7 +347,7 @@ impl Net {
             let integrate_from = Instant::now();
             self.lateness.close(sim.tick(), integrate_from);
             let mut step = self.integrate(sc, sim, &got, started);
-            step.timing = self.lateness.take(sensors + integrate_from.elapsed());
+            *step.timing = self.lateness.take(sensors + integrate_from.elapsed());
             self.publish_step(&step).await?;
             if let Some(end) = step.ended {
                 return self.report(sim, end);

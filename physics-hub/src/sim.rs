@@ -12,7 +12,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{GoalRule, LocalizationMode, OnCollision, Scenario};
 use swarm_wire::{
-    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, HubTiming, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld, Uvdar,
+    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld, Uvdar,
     UvdarSeen,
 };
 
@@ -241,7 +241,7 @@ impl Sim {
             goal_reached_at: self.goal_reached_at,
             ended: None,
             wall_secs,
-            timing: HubTiming::default(),
+            timing: Box::default(),
         }
     }
 

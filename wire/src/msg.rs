@@ -480,8 +480,9 @@ pub struct TruthStep {
     pub ended: Option<EndReason>,
     /// Wall seconds since tick 0.
     pub wall_secs: f64,
-    /// The hub's own wall-clock cost of this tick and the commands it took. Appended in v1.
-    pub timing: HubTiming,
+    /// The hub's own wall-clock cost of this tick and the commands it took. Appended in v1;
+    /// boxed (same bytes on the wire) so that `Msg` stays small.
+    pub timing: Box<HubTiming>,
 }
 
 /// What one tick cost the hub on the wall clock, and how its commands arrived. Measured, so it
@@ -651,7 +652,7 @@ mod tests {
                     goal_reached_at: Some(0.5),
                     ended: Some(EndReason::Goal),
                     wall_secs: 2.0,
-                    timing: HubTiming { work_us: 300, cmds: 2, late_ms: vec![1.5] },
+                    timing: Box::new(HubTiming { work_us: 300, cmds: 2, late_ms: vec![1.5] }),
                 }),
                 "0909000000000000f03f0201000000000000f03f000000000000f0bf000000000000e03f000000000000d03f00000000000000000101000000000000004000000000000010400002000000000000f03f000000000000f0bf000000000000e03f000000000000d03f000000000000000001000000000000000040000000000000104001010200000000000000f03f000000000000f0bf01000000000000e03f01000000000000000040ac0202010000c03f",
             ),

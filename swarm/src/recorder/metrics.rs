@@ -651,11 +651,11 @@ mod tests {
             goal_reached_at: goal,
             ended,
             wall_secs: tick as f64 * 0.01,
-            timing: swarm_wire::HubTiming {
+            timing: Box::new(swarm_wire::HubTiming {
                 work_us: 1000 * tick as u32,
                 cmds: 2,
                 late_ms: if tick == 2 { vec![5.0, 40.0] } else { vec![] },
-            },
+            }),
         };
         m.on_step(&step(1, 0.0, 2.0, 3.0, None, None));
         m.on_step(&step(2, 3.0, 1.0, 5.0, None, None));
