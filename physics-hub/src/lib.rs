@@ -12,6 +12,8 @@
 //!   UAV's cameras see, with noisy range and bearing.
 //! - [`sim`]: the pure simulation state and step: each UAV's sensors (radio, odometry, GNSS,
 //!   UVDAR, scan) out, commands in, collisions, freezes and the end condition, ground truth out.
+//! - [`lateness`]: which commands arrived after their tick had closed, and how late (the
+//!   realtime health of a run), carried to the recorder on `truth/step`.
 //! - [`node`]: the Zenoh side: router session, lockstep/realtime loop, agents' liveliness, the
 //!   scenario and world queryables, the netem timeline (the scenario's plus `swarm netem`'s).
 //!
@@ -24,6 +26,7 @@
 
 mod body;
 mod forest;
+mod lateness;
 pub mod lidar;
 mod node;
 mod radio;

@@ -11,6 +11,7 @@
 //! commands arrived meanwhile are used. The hub holds the `alive/hub` token, which agents watch,
 //! and answers `swarm/{run}/scenario` with the scenario text so agents elsewhere need no file.
 
+use crate::lateness::Lateness;
 use crate::sim::Sim;
 use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
@@ -101,7 +102,9 @@ struct Net {
     uavs: Vec<UavPubs>,
     alive: Arc<Mutex<BTreeSet<u32>>>,
     alive_changed: Arc<Notify>,
-    cmds: mpsc::UnboundedReceiver<(u32, Cmd)>,
+    /// Each command with the wall instant it arrived.
+    cmds: mpsc::UnboundedReceiver<(u32, Cmd, Instant)>,
+    lateness: Lateness,
     malformed: Arc<AtomicU64>,
     netem_rules: Publisher,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
@@ -205,13 +208,13 @@ async fn subscribe_cmds(
     keys: &Keys,
     count: u32,
     bad: Arc<AtomicU64>,
-) -> Result<(Subscription, mpsc::UnboundedReceiver<(u32, Cmd)>), WireError> {
+) -> Result<(Subscription, mpsc::UnboundedReceiver<(u32, Cmd, Instant)>), WireError> {
     let (cmd_tx, cmds) = mpsc::unbounded_channel();
     let k = keys.clone();
     let sub = plumbing::subscribe(s, keys.cmd_any(), cmd_tx, move |sample| {
         let id = valid_id(&k, count, sample.key_expr().as_str());
         match (id, Msg::decode(&sample.payload().to_bytes())) {
-            (Some(id), Ok(Msg::Cmd(c))) => Some((id, c)),
+            (Some(id), Ok(Msg::Cmd(c))) => Some((id, c, Instant::now())),
             (None, _) => {
                 debug!(key = %sample.key_expr(), "command for a UAV not in this scenario ignored");
                 None
@@ -277,6 +280,7 @@ impl Net {
             alive,
             alive_changed,
             cmds,
+            lateness: Lateness::default(),
             malformed,
         };
         Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub, _netem: netem_sub }))
@@ -333,12 +337,17 @@ impl Net {
                 warn!("no agent alive");
                 return self.finish(sim, EndReason::NoAgents, started).await;
             }
+            let sensors_from = Instant::now();
             self.publish_sensors(sim, &sent, &mut scan_buf).await?;
+            let sensors = sensors_from.elapsed();
             let got = tokio::select! {
                 got = self.collect(sc, sim.tick(), &sent, &mut pacer) => got,
                 _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
             };
-            let step = self.integrate(sc, sim, &got, started);
+            let integrate_from = Instant::now();
+            self.lateness.close(sim.tick(), integrate_from);
+            let mut step = self.integrate(sc, sim, &got, started);
+            *step.timing = self.lateness.take(sensors + integrate_from.elapsed());
             self.publish_step(&step).await?;
             if let Some(end) = step.ended {
                 return self.report(sim, end);
@@ -432,7 +441,8 @@ impl Net {
     async fn collect_lockstep(&mut self, tick: u64, sent: &BTreeSet<u32>, timeout: Duration) -> BTreeMap<u32, Cmd> {
         let deadline = tokio::time::Instant::now() + timeout;
         let mut got = BTreeMap::new();
-        let take = |got: &mut BTreeMap<u32, Cmd>, (id, c): (u32, Cmd)| {
+        let take = |got: &mut BTreeMap<u32, Cmd>, lateness: &mut Lateness, (id, c, at): (u32, Cmd, Instant)| {
+            lateness.command(c.tick, at);
             // A hover is an agent's last word before it leaves: it counts whatever its tick.
             if c.tick == tick || (c.kind == CmdKind::Hover && c.tick > tick) {
                 got.insert(id, c);
@@ -442,7 +452,7 @@ impl Net {
         };
         loop {
             while let Ok(m) = self.cmds.try_recv() {
-                take(&mut got, m);
+                take(&mut got, &mut self.lateness, m);
             }
             let alive = self.alive_now();
             let waiting: Vec<u32> = sent.intersection(&alive).copied().filter(|id| !got.contains_key(id)).collect();
@@ -451,7 +461,7 @@ impl Net {
             }
             tokio::select! {
                 m = self.cmds.recv() => match m {
-                    Some(m) => take(&mut got, m),
+                    Some(m) => take(&mut got, &mut self.lateness, m),
                     None => return got,
                 },
                 _ = self.alive_changed.notified() => {},
@@ -463,10 +473,12 @@ impl Net {
         }
     }
 
-    /// Realtime: the newest command of each agent that arrived since the last tick.
+    /// Realtime: the newest command of each agent that arrived since the last tick (a late one
+    /// is used too, and counted by [`Lateness`]).
     fn collect_available(&mut self) -> BTreeMap<u32, Cmd> {
         let mut got = BTreeMap::new();
-        while let Ok((id, c)) = self.cmds.try_recv() {
+        while let Ok((id, c, at)) = self.cmds.try_recv() {
+            self.lateness.command(c.tick, at);
             got.insert(id, c);
         }
         got

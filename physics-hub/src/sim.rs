@@ -241,6 +241,7 @@ impl Sim {
             goal_reached_at: self.goal_reached_at,
             ended: None,
             wall_secs,
+            timing: Box::default(),
         }
     }
 

@@ -38,6 +38,8 @@ pub enum Cmd {
     Formations(crate::study::FormationsArgs),
     /// Sweep the broadcast-position error δa (seed 001 section 6): print and plot min distances.
     SweepError(crate::study::SweepArgs),
+    /// Fly swarms of growing size and print (and plot) speed, tick and step times and memory.
+    Scale(crate::scale::ScaleArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -93,6 +95,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Compare(a) => crate::study::compare(a).await,
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
+        Cmd::Scale(a) => crate::scale::scale(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario),
     }

@@ -72,13 +72,23 @@ pub struct SweepArgs {
     pub out: Option<PathBuf>,
 }
 
+/// How a study runs each variant.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct VariantRun {
+    /// Agents per process (`None`: as `swarm run` picks).
+    pub per_process: Option<u32>,
+    /// Draw the run's sim-time progress bar.
+    pub progress: bool,
+}
+
 /// Runs `sc` (after re-validating it) as `<out>/<tag>`; returns its summary.
-async fn run_variant(sc: &Scenario, out: &Path, tag: &str) -> Result<Summary> {
+pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: VariantRun) -> Result<Summary> {
     let text = toml::to_string(sc).context("cannot serialize the scenario")?;
     let sc = Scenario::from_toml_str(&text, &format!("{} ({tag})", sc.name))?;
     let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace('.', "_");
     eprintln!("{tag}: running");
-    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], true, agents_per_process(sc.count(), None)).await?;
+    let per_process = agents_per_process(sc.count(), how.per_process);
+    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], !how.progress, per_process).await?;
     Ok(summary)
 }
 
@@ -101,7 +111,7 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
         if let Some(m) = mode {
             sc.localization.mode = m;
         }
-        let s = run_variant(&sc, &out, name).await?;
+        let s = run_variant(&sc, &out, name, VariantRun::default()).await?;
         rows.push((name.to_string(), s));
     }
     let mut t = String::new();
@@ -148,7 +158,7 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
             };
             sc.netem.push(swarm_config::NetemRule::link(0.0, UavSet::default(), UavSet::default(), rule));
         }
-        let s = run_variant(&sc, &out, topology.trim()).await?;
+        let s = run_variant(&sc, &out, topology.trim(), VariantRun::default()).await?;
         rows.push((topology.trim().to_string(), s));
     }
     let mut t = String::new();
@@ -207,7 +217,7 @@ pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
                 sc.localization.mode = LocalizationMode::Broadcast;
                 sc.localization.broadcast_error =
                     Some(BroadcastError { delta_a_m: delta, uavs: uavs.clone(), from_s: 0.0, until_s: None });
-                let s = run_variant(&sc, &out, &format!("{world}-{who}-{delta}")).await?;
+                let s = run_variant(&sc, &out, &format!("{world}-{who}-{delta}"), VariantRun::default()).await?;
                 points.push(Point { world, who, delta, s });
             }
         }

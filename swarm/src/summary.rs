@@ -83,6 +83,41 @@ pub struct Summary {
     pub network: Vec<ClassSummary>,
     /// Per UAV.
     pub agents: Vec<AgentSummary>,
+    /// Wall-clock costs and late commands (measured: they differ from run to run, even in
+    /// lockstep). Appended; absent (zero) in older summaries.
+    #[serde(default)]
+    pub timing: TimingSummary,
+}
+
+/// What a run cost on the wall clock, and how well the agents kept up (issue 11: the `swarm
+/// scale` table's hub tick and agent step percentiles, and item 6's late commands).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct TimingSummary {
+    /// Median of the hub's own work per tick (sensors and integration, not the wait for
+    /// commands) [wall ms].
+    #[serde(with = "inf_as_null")]
+    pub hub_tick_p50_ms: f64,
+    /// Its 99th percentile [wall ms].
+    #[serde(with = "inf_as_null")]
+    pub hub_tick_p99_ms: f64,
+    /// Median over every step of every agent of the control step (perception + localization +
+    /// control) [wall ms].
+    #[serde(with = "inf_as_null")]
+    pub agent_step_p50_ms: f64,
+    /// Its 99th percentile [wall ms].
+    #[serde(with = "inf_as_null")]
+    pub agent_step_p99_ms: f64,
+    /// Commands the hub took.
+    pub commands: u64,
+    /// Those that arrived after their tick had closed (in `realtime` mode the tick closes on the
+    /// wall clock; in `lockstep` only a tick timeout makes a command late).
+    pub late_commands: u64,
+    /// `late_commands / commands` (0 with no command).
+    pub late_share: f64,
+    /// 99th percentile of how late the late ones were: arrival − the instant their tick closed
+    /// (null: none late) [wall ms].
+    #[serde(with = "inf_as_null")]
+    pub late_p99_ms: f64,
 }
 
 /// Neighbour estimates scored against ground truth at the same tick (seed 000 6.1 reports a
@@ -360,6 +395,19 @@ impl Summary {
             l.estimates_scored,
             f(100.0 * l.stable_neighbour_share),
             f(l.bytes_per_share_message)
+        );
+        let t = &self.timing;
+        let _ = writeln!(
+            s,
+            "hub tick {} / {} ms, agent step {} / {} ms (p50 / p99); late commands {} of {} ({}%), p99 {} ms late",
+            f3(t.hub_tick_p50_ms),
+            f3(t.hub_tick_p99_ms),
+            f3(t.agent_step_p50_ms),
+            f3(t.agent_step_p99_ms),
+            t.late_commands,
+            t.commands,
+            f(100.0 * t.late_share),
+            f(t.late_p99_ms)
         );
         let _ = write!(
             s,

@@ -23,7 +23,7 @@ goal_rule = "centroid"
 "#;
 
 /// Realtime mode flies to the goal, and the hub never runs ahead of the wall clock: it sleeps
-/// until each tick's instant, so sim speed cannot exceed the requested factor.
+/// until each tick's instant, so sim speed cannot exceed the requested factor; its summary counts late commands.
 #[test]
 fn realtime_mode_flies_and_never_outruns_its_factor() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -36,6 +36,14 @@ fn realtime_mode_flies_and_never_outruns_its_factor() {
     assert_eq!(s["collisions"], 0);
     let speed = s["sim_speed"].as_f64().expect("number");
     assert!(speed > 0.0 && speed <= 8.0 * 1.02, "sim speed {speed} vs factor 8");
+    // Issue 11 item 6: the late commands of a realtime run are counted (their number depends on
+    // the machine's load, so only the fields and their ranges are checked).
+    let t = &s["timing"];
+    assert!(t["commands"].as_u64().is_some_and(|n| n > 0), "{t:#}");
+    assert!(t["late_commands"].as_u64().is_some_and(|n| n <= t["commands"].as_u64().unwrap_or(0)), "{t:#}");
+    assert!(t["late_share"].as_f64().is_some_and(|v| (0.0..=1.0).contains(&v)), "{t:#}");
+    assert!(t["late_p99_ms"].is_null() || t["late_p99_ms"].as_f64().is_some_and(|v| v > 0.0), "{t:#}");
+    assert!(t["hub_tick_p50_ms"].as_f64().is_some(), "{t:#}");
 }
 
 /// Lockstep waits only for live agents: kill one mid-run and the hub keeps ticking to the time

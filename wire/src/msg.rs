@@ -480,6 +480,23 @@ pub struct TruthStep {
     pub ended: Option<EndReason>,
     /// Wall seconds since tick 0.
     pub wall_secs: f64,
+    /// The hub's own wall-clock cost of this tick and the commands it took. Appended in v1;
+    /// boxed (same bytes on the wire) so that `Msg` stays small.
+    pub timing: Box<HubTiming>,
+}
+
+/// What one tick cost the hub on the wall clock, and how its commands arrived. Measured, so it
+/// differs from run to run even in lockstep; the recorder folds it into summary.json's `timing`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct HubTiming {
+    /// Wall time of the hub's own work this tick: sensors, integration (not the wait for
+    /// commands) [µs].
+    pub work_us: u32,
+    /// Commands taken since the previous step, on time or late.
+    pub cmds: u32,
+    /// How late each command that arrived after its tick had closed was [ms] (`realtime` mode:
+    /// arrival − the wall instant its tick closed).
+    pub late_ms: Vec<f32>,
 }
 
 #[cfg(test)]
@@ -635,8 +652,9 @@ mod tests {
                     goal_reached_at: Some(0.5),
                     ended: Some(EndReason::Goal),
                     wall_secs: 2.0,
+                    timing: Box::new(HubTiming { work_us: 300, cmds: 2, late_ms: vec![1.5] }),
                 }),
-                "0909000000000000f03f0201000000000000f03f000000000000f0bf000000000000e03f000000000000d03f00000000000000000101000000000000004000000000000010400002000000000000f03f000000000000f0bf000000000000e03f000000000000d03f000000000000000001000000000000000040000000000000104001010200000000000000f03f000000000000f0bf01000000000000e03f01000000000000000040",
+                "0909000000000000f03f0201000000000000f03f000000000000f0bf000000000000e03f000000000000d03f00000000000000000101000000000000004000000000000010400002000000000000f03f000000000000f0bf000000000000e03f000000000000d03f000000000000000001000000000000000040000000000000104001010200000000000000f03f000000000000f0bf01000000000000e03f01000000000000000040ac0202010000c03f",
             ),
             (Msg::Obstacles(ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: vec![[150, -200], [-1, 0]] }), "0a0364000000000000244002ac028f030100"),
             (Msg::NetemRules(r#"{"netem":[],"failures":[]}"#.to_string()), "0b1a7b226e6574656d223a5b5d2c226661696c75726573223a5b5d7d"),

@@ -6,7 +6,7 @@
 use crate::plot::{run_svg, Track};
 use crate::summary::{
     AgentSummary, ClassSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, FormationMetrics,
-    LocalizationSummary, Reconnection, Summary, SCHEMA,
+    LocalizationSummary, Reconnection, Summary, TimingSummary, SCHEMA,
 };
 use std::collections::BTreeMap;
 use swarm_wire::{AgentState, ClassCounts, EndReason, TruthBody, TruthStep, TruthWorld};
@@ -105,6 +105,14 @@ pub struct Metrics {
     delays: [Vec<f64>; 3],
     /// Mean nearest-neighbour distance over the UAVs at each tick: (sim time, metres).
     spacing: Vec<(f64, f64)>,
+    /// The hub's own work of each tick [µs].
+    hub_work_us: Vec<f64>,
+    /// Every agent step's wall time [µs].
+    step_us: Vec<f64>,
+    /// Commands the hub took.
+    commands: u64,
+    /// How late each late command was [ms].
+    late_ms: Vec<f64>,
 }
 
 /// An estimate farther than this from the truth places a neighbour where none is.
@@ -195,6 +203,12 @@ impl Metrics {
     /// Folds one ground-truth step.
     pub fn on_step(&mut self, s: &TruthStep) {
         self.ticks += 1;
+        if s.ended.is_none() {
+            // The hub's last word (a stopped run) measures no work.
+            self.hub_work_us.push(f64::from(s.timing.work_us));
+        }
+        self.commands += u64::from(s.timing.cmds);
+        self.late_ms.extend(s.timing.late_ms.iter().map(|&ms| f64::from(ms)));
         for b in &s.bodies {
             let a = self.agents.entry(b.id).or_default();
             let (od, ad) = (finite_or_inf(b.obstacle_distance_m), finite_or_inf(b.agent_distance_m));
@@ -282,6 +296,7 @@ impl Metrics {
     pub fn on_state(&mut self, st: AgentState) {
         let a = self.agents.entry(st.id).or_default();
         let us = f64::from(st.step_time_us);
+        self.step_us.push(us);
         a.step_us_sum += us;
         a.step_us_max = a.step_us_max.max(us);
         a.steps += 1;
@@ -396,6 +411,22 @@ impl Metrics {
             network,
             formation,
             agents,
+            timing: self.timing(),
+        }
+    }
+
+    /// Percentiles of the hub's and the agents' wall times, and the late commands.
+    fn timing(&self) -> TimingSummary {
+        let late = self.late_ms.len() as u64;
+        TimingSummary {
+            hub_tick_p50_ms: quantile(&self.hub_work_us, 0.5) / 1000.0,
+            hub_tick_p99_ms: quantile(&self.hub_work_us, 0.99) / 1000.0,
+            agent_step_p50_ms: quantile(&self.step_us, 0.5) / 1000.0,
+            agent_step_p99_ms: quantile(&self.step_us, 0.99) / 1000.0,
+            commands: self.commands,
+            late_commands: late,
+            late_share: if self.commands > 0 { late as f64 / self.commands as f64 } else { 0.0 },
+            late_p99_ms: quantile(&self.late_ms, 0.99),
         }
     }
 
@@ -620,6 +651,11 @@ mod tests {
             goal_reached_at: goal,
             ended,
             wall_secs: tick as f64 * 0.01,
+            timing: Box::new(swarm_wire::HubTiming {
+                work_us: 1000 * tick as u32,
+                cmds: 2,
+                late_ms: if tick == 2 { vec![5.0, 40.0] } else { vec![] },
+            }),
         };
         m.on_step(&step(1, 0.0, 2.0, 3.0, None, None));
         m.on_step(&step(2, 3.0, 1.0, 5.0, None, None));
@@ -637,6 +673,12 @@ mod tests {
         assert!((a.mean_agent_distance_m - 3.0).abs() < 1e-12);
         assert!((a.path_length_m - 7.0).abs() < 1e-12);
         assert_eq!(a.late_ticks, 1);
+        let t = &s.timing;
+        assert_eq!((t.commands, t.late_commands), (6, 2));
+        assert!((t.late_share - 1.0 / 3.0).abs() < 1e-12);
+        assert_eq!(t.late_p99_ms, 40.0, "nearest rank of two: the larger");
+        assert_eq!((t.hub_tick_p50_ms, t.hub_tick_p99_ms), (1.0, 2.0), "the last (ended) step measures no work");
+        assert!(t.agent_step_p50_ms.is_nan(), "no agent state folded");
     }
 
     #[test]
@@ -648,7 +690,7 @@ mod tests {
         b1.yaw = std::f64::consts::FRAC_PI_2;
         let mut b2 = body(2, 0.0, 5.0, 2.0, true);
         b2.y = 2.0;
-        let truth = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0 };
+        let truth = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Default::default() };
         let state = |tick, x: f32, n: usize| AgentState {
             id: 1,
             tick,
@@ -688,7 +730,7 @@ mod tests {
         assert_eq!(s.agents[0].steps_alone, 0);
         // Neighbour 2 flies 10 m away: UAV 1 is alone, and a neighbour it reports then is false.
         b2.y = 10.0;
-        let far = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0 };
+        let far = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Default::default() };
         m.on_step(&far(6));
         m.on_state(state(6, 10.0, 1));
         let s = m.summary("r", &sc);

@@ -1,0 +1,132 @@
+//! The `swarm scale` picture: x real time (left) and resident memory per UAV (right) against the
+//! UAV count on a log axis, one line per localization mode, as SVG and PNG. Drawn with plotters;
+//! text goes through ab_glyph with DejaVu Sans embedded in the binary, so it needs no system
+//! font (no fontconfig) and draws the same on every machine.
+
+use super::ScaleRow;
+use anyhow::{anyhow, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Picture size [px].
+const SIZE: (u32, u32) = (1200, 520);
+
+/// The font family every text asks for; registered once from the embedded DejaVu Sans.
+const FAMILY: &str = "sans-serif";
+
+const COLORS: [RGBColor; 4] = [RGBColor(31, 119, 180), RGBColor(255, 127, 14), RGBColor(44, 160, 44), RGBColor(214, 39, 40)];
+
+fn register_font() -> Result<()> {
+    static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ok = *ONCE.get_or_init(|| plotters::style::register_font(FAMILY, FontStyle::Normal, dejavu::sans::regular()).is_ok());
+    if ok {
+        Ok(())
+    } else {
+        Err(anyhow!("the embedded font did not load"))
+    }
+}
+
+/// Writes the picture of `rows` to `svg` and `png`.
+pub fn write(rows: &[ScaleRow], svg: &Path, png: &Path) -> Result<()> {
+    register_font()?;
+    draw(SVGBackend::new(svg, SIZE).into_drawing_area(), rows).map_err(|e| anyhow!("{}: {e}", svg.display()))?;
+    draw(BitMapBackend::new(png, SIZE).into_drawing_area(), rows).map_err(|e| anyhow!("{}: {e}", png.display()))?;
+    Ok(())
+}
+
+/// Points `(UAVs, value)` per localization mode, in UAV order.
+fn series(rows: &[ScaleRow], value: fn(&ScaleRow) -> f64) -> BTreeMap<&str, Vec<(f64, f64)>> {
+    let mut by_mode: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| value(r).is_finite()) {
+        by_mode.entry(r.localization.as_str()).or_default().push((r.uavs as f64, value(r)));
+    }
+    by_mode.values_mut().for_each(|v| v.sort_by(|a, b| a.0.total_cmp(&b.0)));
+    by_mode
+}
+
+type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, rows: &[ScaleRow]) -> DrawResult<DB> {
+    root.fill(&WHITE)?;
+    let root = root.titled("swarm scale: the full stack as the swarm grows", (FAMILY, 22))?;
+    let (left, right) = root.split_horizontally(SIZE.0 / 2);
+    panel(&left, rows, "x real time", "sim s per wall s", |r| r.x_real_time)?;
+    panel(&right, rows, "resident memory per UAV", "MiB per UAV (peak, all processes)", |r| r.rss_per_uav_mib)?;
+    root.present()
+}
+
+fn panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    rows: &[ScaleRow],
+    caption: &str,
+    y_label: &str,
+    value: fn(&ScaleRow) -> f64,
+) -> DrawResult<DB> {
+    let lines = series(rows, value);
+    let xs = rows.iter().map(|r| r.uavs as f64);
+    let (x_lo, x_hi) = xs.fold((f64::INFINITY, 0.0_f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+    let (x_lo, x_hi) = if x_lo.is_finite() { (x_lo / 1.5, x_hi * 1.5) } else { (1.0, 10.0) };
+    let y_hi = lines.values().flatten().map(|p| p.1).fold(0.0_f64, f64::max).max(1e-3) * 1.15;
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (FAMILY, 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((x_lo..x_hi).log_scale(), 0.0..y_hi)?;
+    chart
+        .configure_mesh()
+        .x_desc("UAVs")
+        .y_desc(y_label)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .label_style((FAMILY, 13))
+        .draw()?;
+    for (i, (mode, pts)) in lines.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
+            .label(*mode)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+    }
+    chart.configure_series_labels().label_font((FAMILY, 13)).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_an_svg_with_text_and_a_png() {
+        let row = |uavs: usize, mode: &str, x: f64| ScaleRow {
+            scenario: format!("s{uavs}"),
+            uavs,
+            localization: mode.into(),
+            time_mode: "lockstep".into(),
+            processes: 2,
+            x_real_time: x,
+            hub_tick_p50_ms: 0.1,
+            hub_tick_p99_ms: 0.2,
+            agent_step_p50_ms: 0.3,
+            agent_step_p99_ms: 0.4,
+            rss_total_mib: 100.0,
+            rss_per_uav_mib: 100.0 / uavs as f64,
+            collisions: 0,
+            goal_s: None,
+            sim_time_s: 10.0,
+            late_share: 0.0,
+        };
+        let rows = [row(5, "broadcast", 40.0), row(40, "broadcast", 8.0), row(40, "icp", 2.0), row(1000, "broadcast", f64::NAN)];
+        let dir = std::env::temp_dir().join(format!("scale-chart-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let (svg, png) = (dir.join("s.svg"), dir.join("s.png"));
+        write(&rows, &svg, &png).expect("draws");
+        let text = std::fs::read_to_string(&svg).expect("svg written");
+        assert!(text.contains("resident memory per UAV") && text.contains("icp"), "captions and legend are in the SVG");
+        let bytes = std::fs::read(&png).expect("png written");
+        assert_eq!(&bytes[1..4], b"PNG");
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(series(&rows, |r| r.x_real_time)["broadcast"], vec![(5.0, 40.0), (40.0, 8.0)], "NaN points are left out");
+    }
+}

@@ -1,0 +1,406 @@
+//! `swarm scale`: how the whole stack holds up as the swarm grows (issue 11, item 5). It flies a
+//! series of scenarios of growing size, each a full `swarm run` under the study's folder, and
+//! puts side by side what a user of a swarm simulator asks first: x real time, the hub's tick
+//! and the agents' step on the wall clock (p50 / p99, from summary.json's `timing`), resident
+//! memory in total and per UAV, and whether the swarm still flew well (collisions, goal).
+//!
+//! Resident memory is not in the run's summary: nothing inside a run can see every process of
+//! it. While a run flies, this command samples `/proc` every [`RSS_SAMPLE`] for the processes
+//! descending from its own (the hub and every agent process or agent host; the recorder lives in
+//! this process and is left out) and keeps the peak of their summed `VmRSS` (Linux; elsewhere
+//! the column reads 0). `tools/run_rss.py` does the same from outside for a single `swarm run`.
+//!
+//! Writes `scale.md` (the table), `scale.json` (the rows), and `scale.svg` / `scale.png` (x real
+//! time and RSS per UAV against the UAV count: [`chart`], drawn with plotters and an embedded
+//! font, so no system font is needed). [`proc_fs`] reads `/proc`. Speeds depend on the machine and its load: this is a measurement,
+//! never a test assertion.
+
+use crate::args::{scenario_value, unix_secs};
+use crate::study::{run_variant, VariantRun};
+use crate::summary::Summary;
+use anyhow::{Context, Result};
+use clap::Args;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+use swarm_config::Scenario;
+
+mod chart;
+
+/// The default series: seed 000's 5, its section 6.4's 40 (controller alone and full ICP stack),
+/// 100, and 1000 on the controller alone.
+pub const DEFAULT_SCENARIOS: &str = "forest-5,forest-40,forest-40-icp,forest-100,open-1000";
+
+/// How often the resident memory of a run's processes is sampled.
+const RSS_SAMPLE: Duration = Duration::from_millis(200);
+
+/// `swarm scale`.
+#[derive(Args, Debug, Clone)]
+pub struct ScaleArgs {
+    /// Scenarios to fly, comma-separated files or built-in names; a name that is neither is
+    /// skipped with a message.
+    #[arg(long, default_value = DEFAULT_SCENARIOS)]
+    pub scenarios: String,
+    /// Cap every run's sim time [s] (default: each scenario's own `end.time_limit_s`).
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Override every run's time mode (`lockstep` or `realtime`).
+    #[arg(long)]
+    pub time_mode: Option<String>,
+    /// Agents per process for every run (default: as `swarm run` picks).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub agents_per_process: Option<u32>,
+    /// Print the rows as JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// Study folder (default: runs/scale-<time>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// One row of the table: one run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScaleRow {
+    /// Scenario name.
+    pub scenario: String,
+    /// UAVs.
+    pub uavs: usize,
+    /// Localization mode (`broadcast`, `icp`, `uvdar`).
+    pub localization: String,
+    /// `lockstep` or `realtime`.
+    pub time_mode: String,
+    /// Most processes of the run alive at once (hub + agent processes and hosts).
+    pub processes: usize,
+    /// Sim seconds per wall second.
+    pub x_real_time: f64,
+    /// The hub's own work per tick, median and 99th percentile [wall ms].
+    pub hub_tick_p50_ms: f64,
+    /// See `hub_tick_p50_ms`.
+    pub hub_tick_p99_ms: f64,
+    /// Agent control step, median and 99th percentile over every step of every agent [wall ms].
+    pub agent_step_p50_ms: f64,
+    /// See `agent_step_p50_ms`.
+    pub agent_step_p99_ms: f64,
+    /// Peak of the resident memory summed over the run's processes [MiB].
+    pub rss_total_mib: f64,
+    /// `rss_total_mib / uavs` [MiB].
+    pub rss_per_uav_mib: f64,
+    /// Collisions (contacts begun).
+    pub collisions: usize,
+    /// Sim time the goal was reached, if it was [s].
+    pub goal_s: Option<f64>,
+    /// Sim time flown [s].
+    pub sim_time_s: f64,
+    /// Share of commands that arrived after their tick closed.
+    pub late_share: f64,
+}
+
+impl ScaleRow {
+    /// The row of a finished run from its summary and the memory measured around it.
+    pub fn new(s: &Summary, localization: &str, mem: MemoryPeak) -> ScaleRow {
+        let rss_total_mib = mem.rss_kib as f64 / 1024.0;
+        let t = &s.timing;
+        ScaleRow {
+            scenario: s.scenario.clone(),
+            uavs: s.uav_count,
+            localization: localization.to_string(),
+            time_mode: s.time_mode.clone(),
+            processes: mem.processes,
+            x_real_time: s.sim_speed,
+            hub_tick_p50_ms: t.hub_tick_p50_ms,
+            hub_tick_p99_ms: t.hub_tick_p99_ms,
+            agent_step_p50_ms: t.agent_step_p50_ms,
+            agent_step_p99_ms: t.agent_step_p99_ms,
+            rss_total_mib,
+            rss_per_uav_mib: rss_total_mib / s.uav_count.max(1) as f64,
+            collisions: s.collisions,
+            goal_s: s.time_to_goal_s,
+            sim_time_s: s.sim_time_s,
+            late_share: t.late_share,
+        }
+    }
+}
+
+/// Runs `swarm scale`.
+pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
+    let plan = plan(&a)?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("scale-{}", unix_secs())));
+    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut rows = Vec::new();
+    for (i, sc) in plan.iter().enumerate() {
+        let mode = format!("{:?}", sc.localization.mode).to_lowercase();
+        eprintln!("[{}/{}] {}: {} UAVs, {mode}, {:.0} s of sim time", i + 1, plan.len(), sc.name, sc.count(), sc.end.time_limit_s);
+        let sampler = MemorySampler::start();
+        let how = VariantRun { per_process: a.agents_per_process, progress: true };
+        let summary = run_variant(sc, &out, &format!("{:02}-{}", i + 1, sc.name), how).await;
+        let mem = sampler.stop().await;
+        rows.push(ScaleRow::new(&summary?, &mode, mem));
+    }
+    let table = table(&rows);
+    std::fs::write(out.join("scale.md"), &table)?;
+    std::fs::write(out.join("scale.json"), serde_json::to_string_pretty(&rows)?)?;
+    chart::write(&rows, &out.join("scale.svg"), &out.join("scale.png"))?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        print!("{table}");
+    }
+    eprintln!("study folder: {} (scale.md, scale.json, scale.svg, scale.png)", out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The scenarios to fly, with the command line's overrides; names that are neither a file nor
+/// a built-in are skipped with a message, any other error stops the study before it starts.
+fn plan(a: &ScaleArgs) -> Result<Vec<Scenario>> {
+    let mode: Option<swarm_config::TimeMode> = a.time_mode.as_deref().map(|m| scenario_value("--time-mode", m)).transpose()?;
+    let mut plan = Vec::new();
+    for name in a.scenarios.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        let known = Path::new(name).exists() || swarm_config::BUILTIN.iter().any(|(n, _)| *n == name);
+        if !known {
+            eprintln!("{name}: no such file or built-in scenario, skipped");
+            continue;
+        }
+        let (mut sc, _) = Scenario::from_arg(name)?;
+        if let Some(t) = a.time_limit {
+            sc.end.time_limit_s = t;
+        }
+        if let Some(m) = mode {
+            sc.time.mode = m;
+        }
+        plan.push(sc);
+    }
+    anyhow::ensure!(!plan.is_empty(), "--scenarios: none of `{}` exists", a.scenarios);
+    Ok(plan)
+}
+
+/// Two decimals or `-`; three below 1 (step and tick times are often fractions of a ms).
+fn ms(v: f64) -> String {
+    match v {
+        v if !v.is_finite() => "-".into(),
+        v if v < 1.0 => format!("{v:.3}"),
+        v => format!("{v:.2}"),
+    }
+}
+
+/// The table of `rows`, in Markdown, with the peers' figures beneath.
+pub fn table(rows: &[ScaleRow]) -> String {
+    let mut t = String::new();
+    let _ = writeln!(t, "# swarm scale: the full stack as the swarm grows\n");
+    let _ = writeln!(
+        t,
+        "| scenario | UAVs | localization | time | processes | x real time | hub tick p50 / p99 ms | agent step p50 / p99 ms | RSS total MiB | RSS per UAV MiB | collisions | goal s |"
+    );
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let _ = writeln!(
+            t,
+            "| {} | {} | {} | {} | {} | {:.2} | {} / {} | {} / {} | {:.0} | {:.1} | {} | {} |",
+            r.scenario,
+            r.uavs,
+            r.localization,
+            r.time_mode,
+            r.processes,
+            r.x_real_time,
+            ms(r.hub_tick_p50_ms),
+            ms(r.hub_tick_p99_ms),
+            ms(r.agent_step_p50_ms),
+            ms(r.agent_step_p99_ms),
+            r.rss_total_mib,
+            r.rss_per_uav_mib,
+            r.collisions,
+            r.goal_s.map_or_else(|| format!("no ({:.0} s flown)", r.sim_time_s), |g| format!("{g:.1}")),
+        );
+    }
+    let _ = writeln!(
+        t,
+        "\nPeers: gym-pybullet-drones reports 10 drones at about 2x real time; MRS's lightweight simulator claims hundreds of UAVs in real time with no localization; Crazyswarm2's simulator runs 5 drones at 0.15x (its issue #890)."
+    );
+    t
+}
+
+/// The peak resident memory of a run's processes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MemoryPeak {
+    /// Peak of the summed `VmRSS` [KiB].
+    pub rss_kib: u64,
+    /// Most processes alive at once.
+    pub processes: usize,
+}
+
+impl MemoryPeak {
+    /// Takes one sample into the peak.
+    fn fold(self, rss_kib: u64, processes: usize) -> MemoryPeak {
+        MemoryPeak { rss_kib: self.rss_kib.max(rss_kib), processes: self.processes.max(processes) }
+    }
+}
+
+/// Samples the resident memory of this process's descendants on a blocking thread until
+/// stopped.
+struct MemorySampler {
+    stop: Arc<AtomicBool>,
+    task: tokio::task::JoinHandle<MemoryPeak>,
+}
+
+impl MemorySampler {
+    fn start() -> MemorySampler {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let task = tokio::task::spawn_blocking(move || {
+            let me = std::process::id();
+            let mut peak = MemoryPeak::default();
+            while !flag.load(Ordering::Relaxed) {
+                let (kib, n) = proc_fs::descendants_rss_kib(me);
+                peak = peak.fold(kib, n);
+                std::thread::sleep(RSS_SAMPLE);
+            }
+            peak
+        });
+        MemorySampler { stop, task }
+    }
+
+    async fn stop(self) -> MemoryPeak {
+        self.stop.store(true, Ordering::Relaxed);
+        self.task.await.unwrap_or_default()
+    }
+}
+
+/// Reading `/proc`: who descends from whom, and how much each holds resident. The parsing is
+/// pure (tested on text); [`descendants_rss_kib`] is the one function that reads the files.
+pub mod proc_fs {
+    use super::BTreeMap;
+
+    /// The parent pid in the text of `/proc/<pid>/stat`: the field after the state, which
+    /// follows the command name in parentheses (a name may itself hold spaces and parentheses,
+    /// so the last `)` ends it).
+    pub fn parent_of(stat: &str) -> Option<u32> {
+        let rest = &stat[stat.rfind(')')? + 1..];
+        rest.split_whitespace().nth(1)?.parse().ok()
+    }
+
+    /// `VmRSS` in the text of `/proc/<pid>/status` [KiB] (absent for a zombie).
+    pub fn vm_rss_kib(status: &str) -> Option<u64> {
+        let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+        line.split_whitespace().nth(1)?.parse().ok()
+    }
+
+    /// Every pid that descends from `root` (not `root` itself), given `(pid, parent)` pairs.
+    pub fn descendants(root: u32, parents: &[(u32, u32)]) -> Vec<u32> {
+        let mut children: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
+        for &(pid, parent) in parents {
+            children.entry(parent).or_default().push(pid);
+        }
+        let mut found = Vec::new();
+        let mut todo = vec![root];
+        while let Some(p) = todo.pop() {
+            for &c in children.get(&p).map_or(&[][..], Vec::as_slice) {
+                found.push(c);
+                todo.push(c);
+            }
+        }
+        found
+    }
+
+    /// The summed `VmRSS` [KiB] of `root`'s descendants now, and how many hold memory.
+    pub fn descendants_rss_kib(root: u32) -> (u64, usize) {
+        let Ok(dir) = std::fs::read_dir("/proc") else { return (0, 0) };
+        let parents: Vec<(u32, u32)> = dir
+            .filter_map(|e| {
+                let pid: u32 = e.ok()?.file_name().to_str()?.parse().ok()?;
+                let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+                Some((pid, parent_of(&stat)?))
+            })
+            .collect();
+        let rss: Vec<u64> = descendants(root, &parents)
+            .into_iter()
+            .filter_map(|pid| vm_rss_kib(&std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?))
+            .collect();
+        (rss.iter().sum(), rss.len())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::proc_fs::*;
+    use super::*;
+
+    fn row(uavs: usize, mode: &str) -> ScaleRow {
+        ScaleRow {
+            scenario: format!("s{uavs}"),
+            uavs,
+            localization: mode.into(),
+            time_mode: "lockstep".into(),
+            processes: 3,
+            x_real_time: 12.5,
+            hub_tick_p50_ms: 0.25,
+            hub_tick_p99_ms: 1.5,
+            agent_step_p50_ms: 0.5,
+            agent_step_p99_ms: f64::NAN,
+            rss_total_mib: 200.0,
+            rss_per_uav_mib: 200.0 / uavs as f64,
+            collisions: 0,
+            goal_s: (uavs == 5).then_some(41.25),
+            sim_time_s: 60.0,
+            late_share: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_table_has_a_line_per_row_with_its_numbers() {
+        let t = table(&[row(5, "broadcast"), row(40, "icp")]);
+        let lines: Vec<&str> = t.lines().filter(|l| l.starts_with("| s") && !l.starts_with("| scenario")).collect();
+        assert_eq!(lines.len(), 2, "{t}");
+        assert_eq!(lines[0], "| s5 | 5 | broadcast | lockstep | 3 | 12.50 | 0.250 / 1.50 | 0.500 / - | 200 | 40.0 | 0 | 41.2 |");
+        assert!(lines[1].ends_with("| 0 | no (60 s flown) |"), "{}", lines[1]);
+        let header_cells = t.lines().find(|l| l.starts_with("| scenario")).map(|l| l.matches('|').count());
+        assert_eq!(header_cells, Some(lines[0].matches('|').count()), "header and rows have as many cells");
+    }
+
+    #[test]
+    fn a_row_takes_the_summary_and_divides_memory_by_the_uavs() {
+        let sc = swarm_config::builtin("forest-5").expect("builtin");
+        let mut s = crate::recorder::metrics::Metrics::default().summary("r", &sc);
+        (s.sim_speed, s.time_to_goal_s) = (10.0, Some(40.0));
+        (s.timing.agent_step_p99_ms, s.timing.late_share) = (0.4, 0.1);
+        let r = ScaleRow::new(&s, "broadcast", MemoryPeak { rss_kib: 10 * 1024, processes: 6 });
+        assert_eq!((r.uavs, r.processes, r.collisions, r.goal_s), (5, 6, 0, Some(40.0)));
+        assert_eq!((r.rss_total_mib, r.rss_per_uav_mib), (10.0, 2.0));
+        assert_eq!((r.x_real_time, r.agent_step_p99_ms, r.late_share), (10.0, 0.4, 0.1));
+    }
+
+    #[test]
+    fn proc_text_is_parsed_for_parent_and_resident_memory() {
+        assert_eq!(parent_of("4242 (swarm agent) S 17 4242 17 0 -1 4194560 0"), Some(17));
+        assert_eq!(parent_of("7 (a) b) (c) R 3 7 7"), Some(3), "the last `)` ends the name");
+        assert_eq!(parent_of("garbage"), None);
+        assert_eq!(vm_rss_kib("Name:\tswarm\nVmPeak:\t  9000 kB\nVmRSS:\t   15123 kB\n"), Some(15123));
+        assert_eq!(vm_rss_kib("Name:\tzombie\n"), None);
+    }
+
+    #[test]
+    fn descendants_are_children_and_their_children_only() {
+        let parents = [(2, 1), (3, 2), (4, 2), (5, 1), (6, 9), (7, 3)];
+        let mut d = descendants(2, &parents);
+        d.sort_unstable();
+        assert_eq!(d, vec![3, 4, 7]);
+        assert!(descendants(6, &parents).is_empty());
+        assert_eq!(MemoryPeak::default().fold(5, 2).fold(3, 4), MemoryPeak { rss_kib: 5, processes: 4 });
+    }
+
+    #[test]
+    fn a_live_child_is_found_with_memory_in_proc() {
+        if !Path::new("/proc/self/stat").exists() {
+            return;
+        }
+        let mut child = std::process::Command::new("sleep").arg("5").spawn().expect("sleep starts");
+        let (kib, n) = descendants_rss_kib(std::process::id());
+        let _ = child.kill();
+        let _ = child.wait();
+        assert!(n >= 1, "the child is a descendant");
+        assert!(kib > 0, "and holds memory");
+    }
+}
