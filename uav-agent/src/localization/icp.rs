@@ -725,6 +725,26 @@ mod tests {
     }
 
     #[test]
+    fn runner_up_tells_a_unique_scene_from_a_lattice() {
+        let p = IcpParams::default();
+        // A scattered forest: the second-best different alignment fits far worse than the true one.
+        let mut rng = Rng(7);
+        let reference = scatter(&mut rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
+        let truth = AgentFromNeighbour { rotation_rad: 0.2, translation_m: Vector2::new(1.0, -0.5) };
+        let ranked = initial_icp_ranked(&reference, &to_source(&truth, &reference), &p).expect("estimate");
+        assert!(close(&ranked.best, &truth, 1e-6, 1e-6), "{ranked:?}");
+        assert!(ranked.runner_up.is_none_or(|u| u.frmsd > 100.0 * ranked.best.frmsd.max(1e-3)), "{ranked:?}");
+        // A 1.6 m square lattice (a crowd's bodies): shifting by one cell fits almost as well.
+        let lattice: Vec<Point2<f64>> =
+            (-3..=3).flat_map(|i| (-3..=3).map(move |j| Point2::new(1.6 * f64::from(i), 1.6 * f64::from(j)))).collect();
+        let shifted = AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(0.3, 0.2) };
+        let ranked = initial_icp_ranked(&lattice, &to_source(&shifted, &lattice), &p).expect("estimate");
+        let u = ranked.runner_up.expect("another alignment");
+        assert!(distinct(&u.agent_from_neighbour, &ranked.best.agent_from_neighbour));
+        assert!(u.frmsd <= 1.5 * ranked.best.frmsd.max(1e-3) + 0.2, "{ranked:?}");
+    }
+
+    #[test]
     fn exact_data_stops_on_tolerance() {
         let p = IcpParams::default();
         let mut rng = Rng(2);

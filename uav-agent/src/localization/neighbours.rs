@@ -1066,6 +1066,94 @@ mod tests {
         assert_eq!(placed, vec![(0, Some(1), 1.0), (1, Some(20), 20.0)]);
     }
 
+    /// The scripted neighbours, with a full-grid ICP that can be made ambiguous (a runner-up of
+    /// FRMSD `runner_up`) or can jump (its answer shifted `long_shift` m), and a short ICP against
+    /// own that can be made to fail.
+    #[derive(Default)]
+    struct Crowded {
+        inner: Scripted,
+        runner_up: Option<f64>,
+        long_shift: f64,
+        short_fails: bool,
+    }
+    impl Matcher for Crowded {
+        fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: AgentFromNeighbour) -> Option<Match> {
+            let found = self.inner.short(reference, source, initial);
+            if is_own(reference) && self.short_fails {
+                return found.map(|f| Match { frmsd: 2.0, ..f });
+            }
+            found
+        }
+        fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
+            let mut found = self.inner.long(reference, source)?;
+            found.agent_from_neighbour.translation_m.x += self.long_shift;
+            Some(found)
+        }
+        fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
+            let best = self.long(reference, source)?;
+            let runner_up = self.runner_up.map(|frmsd| Match {
+                agent_from_neighbour: AgentFromNeighbour { translation_m: best.agent_from_neighbour.translation_m + Vector2::new(1.6, 0.0), ..best.agent_from_neighbour },
+                frmsd,
+                pairs: 3,
+            });
+            Some(Ranked { best, runner_up })
+        }
+    }
+
+    #[test]
+    fn an_ambiguous_initial_placement_is_not_made_and_retried_after_suspend_s() {
+        let mut d = db();
+        // Best FRMSD 0.2; another place fits at 0.25 (within 1.5 times): ambiguous.
+        let mut m = Crowded { runner_up: Some(0.25), ..Crowded::default() };
+        let c = d.step(0.0, &own_set(), &[recv(1, 1, 0.0)], &mut m, &mut || 0.0);
+        assert_eq!((c.initial, c.ambiguous, c.suspended), (1, 1, 1));
+        assert!(d.estimates(0.0).is_empty(), "no guess between two places");
+        // The scene clears up (the other place now fits at 0.31 > 1.5 · 0.2): the retry places it.
+        m.runner_up = Some(0.31);
+        for k in 1..=50 {
+            let now = f64::from(k) * 0.1;
+            d.step(now, &own_set(), &[recv(1, 1, now)], &mut m, &mut || 0.0);
+        }
+        assert_eq!(d.estimates(5.0).len(), 1);
+        assert_eq!(d.estimates(5.0)[0].pos_in_body, Vector2::new(1.0, 0.5));
+    }
+
+    #[test]
+    fn a_long_icp_that_jumps_a_tracked_neighbour_is_believed_only_once_tracking_fails() {
+        let mut d = db();
+        let mut m = Crowded::default();
+        for k in 0..50 {
+            let now = f64::from(k) * 0.1;
+            d.step(now, &own_set(), &[recv(1, 1, now)], &mut m, &mut || 0.0);
+        }
+        // At 5 s the lICP answers 3 m away while the sICP from the estimate still fits: kept.
+        m.long_shift = 3.0;
+        let c = d.step(5.0, &own_set(), &[recv(1, 1, 5.0)], &mut m, &mut || 0.0);
+        assert_eq!((c.long, c.kept), (1, 1));
+        assert_eq!(d.estimates(5.0)[0].pos_in_body, Vector2::new(1.0, 0.5));
+        // At 10 s tracking no longer fits: the lICP is believed.
+        m.short_fails = true;
+        for k in 51..=101 {
+            let now = f64::from(k) * 0.1;
+            d.step(now, &own_set(), &[recv(1, 1, now)], &mut m, &mut || 0.0);
+        }
+        let est = d.estimates(10.1);
+        assert_eq!(est.len(), 1, "placed by the lICP after the sICPs failed and the suspension ran out");
+        assert_eq!(est[0].pos_in_body, Vector2::new(4.0, 0.5));
+    }
+
+    #[test]
+    fn an_unplaced_entry_is_tried_first_by_its_own_link_only() {
+        // Three neighbours, all out of ICP range: created and suspended, never placed.
+        let (mut d, mut m) = (db(), Scripted { out_of_range: vec![1, 2, 3], ..Scripted::default() });
+        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0), recv(2, 2, 0.0), recv(3, 3, 0.0)]);
+        let c = step(&mut d, &mut m, 0.1, &[recv(1, 1, 0.1), recv(2, 2, 0.1), recv(3, 3, 0.1)]);
+        assert_eq!((c.created, c.matching), (0, 3), "one findBestMatch ICP per set, not 3 · 3");
+        // A set whose link entry does not match it is then tried against the other free entries.
+        let c = step(&mut d, &mut m, 0.2, &[recv(1, 1, 0.2), recv(2, 4, 0.2)]);
+        assert_eq!((c.created, c.matching), (1, 2 + 1), "sender 2's new set: its entry, then the free entry of 3");
+    }
+
     #[test]
     fn identify_key_uses_the_sender_id_without_matching() {
         let p = IcpParams { identify: Identify::Key, ..params() };
