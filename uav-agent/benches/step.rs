@@ -4,7 +4,8 @@
 //! mode. The ICP bench advances sim time by one tick per iteration, so its mean includes the
 //! long ICPs the database schedules (every 5 s per neighbour, at most 2 per step; seed 000 6.2
 //! reports 31.7 ms for 8 UAVs). `agent/step_icp_crowd/N` is the ICP-mode step with N = 8, 16,
-//! 32, 64 neighbours in a crowd in a larger forest, to show how the step grows with the crowd.
+//! 32, 64 neighbours in a crowd in a larger forest, to show how the step grows with the crowd;
+//! after it, the same steps' mean CPU time is printed (the wall clock of a shared machine is noisy).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
