@@ -4,7 +4,8 @@
 //! mode. The ICP bench advances sim time by one tick per iteration, so its mean includes the
 //! long ICPs the database schedules (every 5 s per neighbour, at most 2 per step; seed 000 6.2
 //! reports 31.7 ms for 8 UAVs). `agent/step_icp_crowd/N` is the ICP-mode step with N = 8, 16,
-//! 32, 64 neighbours in a crowd in a larger forest, to show how the step grows with the crowd.
+//! 32, 64 neighbours in a crowd in a larger forest, to show how the step grows with the crowd;
+//! after it, the same steps' mean CPU time is printed (the wall clock of a shared machine is noisy).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
@@ -196,6 +197,33 @@ fn bench_icp_crowd(c: &mut Criterion) {
         });
     }
     group.finish();
+    cpu_table(sc, &trees, &scan);
+}
+
+/// CPU time of this thread so far [s] (`/proc/thread-self/schedstat`): criterion times the wall
+/// clock, which on a shared machine measures the load as much as the step.
+fn thread_cpu_s() -> f64 {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
+    text.split_whitespace().next().and_then(|ns| ns.parse::<f64>().ok()).map_or(f64::NAN, |ns| ns * 1e-9)
+}
+
+/// Prints the crowd step's mean CPU time over 200 steady-state ticks (50 s of long-ICP
+/// schedule: every neighbour's 5 s check comes round 4 times), beside criterion's wall times.
+fn cpu_table(sc: swarm_config::Scenario, trees: &[(f64, f64, f64)], scan: &Scan) {
+    const TICKS: u64 = 200;
+    for n in [8usize, 16, 32, 64] {
+        let poses = crowd(trees, n);
+        let mut agent = Agent::new(1, sc.clone());
+        for tick in 1..=WARM_UP_TICKS {
+            crowd_step(&mut agent, trees, &poses, scan, tick);
+        }
+        let before = thread_cpu_s();
+        for tick in WARM_UP_TICKS + 1..=WARM_UP_TICKS + TICKS {
+            black_box(crowd_step(&mut agent, trees, &poses, scan, tick));
+        }
+        let ms = (thread_cpu_s() - before) * 1e3 / TICKS as f64;
+        println!("agent/step_icp_crowd/{n} CPU: {ms:.3} ms per step ({:.1} us per neighbour)", 1e3 * ms / n as f64);
+    }
 }
 
 criterion_group!(benches, bench_step, bench_icp_step, bench_icp_crowd);

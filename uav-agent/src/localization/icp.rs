@@ -477,6 +477,35 @@ fn first_pass_score(
 /// Errors as for [`icp`]; a non-finite `grid_spacing_m` is [`NoEstimate::NonFinite`]; when no
 /// refined start gives an estimate, the error of the best-ranked one.
 pub fn initial_icp(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpParams) -> Result<Match, NoEstimate> {
+    initial_icp_ranked(reference, source, p).map(|ranked| ranked.best)
+}
+
+/// The outcome of a full-grid ICP: the best alignment, and the best one that is a different
+/// alignment (see [`Ranked::runner_up`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ranked {
+    /// Lowest FRMSD.
+    pub best: Match,
+    /// Lowest FRMSD among the refined alignments that place the neighbour more than
+    /// [`DISTINCT_M`] from `best` or turn it more than [`DISTINCT_RAD`] from it; `None` if every
+    /// refined start converged to `best`'s alignment.
+    pub runner_up: Option<Match>,
+}
+
+/// Two alignments farther apart than this place the neighbour in different places [m].
+pub const DISTINCT_M: f64 = 0.5;
+
+/// ... or turn it by more than this [rad] (about 17°).
+pub const DISTINCT_RAD: f64 = 0.3;
+
+/// True when `a` and `b` are different alignments (in place or in heading).
+fn distinct(a: &AgentFromNeighbour, b: &AgentFromNeighbour) -> bool {
+    (a.translation_m - b.translation_m).norm() > DISTINCT_M || wrap_angle(a.rotation_rad - b.rotation_rad).abs() > DISTINCT_RAD
+}
+
+/// [`initial_icp`] with its runner-up: how well the second-best different alignment fits tells an
+/// unambiguous match (one basin fits) from an ambiguous one (several places fit about as well).
+pub fn initial_icp_ranked(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpParams) -> Result<Ranked, NoEstimate> {
     let k_min = validate(reference, source, p)?;
     if !p.grid_spacing_m.is_finite() {
         return Err(NoEstimate::NonFinite);
@@ -514,21 +543,25 @@ pub fn initial_icp(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpPar
     }
 
     // Second pass: full ICP from the shortlist and the per-heading bests; lowest FRMSD wins.
-    let mut best: Option<Match> = None;
+    let mut refined: Vec<Match> = Vec::with_capacity(shortlist.len() + per_heading.len());
     let mut first_err = None;
     for s in shortlist.iter().chain(per_heading.iter()) {
         match icp_core(reference, source, s.agent_from_neighbour, p, &mut ws) {
-            Ok(run) => {
-                if best.is_none_or(|b| run.m.frmsd < b.frmsd) {
-                    best = Some(run.m);
-                }
-            }
+            Ok(run) => refined.push(run.m),
             Err(e) => {
                 first_err.get_or_insert(e);
             }
         }
     }
-    best.ok_or(first_err.unwrap_or(NoEstimate::Degenerate))
+    // The first of the lowest FRMSD wins (start order breaks ties, as before).
+    let best = refined.iter().copied().reduce(|b, m| if m.frmsd < b.frmsd { m } else { b });
+    let Some(best) = best else { return Err(first_err.unwrap_or(NoEstimate::Degenerate)) };
+    let runner_up = refined
+        .iter()
+        .copied()
+        .filter(|m| distinct(&m.agent_from_neighbour, &best.agent_from_neighbour))
+        .reduce(|b, m| if m.frmsd < b.frmsd { m } else { b });
+    Ok(Ranked { best, runner_up })
 }
 
 #[cfg(test)]
@@ -689,6 +722,26 @@ mod tests {
             assert_eq!(m.pairs, 20);
             assert!(m.frmsd < 1e-9);
         }
+    }
+
+    #[test]
+    fn runner_up_tells_a_unique_scene_from_a_lattice() {
+        let p = IcpParams::default();
+        // A scattered forest: the second-best different alignment fits far worse than the true one.
+        let mut rng = Rng(7);
+        let reference = scatter(&mut rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
+        let truth = AgentFromNeighbour { rotation_rad: 0.2, translation_m: Vector2::new(1.0, -0.5) };
+        let ranked = initial_icp_ranked(&reference, &to_source(&truth, &reference), &p).expect("estimate");
+        assert!(close(&ranked.best, &truth, 1e-6, 1e-6), "{ranked:?}");
+        assert!(ranked.runner_up.is_none_or(|u| u.frmsd > 100.0 * ranked.best.frmsd.max(1e-3)), "{ranked:?}");
+        // A 1.6 m square lattice (a crowd's bodies): shifting by one cell fits almost as well.
+        let lattice: Vec<Point2<f64>> =
+            (-3..=3).flat_map(|i| (-3..=3).map(move |j| Point2::new(1.6 * f64::from(i), 1.6 * f64::from(j)))).collect();
+        let shifted = AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(0.3, 0.2) };
+        let ranked = initial_icp_ranked(&lattice, &to_source(&shifted, &lattice), &p).expect("estimate");
+        let u = ranked.runner_up.expect("another alignment");
+        assert!(distinct(&u.agent_from_neighbour, &ranked.best.agent_from_neighbour));
+        assert!(u.frmsd <= 1.5 * ranked.best.frmsd.max(1e-3) + 0.2, "{ranked:?}");
     }
 
     #[test]
