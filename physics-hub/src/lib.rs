@@ -7,6 +7,8 @@
 //! - [`body`]: a UAV body tracking velocity or acceleration commands within limits.
 //! - [`lidar`]: the 2D LIDAR scan against trees, walls and other UAVs, by rasterising the nearby
 //!   obstacles onto the beams instead of one ray cast per beam.
+//! - [`grid`]: a uniform grid over the UAV positions of a tick, so radio links, contacts, the
+//!   UAVs a scan can hit and nearest distances cost about n · neighbours instead of n².
 //! - [`radio`]: who can hear whom (range with hysteresis, optional distance-dependent loss).
 //! - [`uvdar`]: onboard relative sensing for the `uvdar` localization mode: which neighbours a
 //!   UAV's cameras see, with noisy range and bearing.
@@ -24,6 +26,7 @@
 
 mod body;
 mod forest;
+mod grid;
 pub mod lidar;
 mod node;
 mod radio;

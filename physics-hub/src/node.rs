@@ -100,6 +100,9 @@ struct Net {
     truth_step: Publisher,
     uavs: Vec<UavPubs>,
     alive: Arc<Mutex<BTreeSet<u32>>>,
+    /// Bumped (under the `alive` lock) on every change of `alive`: the barrier re-reads the set
+    /// only when this moved, so its cost per command does not grow with the agents.
+    alive_gen: Arc<AtomicU64>,
     alive_changed: Arc<Notify>,
     cmds: mpsc::UnboundedReceiver<(u32, Cmd)>,
     malformed: Arc<AtomicU64>,
@@ -234,6 +237,7 @@ async fn watch_agents(
     keys: &Keys,
     count: u32,
     alive: Arc<Mutex<BTreeSet<u32>>>,
+    alive_gen: Arc<AtomicU64>,
     changed: Arc<Notify>,
 ) -> Result<Subscription, WireError> {
     let k = keys.clone();
@@ -250,6 +254,7 @@ async fn watch_agents(
             info!(uav_id = id, "agent gone");
             set.remove(&id);
         }
+        alive_gen.fetch_add(1, Ordering::SeqCst);
         changed.notify_one();
     })
     .await
@@ -262,7 +267,9 @@ impl Net {
         let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.swarm.count, malformed.clone()).await?;
         let alive = Arc::new(Mutex::new(BTreeSet::new()));
         let alive_changed = Arc::new(Notify::new());
-        let alive_sub = watch_agents(&s, &keys, sc.swarm.count, alive.clone(), alive_changed.clone()).await?;
+        let alive_gen = Arc::new(AtomicU64::new(0));
+        let alive_sub =
+            watch_agents(&s, &keys, sc.swarm.count, alive.clone(), alive_gen.clone(), alive_changed.clone()).await?;
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
@@ -275,6 +282,7 @@ impl Net {
             keys,
             uavs,
             alive,
+            alive_gen,
             alive_changed,
             cmds,
             malformed,
@@ -323,7 +331,6 @@ impl Net {
         put(&self.truth_world, &Msg::TruthWorld(sim.truth_world())).await?;
         self.publish_rules(sim).await?;
         let started = Instant::now();
-        let mut scan_buf = Vec::new();
         let mut pacer = Pacer::new(sim.clock().dt_secs / sc.time.realtime_factor);
         loop {
             let next_t = sim.t_secs() + sim.clock().dt_secs;
@@ -333,7 +340,7 @@ impl Net {
                 warn!("no agent alive");
                 return self.finish(sim, EndReason::NoAgents, started).await;
             }
-            self.publish_sensors(sim, &sent, &mut scan_buf).await?;
+            self.publish_sensors(sim, &sent).await?;
             let got = tokio::select! {
                 got = self.collect(sc, sim.tick(), &sent, &mut pacer) => got,
                 _ = &mut shutdown => return self.finish(sim, EndReason::Stopped, started).await,
@@ -408,11 +415,11 @@ impl Net {
         put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 
-    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>, buf: &mut Vec<f32>) -> Result<(), WireError> {
+    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>) -> Result<(), WireError> {
         put(&self.clock, &Msg::Clock(sim.clock())).await?;
-        for &id in alive {
-            let Some(p) = (id as usize).checked_sub(1).and_then(|i| self.uavs.get(i)) else { continue };
-            let s = sim.sensors(id, buf);
+        let ids: Vec<u32> = alive.iter().copied().filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.uavs.len())).collect();
+        for (id, s) in ids.iter().zip(sim.sensors_all(&ids)) {
+            let p = &self.uavs[(id - 1) as usize];
             put(&p.radio, &Msg::Radio(s.radio)).await?;
             put(&p.odom, &Msg::Odom(s.odom)).await?;
             if let Some(g) = s.gnss {
@@ -429,29 +436,39 @@ impl Net {
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors
     /// and is still alive, or the timeout. Commands already queued are taken before each check,
     /// so an agent's last word (its hover) is never lost to the liveliness change that follows it.
+    /// The set still awaited is kept up to date per command, and recomputed from the live set
+    /// only when that changed, so a tick costs O(agents · log agents), not O(agents²).
     async fn collect_lockstep(&mut self, tick: u64, sent: &BTreeSet<u32>, timeout: Duration) -> BTreeMap<u32, Cmd> {
         let deadline = tokio::time::Instant::now() + timeout;
         let mut got = BTreeMap::new();
-        let take = |got: &mut BTreeMap<u32, Cmd>, (id, c): (u32, Cmd)| {
+        let mut waiting = BTreeSet::new();
+        let mut seen_gen = None;
+        let take = |got: &mut BTreeMap<u32, Cmd>, waiting: &mut BTreeSet<u32>, (id, c): (u32, Cmd)| {
             // A hover is an agent's last word before it leaves: it counts whatever its tick.
             if c.tick == tick || (c.kind == CmdKind::Hover && c.tick > tick) {
                 got.insert(id, c);
+                waiting.remove(&id);
             } else {
                 trace!(uav_id = id, cmd_tick = c.tick, tick, "late command ignored");
             }
         };
         loop {
             while let Ok(m) = self.cmds.try_recv() {
-                take(&mut got, m);
+                take(&mut got, &mut waiting, m);
             }
-            let alive = self.alive_now();
-            let waiting: Vec<u32> = sent.intersection(&alive).copied().filter(|id| !got.contains_key(id)).collect();
+            let generation = self.alive_gen.load(Ordering::SeqCst);
+            if seen_gen != Some(generation) {
+                // Read the generation before the set: a change after this read is seen next time.
+                seen_gen = Some(generation);
+                let alive = self.alive_now();
+                waiting = sent.intersection(&alive).copied().filter(|id| !got.contains_key(id)).collect();
+            }
             if waiting.is_empty() {
                 return got;
             }
             tokio::select! {
                 m = self.cmds.recv() => match m {
-                    Some(m) => take(&mut got, m),
+                    Some(m) => take(&mut got, &mut waiting, m),
                     None => return got,
                 },
                 _ = self.alive_changed.notified() => {},
