@@ -18,7 +18,8 @@
 //!   scenario and world queryables, the netem timeline (the scenario's plus `swarm netem`'s).
 //!
 //! Entry point: [`run`]. Public surface: [`run`] and its options, report and error; [`world`] and
-//! [`lidar`] for the LIDAR benchmark; every other module is private.
+//! [`lidar`] for the LIDAR benchmark, [`sim`] for the hub tick benchmark; every other module is
+//! private.
 //!
 //! Architecture invariant: the hub is the only holder of ground truth; it
 //! hands each agent only that agent's own sensor data, and publishes truth on `truth/**` for the
@@ -30,7 +31,7 @@ mod grid;
 pub mod lidar;
 mod node;
 mod radio;
-mod sim;
+pub mod sim;
 mod uvdar;
 pub mod world;
 
