@@ -72,6 +72,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("m23-indoor-none", include_str!("../../scenarios/m23-indoor-none.toml")),
     ("m23-indoor-pf", include_str!("../../scenarios/m23-indoor-pf.toml")),
     ("m23-indoor-tnpf", include_str!("../../scenarios/m23-indoor-tnpf.toml")),
+    ("open-1000", include_str!("../../scenarios/open-1000.toml")),
     ("open-field-5", include_str!("../../scenarios/open-field-5.toml")),
     ("open-field-5-linkfault", include_str!("../../scenarios/open-field-5-linkfault.toml")),
     ("open-field-5-restart", include_str!("../../scenarios/open-field-5-restart.toml")),

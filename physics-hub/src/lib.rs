@@ -7,6 +7,8 @@
 //! - [`body`]: a UAV body tracking velocity or acceleration commands within limits.
 //! - [`lidar`]: the 2D LIDAR scan against trees, walls and other UAVs, by rasterising the nearby
 //!   obstacles onto the beams instead of one ray cast per beam.
+//! - [`grid`]: a uniform grid over the UAV positions of a tick, so radio links, contacts, the
+//!   UAVs a scan can hit and nearest distances cost about n · neighbours instead of n².
 //! - [`radio`]: who can hear whom (range with hysteresis, optional distance-dependent loss).
 //! - [`uvdar`]: onboard relative sensing for the `uvdar` localization mode: which neighbours a
 //!   UAV's cameras see, with noisy range and bearing.
@@ -18,7 +20,8 @@
 //!   scenario and world queryables, the netem timeline (the scenario's plus `swarm netem`'s).
 //!
 //! Entry point: [`run`]. Public surface: [`run`] and its options, report and error; [`world`] and
-//! [`lidar`] for the LIDAR benchmark; every other module is private.
+//! [`lidar`] for the LIDAR benchmark, [`sim`] for the hub tick benchmark; every other module is
+//! private.
 //!
 //! Architecture invariant: the hub is the only holder of ground truth; it
 //! hands each agent only that agent's own sensor data, and publishes truth on `truth/**` for the
@@ -26,11 +29,12 @@
 
 mod body;
 mod forest;
+mod grid;
 mod lateness;
 pub mod lidar;
 mod node;
 mod radio;
-mod sim;
+pub mod sim;
 mod uvdar;
 pub mod world;
 

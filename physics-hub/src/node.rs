@@ -101,6 +101,9 @@ struct Net {
     truth_step: Publisher,
     uavs: Vec<UavPubs>,
     alive: Arc<Mutex<BTreeSet<u32>>>,
+    /// Bumped (under the `alive` lock) on every change of `alive`: the barrier re-reads the set
+    /// only when this moved, so its cost per command does not grow with the agents.
+    alive_gen: Arc<AtomicU64>,
     alive_changed: Arc<Notify>,
     /// Each command with the wall instant it arrived.
     cmds: mpsc::UnboundedReceiver<(u32, Cmd, Instant)>,
@@ -237,6 +240,7 @@ async fn watch_agents(
     keys: &Keys,
     count: u32,
     alive: Arc<Mutex<BTreeSet<u32>>>,
+    alive_gen: Arc<AtomicU64>,
     changed: Arc<Notify>,
 ) -> Result<Subscription, WireError> {
     let k = keys.clone();
@@ -253,6 +257,7 @@ async fn watch_agents(
             info!(uav_id = id, "agent gone");
             set.remove(&id);
         }
+        alive_gen.fetch_add(1, Ordering::SeqCst);
         changed.notify_one();
     })
     .await
@@ -265,7 +270,9 @@ impl Net {
         let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.swarm.count, malformed.clone()).await?;
         let alive = Arc::new(Mutex::new(BTreeSet::new()));
         let alive_changed = Arc::new(Notify::new());
-        let alive_sub = watch_agents(&s, &keys, sc.swarm.count, alive.clone(), alive_changed.clone()).await?;
+        let alive_gen = Arc::new(AtomicU64::new(0));
+        let alive_sub =
+            watch_agents(&s, &keys, sc.swarm.count, alive.clone(), alive_gen.clone(), alive_changed.clone()).await?;
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
@@ -278,6 +285,7 @@ impl Net {
             keys,
             uavs,
             alive,
+            alive_gen,
             alive_changed,
             cmds,
             lateness: Lateness::default(),
@@ -327,7 +335,6 @@ impl Net {
         put(&self.truth_world, &Msg::TruthWorld(sim.truth_world())).await?;
         self.publish_rules(sim).await?;
         let started = Instant::now();
-        let mut scan_buf = Vec::new();
         let mut pacer = Pacer::new(sim.clock().dt_secs / sc.time.realtime_factor);
         loop {
             let next_t = sim.t_secs() + sim.clock().dt_secs;
@@ -338,7 +345,7 @@ impl Net {
                 return self.finish(sim, EndReason::NoAgents, started).await;
             }
             let sensors_from = Instant::now();
-            self.publish_sensors(sim, &sent, &mut scan_buf).await?;
+            self.publish_sensors(sim, &sent).await?;
             let sensors = sensors_from.elapsed();
             let got = tokio::select! {
                 got = self.collect(sc, sim.tick(), &sent, &mut pacer) => got,
@@ -417,11 +424,11 @@ impl Net {
         put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 
-    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>, buf: &mut Vec<f32>) -> Result<(), WireError> {
+    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>) -> Result<(), WireError> {
         put(&self.clock, &Msg::Clock(sim.clock())).await?;
-        for &id in alive {
-            let Some(p) = (id as usize).checked_sub(1).and_then(|i| self.uavs.get(i)) else { continue };
-            let s = sim.sensors(id, buf);
+        let ids: Vec<u32> = alive.iter().copied().filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.uavs.len())).collect();
+        for (id, s) in ids.iter().zip(sim.sensors_all(&ids)) {
+            let p = &self.uavs[(id - 1) as usize];
             put(&p.radio, &Msg::Radio(s.radio)).await?;
             put(&p.odom, &Msg::Odom(s.odom)).await?;
             if let Some(g) = s.gnss {
@@ -438,30 +445,40 @@ impl Net {
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors
     /// and is still alive, or the timeout. Commands already queued are taken before each check,
     /// so an agent's last word (its hover) is never lost to the liveliness change that follows it.
+    /// The set still awaited is kept up to date per command, and recomputed from the live set
+    /// only when that changed, so a tick costs O(agents · log agents), not O(agents²).
     async fn collect_lockstep(&mut self, tick: u64, sent: &BTreeSet<u32>, timeout: Duration) -> BTreeMap<u32, Cmd> {
         let deadline = tokio::time::Instant::now() + timeout;
         let mut got = BTreeMap::new();
-        let take = |got: &mut BTreeMap<u32, Cmd>, lateness: &mut Lateness, (id, c, at): (u32, Cmd, Instant)| {
+        let mut waiting = BTreeSet::new();
+        let mut seen_gen = None;
+        let take = |got: &mut BTreeMap<u32, Cmd>, waiting: &mut BTreeSet<u32>, lateness: &mut Lateness, (id, c, at): (u32, Cmd, Instant)| {
             lateness.command(c.tick, at);
             // A hover is an agent's last word before it leaves: it counts whatever its tick.
             if c.tick == tick || (c.kind == CmdKind::Hover && c.tick > tick) {
                 got.insert(id, c);
+                waiting.remove(&id);
             } else {
                 trace!(uav_id = id, cmd_tick = c.tick, tick, "late command ignored");
             }
         };
         loop {
             while let Ok(m) = self.cmds.try_recv() {
-                take(&mut got, &mut self.lateness, m);
+                take(&mut got, &mut waiting, &mut self.lateness, m);
             }
-            let alive = self.alive_now();
-            let waiting: Vec<u32> = sent.intersection(&alive).copied().filter(|id| !got.contains_key(id)).collect();
+            let generation = self.alive_gen.load(Ordering::SeqCst);
+            if seen_gen != Some(generation) {
+                // Read the generation before the set: a change after this read is seen next time.
+                seen_gen = Some(generation);
+                let alive = self.alive_now();
+                waiting = sent.intersection(&alive).copied().filter(|id| !got.contains_key(id)).collect();
+            }
             if waiting.is_empty() {
                 return got;
             }
             tokio::select! {
                 m = self.cmds.recv() => match m {
-                    Some(m) => take(&mut got, &mut self.lateness, m),
+                    Some(m) => take(&mut got, &mut waiting, &mut self.lateness, m),
                     None => return got,
                 },
                 _ = self.alive_changed.notified() => {},

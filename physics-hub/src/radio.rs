@@ -3,8 +3,11 @@
 //! does not flap. Agents subscribe only to the share keys of the UAVs in their set. Optionally
 //! each link that is up also loses messages with a probability that grows with distance
 //! (`radio.distance_loss`); the agent applies it per message from the link's seeded stream.
+//!
+//! The links are kept as sorted neighbour lists and updated from a [`Grid`] of the positions, so
+//! an update costs about n · (UAVs within range + hysteresis) instead of n²/2 pair tests.
 
-use std::collections::BTreeSet;
+use crate::grid::Grid;
 
 /// Symmetric radio links between UAVs (indices 0..n).
 #[derive(Debug, Clone)]
@@ -12,7 +15,8 @@ pub struct Radio {
     range_m: f64,
     hysteresis_m: f64,
     distance_loss: Option<swarm_config::DistanceLoss>,
-    links: BTreeSet<(usize, usize)>,
+    /// `links[i]`: the indices linked with i, ascending (each link is in both lists).
+    links: Vec<Vec<usize>>,
     /// The positions of the last update, for the distance loss.
     positions: Vec<[f64; 2]>,
 }
@@ -20,7 +24,7 @@ pub struct Radio {
 impl Radio {
     /// No links yet.
     pub fn new(range_m: f64, hysteresis_m: f64) -> Radio {
-        Radio { range_m, hysteresis_m, distance_loss: None, links: BTreeSet::new(), positions: Vec::new() }
+        Radio { range_m, hysteresis_m, distance_loss: None, links: Vec::new(), positions: Vec::new() }
     }
 
     /// The radio of a scenario.
@@ -40,31 +44,43 @@ impl Radio {
     }
 
     /// Updates the links from positions (index = UAV index).
+    #[cfg(test)]
     pub fn update(&mut self, positions: &[[f64; 2]]) {
+        self.update_with(&Grid::new(positions, self.range_m + self.hysteresis_m));
+    }
+
+    /// Updates the links from the positions `grid` was built from (any cell size).
+    pub fn update_with(&mut self, grid: &Grid) {
+        let positions = grid.points();
         if self.distance_loss.is_some() {
             self.positions = positions.to_vec();
         }
-        for i in 0..positions.len() {
-            for j in i + 1..positions.len() {
-                let d = (positions[i][0] - positions[j][0]).hypot(positions[i][1] - positions[j][1]);
-                let up = self.links.contains(&(i, j));
-                if !up && d < self.range_m {
-                    self.links.insert((i, j));
-                } else if up && d > self.range_m + self.hysteresis_m {
-                    self.links.remove(&(i, j));
-                }
-            }
-        }
+        self.links.resize(positions.len(), Vec::new());
+        let keep_m = self.range_m + self.hysteresis_m;
+        let links: Vec<Vec<usize>> = (0..positions.len())
+            .map(|i| {
+                let p = positions[i];
+                grid.near_sorted(i, keep_m)
+                    .into_iter()
+                    .filter(|&j| {
+                        let d = (p[0] - positions[j][0]).hypot(p[1] - positions[j][1]);
+                        // Up inside range; once up, down only beyond range + hysteresis.
+                        let up = self.links[i].binary_search(&j).is_ok();
+                        if up {
+                            d <= keep_m
+                        } else {
+                            d < self.range_m
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        self.links = links;
     }
 
     /// Indices in range of `i`, sorted.
     pub fn in_range(&self, i: usize) -> Vec<usize> {
-        self.links
-            .iter()
-            .filter_map(|&(a, b)| if a == i { Some(b) } else if b == i { Some(a) } else { None })
-            .collect::<BTreeSet<_>>()
-            .into_iter()
-            .collect()
+        self.links.get(i).cloned().unwrap_or_default()
     }
 }
 

@@ -1,9 +1,15 @@
 //! The simulation state and its step, free of any IO: the hub's Zenoh loop calls
-//! [`Sim::sensors`] for each UAV, collects commands, then [`Sim::step`]. Pure and seeded, so a
-//! lockstep run with the same commands repeats exactly.
+//! [`Sim::sensors_all`] for the live UAVs, collects commands, then [`Sim::step`]. Pure and
+//! seeded, so a lockstep run with the same commands repeats exactly.
+//!
+//! Scale: every pairwise question (radio links, contacts, the UAVs a scan can hit, the nearest
+//! other UAV) goes through one [`Grid`] of the positions rebuilt each tick, and the sensors of a
+//! large swarm are computed on every core. Each UAV draws only from its own seeded streams and
+//! the results are collected in id order, so nothing depends on the number of threads.
 
 use crate::body::{wrap_angle, Body, Limits};
 use crate::forest::{rng, scenario_trees, start_positions, stream};
+use crate::grid::Grid;
 use crate::lidar;
 use crate::radio::Radio;
 use crate::world::World;
@@ -31,6 +37,17 @@ pub struct Sensors {
     pub uvdar: Option<Uvdar>,
 }
 
+/// The seeded random streams of one UAV's sensors.
+struct UavRngs {
+    lidar: ChaCha8Rng,
+    gnss: ChaCha8Rng,
+    uvdar: ChaCha8Rng,
+}
+
+/// Below this many UAVs the sensors of a tick are computed on the calling thread: spawning
+/// workers costs more than it saves.
+const PARALLEL_FROM_UAVS: usize = 32;
+
 /// The whole simulated world.
 pub struct Sim {
     sc: Scenario,
@@ -42,12 +59,15 @@ pub struct Sim {
     starts: Vec<[f64; 3]>,
     limits: Limits,
     radio: Radio,
-    lidar_rngs: Vec<ChaCha8Rng>,
-    gnss_rngs: Vec<ChaCha8Rng>,
-    uvdar_rngs: Vec<ChaCha8Rng>,
+    /// The positions of the current tick, indexed.
+    grid: Grid,
+    rngs: Vec<UavRngs>,
     last_cmds: Vec<Cmd>,
     obstacle_contact: Vec<bool>,
-    uav_contact: Vec<Vec<bool>>,
+    /// `uav_contact[i]`: the j > i in contact with i, ascending.
+    uav_contact: Vec<Vec<usize>>,
+    /// Whether UAV i touches another UAV now.
+    uav_colliding: Vec<bool>,
     tick: u64,
     dt: f64,
     goal_reached_at: Option<f64>,
@@ -62,7 +82,8 @@ impl Sim {
         let bodies = starts.iter().map(|s| Body::at(s[0], s[1], s[2])).collect();
         let n = sc.count();
         let mut radio = Radio::of(&sc.radio);
-        radio.update(&starts.iter().map(|s| [s[0], s[1]]).collect::<Vec<_>>());
+        let grid = Grid::new(&starts.iter().map(|s| [s[0], s[1]]).collect::<Vec<_>>(), grid_cell_m(sc));
+        radio.update_with(&grid);
         let hover = Cmd { tick: 0, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
         Sim {
             world,
@@ -74,12 +95,19 @@ impl Sim {
                 max_yaw_rate: sc.body.max_yaw_rate_dps.to_radians(),
             },
             radio,
-            lidar_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::LIDAR + u64::from(id))).collect(),
-            gnss_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::GNSS_ERROR + u64::from(id))).collect(),
-            uvdar_rngs: sc.uav_ids().map(|id| rng(sc.seed, stream::UVDAR + u64::from(id))).collect(),
+            grid,
+            rngs: sc
+                .uav_ids()
+                .map(|id| UavRngs {
+                    lidar: rng(sc.seed, stream::LIDAR + u64::from(id)),
+                    gnss: rng(sc.seed, stream::GNSS_ERROR + u64::from(id)),
+                    uvdar: rng(sc.seed, stream::UVDAR + u64::from(id)),
+                })
+                .collect(),
             last_cmds: vec![hover; n],
             obstacle_contact: vec![false; n],
-            uav_contact: vec![vec![false; n]; n],
+            uav_contact: vec![Vec::new(); n],
+            uav_colliding: vec![false; n],
             tick: 0,
             dt: sc.dt_secs(),
             goal_reached_at: None,
@@ -120,24 +148,49 @@ impl Sim {
     }
 
     /// Sensor messages of UAV `id` (1-based) for the current tick.
-    pub fn sensors(&mut self, id: u32, ranges: &mut Vec<f32>) -> Sensors {
+    #[cfg(test)]
+    pub fn sensors(&mut self, id: u32) -> Sensors {
+        self.sensors_all(&[id]).pop().expect("one UAV asked, one answer")
+    }
+
+    /// Sensor messages of the UAVs `ids` (1-based, each at most once) for the current tick, in
+    /// the order given. Large swarms are spread over the cores in contiguous chunks; each UAV
+    /// draws only from its own streams, so the result does not depend on the split.
+    pub fn sensors_all(&mut self, ids: &[u32]) -> Vec<Sensors> {
+        let mut rngs = std::mem::take(&mut self.rngs);
+        let mut jobs: Vec<(u32, &mut UavRngs)> = Vec::with_capacity(ids.len());
+        {
+            let mut by_index: Vec<Option<&mut UavRngs>> = rngs.iter_mut().map(Some).collect();
+            for &id in ids {
+                if let Some(r) = (id as usize).checked_sub(1).and_then(|i| by_index.get_mut(i)).and_then(Option::take) {
+                    jobs.push((id, r));
+                }
+            }
+        }
+        let this = &*self;
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let out = if jobs.len() < PARALLEL_FROM_UAVS || workers < 2 {
+            jobs.into_iter().map(|(id, r)| this.sensors_of(id, r)).collect()
+        } else {
+            let chunk = jobs.len().div_ceil(workers);
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = jobs
+                    .chunks_mut(chunk)
+                    .map(|part| scope.spawn(move || part.iter_mut().map(|(id, r)| this.sensors_of(*id, r)).collect::<Vec<_>>()))
+                    .collect();
+                handles.into_iter().flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+            })
+        };
+        self.rngs = rngs;
+        out
+    }
+
+    /// Sensor messages of UAV `id`, drawing from its streams `r`.
+    fn sensors_of(&self, id: u32, r: &mut UavRngs) -> Sensors {
         let i = (id - 1) as usize;
         let (tick, t_secs) = (self.tick, self.t_secs());
         let b = self.bodies[i];
-        let others: Vec<[f64; 3]> = (0..self.bodies.len())
-            .filter(|&j| j != i)
-            .map(|j| [self.bodies[j].pos.x, self.bodies[j].pos.y, self.sc.body.radius_m])
-            .collect();
-        lidar::scan(&self.world, [b.pos.x, b.pos.y, b.yaw], &others, &self.sc.lidar, &mut self.lidar_rngs[i], ranges);
-        let (angle_min, angle_increment) = lidar::beam_angles(&self.sc.lidar);
-        let scan = Scan {
-            tick,
-            t_secs,
-            angle_min,
-            angle_increment,
-            max_range_m: self.sc.lidar.max_range_m as f32,
-            ranges_m: ranges.clone(),
-        };
+        let scan = self.scan(i, tick, t_secs, &mut r.lidar);
         let s = self.starts[i];
         let start_from_world = Rotation2::new(-s[2]);
         let to_start = |p: Vector2<f64>| start_from_world * (p - Vector2::new(s[0], s[1]));
@@ -153,38 +206,41 @@ impl Sim {
         };
         let odom = Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal, goal_vel };
         let gnss = (self.sc.localization.mode == LocalizationMode::Broadcast).then(|| {
-            let [ex, ey] = self.gnss_error(i, id, t_secs);
+            let [ex, ey] = gnss_error(&self.sc, id, t_secs, &mut r.gnss);
             Gnss { tick, t_secs, x: b.pos.x + ex, y: b.pos.y + ey, yaw: b.yaw, vx: b.vel.x, vy: b.vel.y }
         });
         let in_range = self.radio.in_range(i).into_iter().map(|j| j as u32 + 1).collect();
         let loss = self.radio.losses(i);
-        let uvdar = (self.sc.localization.mode == LocalizationMode::Uvdar).then(|| self.uvdar(i, tick, t_secs));
+        let uvdar = (self.sc.localization.mode == LocalizationMode::Uvdar).then(|| self.uvdar(i, tick, t_secs, &mut r.uvdar));
         Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan, uvdar }
     }
 
+    /// UAV index `i`'s LIDAR scan: the world and the other UAVs the beams can reach (found in the
+    /// grid, in index order, so the scan equals one against every other UAV).
+    fn scan(&self, i: usize, tick: u64, t_secs: f64, rng: &mut ChaCha8Rng) -> Scan {
+        let b = self.bodies[i];
+        let r_uav = self.sc.body.radius_m;
+        let others: Vec<[f64; 3]> = self
+            .grid
+            .near_sorted(i, self.sc.lidar.max_range_m + r_uav.max(0.0))
+            .into_iter()
+            .map(|j| [self.bodies[j].pos.x, self.bodies[j].pos.y, r_uav])
+            .collect();
+        let mut ranges = Vec::with_capacity(self.sc.lidar.beams as usize);
+        lidar::scan(&self.world, [b.pos.x, b.pos.y, b.yaw], &others, &self.sc.lidar, rng, &mut ranges);
+        let (angle_min, angle_increment) = lidar::beam_angles(&self.sc.lidar);
+        Scan { tick, t_secs, angle_min, angle_increment, max_range_m: self.sc.lidar.max_range_m as f32, ranges_m: ranges }
+    }
+
     /// What UAV index `i` sees of the others by UVDAR (seed 003) now.
-    fn uvdar(&mut self, i: usize, tick: u64, t_secs: f64) -> Uvdar {
+    fn uvdar(&self, i: usize, tick: u64, t_secs: f64, rng: &mut ChaCha8Rng) -> Uvdar {
         let poses: Vec<(u32, [f64; 2], f64)> =
             self.bodies.iter().enumerate().map(|(j, b)| (j as u32 + 1, [b.pos.x, b.pos.y], b.yaw)).collect();
-        let seen = crate::uvdar::observe(&self.world, i, &poses, &self.sc.localization.uvdar, &mut self.uvdar_rngs[i])
+        let seen = crate::uvdar::observe(&self.world, i, &poses, &self.sc.localization.uvdar, rng)
             .into_iter()
             .map(|o| UvdarSeen { id: o.id, range_m: o.range_m as f32, bearing_rad: o.bearing_rad as f32 })
             .collect();
         Uvdar { tick, t_secs, seen }
-    }
-
-    /// The artificial error of UAV `id`'s GNSS-like fix at `t` (seed 001 eq. 45–46): zero, or
-    /// while the scenario's `broadcast_error` is active for it, a vector of uniform direction
-    /// whose length is uniform in [0, δa], fresh every tick.
-    fn gnss_error(&mut self, i: usize, id: u32, t: f64) -> [f64; 2] {
-        let Some(e) = self.sc.localization.broadcast_error.as_ref().filter(|e| e.active(id, t)) else {
-            return [0.0, 0.0];
-        };
-        let r = &mut self.gnss_rngs[i];
-        // seed 001 eq. 46: f(|δa|) = 1/δa on [0, δa]; the direction is uniform.
-        let len = e.delta_a_m * r.gen::<f64>();
-        let dir = std::f64::consts::TAU * r.gen::<f64>();
-        [len * dir.cos(), len * dir.sin()]
     }
 
     /// Adds a timeline (from `swarm netem`, times already in sim time) to the one in force.
@@ -214,7 +270,8 @@ impl Sim {
         self.tick += 1;
         let t_secs = self.t_secs();
         let positions: Vec<[f64; 2]> = self.bodies.iter().map(|b| [b.pos.x, b.pos.y]).collect();
-        self.radio.update(&positions);
+        self.grid = Grid::new(&positions, grid_cell_m(&self.sc));
+        self.radio.update_with(&self.grid);
         let collisions = self.detect_collisions();
         if self.goal_reached_at.is_none() && self.goal_met() {
             self.goal_reached_at = Some(t_secs);
@@ -260,19 +317,14 @@ impl Sim {
                 cmd_on_time: matches!(cmds.get(i), Some(Some(_))),
                 obstacle_distance_m: self.world.clearance([b.pos.x, b.pos.y]),
                 agent_distance_m: self.nearest_agent_distance(i),
-                colliding: self.obstacle_contact[i] || self.uav_contact[i].iter().any(|&c| c),
+                colliding: self.obstacle_contact[i] || self.uav_colliding[i],
             })
             .collect()
     }
 
     fn nearest_agent_distance(&self, i: usize) -> f64 {
         let p = self.bodies[i].pos;
-        self.bodies
-            .iter()
-            .enumerate()
-            .filter(|&(j, _)| j != i)
-            .map(|(_, b)| (b.pos - p).norm())
-            .fold(f64::INFINITY, f64::min)
+        self.grid.nearest(i, |j| (self.bodies[j].pos - p).norm())
     }
 
     /// UAV–obstacle contact when the centre is closer than r_uav to an obstacle surface; UAV–UAV
@@ -281,6 +333,7 @@ impl Sim {
         let r = self.sc.body.radius_m;
         let n = self.bodies.len();
         let mut events = Vec::new();
+        self.uav_colliding = vec![false; n];
         for i in 0..n {
             let p = self.bodies[i].pos;
             let hit = self.world.clearance([p.x, p.y]) < r;
@@ -288,14 +341,20 @@ impl Sim {
                 events.push(CollisionEvent { id: i as u32 + 1, other_uav: None, x: p.x, y: p.y });
             }
             self.obstacle_contact[i] = hit;
-            for j in i + 1..n {
+            // Only the pairs the grid puts near can touch; the others are out of contact.
+            let mut touching = Vec::new();
+            for j in self.grid.near_sorted(i, 2.0 * r).into_iter().filter(|&j| j > i) {
                 let hit = (self.bodies[j].pos - p).norm() < 2.0 * r;
-                if hit && !self.uav_contact[i][j] {
+                if hit && self.uav_contact[i].binary_search(&j).is_err() {
                     events.push(CollisionEvent { id: i as u32 + 1, other_uav: Some(j as u32 + 1), x: p.x, y: p.y });
                 }
-                self.uav_contact[i][j] = hit;
-                self.uav_contact[j][i] = hit;
+                if hit {
+                    touching.push(j);
+                    self.uav_colliding[i] = true;
+                    self.uav_colliding[j] = true;
+                }
             }
+            self.uav_contact[i] = touching;
         }
         if self.sc.body.on_collision == OnCollision::Stop {
             for e in &events {
@@ -327,6 +386,25 @@ impl Sim {
             }
         }
     }
+}
+
+/// The grid's cell side [m]: half the radio's reach, the widest question asked of it each tick
+/// besides the scan, at least a UAV's diameter.
+fn grid_cell_m(sc: &Scenario) -> f64 {
+    (0.5 * (sc.radio.range_m + sc.radio.hysteresis_m)).max(2.0 * sc.body.radius_m)
+}
+
+/// The artificial error of UAV `id`'s GNSS-like fix at `t` (seed 001 eq. 45–46): zero, or while
+/// the scenario's `broadcast_error` is active for it, a vector of uniform direction whose length
+/// is uniform in [0, δa], fresh every tick, drawn from the UAV's stream `r`.
+fn gnss_error(sc: &Scenario, id: u32, t: f64, r: &mut ChaCha8Rng) -> [f64; 2] {
+    let Some(e) = sc.localization.broadcast_error.as_ref().filter(|e| e.active(id, t)) else {
+        return [0.0, 0.0];
+    };
+    // seed 001 eq. 46: f(|δa|) = 1/δa on [0, δa]; the direction is uniform.
+    let len = e.delta_a_m * r.gen::<f64>();
+    let dir = std::f64::consts::TAU * r.gen::<f64>();
+    [len * dir.cos(), len * dir.sin()]
 }
 
 #[cfg(test)]
@@ -361,18 +439,17 @@ time_limit_s = 1.0
     #[test]
     fn odometry_is_in_the_start_frame_and_goal_only_for_informed() {
         let mut sim = Sim::new(&scenario());
-        let mut buf = Vec::new();
-        let s1 = sim.sensors(1, &mut buf);
+        let s1 = sim.sensors(1);
         // Start heading 90°: the world goal (10, 0) is 10 m to the right, i.e. at (0, -10).
         let g = s1.odom.goal.expect("UAV 1 is informed");
         assert!(g[0].abs() < 1e-9 && (g[1] + 10.0).abs() < 1e-9, "{g:?}");
-        assert_eq!(sim.sensors(2, &mut buf).odom.goal, None, "UAV 2 is not informed");
+        assert_eq!(sim.sensors(2).odom.goal, None, "UAV 2 is not informed");
         assert_eq!(s1.radio.in_range, vec![2]);
         // Fly body-forward (world +y) for a while: odometry x grows, y stays.
         for _ in 0..5 {
             sim.step(&[vel(0.2), vel(0.0)], &[true, true], 0.0);
         }
-        let o = sim.sensors(1, &mut buf).odom;
+        let o = sim.sensors(1).odom;
         assert!(o.x > 0.0 && o.y.abs() < 1e-9 && o.yaw.abs() < 1e-12, "{o:?}");
     }
 
@@ -405,18 +482,18 @@ time_limit_s = 1.0
             from_s: 1.0,
             until_s: Some(3.0),
         });
-        let mut sim = Sim::new(&sc);
+        let mut r = rng(sc.seed, stream::GNSS_ERROR + 1);
         let n = 20_000;
-        let lengths: Vec<f64> = (0..n).map(|_| sim.gnss_error(0, 1, 2.0)).map(|[x, y]| x.hypot(y)).collect();
+        let lengths: Vec<f64> = (0..n).map(|_| gnss_error(&sc, 1, 2.0, &mut r)).map(|[x, y]| x.hypot(y)).collect();
         // seed 001 eq. 46: |δa| uniform on [0, 2]: mean 1, variance 4/12.
         let mean = lengths.iter().sum::<f64>() / f64::from(n);
         let var = lengths.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / f64::from(n);
         assert!(lengths.iter().all(|&l| l <= 2.0));
         assert!((mean - 1.0).abs() < 0.02, "{mean}");
         assert!((var - 1.0 / 3.0).abs() < 0.02, "{var}");
-        assert_eq!(sim.gnss_error(1, 2, 2.0), [0.0, 0.0], "UAV 2 is not affected");
-        assert_eq!(sim.gnss_error(0, 1, 0.5), [0.0, 0.0], "before the window");
-        assert_eq!(sim.gnss_error(0, 1, 3.0), [0.0, 0.0], "after the window");
+        assert_eq!(gnss_error(&sc, 2, 2.0, &mut r), [0.0, 0.0], "UAV 2 is not affected");
+        assert_eq!(gnss_error(&sc, 1, 0.5, &mut r), [0.0, 0.0], "before the window");
+        assert_eq!(gnss_error(&sc, 1, 3.0, &mut r), [0.0, 0.0], "after the window");
     }
 
     #[test]

@@ -3,9 +3,13 @@
 //!
 //! - It fetches the scenario from the hub (`swarm/{run}/scenario`) unless given one, so an agent
 //!   on another machine needs only the hub's endpoint, the run id and its UAV id.
-//! - It subscribes to its own `sense/**` and `radio/{id}` keys, and to the share key of its
-//!   localization mode (`share/pose` or `share/obstacles`) of exactly the UAVs in its radio set,
-//!   declaring and undeclaring as the set changes.
+//! - It subscribes to its own `sense/{scan,odom,gnss,uvdar}` and `radio/{id}` keys, and to the
+//!   share key of its localization mode (`share/pose` or `share/obstacles`) of exactly the UAVs in
+//!   its radio set, declaring and undeclaring as the set changes. Its own keys are subscribed
+//!   through declared key expressions ([`subscribe_declared`]), so an agent host's session hands
+//!   each sensor message to its subscriber without testing every subscriber of the session. The
+//!   share subscriptions stay plain: declared ones made lockstep runs of 200 UAVs on two hosts
+//!   differ from run to run (cause not found yet), so they wait for that to be understood.
 //! - Determinism in lockstep: all subscriptions feed one channel, so messages are handled in
 //!   wire order; and a neighbour's share counts only if it was sent inside the neighbour's
 //!   window: from the tick after its subscription was declared (every later share is sure to be
@@ -142,7 +146,7 @@ enum Incoming {
 
 /// The subscriptions a node holds for its whole life (dropping one undeclares it).
 struct Inputs {
-    _sense: Subscriber,
+    _sense: Vec<Subscriber>,
     _radio: Subscriber,
     _rules: Subscriber,
     _hub_watch: Subscriber,
@@ -188,6 +192,30 @@ struct Node {
     _token: Option<zenoh::liveliness::LivelinessToken>,
 }
 
+/// Subscribes to the exact key `key` into `tx` (as [`plumbing::subscribe`]) through a key
+/// expression declared on the session. Zenoh then routes each sample to this session by the
+/// expression's id, and the session hands it to the subscribers cached on that resource; a
+/// sample on an undeclared key is instead tested against every subscriber of the session, which
+/// on an agent host of hundreds of agents (thousands of share subscriptions) was most of the
+/// host's time. A session declares a key once, however many of its agents subscribe to it. Only
+/// for keys subscribed before the token is declared (see the module doc on shares).
+async fn subscribe_declared<T: Send + 'static>(
+    s: &zenoh::Session,
+    key: String,
+    tx: mpsc::UnboundedSender<T>,
+    map: impl Fn(&zenoh::sample::Sample) -> Option<T> + Send + Sync + 'static,
+) -> Result<Subscriber, WireError> {
+    let declared = s.declare_keyexpr(key).await.map_err(WireError::zenoh)?;
+    s.declare_subscriber(declared)
+        .callback(move |sample| {
+            if let Some(m) = map(&sample) {
+                let _ = tx.send(m);
+            }
+        })
+        .await
+        .map_err(WireError::zenoh)
+}
+
 /// Subscribes the node's own sensor, radio and netem-rule keys into `tx`, and watches the hub's
 /// liveliness token.
 async fn declare_inputs(
@@ -197,12 +225,15 @@ async fn declare_inputs(
     tx: &mpsc::UnboundedSender<Incoming>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
     let decode = |sample: &zenoh::sample::Sample| Some(Incoming::Sense(Msg::decode(&plumbing::payload(sample)).ok()));
-    let sense_sub = plumbing::subscribe(s, keys.sense_all(id), tx.clone(), decode).await?;
-    let radio_sub = plumbing::subscribe(s, keys.radio(id), tx.clone(), decode).await?;
+    let mut sense_subs = Vec::with_capacity(4);
+    for key in [keys.scan(id), keys.odom(id), keys.gnss(id), keys.uvdar(id)] {
+        sense_subs.push(subscribe_declared(s, key, tx.clone(), decode).await?);
+    }
+    let radio_sub = subscribe_declared(s, keys.radio(id), tx.clone(), decode).await?;
     // The rules in force, republished by the hub whenever `swarm netem` changes them.
-    let rules_sub = plumbing::subscribe(s, keys.netem_rules(), tx.clone(), decode).await?;
+    let rules_sub = subscribe_declared(s, keys.netem_rules(), tx.clone(), decode).await?;
     let (hub_alive, hub_watch) = plumbing::watch_token(s, keys.alive_hub()).await?;
-    Ok((Inputs { _sense: sense_sub, _radio: radio_sub, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
+    Ok((Inputs { _sense: sense_subs, _radio: radio_sub, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
 }
 
 /// Declares the command, share and state publishers of UAV `id`.

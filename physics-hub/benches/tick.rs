@@ -1,0 +1,64 @@
+//! Hub tick benchmark: what the hub computes per tick for 40, 100 and 1000 UAVs, without the
+//! network: every UAV's sensors (radio set, odometry, GNSS, 750-beam scan against the other UAVs)
+//! then one integration step (radio links, contacts, ground truth with nearest distances).
+//!
+//! The swarm is open-1000's: a start disc holding the UAVs at least 3 m apart (about 18 m² each,
+//! so a UAV hears about 18 others within the 10 m radio range), broadcast localization, every UAV
+//! flying 0.5 m/s forward. Each iteration is one tick of the running simulation, so the crowd
+//! moves as the bench goes on. Throughput is the UAVs per tick, so criterion prints UAVs/s.
+//!
+//! Run: `cargo bench --workspace --bench tick -- --warm-up-time 1 --measurement-time 5`
+//! (`--workspace`, so Zenoh is built with the features it has everywhere else).
+
+use criterion::{black_box, criterion_main, BenchmarkId, Criterion, Throughput};
+use physics_hub::sim::Sim;
+use swarm_config::Scenario;
+use swarm_wire::{Cmd, CmdKind};
+
+/// open-1000's crowd scaled to `n` UAVs: the same area per UAV (about 18 m²).
+fn scenario(n: usize) -> Scenario {
+    let radius_m = 75.0 * (n as f64 / 1000.0).sqrt();
+    let text = format!(
+        r#"
+name = "tick-bench"
+seed = 1000
+[swarm]
+count = {n}
+start_area = {{ center = [0.0, 0.0], radius_m = {radius_m}, min_spacing_m = 3.0 }}
+goal = [60.0, 0.0]
+informed = "all"
+[localization]
+mode = "broadcast"
+[end]
+time_limit_s = 1000000.0
+"#
+    );
+    Scenario::from_toml_str(&text, "tick-bench").expect("valid bench scenario")
+}
+
+fn bench_tick(c: &mut Criterion) {
+    let mut group = c.benchmark_group("hub_tick");
+    for n in [40usize, 100, 1000] {
+        let sc = scenario(n);
+        let mut sim = Sim::new(&sc);
+        let ids: Vec<u32> = sc.uav_ids().collect();
+        let forward = Some(Cmd { tick: 0, kind: CmdKind::Velocity, x: 0.5, y: 0.0, yaw_rate: 0.0 });
+        let cmds = vec![forward; n];
+        let alive = vec![true; n];
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| {
+                let sensors = sim.sensors_all(black_box(&ids));
+                black_box(&sensors);
+                black_box(sim.step(&cmds, &alive, 0.0))
+            })
+        });
+    }
+    group.finish();
+}
+
+/// The criterion group (in a private module: the macro's generated `pub fn` has no doc).
+mod group {
+    criterion::criterion_group!(benches, super::bench_tick);
+}
+criterion_main!(group::benches);
