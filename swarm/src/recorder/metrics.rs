@@ -134,30 +134,36 @@ fn true_relative(i: &TruthBody, j: &TruthBody) -> (f64, f64) {
 
 /// Weakly connected components of the estimate graph over the agents that reported.
 fn components(known: &BTreeMap<u32, Vec<u32>>) -> usize {
-    let ids: Vec<u32> = known.keys().copied().collect();
-    let mut parent: BTreeMap<u32, u32> = ids.iter().map(|&i| (i, i)).collect();
-    fn root(p: &BTreeMap<u32, u32>, mut x: u32) -> u32 {
-        while let Some(&up) = p.get(&x) {
-            if up == x {
-                break;
-            }
-            x = up;
+    // Union-find over the reporting ids by index, with path halving and union by size, so a
+    // 1000-UAV run's hundreds of ticks cost about O(edges) each (plain parent links made chains
+    // as long as the swarm: minutes of summary after open-1000).
+    let index: BTreeMap<u32, usize> = known.keys().enumerate().map(|(k, &id)| (id, k)).collect();
+    let mut parent: Vec<usize> = (0..index.len()).collect();
+    let mut size = vec![1usize; index.len()];
+    fn root(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
         }
         x
     }
-    for (&i, js) in known {
-        for &j in js {
-            if !parent.contains_key(&j) {
+    let mut count = index.len();
+    for (i, js) in known {
+        for j in js {
+            let Some(&b) = index.get(j) else { continue };
+            let (mut a, mut b) = (root(&mut parent, index[i]), root(&mut parent, b));
+            if a == b {
                 continue;
             }
-            let (a, b) = (root(&parent, i), root(&parent, j));
-            if a != b {
-                parent.insert(a, b);
+            if size[a] < size[b] {
+                std::mem::swap(&mut a, &mut b);
             }
+            parent[b] = a;
+            size[a] += size[b];
+            count -= 1;
         }
     }
-    let roots: std::collections::BTreeSet<u32> = ids.iter().map(|&i| root(&parent, i)).collect();
-    roots.len()
+    count
 }
 
 /// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
@@ -633,6 +639,11 @@ mod tests {
         assert_eq!(g(&[(1, &[2]), (2, &[]), (3, &[4]), (4, &[3])]), 2);
         assert_eq!(g(&[(1, &[2]), (2, &[3]), (3, &[])]), 1, "weakly connected");
         assert_eq!(g(&[(1, &[]), (2, &[]), (3, &[9])]), 3, "ids that did not report are not nodes");
+        // A long chain in the worst order for plain parent links, and pairs beside it.
+        let chain: BTreeMap<u32, Vec<u32>> = (1..=3000u32).map(|i| (i, if i > 1 { vec![i - 1] } else { vec![] })).collect();
+        assert_eq!(components(&chain), 1);
+        let pairs: BTreeMap<u32, Vec<u32>> = (1..=3000u32).map(|i| (i, vec![if i % 2 == 0 { i - 1 } else { i + 1 }])).collect();
+        assert_eq!(components(&pairs), 1500);
     }
 
     #[test]
