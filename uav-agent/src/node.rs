@@ -206,14 +206,7 @@ async fn subscribe_declared<T: Send + 'static>(
     map: impl Fn(&zenoh::sample::Sample) -> Option<T> + Send + Sync + 'static,
 ) -> Result<Subscriber, WireError> {
     let declared = s.declare_keyexpr(key).await.map_err(WireError::zenoh)?;
-    s.declare_subscriber(declared)
-        .callback(move |sample| {
-            if let Some(m) = map(&sample) {
-                let _ = tx.send(m);
-            }
-        })
-        .await
-        .map_err(WireError::zenoh)
+    plumbing::subscribe(s, declared, tx, map).await
 }
 
 /// Subscribes the node's own sensor, radio and netem-rule keys into `tx`, and watches the hub's

@@ -27,14 +27,18 @@ pub fn payload(sample: &Sample) -> Vec<u8> {
     sample.payload().to_bytes().into_owned()
 }
 
-/// Subscribes to `key` and sends `map(sample)` into `tx` for every sample; `None` sends nothing
-/// (the mapping may count or log what it drops).
-pub async fn subscribe<T: Send + 'static>(
+/// Subscribes to `key` (a key, or a key expression declared on `s`) and sends `map(sample)`
+/// into `tx` for every sample; `None` sends nothing (the mapping may count or log what it drops).
+pub async fn subscribe<T: Send + 'static, K>(
     s: &zenoh::Session,
-    key: String,
+    key: K,
     tx: mpsc::UnboundedSender<T>,
     map: impl Fn(&Sample) -> Option<T> + Send + Sync + 'static,
-) -> Result<Subscription, WireError> {
+) -> Result<Subscription, WireError>
+where
+    K: TryInto<zenoh::key_expr::KeyExpr<'static>> + Send,
+    K::Error: Into<zenoh::Error>,
+{
     s.declare_subscriber(key)
         .callback(move |sample| {
             if let Some(m) = map(&sample) {
