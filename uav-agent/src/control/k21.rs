@@ -78,6 +78,11 @@ fn clip_unit(v: Vector2<f64>) -> Vector2<f64> {
     }
 }
 
+/// The vector of least length (the first of equals), if any.
+fn nearest(vs: impl Iterator<Item = Vector2<f64>>) -> Option<Vector2<f64>> {
+    vs.min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))
+}
+
 /// Unit vector along `v`, or the body x axis when `v` is zero or not finite.
 fn direction_or_x(v: Vector2<f64>) -> Vector2<f64> {
     let n = v.norm();
@@ -98,7 +103,7 @@ pub fn cohesion(p: &K21Params, neighbours: &[Neighbour], obstacle_near: bool) ->
     let c = if obstacle_near {
         // seed 000 section 4.2: with an obstacle nearby only the closest neighbour counts;
         // eq. 4.3 with N = 1: c = x_closest / 2.
-        match valid.min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared())) {
+        match nearest(valid) {
             Some(x) => x / 2.0,
             None => return Vector2::zeros(),
         }
@@ -197,7 +202,7 @@ pub fn separation(
 pub fn avoidance(p: &K21Params, obstacles: &[Vector2<f64>], desired: Vector2<f64>) -> Vector2<f64> {
     let d = direction_or_x(desired);
     let ignore = p.avoidance_ignore_deg.to_radians();
-    let closest = obstacles
+    let candidates = obstacles
         .iter()
         .copied()
         .filter(is_finite)
@@ -207,9 +212,8 @@ pub fn avoidance(p: &K21Params, obstacles: &[Vector2<f64>], desired: Vector2<f64
             // obstacles more than 135° (avoidance_ignore_deg) from it are ignored.
             let angle = (d.x * y.y - d.y * y.x).abs().atan2(d.dot(y));
             dist > EPS && dist <= p.avoidance_radius_m && angle <= ignore
-        })
-        .min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()));
-    let Some(y) = closest else {
+        });
+    let Some(y) = nearest(candidates) else {
         return Vector2::zeros();
     };
     let dist = y.norm();
@@ -274,7 +278,7 @@ pub fn alignment(neighbours: &[Neighbour], goal_heading: Option<f64>) -> f64 {
 
 /// The closest finite obstacle centre [m], body frame.
 fn nearest_obstacle(obstacles: &[Vector2<f64>]) -> Option<Vector2<f64>> {
-    obstacles.iter().copied().filter(is_finite).min_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))
+    nearest(obstacles.iter().copied().filter(is_finite))
 }
 
 /// The neighbours closer than `neighbour_radius_m`, in their original order (so that with every
