@@ -216,3 +216,16 @@ impl Listening {
         String::from_utf8(out.stdout).expect("utf8")
     }
 }
+
+/// The Python of the test environment (`<repo>/.venv`, made by `tools/test-env` from
+/// `tests/requirements.txt`): tests that use a reader or client no one here wrote run it. A
+/// missing venv fails the test with the command that makes it, never skips it.
+pub fn python() -> std::path::PathBuf {
+    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../.venv/bin/python");
+    assert!(
+        venv.exists(),
+        "no test Python at {}: run tools/test-env (or tools/test) first",
+        venv.display()
+    );
+    venv
+}
