@@ -40,6 +40,9 @@ pub enum Cmd {
     SweepError(crate::study::SweepArgs),
     /// Fly swarms of growing size and print (and plot) speed, tick and step times and memory.
     Scale(crate::scale::ScaleArgs),
+    /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
+    /// SVG and PNG.
+    Plot(crate::plot::PlotArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -96,6 +99,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
+        Cmd::Plot(a) => crate::plot::plot(a),
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario),
     }

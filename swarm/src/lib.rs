@@ -1,7 +1,7 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   tap | put | netem | compare | formations | sweep-error | scale | scenarios | check`).
+//!   tap | put | netem | compare | formations | sweep-error | scale | plot | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`), run ids, scenario values on the command line.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
@@ -23,7 +23,9 @@
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
-//! - [`plot`]: `run.svg`, the map of the run and distances over time, and the studies' charts.
+//! - [`plot`]: `swarm plot`, the figures of a run folder as SVG and PNG (the map and distances
+//!   in `run.svg`, K21 vectors, localization, connectivity; written at the end of every run too),
+//!   and the studies' charts, all drawn with plotters.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
 //! Public surface: [`cli::main`] (what the `swarm` binary and the end-to-end tests' copy of it

@@ -242,13 +242,13 @@ pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
     print!("{t}");
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("sweep.md"), &t)?;
-    std::fs::write(out.join("sweep.svg"), sweep_svg(&points))?;
+    std::fs::write(out.join("sweep.svg"), sweep_svg(&points)?)?;
     println!("study folder: {} (sweep.md, sweep.svg)", out.display());
     Ok(ExitCode::SUCCESS)
 }
 
 /// Min distances against δa, one line per (world, error on, distance kind).
-fn sweep_svg(points: &[Point]) -> String {
+fn sweep_svg(points: &[Point]) -> anyhow::Result<String> {
     let mut series = Vec::new();
     for world in ["free", "forest"] {
         for who in ["one", "all"] {

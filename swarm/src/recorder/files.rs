@@ -1,30 +1,39 @@
 //! The files of a run folder that grow while the run goes (`trajectories.csv`,
-//! `agent_states.csv`), and the recorder's decoding of what it receives.
+//! `agent_states.csv`, `localization.csv`), the ones written at its end (`world.json`,
+//! `connectivity.csv`: what `swarm plot` reads besides), and the recorder's decoding of what it
+//! receives.
 
+use super::metrics::{ComponentsRow, Scored};
 use anyhow::{Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
-use swarm_wire::{AgentState, Msg, TruthStep};
+use swarm_wire::{AgentState, Msg, TruthStep, TruthWorld};
 
 /// The files of a run folder that grow while the run goes.
 pub struct Files {
     traj: BufWriter<File>,
     states: BufWriter<File>,
+    loc: BufWriter<File>,
+}
+
+fn create(dir: &Path, name: &str) -> Result<BufWriter<File>> {
+    let p = dir.join(name);
+    Ok(BufWriter::new(File::create(&p).with_context(|| format!("cannot create {}", p.display()))?))
 }
 
 impl Files {
-    /// Creates `trajectories.csv` and `agent_states.csv` in `dir`, with headers.
+    /// Creates `trajectories.csv`, `agent_states.csv` and `localization.csv` in `dir`, with
+    /// headers.
     pub fn create(dir: &Path) -> Result<Files> {
-        let open = |name: &str| -> Result<BufWriter<File>> {
-            let p = dir.join(name);
-            Ok(BufWriter::new(File::create(&p).with_context(|| format!("cannot create {}", p.display()))?))
-        };
+        let open = |name: &str| create(dir, name);
         let mut traj = open("trajectories.csv")?;
         writeln!(traj, "tick,t_s,id,x_m,y_m,yaw_rad,vx_mps,vy_mps,obstacle_distance_m,agent_distance_m,colliding,alive,cmd_on_time")?;
         let mut states = open("agent_states.csv")?;
         writeln!(states, "tick,t_s,id,step_time_us,obstacles,neighbours,in_radio_range,cohesion,separation,avoidance,navigation,output_mps,msgs_tx,bytes_tx,msgs_rx,bytes_rx,icp_short,icp_long,icp_initial,icp_deferred,db_entries,db_suspended")?;
-        Ok(Files { traj, states })
+        let mut loc = open("localization.csv")?;
+        writeln!(loc, "tick,t_s,id,neighbours,scored,mean_error_m,max_error_m")?;
+        Ok(Files { traj, states, loc })
     }
 
     /// Appends one step's rows.
@@ -55,12 +64,38 @@ impl Files {
         Ok(())
     }
 
-    /// Flushes both files.
+    /// Appends scored states (rows in scoring order: a state waits for its tick's truth).
+    pub fn write_scored(&mut self, rows: &[Scored]) -> Result<()> {
+        for r in rows {
+            writeln!(self.loc, "{},{:.3},{},{},{},{:.4},{:.4}", r.tick, r.t_s, r.id, r.neighbours, r.scored, r.mean_error_m, r.max_error_m)?;
+        }
+        Ok(())
+    }
+
+    /// Flushes every file.
     pub fn flush(&mut self) -> Result<()> {
         self.traj.flush()?;
         self.states.flush()?;
+        self.loc.flush()?;
         Ok(())
     }
+}
+
+/// Writes `world.json` (trees, walls, starts, goal) into `dir`.
+pub fn write_world(dir: &Path, world: &TruthWorld) -> Result<()> {
+    let path = dir.join("world.json");
+    std::fs::write(&path, serde_json::to_string(world)?).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Writes `connectivity.csv` (the estimate graph's components per tick) into `dir`.
+pub fn write_connectivity(dir: &Path, rows: &[ComponentsRow]) -> Result<()> {
+    let mut f = create(dir, "connectivity.csv")?;
+    writeln!(f, "tick,t_s,reporting,components")?;
+    for r in rows {
+        writeln!(f, "{},{:.3},{},{}", r.tick, r.t_s, r.reporting, r.components)?;
+    }
+    f.flush()?;
+    Ok(())
 }
 
 /// Decodes a recorder payload, counting what does not decode.

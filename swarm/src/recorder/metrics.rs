@@ -3,13 +3,52 @@
 //! formation quality) when the hub marks the last step. No IO and no clock, so it is tested
 //! without a network.
 
-use crate::plot::{run_svg, Track};
 use crate::summary::{
     AgentSummary, ClassSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, FormationMetrics,
     LocalizationSummary, Reconnection, Summary, TimingSummary, SCHEMA,
 };
 use std::collections::BTreeMap;
 use swarm_wire::{AgentState, ClassCounts, EndReason, TruthBody, TruthStep, TruthWorld};
+
+/// One UAV's samples over the run.
+#[derive(Debug, Clone, Default)]
+struct Track {
+    /// `(t_s, x_m, y_m, obstacle_distance_m, agent_distance_m)` per tick.
+    samples: Vec<[f64; 5]>,
+}
+
+/// One agent state's neighbour estimates scored against the truth of its tick: a row of
+/// `localization.csv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scored {
+    /// Tick of the state.
+    pub tick: u64,
+    /// Sim time of the state [s].
+    pub t_s: f64,
+    /// Agent id.
+    pub id: u32,
+    /// Estimates it held.
+    pub neighbours: usize,
+    /// Estimates that could be scored (with a sender id, of a UAV in the truth).
+    pub scored: usize,
+    /// Mean distance between estimate and truth [m] (NaN when none was scored).
+    pub mean_error_m: f64,
+    /// Largest distance between estimate and truth [m] (NaN when none was scored).
+    pub max_error_m: f64,
+}
+
+/// The estimate graph at one tick: a row of `connectivity.csv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ComponentsRow {
+    /// Tick.
+    pub tick: u64,
+    /// Sim time [s].
+    pub t_s: f64,
+    /// Agents that reported at that tick.
+    pub reporting: usize,
+    /// Its weakly connected components.
+    pub components: usize,
+}
 
 /// The window at the end of a run over which the lattice spacing is reported [s].
 const LATTICE_WINDOW_S: f64 = 10.0;
@@ -113,6 +152,8 @@ pub struct Metrics {
     commands: u64,
     /// How late each late command was [ms].
     late_ms: Vec<f64>,
+    /// States scored since the last [`Metrics::take_scored`].
+    scored: Vec<Scored>,
 }
 
 /// An estimate farther than this from the truth places a neighbour where none is.
@@ -234,7 +275,7 @@ impl Metrics {
             if b.alive && !b.cmd_on_time && s.ended.is_none() {
                 a.late += 1;
             }
-            let t = self.tracks.entry(b.id).or_insert_with(|| Track { id: b.id, samples: Vec::new() });
+            let t = self.tracks.entry(b.id).or_default();
             t.samples.push([s.t_secs, b.x, b.y, b.obstacle_distance_m, b.agent_distance_m]);
         }
         let nn: Vec<f64> = s.bodies.iter().map(|b| b.agent_distance_m).filter(|d| d.is_finite()).collect();
@@ -294,6 +335,9 @@ impl Metrics {
             }
         }
         a.last_count = Some(count);
+        let mean_error_m = if errors.is_empty() { f64::NAN } else { errors.iter().sum::<f64>() / errors.len() as f64 };
+        let max_error_m = errors.iter().copied().reduce(f64::max).unwrap_or(f64::NAN);
+        self.scored.push(Scored { tick: st.tick, t_s: st.t_secs, id: st.id, neighbours: count, scored: errors.len(), mean_error_m, max_error_m });
         a.false_estimates += errors.iter().filter(|&&e| e > FALSE_ESTIMATE_M).count() as u64;
         a.loc_errors.extend(errors);
     }
@@ -336,12 +380,22 @@ impl Metrics {
         self.last_step.as_ref().and_then(|s| s.ended)
     }
 
-    /// The picture of the run (`run.svg`), once the world is known.
-    pub fn svg(&self, title: &str, goal_radius_m: f64) -> Option<String> {
-        let world = self.world.as_ref()?;
-        let tracks: Vec<Track> = self.tracks.values().cloned().collect();
-        let hits: Vec<[f64; 2]> = self.collisions.iter().map(|c| [c.x_m, c.y_m]).collect();
-        Some(run_svg(title, world, &tracks, &hits, goal_radius_m))
+    /// The static world, once known.
+    pub fn world(&self) -> Option<&TruthWorld> {
+        self.world.as_ref()
+    }
+
+    /// The states scored since the last call, for `localization.csv`.
+    pub fn take_scored(&mut self) -> Vec<Scored> {
+        std::mem::take(&mut self.scored)
+    }
+
+    /// The components of the estimate graph at each tick agents reported, in tick order.
+    pub fn components_series(&self) -> Vec<ComponentsRow> {
+        self.known
+            .iter()
+            .map(|(&tick, (t, known))| ComponentsRow { tick, t_s: *t, reporting: known.len(), components: components(known) })
+            .collect()
     }
 
     /// Collisions so far.
@@ -472,8 +526,8 @@ impl Metrics {
         let mut across = 0u64;
         let grace = sc.localization.stale_after_s + sc.dt_secs();
         let timeline = netem::Timeline::from_scenario(sc);
-        for (t, known) in self.known.values() {
-            let n = components(known);
+        for (row, (t, known)) in self.components_series().into_iter().zip(self.known.values()) {
+            let n = row.components;
             if changes.last().is_none_or(|c| c.components != n) {
                 changes.push(ComponentsAt { t_s: *t, components: n });
             }
@@ -721,6 +775,12 @@ mod tests {
         m.on_step(&truth(2)); // now scored, error 0.3
         m.on_state(state(3, 2.0, 2)); // a step with two estimates (the count changes)
         m.on_step(&truth(3));
+        let rows = m.take_scored();
+        assert_eq!(rows.iter().map(|r| (r.tick, r.scored)).collect::<Vec<_>>(), vec![(1, 1), (2, 1), (3, 2)], "one row per scored state, in scoring order");
+        assert!((rows[1].mean_error_m - 0.3).abs() < 1e-6 && (rows[1].max_error_m - 0.3).abs() < 1e-6);
+        assert!(m.take_scored().is_empty(), "taken once");
+        let comps = m.components_series();
+        assert_eq!(comps.iter().map(|c| (c.tick, c.reporting, c.components)).collect::<Vec<_>>(), vec![(1, 1, 1), (2, 1, 1), (3, 1, 1)]);
         let s = m.summary("r", &sc);
         assert_eq!(s.localization.estimates_scored, 4);
         assert!((s.localization.mean_error_m - 0.1).abs() < 1e-6, "{}", s.localization.mean_error_m);

@@ -1,8 +1,8 @@
 //! The recorder's Zenoh side: a client session subscribed to `truth/**`, every agent's `state`
 //! and the hub's liveliness token, feeding [`Metrics`] and [`Files`] until the run ends, then
-//! writing `summary.json` and `run.svg`.
+//! writing `summary.json` and the figures of [`crate::plot`].
 
-use super::files::{decode, Files};
+use super::files::{decode, write_connectivity, write_world, Files};
 use super::metrics::Metrics;
 use crate::summary::Summary;
 use anyhow::{Context, Result};
@@ -50,6 +50,7 @@ impl Sink<'_> {
             Some(Msg::TruthStep(s)) => {
                 self.files.write_step(&s)?;
                 self.m.on_step(&s);
+                self.files.write_scored(&self.m.take_scored())?;
                 let g = self.sc.swarm.goal;
                 let d = s.bodies.iter().map(|b| (b.x - g[0]).hypot(b.y - g[1])).fold(0.0, f64::max);
                 self.pb.set_position(s.tick);
@@ -74,6 +75,7 @@ impl Sink<'_> {
             if (1..=self.sc.swarm.count).contains(&st.id) {
                 self.files.write_state(&st)?;
                 self.m.on_state(*st);
+                self.files.write_scored(&self.m.take_scored())?;
             }
         }
         Ok(())
@@ -139,7 +141,7 @@ impl Recording {
         let Sink { mut files, m, malformed, .. } = sink;
         files.flush()?;
         let summary = m.summary(&self.run_id, sc);
-        write_outputs(out, sc, &self.run_id, &summary, &m)?;
+        write_outputs(out, &summary, &m)?;
         if malformed > 0 {
             warn!(malformed, "recorder dropped malformed messages");
         }
@@ -200,20 +202,17 @@ impl Recording {
     }
 }
 
-/// Writes `summary.json` and, when there is a track, `run.svg` into the run folder `out`.
-fn write_outputs(out: &Path, sc: &Scenario, run_id: &str, summary: &Summary, m: &Metrics) -> Result<()> {
+/// Writes `summary.json`, `world.json` and `connectivity.csv` into the run folder `out`, then
+/// the figures (a figure that cannot be drawn is a warning: the run itself is recorded).
+fn write_outputs(out: &Path, summary: &Summary, m: &Metrics) -> Result<()> {
     let path = out.join("summary.json");
     std::fs::write(&path, serde_json::to_string_pretty(summary)?).with_context(|| format!("cannot write {}", path.display()))?;
-    let title = format!(
-        "{} ({}): {}, {} collisions",
-        sc.name,
-        run_id,
-        summary.time_to_goal_s.map_or_else(|| format!("goal not reached ({})", summary.end_reason), |t| format!("goal in {t:.1} s")),
-        summary.collisions
-    );
-    if let Some(svg) = m.svg(&title, sc.end.goal_radius_m) {
-        let path = out.join("run.svg");
-        std::fs::write(&path, svg).with_context(|| format!("cannot write {}", path.display()))?;
+    if let Some(w) = m.world() {
+        write_world(out, w)?;
+    }
+    write_connectivity(out, &m.components_series())?;
+    if let Err(e) = crate::plot::write_all(out, None) {
+        warn!("the run's figures were not drawn: {e:#}");
     }
     Ok(())
 }

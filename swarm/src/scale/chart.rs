@@ -1,10 +1,10 @@
 //! The `swarm scale` picture: x real time (left) and resident memory per UAV (right) against the
-//! UAV count on a log axis, one line per localization mode, as SVG and PNG. Drawn with plotters;
-//! text goes through ab_glyph with DejaVu Sans embedded in the binary, so it needs no system
-//! font (no fontconfig) and draws the same on every machine.
+//! UAV count on a log axis, one line per localization mode, as SVG and PNG, drawn like every
+//! figure of [`crate::plot`] (plotters, the embedded font).
 
 use super::ScaleRow;
-use anyhow::{anyhow, Result};
+use crate::plot::{color, write_pair, DrawResult, Figure, FAMILY};
+use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
@@ -13,27 +13,24 @@ use std::path::Path;
 /// Picture size [px].
 const SIZE: (u32, u32) = (1200, 520);
 
-/// The font family every text asks for; registered once from the embedded DejaVu Sans.
-const FAMILY: &str = "sans-serif";
-
-const COLORS: [RGBColor; 4] = [RGBColor(31, 119, 180), RGBColor(255, 127, 14), RGBColor(44, 160, 44), RGBColor(214, 39, 40)];
-
-fn register_font() -> Result<()> {
-    static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    let ok = *ONCE.get_or_init(|| plotters::style::register_font(FAMILY, FontStyle::Normal, dejavu::sans::regular()).is_ok());
-    if ok {
-        Ok(())
-    } else {
-        Err(anyhow!("the embedded font did not load"))
-    }
-}
-
 /// Writes the picture of `rows` to `svg` and `png`.
 pub fn write(rows: &[ScaleRow], svg: &Path, png: &Path) -> Result<()> {
-    register_font()?;
-    draw(SVGBackend::new(svg, SIZE).into_drawing_area(), rows).map_err(|e| anyhow!("{}: {e}", svg.display()))?;
-    draw(BitMapBackend::new(png, SIZE).into_drawing_area(), rows).map_err(|e| anyhow!("{}: {e}", png.display()))?;
-    Ok(())
+    write_pair(&ScaleChart(rows), svg, png)
+}
+
+struct ScaleChart<'a>(&'a [ScaleRow]);
+
+impl Figure for ScaleChart<'_> {
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let root = root.titled("swarm scale: the full stack as the swarm grows", (FAMILY, 22))?;
+        let (left, right) = root.split_horizontally(SIZE.0 / 2);
+        panel(&left, self.0, "x real time", "sim s per wall s", |r| r.x_real_time)?;
+        panel(&right, self.0, "resident memory per UAV", "MiB per UAV (peak, all processes)", |r| r.rss_per_uav_mib)
+    }
 }
 
 /// Points `(UAVs, value)` per localization mode, in UAV order.
@@ -44,17 +41,6 @@ fn series(rows: &[ScaleRow], value: fn(&ScaleRow) -> f64) -> BTreeMap<&str, Vec<
     }
     by_mode.values_mut().for_each(|v| v.sort_by(|a, b| a.0.total_cmp(&b.0)));
     by_mode
-}
-
-type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
-
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, rows: &[ScaleRow]) -> DrawResult<DB> {
-    root.fill(&WHITE)?;
-    let root = root.titled("swarm scale: the full stack as the swarm grows", (FAMILY, 22))?;
-    let (left, right) = root.split_horizontally(SIZE.0 / 2);
-    panel(&left, rows, "x real time", "sim s per wall s", |r| r.x_real_time)?;
-    panel(&right, rows, "resident memory per UAV", "MiB per UAV (peak, all processes)", |r| r.rss_per_uav_mib)?;
-    root.present()
 }
 
 fn panel<DB: DrawingBackend>(
@@ -83,12 +69,12 @@ fn panel<DB: DrawingBackend>(
         .label_style((FAMILY, 13))
         .draw()?;
     for (i, (mode, pts)) in lines.iter().enumerate() {
-        let color = COLORS[i % COLORS.len()];
+        let c = color(i);
         chart
-            .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
             .label(*mode)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
-        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
     }
     chart.configure_series_labels().label_font((FAMILY, 13)).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()
 }

@@ -1,0 +1,132 @@
+//! `connectivity.svg` / `connectivity.png`: the connected components of the estimate graph ("i
+//! holds an estimate of j") over sim time, beside the agents that reported, on the scenario's
+//! netem timeline: spans where some link is cut (blocked or held) shaded red, where some link
+//! is only impaired (loss, delay, ...) shaded orange, and each failure (freeze, kill, restart,
+//! link fault) a dashed line with its name.
+
+use super::data::Run;
+use super::style::{legend, time_chart, DrawResult, Figure, FAMILY};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// Picture size [px].
+const SIZE: (u32, u32) = (1000, 460);
+
+const CUT: RGBColor = RGBColor(214, 39, 40);
+const IMPAIRED: RGBColor = RGBColor(255, 127, 14);
+
+/// The state of the network over a span of the timeline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Links {
+    /// Every link as the radio gives it.
+    Clean,
+    /// Some link lossy, delayed, rate-limited, ...
+    Impaired,
+    /// Some link blocked or held (a partition, a frozen sender, a blocked rule).
+    Cut,
+}
+
+/// The network's state in force at `t_s` over every ordered pair of `ids`.
+fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[u32]) -> Links {
+    let mut state = Links::Clean;
+    for &from in ids {
+        for &to in ids.iter().filter(|&&to| to != from) {
+            match tl.rule_at(t_s, from, to) {
+                Some(r) if r.blocked || r.hold => return Links::Cut,
+                Some(r) if !r.is_identity() => state = Links::Impaired,
+                _ => {}
+            }
+        }
+    }
+    state
+}
+
+/// The spans `(from_s, to_s, state)` of the timeline over `[0, t_end]` whose links are not
+/// clean; the state can change only at a rule's or a failure's time.
+pub fn spans(tl: &netem::Timeline, ids: &[u32], t_end: f64) -> Vec<(f64, f64, Links)> {
+    let mut times: Vec<f64> = tl.rules().iter().map(|r| r.at_s).chain(tl.failures().iter().map(|f| f.at_s)).filter(|t| *t < t_end).collect();
+    times.push(0.0);
+    times.sort_by(f64::total_cmp);
+    times.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let ends = times.iter().skip(1).copied().chain([t_end]);
+    times.iter().zip(ends).map(|(&a, b)| (a, b, links_at(tl, a.max(0.0), ids))).filter(|s| s.2 != Links::Clean).collect()
+}
+
+/// A series as steps: each value holds until the next sample.
+fn steps(points: impl Iterator<Item = (f64, f64)>) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for (t, v) in points {
+        if let Some(&(_, prev)) = out.last() {
+            out.push((t, prev));
+        }
+        out.push((t, v));
+    }
+    out
+}
+
+/// The connectivity figure.
+pub struct ConnectivityFigure<'a>(pub &'a Run);
+
+impl Figure for ConnectivityFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let run = self.0;
+        let area = root.titled(&format!("{}: connectivity", run.title), (FAMILY, 18))?;
+        let y_hi = run.components.iter().map(|c| c.reporting.max(c.components)).fold(1.0, f64::max) + 0.5;
+        let t_end = run.t_end();
+        let mut chart = time_chart(&area, "connected components of the estimate graph", "count", t_end, y_hi)?;
+        let ids: Vec<u32> = if run.uavs > 0 { (1..=run.uavs).collect() } else { run.tracks.keys().copied().collect() };
+        let spans = spans(&run.timeline, &ids, t_end);
+        for (kind, c, label) in [(Links::Cut, CUT, "links cut"), (Links::Impaired, IMPAIRED, "links impaired")] {
+            let boxes = spans.iter().filter(|s| s.2 == kind).map(|s| Rectangle::new([(s.0, 0.0), (s.1, y_hi)], c.mix(0.18).filled()));
+            let drawn = chart.draw_series(boxes.collect::<Vec<_>>())?;
+            if spans.iter().any(|s| s.2 == kind) {
+                drawn.label(label).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.3).filled()));
+            }
+        }
+        for f in run.timeline.failures().iter().filter(|f| f.at_s <= t_end) {
+            chart.draw_series(DashedLineSeries::new([(f.at_s, 0.0), (f.at_s, y_hi)], 6, 4, BLACK.mix(0.6).stroke_width(1)))?;
+            let name = serde_json::to_value(&f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
+            chart.draw_series([Text::new(format!("{name} {}", f.uav), (f.at_s, y_hi * 0.97), (FAMILY, 12))])?;
+        }
+        let grey = BLACK.mix(0.45);
+        chart
+            .draw_series(LineSeries::new(steps(run.components.iter().map(|c| (c.t_s, c.reporting))), grey.stroke_width(1)))?
+            .label("agents reporting")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(1)));
+        let blue = super::style::color(0);
+        chart
+            .draw_series(LineSeries::new(steps(run.components.iter().map(|c| (c.t_s, c.components))), blue.stroke_width(2)))?
+            .label("components")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], blue.stroke_width(2)));
+        legend(&mut chart)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn timeline(tables: &str) -> netem::Timeline {
+        netem::Timeline::from(toml::from_str::<swarm_config::Timeline>(tables).expect("valid tables"))
+    }
+
+    #[test]
+    fn spans_follow_the_timeline() {
+        let tl = timeline(
+            "[[netem]]\nat_s = 1.0\nfrom = [2]\nrule = { delay_s = 0.1 }\n\n[[netem]]\nat_s = 2.0\npartition = { scheme = \"halves\", nodes = [1, 2] }\n\n[[netem]]\nat_s = 3.0\npartition = { scheme = \"healed\" }\n\n[[failures]]\nat_s = 5.0\nuav = 1\nkind = \"freeze\"\n",
+        );
+        let s = spans(&tl, &[1, 2], 6.0);
+        assert_eq!(s, vec![(1.0, 2.0, Links::Impaired), (2.0, 3.0, Links::Cut), (3.0, 5.0, Links::Impaired), (5.0, 6.0, Links::Cut)]);
+        assert!(spans(&netem::Timeline::default(), &[1, 2], 6.0).is_empty(), "no timeline, nothing shaded");
+        assert_eq!(spans(&tl, &[1], 6.0), vec![], "one UAV has no links");
+    }
+
+    #[test]
+    fn steps_hold_each_value_until_the_next_sample() {
+        assert_eq!(steps([(0.0, 1.0), (1.0, 2.0)].into_iter()), vec![(0.0, 1.0), (1.0, 1.0), (1.0, 2.0)]);
+    }
+}

@@ -1,0 +1,167 @@
+//! `run.svg` / `run.png`: the picture of a run. Left, the map: trees, walls, the goal disc, each
+//! UAV's path from its start (circle) to its end (triangle), collisions (red crosses). Right,
+//! over sim time, each UAV's distance to the nearest obstacle surface and to the nearest other
+//! UAV (seed 000 Figs. 6.5 and 6.6).
+
+use super::data::{Pose, Run};
+use super::style::{color, legend, thin_keeping_minima, time_chart, DrawResult, Figure, FAMILY};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// Picture size [px]; the map takes the left [`MAP_W`].
+const SIZE: (u32, u32) = (1400, 680);
+const MAP_W: u32 = 760;
+/// Layout of the map chart [px], to give it equal scales on both axes.
+const MARGIN: u32 = 10;
+const X_LABELS: u32 = 36;
+const Y_LABELS: u32 = 50;
+const TITLE_H: u32 = 34;
+/// Free space around the paths and the goal [m].
+const BORDER_M: f64 = 4.0;
+/// Distances above this are cut off in the time panels [m] (far from anything is not news).
+const DISTANCE_CAP_M: f64 = 15.0;
+/// Points per distance curve at most (thinned keeping the minima).
+const MAX_POINTS: usize = 1500;
+/// Paths are named in a legend up to this many UAVs.
+const LEGEND_MAX: usize = 10;
+
+const TREE: RGBColor = RGBColor(91, 70, 54);
+const GOAL: RGBColor = RGBColor(44, 160, 44);
+
+/// The run figure.
+pub struct RunFigure<'a>(pub &'a Run);
+
+impl Figure for RunFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let area = root.titled(&self.0.title, (FAMILY, 18))?;
+        let (left, right) = area.split_horizontally(MAP_W);
+        map(&left, self.0)?;
+        let (top, bottom) = right.split_vertically((SIZE.1 - TITLE_H) / 2);
+        distances(&top, self.0, "distance to the nearest obstacle surface", |p| p.obstacle_m)?;
+        distances(&bottom, self.0, "distance to the nearest other UAV", |p| p.agent_m)
+    }
+}
+
+/// The map's bounds `(x, y)`: every path and the goal plus a border, the shorter side grown so
+/// both axes have the same scale.
+fn bounds(run: &Run) -> ((f64, f64), (f64, f64)) {
+    let goal = run.world.as_ref().map(|w| (w.goal[0], w.goal[1]));
+    let pts = run.tracks.values().flatten().map(|p| (p.x_m, p.y_m)).chain(goal);
+    let (x0, x1, y0, y1) = pts.fold((f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY), |b, (x, y)| {
+        (b.0.min(x), b.1.max(x), b.2.min(y), b.3.max(y))
+    });
+    let (x0, x1, y0, y1) = if x0.is_finite() { (x0, x1, y0, y1) } else { (0.0, 1.0, 0.0, 1.0) };
+    let px_w = f64::from(MAP_W - 2 * MARGIN - Y_LABELS);
+    let px_h = f64::from(SIZE.1 - TITLE_H - 2 * MARGIN - X_LABELS);
+    let (w, h) = (x1 - x0 + 2.0 * BORDER_M, y1 - y0 + 2.0 * BORDER_M);
+    let m_per_px = (w / px_w).max(h / px_h);
+    let (half_w, half_h) = (m_per_px * px_w / 2.0, m_per_px * px_h / 2.0);
+    let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    ((cx - half_w, cx + half_w), (cy - half_h, cy + half_h))
+}
+
+/// A disc as a polygon in data coordinates (so its radius scales with the axes).
+fn disc(cx: f64, cy: f64, r: f64) -> Vec<(f64, f64)> {
+    (0..20).map(|k| f64::from(k) * std::f64::consts::TAU / 20.0).map(|a| (cx + r * a.cos(), cy + r * a.sin())).collect()
+}
+
+/// A wall `[x1, y1, x2, y2, thickness]` as a rectangle, clipped to the box `b` (Liang–Barsky on
+/// its centre line); `None` when it lies outside.
+fn wall(w: &[f64; 5], b: ((f64, f64), (f64, f64))) -> Option<Vec<(f64, f64)>> {
+    let (d_x, d_y) = (w[2] - w[0], w[3] - w[1]);
+    let (mut t0, mut t1) = (0.0_f64, 1.0_f64);
+    for (p, q) in [(-d_x, w[0] - b.0 .0), (d_x, b.0 .1 - w[0]), (-d_y, w[1] - b.1 .0), (d_y, b.1 .1 - w[1])] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else if p < 0.0 {
+            t0 = t0.max(q / p);
+        } else {
+            t1 = t1.min(q / p);
+        }
+    }
+    if t0 > t1 {
+        return None;
+    }
+    let len = d_x.hypot(d_y).max(1e-9);
+    let (nx, ny) = (-d_y / len * w[4] / 2.0, d_x / len * w[4] / 2.0);
+    let (a, c) = ((w[0] + t0 * d_x, w[1] + t0 * d_y), (w[0] + t1 * d_x, w[1] + t1 * d_y));
+    Some(vec![(a.0 + nx, a.1 + ny), (c.0 + nx, c.1 + ny), (c.0 - nx, c.1 - ny), (a.0 - nx, a.1 - ny)])
+}
+
+fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResult<DB> {
+    let b = bounds(run);
+    let mut chart = ChartBuilder::on(area)
+        .margin(MARGIN)
+        .x_label_area_size(X_LABELS)
+        .y_label_area_size(Y_LABELS)
+        .build_cartesian_2d(b.0 .0..b.0 .1, b.1 .0..b.1 .1)?;
+    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FAMILY, 12)).draw()?;
+    if let Some(w) = &run.world {
+        let goal = disc(w.goal[0], w.goal[1], run.goal_radius_m);
+        chart.draw_series([Polygon::new(goal.clone(), GOAL.mix(0.12).filled())])?;
+        chart.draw_series(LineSeries::new(goal.iter().chain(goal.first()).copied(), GOAL.stroke_width(1)))?;
+        let inside = |t: &&[f64; 3]| t[0] + t[2] >= b.0 .0 && t[0] - t[2] <= b.0 .1 && t[1] + t[2] >= b.1 .0 && t[1] - t[2] <= b.1 .1;
+        chart.draw_series(w.trees.iter().filter(inside).map(|t| Polygon::new(disc(t[0], t[1], t[2]), TREE.filled())))?;
+        chart.draw_series(w.walls.iter().filter_map(|wl| wall(wl, b)).map(|p| Polygon::new(p, BLACK.mix(0.8).filled())))?;
+    }
+    for (i, (id, track)) in run.tracks.iter().enumerate() {
+        let c = color(i);
+        let s = chart.draw_series(LineSeries::new(track.iter().map(|p| (p.x_m, p.y_m)), c.stroke_width(2)))?;
+        if run.tracks.len() <= LEGEND_MAX {
+            s.label(format!("UAV {id}")).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        }
+        if let (Some(a), Some(z)) = (track.first(), track.last()) {
+            chart.draw_series([Circle::new((a.x_m, a.y_m), 4, c.filled())])?;
+            chart.draw_series([TriangleMarker::new((z.x_m, z.y_m), 6, c.filled())])?;
+        }
+    }
+    chart.draw_series(run.collisions.iter().map(|p| Cross::new((p[0], p[1]), 6, RED.stroke_width(3))))?;
+    if run.tracks.len() <= LEGEND_MAX {
+        legend(&mut chart)?;
+    }
+    Ok(())
+}
+
+fn distances<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run, caption: &str, value: fn(&Pose) -> f64) -> DrawResult<DB> {
+    let y_hi = super::style::y_top(run.tracks.values().flatten().map(value), 1.0).min(DISTANCE_CAP_M * 1.05);
+    let mut chart = time_chart(area, caption, "[m]", run.t_end(), y_hi)?;
+    for (i, track) in run.tracks.values().enumerate() {
+        let pts: Vec<(f64, f64)> = track.iter().filter(|p| value(p).is_finite()).map(|p| (p.t_s, value(p).min(y_hi))).collect();
+        chart.draw_series(LineSeries::new(thin_keeping_minima(&pts, MAX_POINTS), color(i).stroke_width(1)))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plot::data::synthetic_run_folder;
+
+    #[test]
+    fn bounds_have_equal_scales_and_hold_every_path() {
+        let dir = std::env::temp_dir().join(format!("plot-map-{}", std::process::id()));
+        synthetic_run_folder(&dir);
+        let run = Run::read(&dir).expect("reads");
+        let ((x0, x1), (y0, y1)) = bounds(&run);
+        let px_w = f64::from(MAP_W - 2 * MARGIN - Y_LABELS);
+        let px_h = f64::from(SIZE.1 - TITLE_H - 2 * MARGIN - X_LABELS);
+        assert!(((x1 - x0) / px_w - (y1 - y0) / px_h).abs() < 1e-9, "same metres per pixel");
+        assert!(x0 <= 0.2 - BORDER_M + 1e-9 && x1 >= 6.0 + BORDER_M && y0 <= 1.0 - BORDER_M && y1 >= 2.0 + BORDER_M);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn walls_are_clipped_to_the_map() {
+        let b = ((0.0, 10.0), (0.0, 10.0));
+        let w = wall(&[-5.0, 5.0, 5.0, 5.0, 0.2], b).expect("crosses the box");
+        assert!(w.iter().all(|p| p.0 >= -1e-9 && p.0 <= 5.0 + 1e-9), "{w:?}");
+        assert!(w.iter().any(|p| (p.1 - 5.1).abs() < 1e-9), "thickness across the line: {w:?}");
+        assert!(wall(&[-5.0, 20.0, 5.0, 20.0, 0.2], b).is_none(), "outside");
+    }
+}

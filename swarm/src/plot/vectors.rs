@@ -1,0 +1,51 @@
+//! `vectors.svg` / `vectors.png`: the K21 vector magnitudes of one UAV over sim time (seed 000
+//! Figs. 6.3 and 6.4): above, cohesion, separation, avoidance and navigation (seed 000 eq. 4.1,
+//! each clipped to unit length); below, the command's speed, capped by the speed scale kf.
+
+use super::data::{Run, VECTORS};
+use super::style::{color, legend, time_chart, y_top, DrawResult, Figure, FAMILY};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// Picture size [px].
+const SIZE: (u32, u32) = (1000, 680);
+
+/// The vectors figure of UAV `uav`.
+pub struct VectorsFigure<'a> {
+    /// The run.
+    pub run: &'a Run,
+    /// Which UAV.
+    pub uav: u32,
+}
+
+impl Figure for VectorsFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let title = format!("{}: K21 vectors of UAV {}", self.run.title, self.uav);
+        let area = root.titled(&title, (FAMILY, 18))?;
+        let (top, bottom) = area.split_vertically(area.dim_in_pixel().1 * 3 / 5);
+        self.panel(&top, "magnitudes of the K21 vectors (seed 000 Fig. 6.3)", "|v|", 0..4)?;
+        self.panel(&bottom, "speed of the command (seed 000 Fig. 6.4)", "[m/s]", 4..5)
+    }
+}
+
+impl VectorsFigure<'_> {
+    /// One panel with the vectors `which` (indices into [`VECTORS`]).
+    fn panel<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>, caption: &str, y_label: &str, which: std::ops::Range<usize>) -> DrawResult<DB> {
+        let states = self.run.states.get(&self.uav).map(Vec::as_slice).unwrap_or_default();
+        let y_hi = y_top(states.iter().flat_map(|s| s.vectors[which.clone()].to_vec()), 0.5);
+        let mut chart = time_chart(area, caption, y_label, self.run.t_end(), y_hi)?;
+        for k in which {
+            let c = color(k);
+            let pts = states.iter().filter(|s| s.vectors[k].is_finite()).map(|s| (s.t_s, s.vectors[k]));
+            chart
+                .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
+                .label(VECTORS[k].1)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        }
+        legend(&mut chart)
+    }
+}
