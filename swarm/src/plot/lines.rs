@@ -1,7 +1,7 @@
 //! The studies' charts (`swarm sweep-error`'s `sweep.svg`): curves over a shared x axis, y from
 //! 0, with an optional red dashed threshold line.
 
-use super::style::{color, legend, range, svg_string, y_top, DrawResult, Figure, FAMILY};
+use super::style::{color, legend, range, svg_string, tick, y_top, DrawResult, Figure, FAMILY};
 use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -48,7 +48,7 @@ impl Figure for LineChart<'_> {
             .x_label_area_size(36)
             .y_label_area_size(56)
             .build_cartesian_2d(0.0..x_hi, 0.0..y_hi)?;
-        chart.configure_mesh().x_desc(self.x_label).y_desc(self.y_label).label_style((FAMILY, 12)).draw()?;
+        chart.configure_mesh().x_desc(self.x_label).y_desc(self.y_label).label_style((FAMILY, 12)).max_light_lines(0).x_label_formatter(&tick).y_label_formatter(&tick).draw()?;
         if let Some(t) = self.threshold {
             chart.draw_series(DashedLineSeries::new([(0.0, t), (x_hi, t)], 6, 4, RED.stroke_width(1)))?;
         }

@@ -4,7 +4,7 @@
 //! UAV (seed 000 Figs. 6.5 and 6.6).
 
 use super::data::{Pose, Run};
-use super::style::{color, legend, thin_keeping_minima, time_chart, DrawResult, Figure, FAMILY};
+use super::style::{color, legend, thin_keeping_minima, tick, time_chart, DrawResult, Figure, FAMILY};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -101,7 +101,7 @@ fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResu
         .x_label_area_size(X_LABELS)
         .y_label_area_size(Y_LABELS)
         .build_cartesian_2d(b.0 .0..b.0 .1, b.1 .0..b.1 .1)?;
-    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FAMILY, 12)).draw()?;
+    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FAMILY, 12)).max_light_lines(0).x_label_formatter(&tick).y_label_formatter(&tick).draw()?;
     if let Some(w) = &run.world {
         let goal = disc(w.goal[0], w.goal[1], run.goal_radius_m);
         chart.draw_series([Polygon::new(goal.clone(), GOAL.mix(0.12).filled())])?;

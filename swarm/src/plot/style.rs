@@ -105,6 +105,13 @@ pub fn thin_keeping_minima(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)>
     points.chunks(per).filter_map(|c| c.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1))).collect()
 }
 
+/// An axis label: at most two decimals, no trailing zeros (`2`, `0.5`, `-1.25`).
+pub fn tick(v: &f64) -> String {
+    let s = format!("{v:.2}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
 /// A time-series chart: x is sim time from 0 to `t_max`, y from 0 to `y_hi`, mesh and labels
 /// drawn.
 pub fn time_chart<'a, DB: DrawingBackend>(
@@ -120,7 +127,11 @@ pub fn time_chart<'a, DB: DrawingBackend>(
         .x_label_area_size(36)
         .y_label_area_size(56)
         .build_cartesian_2d(0.0..t_max, 0.0..y_hi)?;
-    chart.configure_mesh().x_desc("sim time [s]").y_desc(y_label).label_style((FAMILY, 12)).draw()?;
+    chart.configure_mesh().x_desc("sim time [s]").y_desc(y_label).label_style((FAMILY, 12))
+        .max_light_lines(0)
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .draw()?;
     Ok(chart)
 }
 
@@ -149,5 +160,6 @@ mod tests {
         assert_eq!(range([3.0, f64::NAN, -2.0].into_iter()), Some((-2.0, 3.0)));
         assert_eq!(y_top(std::iter::empty(), 1.0), 1.05);
         assert_eq!(t_end([0.5].into_iter()), 1.0);
+        assert_eq!([2.0, 0.5, -1.25, -0.001, 10.0].map(|v| tick(&v)), ["2", "0.5", "-1.25", "0", "10"]);
     }
 }
