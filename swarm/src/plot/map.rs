@@ -64,9 +64,9 @@ fn bounds(run: &Run) -> ((f64, f64), (f64, f64)) {
     ((cx - half_w, cx + half_w), (cy - half_h, cy + half_h))
 }
 
-/// A disc as a polygon in data coordinates (so its radius scales with the axes).
-fn disc(cx: f64, cy: f64, r: f64) -> Vec<(f64, f64)> {
-    (0..20).map(|k| f64::from(k) * std::f64::consts::TAU / 20.0).map(|a| (cx + r * a.cos(), cy + r * a.sin())).collect()
+/// A disc as a polygon of `n` corners in data coordinates (so its radius scales with the axes).
+fn disc(cx: f64, cy: f64, r: f64, n: u32) -> Vec<(f64, f64)> {
+    (0..n).map(|k| f64::from(k) * std::f64::consts::TAU / f64::from(n)).map(|a| (cx + r * a.cos(), cy + r * a.sin())).collect()
 }
 
 /// A wall `[x1, y1, x2, y2, thickness]` as a rectangle, clipped to the box `b` (Liang–Barsky on
@@ -103,11 +103,11 @@ fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResu
         .build_cartesian_2d(b.0 .0..b.0 .1, b.1 .0..b.1 .1)?;
     chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FAMILY, 12)).max_light_lines(0).x_label_formatter(&tick).y_label_formatter(&tick).draw()?;
     if let Some(w) = &run.world {
-        let goal = disc(w.goal[0], w.goal[1], run.goal_radius_m);
+        let goal = disc(w.goal[0], w.goal[1], run.goal_radius_m, 72);
         chart.draw_series([Polygon::new(goal.clone(), GOAL.mix(0.12).filled())])?;
         chart.draw_series(LineSeries::new(goal.iter().chain(goal.first()).copied(), GOAL.stroke_width(1)))?;
         let inside = |t: &&[f64; 3]| t[0] + t[2] >= b.0 .0 && t[0] - t[2] <= b.0 .1 && t[1] + t[2] >= b.1 .0 && t[1] - t[2] <= b.1 .1;
-        chart.draw_series(w.trees.iter().filter(inside).map(|t| Polygon::new(disc(t[0], t[1], t[2]), TREE.filled())))?;
+        chart.draw_series(w.trees.iter().filter(inside).map(|t| Polygon::new(disc(t[0], t[1], t[2], 16), TREE.filled())))?;
         chart.draw_series(w.walls.iter().filter_map(|wl| wall(wl, b)).map(|p| Polygon::new(p, BLACK.mix(0.8).filled())))?;
     }
     for (i, (id, track)) in run.tracks.iter().enumerate() {
