@@ -89,7 +89,7 @@ impl Figure for ConnectivityFigure<'_> {
         }
         for f in run.timeline.failures().iter().filter(|f| f.at_s <= t_end) {
             chart.draw_series(DashedLineSeries::new([(f.at_s, 0.0), (f.at_s, y_hi)], 6, 4, BLACK.mix(0.6).stroke_width(1)))?;
-            let name = serde_json::to_value(&f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
+            let name = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
             chart.draw_series([Text::new(format!("{name} {}", f.uav), (f.at_s, y_hi * 0.97), (FAMILY, 12))])?;
         }
         let grey = BLACK.mix(0.45);

@@ -3,6 +3,7 @@
 //! in the binary, so a figure needs no system font (no fontconfig) and draws the same everywhere.
 
 use anyhow::{anyhow, Result};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -112,6 +113,9 @@ pub fn tick(v: &f64) -> String {
     if s == "-0" { "0".into() } else { s.into() }
 }
 
+/// A chart with sim time [s] across and a value up.
+pub type TimeChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
 /// A time-series chart: x is sim time from 0 to `t_max`, y from 0 to `y_hi`, mesh and labels
 /// drawn.
 pub fn time_chart<'a, DB: DrawingBackend>(
@@ -120,7 +124,7 @@ pub fn time_chart<'a, DB: DrawingBackend>(
     y_label: &str,
     t_max: f64,
     y_hi: f64,
-) -> Result<ChartContext<'a, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>, DrawingAreaErrorKind<DB::ErrorType>> {
+) -> Result<TimeChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
     let mut chart = ChartBuilder::on(area)
         .caption(caption, (FAMILY, 16))
         .margin(10)
