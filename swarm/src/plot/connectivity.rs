@@ -92,11 +92,11 @@ impl Figure for ConnectivityFigure<'_> {
             let name = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
             chart.draw_series([Text::new(format!("{name} {}", f.uav), (f.at_s, y_hi * 0.97), (FAMILY, 12))])?;
         }
-        let grey = BLACK.mix(0.45);
+        let grey = super::style::color(7);
         chart
-            .draw_series(LineSeries::new(steps(run.components.iter().map(|c| (c.t_s, c.reporting))), grey.stroke_width(1)))?
+            .draw_series(DashedLineSeries::new(steps(run.components.iter().map(|c| (c.t_s, c.reporting))), 8, 4, grey.stroke_width(2)))?
             .label("agents reporting")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(1)));
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(2)));
         let blue = super::style::color(0);
         chart
             .draw_series(LineSeries::new(steps(run.components.iter().map(|c| (c.t_s, c.components))), blue.stroke_width(2)))?
