@@ -1,11 +1,13 @@
 //! The recorder: a Zenoh client that listens to `truth/**` and every agent's `state`, writes
-//! `trajectories.csv` (one row per UAV per tick) and `agent_states.csv`, and folds everything
-//! into the run's [`Summary`](crate::summary::Summary) (`summary.json`, `run.svg`) when the hub
-//! marks the last step.
+//! `trajectories.csv` (one row per UAV per tick), `agent_states.csv` and `localization.csv`, and
+//! folds everything into the run's [`Summary`](crate::summary::Summary) (`summary.json`) when
+//! the hub marks the last step; then it writes `world.json`, `connectivity.csv` and the figures
+//! of [`crate::plot`].
 //!
 //! - [`metrics`]: the pure folding, [`Metrics`](metrics::Metrics), fed message by message and
 //!   tested without a network.
-//! - `files`: the CSV files that grow while the run goes.
+//! - `files`: the run folder's files: the CSVs that grow while the run goes, and those written
+//!   at its end.
 //! - `recording`: the Zenoh side, [`Recording`]: session, subscriptions, the loop that ends with
 //!   the run.
 //!
