@@ -40,6 +40,8 @@ pub enum Cmd {
     SweepError(crate::study::SweepArgs),
     /// Fly swarms of growing size and print (and plot) speed, tick and step times and memory.
     Scale(crate::scale::ScaleArgs),
+    /// Make fresh users and passwords for a hub and pieces started by hand (README "Security").
+    Credentials(crate::auth::CredentialsArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -96,6 +98,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
+        Cmd::Credentials(a) => crate::auth::credentials(a),
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario),
     }
