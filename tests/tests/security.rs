@@ -59,10 +59,10 @@ impl Flight {
         f
     }
 
-    /// Runs `swarm <cmd> <args> --connect LOC` logged in as `user` (none: no credentials).
+    /// Runs `swarm <cmd> --connect LOC <args>` logged in as `user` (none: no credentials).
     fn as_user(&self, user: Option<&str>, cmd: &str, args: &[&str]) -> std::process::Output {
         let login = user.map(|u| self.creds.login(u)).unwrap_or_default();
-        output_within(Command::new(SWARM).arg(cmd).args(args).args(["--connect", &self.loc]).args(login), TOOL_LIMIT)
+        output_within(Command::new(SWARM).arg(cmd).args(["--connect", &self.loc]).args(login).args(args), TOOL_LIMIT)
     }
 
     /// `swarm tap swarm/{run}/{key} ARGS` as `user`; fails the test if the tap fails.
