@@ -5,7 +5,10 @@
 //! scenario's `[[failures]]` are applied as sim time passes, and the children are stopped at the
 //! end. Children are this same executable; each gets a piped stdin and `--exit-with-stdin`, so
 //! they die with the launcher even if it is killed outright, and `kill_on_drop` covers the
-//! ordinary paths. Child logs go to `<run folder>/logs/`.
+//! ordinary paths. Child logs go to `<run folder>/logs/`. Every run makes fresh credentials in
+//! `<run folder>/credentials/` ([`crate::auth`]): the hub gets the dictionary, each child its own
+//! user (`uav{id}`, `uavs{ids}` for a host), the recording logs in as `observer`; `--insecure`
+//! skips all that.
 
 use crate::args::{default_run_id, scenario_value};
 use crate::auth::{host_user, ids_text, Credentials};
