@@ -154,7 +154,11 @@ fn a_python_client_no_one_here_wrote_is_held_to_its_role() {
     assert_eq!(v["wrong_password_refused"], true, "{v}");
     assert!(v["scan"].as_u64().expect("n") > 0, "UAV 3 receives its scan: {v}");
     assert_eq!(v["truth"], 0, "and nothing on truth/**: {v}");
-    assert_eq!(v["keys"], serde_json::json!([]), "its subscription to swarm/{{run}}/** is refused whole: {v}");
+    // Its subscription to `swarm/{run}/**` is refused by the router; the session still hands it
+    // what reaches the session for its other subscriptions, and its own puts.
+    let keys: Vec<&str> = v["keys"].as_array().expect("keys").iter().filter_map(|k| k.as_str()).collect();
+    assert!(keys.iter().all(|k| !k.contains("/truth/") && !k.contains("/uav/2/sense/")), "{keys:?}");
     let log = f.finish();
     assert!(log.contains("malformed_cmds=1"), "its garbage on uav/3/cmd arrived, on uav/2/cmd it did not: {log}");
+    assert!(!log.contains("liveliness token of a UAV not in this scenario"), "its token for UAV 9 never reached the hub: {log}");
 }

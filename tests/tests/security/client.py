@@ -3,9 +3,11 @@
 Usage: client.py LOCATOR RUN PASSWORD_OF_UAV3 SECONDS
 Prints one JSON line: whether a session without credentials was refused, and what UAV 3's
 credentials received in SECONDS (own scan samples, truth samples, and every key seen by a
-subscription to the whole run, which the router refuses since it is broader than UAV 3's keys).
+subscription to the whole run: the router refuses it, as broader than UAV 3's keys, so it sees
+only what the session receives for its other subscriptions and its own puts).
 It also puts garbage on uav/2/cmd (another UAV's: the router must drop it) and on uav/3/cmd (its
-own: it reaches the hub, which counts it malformed), so the test can read the hub's counts.
+own: it reaches the hub, which counts it malformed), so the test can read the hub's counts, and
+declares a liveliness token that is not its own (`alive/uav/9`), which the hub would log.
 """
 import json
 import sys
@@ -68,9 +70,12 @@ subs = [
 time.sleep(0.5)
 s.put(f"swarm/{run}/uav/2/cmd", b"\x05\x02")
 s.put(f"swarm/{run}/uav/3/cmd", b"\x05\x02")
+# A liveliness token that is not its own (UAV 9's, outside the scenario: the hub would log it).
+token = s.liveliness().declare_token(f"swarm/{run}/alive/uav/9")
 time.sleep(seconds)
 for sub in subs:
     sub.undeclare()
+token.undeclare()
 s.close()
 print(json.dumps({
     "refused": refused,
