@@ -62,6 +62,9 @@ pub struct HubReport {
     pub end: EndReason,
     /// Malformed command payloads dropped.
     pub malformed: u64,
+    /// Well-formed commands no agent of this run could have sent, dropped: for a UAV id outside
+    /// the scenario, or (not a hover) for a tick the hub has not opened yet.
+    pub ignored: u64,
 }
 
 type Publisher = zenoh::pubsub::Publisher<'static>;
@@ -109,6 +112,7 @@ struct Net {
     cmds: mpsc::UnboundedReceiver<(u32, Cmd, Instant)>,
     lateness: Lateness,
     malformed: Arc<AtomicU64>,
+    ignored: Arc<AtomicU64>,
     netem_rules: Publisher,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
 }
@@ -205,12 +209,26 @@ fn valid_id(keys: &Keys, count: u32, key: &str) -> Option<u32> {
     keys.uav_id_of(key).filter(|&id| id <= count)
 }
 
-/// Every agent's commands, decoded, into one channel; malformed ones are counted in `bad`.
+/// Whether `c` answers a tick after `tick` without being a hover (an agent's parting word may
+/// carry any tick): no agent can have seen that tick's sensors, so it is counted in `ignored`
+/// and dropped.
+fn from_the_future(ignored: &AtomicU64, tick: u64, c: &Cmd) -> bool {
+    let future = c.tick > tick && c.kind != CmdKind::Hover;
+    if future {
+        ignored.fetch_add(1, Ordering::Relaxed);
+        debug!(cmd_tick = c.tick, tick, "command for a tick not yet opened ignored");
+    }
+    future
+}
+
+/// Every agent's commands, decoded, into one channel; malformed ones are counted in `bad`, those
+/// for UAVs outside the scenario in `ignored`.
 async fn subscribe_cmds(
     s: &zenoh::Session,
     keys: &Keys,
     count: u32,
     bad: Arc<AtomicU64>,
+    ignored: Arc<AtomicU64>,
 ) -> Result<(Subscription, mpsc::UnboundedReceiver<(u32, Cmd, Instant)>), WireError> {
     let (cmd_tx, cmds) = mpsc::unbounded_channel();
     let k = keys.clone();
@@ -219,6 +237,7 @@ async fn subscribe_cmds(
         match (id, Msg::decode(&sample.payload().to_bytes())) {
             (Some(id), Ok(Msg::Cmd(c))) => Some((id, c, Instant::now())),
             (None, _) => {
+                ignored.fetch_add(1, Ordering::Relaxed);
                 debug!(key = %sample.key_expr(), "command for a UAV not in this scenario ignored");
                 None
             }
@@ -267,7 +286,8 @@ impl Net {
     async fn declare(s: zenoh::Session, keys: Keys, sc: &Scenario) -> Result<(Net, Subs), WireError> {
         let uavs = uav_publishers(&s, &keys, sc).await?;
         let malformed = Arc::new(AtomicU64::new(0));
-        let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.swarm.count, malformed.clone()).await?;
+        let ignored = Arc::new(AtomicU64::new(0));
+        let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.swarm.count, malformed.clone(), ignored.clone()).await?;
         let alive = Arc::new(Mutex::new(BTreeSet::new()));
         let alive_changed = Arc::new(Notify::new());
         let alive_gen = Arc::new(AtomicU64::new(0));
@@ -290,6 +310,7 @@ impl Net {
             cmds,
             lateness: Lateness::default(),
             malformed,
+            ignored,
         };
         Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub, _netem: netem_sub }))
     }
@@ -368,7 +389,7 @@ impl Net {
             TimeMode::Lockstep => self.collect_lockstep(tick, sent, Duration::from_millis(sc.time.tick_timeout_ms)).await,
             TimeMode::Realtime => {
                 tokio::time::sleep_until(pacer.next()).await;
-                self.collect_available()
+                self.collect_available(tick)
             }
         }
     }
@@ -452,7 +473,11 @@ impl Net {
         let mut got = BTreeMap::new();
         let mut waiting = BTreeSet::new();
         let mut seen_gen = None;
+        let ignored = self.ignored.clone();
         let take = |got: &mut BTreeMap<u32, Cmd>, waiting: &mut BTreeSet<u32>, lateness: &mut Lateness, (id, c, at): (u32, Cmd, Instant)| {
+            if from_the_future(&ignored, tick, &c) {
+                return;
+            }
             lateness.command(c.tick, at);
             // A hover is an agent's last word before it leaves: it counts whatever its tick.
             if c.tick == tick || (c.kind == CmdKind::Hover && c.tick > tick) {
@@ -492,9 +517,12 @@ impl Net {
 
     /// Realtime: the newest command of each agent that arrived since the last tick (a late one
     /// is used too, and counted by [`Lateness`]).
-    fn collect_available(&mut self) -> BTreeMap<u32, Cmd> {
+    fn collect_available(&mut self, tick: u64) -> BTreeMap<u32, Cmd> {
         let mut got = BTreeMap::new();
         while let Ok((id, c, at)) = self.cmds.try_recv() {
+            if from_the_future(&self.ignored, tick, &c) {
+                continue;
+            }
             self.lateness.command(c.tick, at);
             got.insert(id, c);
         }
@@ -517,6 +545,12 @@ impl Net {
 
     fn report(&self, sim: &Sim, end: EndReason) -> Result<HubReport, HubError> {
         info!(?end, ticks = sim.tick(), t = sim.t_secs(), keys = self.keys.prefix(), "run ended");
-        Ok(HubReport { ticks: sim.tick(), t_secs: sim.t_secs(), end, malformed: self.malformed.load(Ordering::Relaxed) })
+        Ok(HubReport {
+            ticks: sim.tick(),
+            t_secs: sim.t_secs(),
+            end,
+            malformed: self.malformed.load(Ordering::Relaxed),
+            ignored: self.ignored.load(Ordering::Relaxed),
+        })
     }
 }

@@ -1,5 +1,5 @@
-//! What every command shares, below all of them: the Zenoh endpoints flattened into each
-//! command that opens a session, run ids, and command-line values spelled as in the scenario
+//! What every command shares, below all of them: the Zenoh endpoints and login flattened into
+//! each command that opens a session, run ids, UAV id lists (`1-4,7`), and command-line values spelled as in the scenario
 //! file. A leaf: it imports nothing of this crate, so any command can use it without a circle.
 
 use anyhow::Result;
@@ -17,6 +17,41 @@ pub struct ZenohArgs {
     /// Zenoh config override `KEY:JSON5`, e.g. `transport/link/tx/lease:3000` (repeatable).
     #[arg(long = "cfg")]
     pub cfg: Vec<String>,
+    /// User to log in to the hub as (`uav3`, `uavs1-20`, `observer`, `operator`; see README
+    /// "Security"), with `--password-file`.
+    #[arg(long, requires = "password_file")]
+    pub user: Option<String>,
+    /// File whose first line is the password of `--user` (`swarm run` writes one per user in
+    /// `<run folder>/credentials/`).
+    #[arg(long, requires = "user")]
+    pub password_file: Option<std::path::PathBuf>,
+}
+
+impl ZenohArgs {
+    /// The Zenoh config overrides of this piece's session: the login of `--user`, if any, then
+    /// the `--cfg` overrides.
+    pub fn session_cfg(&self) -> Result<Vec<String>> {
+        let mut cfg = match (&self.user, &self.password_file) {
+            (Some(user), Some(file)) => usrpwd_cfg(user, &read_password(file)?),
+            _ => Vec::new(),
+        };
+        cfg.extend(self.cfg.iter().cloned());
+        Ok(cfg)
+    }
+}
+
+/// The first line of a password file, trimmed; an empty one is an error.
+pub(crate) fn read_password(file: &std::path::Path) -> Result<String> {
+    let text = std::fs::read_to_string(file).map_err(|e| anyhow::anyhow!("cannot read password file {}: {e}", file.display()))?;
+    let password = text.lines().next().unwrap_or_default().trim().to_string();
+    anyhow::ensure!(!password.is_empty(), "password file {} is empty", file.display());
+    Ok(password)
+}
+
+/// The `--cfg` overrides that log a client session in as `user` (Zenoh's usrpwd).
+pub(crate) fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
+    let quote = |s: &str| serde_json::Value::String(s.to_string()).to_string();
+    vec![format!("transport/auth/usrpwd/user:{}", quote(user)), format!("transport/auth/usrpwd/password:{}", quote(password))]
 }
 
 /// Seconds since the Unix epoch (run ids and study folders).
@@ -36,6 +71,33 @@ pub fn scenario_value<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -
     T::deserialize(value.trim().into_deserializer()).map_err(|e: serde::de::value::Error| anyhow::anyhow!("{flag}: {e}"))
 }
 
+/// UAV ids given as ranges and lists: `1-4,7`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UavIds(pub Vec<u32>);
+
+/// Parses `1-4,7` into `[1, 2, 3, 4, 7]`: ascending ranges, no repeats, ids from 1.
+pub fn parse_ids(text: &str) -> Result<UavIds, String> {
+    let mut ids: Vec<u32> = Vec::new();
+    for part in text.split(',').map(str::trim) {
+        let num = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` in `{text}` is not a UAV id"));
+        let (lo, hi) = match part.split_once('-') {
+            Some((a, b)) => (num(a)?, num(b)?),
+            None => (num(part)?, num(part)?),
+        };
+        if lo == 0 || hi < lo {
+            return Err(format!("`{part}` in `{text}`: ids start at 1 and ranges go up"));
+        }
+        ids.extend(lo..=hi);
+    }
+    let mut sorted = ids.clone();
+    sorted.sort_unstable();
+    sorted.dedup();
+    if sorted.len() != ids.len() {
+        return Err(format!("`{text}` names a UAV twice"));
+    }
+    Ok(UavIds(ids))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -48,5 +110,15 @@ mod tests {
         assert_eq!(k, swarm_config::ControllerKind::A21);
         let e = scenario_value::<swarm_config::TimeMode>("--time-mode", "fast").expect_err("no such mode").to_string();
         assert!(e.starts_with("--time-mode") && e.contains("lockstep"), "{e}");
+    }
+
+    #[test]
+    fn ids_take_ranges_and_lists() {
+        assert_eq!(parse_ids("1-4,7"), Ok(UavIds(vec![1, 2, 3, 4, 7])));
+        assert_eq!(parse_ids("5"), Ok(UavIds(vec![5])));
+        assert!(parse_ids("0-3").is_err());
+        assert!(parse_ids("4-2").is_err());
+        assert!(parse_ids("1-3,2").expect_err("twice").contains("twice"));
+        assert!(parse_ids("1,x").expect_err("not a number").contains("`x`"));
     }
 }

@@ -43,6 +43,8 @@ pub enum Cmd {
     /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
     /// SVG and PNG.
     Plot(crate::plot::PlotArgs),
+    /// Make fresh users and passwords for a hub and pieces started by hand (README "Security").
+    Credentials(crate::auth::CredentialsArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -100,6 +102,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
         Cmd::Plot(a) => crate::plot::plot(a),
+        Cmd::Credentials(a) => crate::auth::credentials(a),
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario),
     }

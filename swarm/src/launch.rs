@@ -5,9 +5,13 @@
 //! scenario's `[[failures]]` are applied as sim time passes, and the children are stopped at the
 //! end. Children are this same executable; each gets a piped stdin and `--exit-with-stdin`, so
 //! they die with the launcher even if it is killed outright, and `kill_on_drop` covers the
-//! ordinary paths. Child logs go to `<run folder>/logs/`.
+//! ordinary paths. Child logs go to `<run folder>/logs/`. Every run makes fresh credentials in
+//! `<run folder>/credentials/` ([`crate::auth`]): the hub gets the dictionary, each child its own
+//! user (`uav{id}`, `uavs{ids}` for a host), the recording logs in as `observer`; `--insecure`
+//! skips all that.
 
 use crate::args::{default_run_id, scenario_value};
+use crate::auth::{host_user, ids_text, Credentials};
 use crate::pieces::LISTENING_PREFIX;
 use crate::proxy::{LinkProxy, LinkState};
 use crate::recorder::{progress_bar, Recording};
@@ -57,6 +61,9 @@ pub struct RunArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// No credentials: the hub lets anyone in (`swarm hub --insecure`; it says so loudly).
+    #[arg(long)]
+    pub insecure: bool,
     /// Agents per process: 1 is one process per UAV; more starts agent hosts. Default: 1 up to
     /// 10 UAVs, else one host per core. UAVs with kills, restarts or link faults in
     /// `[[failures]]` always get a process of their own.
@@ -90,7 +97,8 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     let per_process = agents_per_process(sc.count(), a.agents_per_process);
-    let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &a.cfg, a.quiet, per_process).await?;
+    let how = How { zenoh_cfg: &a.cfg, quiet: a.quiet, per_process, insecure: a.insecure };
+    let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
     Ok(summary.exit_code(hub_ok))
@@ -124,18 +132,25 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
     Ok((sc, text))
 }
 
+/// How [`execute`] starts the pieces.
+#[derive(Debug, Clone, Copy)]
+pub struct How<'a> {
+    /// `--cfg` overrides for every piece.
+    pub zenoh_cfg: &'a [String],
+    /// No progress bar.
+    pub quiet: bool,
+    /// Agents per process (see [`agents_per_process`]).
+    pub per_process: u32,
+    /// Start the hub with `--insecure` instead of fresh credentials.
+    pub insecure: bool,
+}
+
 /// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
 /// writes the run folder `out`, and returns the summary and whether the hub exited cleanly.
-/// `per_process` agents share a process (see [`agents_per_process`]).
-pub async fn execute(
-    sc: &Scenario,
-    text: &str,
-    run_id: &str,
-    out: &Path,
-    zenoh_cfg: &[String],
-    quiet: bool,
-    per_process: u32,
-) -> Result<(Summary, bool)> {
+/// Unless `insecure`, every piece logs in with credentials made for this run in
+/// `<out>/credentials/` (readable by the owner only).
+pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &How<'_>) -> Result<(Summary, bool)> {
+    let How { zenoh_cfg, quiet, per_process, insecure } = *how;
     Keys::new(run_id)?;
     let logs = out.join("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("cannot create {}", logs.display()))?;
@@ -143,24 +158,50 @@ pub async fn execute(
     std::fs::write(&scenario_path, text).with_context(|| format!("cannot write {}", scenario_path.display()))?;
     eprintln!("run {run_id}: scenario {} ({} UAVs), folder {}", sc.name, sc.count(), out.display());
 
+    let creds = if insecure { None } else { Some(run_credentials(sc, out, per_process)?) };
     let launcher = Launcher {
         exe: std::env::current_exe().context("cannot find my own executable")?,
         logs,
         run_id: run_id.to_string(),
         cfg: children_cfg(sc, zenoh_cfg),
+        creds,
     };
     let mut hub = launcher.hub(&scenario_path)?;
     let locators = read_locators(&mut hub.child, &launcher.logs).await?;
     info!(?locators, "hub up");
     let proxies = start_proxies(sc, &locators).await?;
 
-    let rec = Recording::start(run_id, &locators, zenoh_cfg).await?;
+    let mut rec_cfg = match &launcher.creds {
+        Some(c) => c.client_cfg(OBSERVER)?,
+        None => Vec::new(),
+    };
+    rec_cfg.extend(zenoh_cfg.iter().cloned());
+    let rec = Recording::start(run_id, &locators, &rec_cfg).await?;
     let mut agents = Agents::start(&launcher, sc, locators, proxies, per_process)?;
     let progress = progress_bar(sc, quiet);
     let summary = rec.record(out, sc, &progress, Some(&mut hub.child), &mut |t| agents.on_tick(t)).await?;
     progress.finish_and_clear();
     let hub_ok = agents.stop(hub).await;
     Ok((summary, hub_ok))
+}
+
+/// The user the launcher's own recording logs in as.
+const OBSERVER: &str = "observer";
+
+/// Fresh credentials for one run in `<out>/credentials/`: a user per UAV (restarts reuse it),
+/// one per agent host as [`spread`] will group them, the recorder's `observer`, and an
+/// `operator` for `swarm netem` on the running swarm.
+fn run_credentials(sc: &Scenario, out: &Path, per_process: u32) -> Result<Credentials> {
+    let mut users: Vec<String> = sc.agent_ids().map(|id| format!("uav{id}")).collect();
+    let (_, hosts) = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id));
+    users.extend(hosts.iter().map(|g| host_user(g)));
+    users.extend([OBSERVER.to_string(), "operator".to_string()]);
+    Credentials::create(&out.join("credentials"), &users)
+}
+
+/// Whether `[[failures]]` kills, restarts or cuts off UAV `id` (it then runs alone).
+fn has_own_failures(sc: &Scenario, id: u32) -> bool {
+    sc.failures.iter().any(|f| f.kind != FailureKind::Freeze && f.uav == id)
 }
 
 /// The `--cfg` overrides every child gets: the run's, after a short lease when the scenario has
@@ -233,6 +274,8 @@ struct Launcher {
     logs: PathBuf,
     run_id: String,
     cfg: Vec<String>,
+    /// `None`: the hub runs `--insecure`.
+    creds: Option<Credentials>,
 }
 
 impl Launcher {
@@ -240,6 +283,10 @@ impl Launcher {
     fn hub(&self, scenario_path: &Path) -> Result<Piece> {
         self.spawn("hub.log", true, |c| {
             c.arg("hub").arg(scenario_path).args(["--run", &self.run_id, "--listen", "tcp/127.0.0.1:0", "--exit-with-stdin"]);
+            match &self.creds {
+                Some(creds) => c.arg("--users").arg(creds.dictionary()),
+                None => c.arg("--insecure"),
+            };
         })
     }
 
@@ -251,7 +298,7 @@ impl Launcher {
 
     /// Starts `swarm agent --ids ids` (an agent host) straight on the hub's `locators`.
     fn host(&self, ids: &[u32], locators: &[String]) -> Result<Piece> {
-        let list = ids.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
+        let list = ids_text(ids);
         let log = format!("agents-{}-{}.log", ids[0], ids[ids.len() - 1]);
         self.agents(&list, "--ids", &log, None, locators)
     }
@@ -259,6 +306,10 @@ impl Launcher {
     fn agents(&self, ids: &str, flag: &str, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
         self.spawn(log, false, |c| {
             c.arg("agent").args(["--run", &self.run_id, flag, ids, "--exit-with-stdin"]);
+            if let Some(creds) = &self.creds {
+                let user = if flag == "--id" { format!("uav{ids}") } else { format!("uavs{ids}") };
+                c.args(creds.client_args(&user));
+            }
             match proxy {
                 Some((p, grace_s)) => {
                     c.args(["--connect", &p.locator(), "--hub-grace-s", &grace_s.to_string()]);
@@ -321,7 +372,7 @@ impl<'a> Agents<'a> {
         schedule.sort_by(|x, y| x.0.total_cmp(&y.0));
         let mut agents =
             Agents { launcher, sc, locators, proxies, running: BTreeMap::new(), hosts: Vec::new(), schedule, restarts: 0 };
-        let (solo, hosts) = spread(sc.agent_ids(), per_process, |id| agents.has_failures(id));
+        let (solo, hosts) = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id));
         for group in hosts {
             agents.hosts.push(launcher.host(&group, &agents.locators)?);
         }
@@ -336,11 +387,6 @@ impl<'a> Agents<'a> {
         let piece = self.spawn(id, &format!("agent-{id}.log"))?;
         self.running.insert(id, piece);
         Ok(())
-    }
-
-    /// Whether `[[failures]]` kills, restarts or cuts off UAV `id`.
-    fn has_failures(&self, id: u32) -> bool {
-        self.schedule.iter().any(|&(_, uav, _)| uav == id)
     }
 
     fn spawn(&self, id: u32, log: &str) -> Result<Piece> {

@@ -1,9 +1,12 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   tap | put | netem | compare | formations | sweep-error | scale | plot | scenarios | check`).
+//!   tap | put | netem | compare | formations | sweep-error | scale | plot | credentials |
+//!   scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
-//!   `--cfg`), run ids, scenario values on the command line.
+//!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
+//! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
+//!   every `swarm run`), and the access-control rules the hub's router enforces per role.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
 //!   swarms) and a recording, applies
 //!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
@@ -40,6 +43,7 @@
 //! `truth/**` besides tools a person points at it.
 
 mod args;
+mod auth;
 pub mod cli;
 mod launch;
 mod netem_cli;

@@ -203,7 +203,7 @@ pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
     let keys = Keys::new(&a.run)?;
     let timeline = timeline_of(&a.op)?;
     let json = serde_json::to_string(&timeline)?;
-    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
+    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
     plumbing::put_once(&s, &keys.netem_add(), Msg::NetemRules(json.clone()).encode()?, zenoh::qos::CongestionControl::Block).await?;
     let _ = s.close().await;
     println!("{json}");

@@ -2,7 +2,7 @@
 //! around its library (`physics_hub::run`, `uav_agent::run`). `swarm run` starts them as its
 //! children; a person can start them by hand, on one machine or several.
 
-use crate::args::ZenohArgs;
+use crate::args::{parse_ids, UavIds, ZenohArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::process::ExitCode;
@@ -25,6 +25,13 @@ pub struct HubArgs {
     /// Exit when standard input closes (the launcher's way to take its children down with it).
     #[arg(long, hide = true)]
     pub exit_with_stdin: bool,
+    /// The users who may connect: a file of `user:password` lines (`swarm credentials` makes
+    /// one); each user's role, read from its name, sets what it may touch (README "Security").
+    #[arg(long, required_unless_present = "insecure")]
+    pub users: Option<std::path::PathBuf>,
+    /// Let anyone connect and touch any key (no authentication, no access control).
+    #[arg(long, conflicts_with = "users")]
+    pub insecure: bool,
 }
 
 /// `swarm agent`.
@@ -93,8 +100,16 @@ async fn shutdown_signal(watch_stdin: bool) {
 pub async fn hub(a: HubArgs) -> Result<ExitCode> {
     let name = a.scenario.as_deref().unwrap_or(swarm_config::DEFAULT_SCENARIO);
     let (sc, text) = Scenario::from_arg(name)?;
-    let listen = if a.zenoh.listen.is_empty() { vec!["tcp/127.0.0.1:7447".to_string()] } else { a.zenoh.listen };
-    let opts = physics_hub::HubOptions { run: a.run, listen, connect: a.zenoh.connect, zenoh_cfg: a.zenoh.cfg };
+    let listen = if a.zenoh.listen.is_empty() { vec!["tcp/127.0.0.1:7447".to_string()] } else { a.zenoh.listen.clone() };
+    let mut zenoh_cfg = match &a.users {
+        Some(dictionary) => crate::auth::router_cfg(&a.run, dictionary)?,
+        None => {
+            warn_insecure();
+            Vec::new()
+        }
+    };
+    zenoh_cfg.extend(a.zenoh.session_cfg()?);
+    let opts = physics_hub::HubOptions { run: a.run, listen, connect: a.zenoh.connect, zenoh_cfg };
     let report = physics_hub::run(
         sc,
         text,
@@ -106,35 +121,19 @@ pub async fn hub(a: HubArgs) -> Result<ExitCode> {
     )
     .await
     .context("hub failed")?;
-    tracing::info!(end = ?report.end, ticks = report.ticks, malformed_cmds = report.malformed, "hub done");
+    tracing::info!(end = ?report.end, ticks = report.ticks, malformed_cmds = report.malformed, ignored_cmds = report.ignored, "hub done");
     Ok(ExitCode::SUCCESS)
 }
 
-/// UAV ids given as ranges and lists: `1-4,7`.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct UavIds(pub Vec<u32>);
-
-/// Parses `1-4,7` into `[1, 2, 3, 4, 7]`: ascending ranges, no repeats, ids from 1.
-fn parse_ids(text: &str) -> Result<UavIds, String> {
-    let mut ids: Vec<u32> = Vec::new();
-    for part in text.split(',').map(str::trim) {
-        let num = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` in `{text}` is not a UAV id"));
-        let (lo, hi) = match part.split_once('-') {
-            Some((a, b)) => (num(a)?, num(b)?),
-            None => (num(part)?, num(part)?),
-        };
-        if lo == 0 || hi < lo {
-            return Err(format!("`{part}` in `{text}`: ids start at 1 and ranges go up"));
-        }
-        ids.extend(lo..=hi);
+/// Says, loudly, that this hub lets anyone in.
+fn warn_insecure() {
+    for line in [
+        "INSECURE: --insecure: no authentication and no access control on this hub.",
+        "INSECURE: anyone who reaches its endpoint can read ground truth (truth/**) and command any UAV.",
+        "INSECURE: start it with --users FILE (made by `swarm credentials`) for anything but a closed test.",
+    ] {
+        tracing::warn!("{line}");
     }
-    let mut sorted = ids.clone();
-    sorted.sort_unstable();
-    sorted.dedup();
-    if sorted.len() != ids.len() {
-        return Err(format!("`{text}` names a UAV twice"));
-    }
-    Ok(UavIds(ids))
 }
 
 /// Runs `swarm agent`: one agent on its own session with `--id`, an agent host with `--ids`.
@@ -150,8 +149,8 @@ pub async fn agent(a: AgentArgs) -> Result<ExitCode> {
     let opts = uav_agent::AgentOptions {
         run: a.run,
         id,
+        zenoh_cfg: a.zenoh.session_cfg()?,
         connect: a.zenoh.connect,
-        zenoh_cfg: a.zenoh.cfg,
         scenario,
         hub_grace_s: a.hub_grace_s,
     };
@@ -168,8 +167,8 @@ async fn agent_host(a: AgentArgs, scenario: Option<Scenario>) -> Result<ExitCode
     let opts = uav_agent::HostOptions {
         run: a.run,
         ids,
+        zenoh_cfg: a.zenoh.session_cfg()?,
         connect: a.zenoh.connect,
-        zenoh_cfg: a.zenoh.cfg,
         scenario,
         hub_grace_s: a.hub_grace_s,
     };
@@ -183,19 +182,4 @@ async fn agent_host(a: AgentArgs, scenario: Option<Scenario>) -> Result<ExitCode
     }
     anyhow::ensure!(failed.is_empty(), "{} of the {n} agents of this host failed:\n  {}", failed.len(), failed.join("\n  "));
     Ok(ExitCode::SUCCESS)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ids_take_ranges_and_lists() {
-        assert_eq!(parse_ids("1-4,7"), Ok(UavIds(vec![1, 2, 3, 4, 7])));
-        assert_eq!(parse_ids("5"), Ok(UavIds(vec![5])));
-        assert!(parse_ids("0-3").is_err());
-        assert!(parse_ids("4-2").is_err());
-        assert!(parse_ids("1-3,2").expect_err("twice").contains("twice"));
-        assert!(parse_ids("1,x").expect_err("not a number").contains("`x`"));
-    }
 }

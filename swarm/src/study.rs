@@ -14,7 +14,7 @@
 //! under the study's folder, so any of them can be looked at afterwards.
 
 use crate::args::{default_run_id, scenario_value, unix_secs};
-use crate::launch::{agents_per_process, execute};
+use crate::launch::{agents_per_process, execute, How};
 use crate::plot::{line_chart, Series};
 use crate::summary::{f, Summary};
 use anyhow::{bail, Context, Result};
@@ -88,7 +88,8 @@ pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: Varia
     let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace('.', "_");
     eprintln!("{tag}: running");
     let per_process = agents_per_process(sc.count(), how.per_process);
-    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], !how.progress, per_process).await?;
+    let run = How { zenoh_cfg: &[], quiet: !how.progress, per_process, insecure: false };
+    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &run).await?;
     Ok(summary)
 }
 

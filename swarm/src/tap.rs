@@ -75,7 +75,7 @@ pub async fn put(a: PutArgs) -> Result<ExitCode> {
         (None, Some(h)) => parse_hex(h)?,
         (None, None) => anyhow::bail!("give --json or --hex"),
     };
-    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
+    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
     // Zenoh's default for a put: dropped rather than blocking under congestion.
     plumbing::put_once(&s, &a.key, bytes, CongestionControl::Drop).await?;
     let _ = s.close().await;
@@ -96,7 +96,7 @@ pub fn describe(key: &str, encoding: &str, bytes: &[u8]) -> Value {
 /// Runs `swarm tap`.
 pub async fn tap(a: TapArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "tap needs --connect <hub endpoint>");
-    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.cfg).await?;
+    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
     let limit = a.count.unwrap_or(u64::MAX);
     let mut printed = 0u64;
     // Stop quietly when the reader goes away (`swarm tap ... | head`): no panic on a broken pipe.

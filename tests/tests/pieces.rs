@@ -176,6 +176,7 @@ fn malformed_messages_are_counted_and_dropped() {
     assert!(agent.wait_for(Duration::from_secs(20)).expect("agent exits").success(), "agent did not panic");
     let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");
     assert!(hub_log.contains("malformed_cmds=1"), "the bad command was counted: {hub_log}");
+    assert!(hub_log.contains("ignored_cmds=2"), "the commands for UAVs 0 and 77 were counted: {hub_log}");
 }
 
 /// An agent that claims an id the hub's scenario does not have (it was given its own scenario

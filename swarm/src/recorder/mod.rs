@@ -46,7 +46,7 @@ pub struct RecordArgs {
 pub async fn record(a: RecordArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "the recorder needs --connect <hub endpoint>");
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
-    let rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.cfg).await?;
+    let rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
     let sc = rec.fetch_scenario().await?;
     let progress = progress_bar(&sc, false);
     let summary = rec.record(&a.out, &sc, &progress, None, &mut |_| Ok(())).await?;

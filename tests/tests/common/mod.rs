@@ -1,5 +1,6 @@
 //! Shared harness of the end-to-end tests: the `swarm` binary under test, unique run ids, a hub
-//! started by hand whose locator is read from its stdout, and a bounded wait for processes.
+//! started by hand whose locator is read from its stdout (insecure, or with credentials), and a
+//! bounded wait for processes.
 //!
 //! Every wait on a child is bounded: [`output_within`] and [`wait_output`] kill a child that
 //! outlives its limit and fail the test saying which command hung; [`Proc::wait_for`] returns
@@ -124,12 +125,50 @@ impl Proc {
     }
 }
 
-/// Starts a hub on a free loopback port and returns it with its locator.
+/// Starts a hub on a free loopback port and returns it with its locator. It runs `--insecure`:
+/// the tests that use it are about something else than access control, and their pieces and
+/// tools connect without credentials (`security.rs` tests the secured hub, [`start_secure_hub`]).
 pub fn start_hub(scenario: &str, run: &str, dir: &Path) -> (Proc, String) {
-    let mut hub = Proc::start(
-        &["hub", scenario, "--run", run, "--listen", "tcp/127.0.0.1:0", "--exit-with-stdin"],
-        &dir.join("hub.log"),
-    );
+    start_hub_with(scenario, run, dir, &["--insecure"])
+}
+
+/// Credentials for a hub and the pieces of a test, made by `swarm credentials` in `dir/creds`:
+/// `uav1`..`uav{uavs}`, `observer`, `operator`.
+pub struct Creds(pub std::path::PathBuf);
+
+impl Creds {
+    /// Makes them.
+    pub fn make(dir: &Path, uavs: u32) -> Creds {
+        let creds = dir.join("creds");
+        let o = output_within(
+            Command::new(SWARM).args(["credentials", "--out", creds.to_str().expect("utf8"), "--uavs", &uavs.to_string()]),
+            TOOL_LIMIT,
+        );
+        assert!(o.status.success(), "swarm credentials: {}", String::from_utf8_lossy(&o.stderr));
+        Creds(creds)
+    }
+
+    /// `--user USER --password-file FILE`.
+    pub fn login(&self, user: &str) -> Vec<String> {
+        let file = self.0.join(format!("{user}.password"));
+        vec!["--user".into(), user.into(), "--password-file".into(), file.to_str().expect("utf8").into()]
+    }
+
+    /// The password of `user`.
+    pub fn password(&self, user: &str) -> String {
+        std::fs::read_to_string(self.0.join(format!("{user}.password"))).expect("password file").trim().to_string()
+    }
+}
+
+/// Starts a hub that lets in only the users of `creds`, with access control by role.
+pub fn start_secure_hub(scenario: &str, run: &str, dir: &Path, creds: &Creds) -> (Proc, String) {
+    start_hub_with(scenario, run, dir, &["--users", creds.0.join("users.txt").to_str().expect("utf8")])
+}
+
+fn start_hub_with(scenario: &str, run: &str, dir: &Path, access: &[&str]) -> (Proc, String) {
+    let mut args = vec!["hub", scenario, "--run", run, "--listen", "tcp/127.0.0.1:0", "--exit-with-stdin"];
+    args.extend_from_slice(access);
+    let mut hub = Proc::start(&args, &dir.join("hub.log"));
     let stdout = hub.child.stdout.take().expect("piped stdout");
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {

@@ -1,0 +1,321 @@
+//! Who may touch what: Zenoh user/password authentication and access control, enforced by the
+//! hub's router (the one place all traffic passes: agents and tools are its clients, and
+//! multicast scouting and gossip are off everywhere, so nothing routes around it).
+//!
+//! A user's role is read from its name, so the hub needs nothing but the dictionary file of
+//! `user:password` lines to build its rules ([`router_cfg`]):
+//! - `uav{id}`: one agent. It may subscribe to its own `uav/{id}/sense/**` and `radio/{id}`,
+//!   `clock`, `netem/rules` and every UAV's `share/**`, ask for `scenario`, watch `alive/hub`;
+//!   publish only its own `cmd`, `share/**` and `state`; hold only `alive/uav/{id}`. Nothing
+//!   else, `truth/**` least of all (the default is deny).
+//! - `uavs{ids}` (`uavs1-20`, `uavs1-4,7`, the `--ids` syntax): an agent host, one session for
+//!   several UAVs, allowed exactly what each of those UAVs is. The same user serves a second
+//!   router that relays a group of agents to the hub.
+//! - `observer` (or `observer-NAME`): reads every key of the run, publishes nothing; it may hold
+//!   `alive/recorder` (the recorder is an observer).
+//! - `operator` (or `operator-NAME`): an observer that may also put on `netem/add`.
+//!
+//! Every rule is written for both directions: what a client may send or declare (ingress) and
+//! what the router forwards to it (egress), since a rule on a wildcard subscription alone would
+//! not keep data off a broader one. Declarations of subscribers and queryables flow to everyone
+//! (clients need them to know a publication has a reader; they carry no data).
+//!
+//! [`Credentials`] makes fresh users and passwords: `swarm run` for each run (in the run folder,
+//! readable by its owner only), `swarm credentials` for pieces started by hand.
+
+use crate::args::parse_ids;
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// The dictionary file's name in a credentials folder.
+pub const DICTIONARY: &str = "users.txt";
+
+/// What a user may do, read from its name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Role {
+    /// Agents of these UAVs (one, or an agent host's).
+    Agents(Vec<u32>),
+    /// Reads everything, publishes nothing.
+    Observer,
+    /// An observer that may also add netem timelines.
+    Operator,
+}
+
+impl Role {
+    /// The role of user `name`, or an error saying which names are understood.
+    pub fn of(name: &str) -> Result<Role> {
+        let named = |role: &str| name == role || name.strip_prefix(role).is_some_and(|r| r.starts_with('-'));
+        if named("observer") {
+            return Ok(Role::Observer);
+        }
+        if named("operator") {
+            return Ok(Role::Operator);
+        }
+        if let Some(spec) = name.strip_prefix("uavs") {
+            return parse_ids(spec).map(|ids| Role::Agents(ids.0)).map_err(|e| anyhow::anyhow!("user {name:?}: {e}"));
+        }
+        if let Some(id) = name.strip_prefix("uav").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
+            return Ok(Role::Agents(vec![id]));
+        }
+        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), observer[-name], operator[-name]")
+    }
+}
+
+/// The user name of an agent host serving `ids` (ascending): `uavs1-4,7`.
+pub fn host_user(ids: &[u32]) -> String {
+    format!("uavs{}", ids_text(ids))
+}
+
+/// `ids` (ascending) in the `--ids` syntax, runs as ranges: `1-4,7`.
+pub fn ids_text(ids: &[u32]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < ids.len() {
+        let mut j = i;
+        while j + 1 < ids.len() && ids[j + 1] == ids[j] + 1 {
+            j += 1;
+        }
+        parts.push(if i == j { ids[i].to_string() } else { format!("{}-{}", ids[i], ids[j]) });
+        i = j + 1;
+    }
+    parts.join(",")
+}
+
+/// A folder of fresh credentials: the hub's dictionary and one password file per user, all
+/// readable by the owner only.
+#[derive(Debug, Clone)]
+pub struct Credentials {
+    dir: PathBuf,
+}
+
+impl Credentials {
+    /// Writes a random password for each of `users` into `dir` (made if missing, mode 0700):
+    /// `users.txt` (`user:password` lines, the hub's `--users`) and `<user>.password`.
+    pub fn create(dir: &Path, users: &[String]) -> Result<Credentials> {
+        use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
+        std::fs::DirBuilder::new().recursive(true).mode(0o700).create(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
+        let mut dictionary = String::new();
+        for user in users {
+            Role::of(user)?;
+            let password = random_password()?;
+            dictionary.push_str(&format!("{user}:{password}\n"));
+            write_private(&dir.join(format!("{user}.password")), &format!("{password}\n"))?;
+        }
+        write_private(&dir.join(DICTIONARY), &dictionary)?;
+        Ok(Credentials { dir: dir.to_path_buf() })
+    }
+
+    /// The dictionary file (`user:password` lines) the hub reads.
+    pub fn dictionary(&self) -> PathBuf {
+        self.dir.join(DICTIONARY)
+    }
+
+    /// `--user USER --password-file FILE`, for a child of the launcher.
+    pub fn client_args(&self, user: &str) -> [String; 4] {
+        let file = self.dir.join(format!("{user}.password"));
+        ["--user".into(), user.into(), "--password-file".into(), file.to_string_lossy().into_owned()]
+    }
+
+    /// The `--cfg` overrides of a client session logged in as `user`.
+    pub fn client_cfg(&self, user: &str) -> Result<Vec<String>> {
+        let password = crate::args::read_password(&self.dir.join(format!("{user}.password")))?;
+        Ok(crate::args::usrpwd_cfg(user, &password))
+    }
+}
+
+/// 128 random bits from the kernel, as hex.
+fn random_password() -> Result<String> {
+    use std::io::Read;
+    let mut bytes = [0u8; 16];
+    std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut bytes)).context("cannot read /dev/urandom")?;
+    Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// Writes `text` to a new file only its owner can read (0600).
+fn write_private(path: &Path, text: &str) -> Result<()> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let _ = std::fs::remove_file(path);
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .open(path)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    f.write_all(text.as_bytes()).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The user names of a dictionary file (`user:password` lines; blank lines skipped).
+fn users_of(dictionary: &Path) -> Result<Vec<String>> {
+    let text = std::fs::read_to_string(dictionary).with_context(|| format!("cannot read {}", dictionary.display()))?;
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .map(|l| {
+            l.split_once(':')
+                .map(|(u, _)| u.trim().to_string())
+                .with_context(|| format!("{}: a line is not user:password", dictionary.display()))
+        })
+        .collect()
+}
+
+/// The hub router's `--cfg` overrides for run `run`: the dictionary, and access control with a
+/// rule set per user of it (see the module doc), default deny.
+pub fn router_cfg(run: &str, dictionary: &Path) -> Result<Vec<String>> {
+    let users = users_of(dictionary)?;
+    let acl = access_control(run, &users)?;
+    let path = serde_json::to_string(&dictionary.to_string_lossy())?;
+    Ok(vec![format!("transport/auth/usrpwd/dictionary_file:{path}"), format!("access_control:{acl}")])
+}
+
+/// One ACL rule: `permission: allow` for `messages` in `flow` on `keys`.
+fn rule(id: &str, flow: &str, messages: &[&str], keys: Vec<String>) -> Value {
+    json!({ "id": id, "permission": "allow", "flows": [flow], "messages": messages, "key_exprs": keys })
+}
+
+/// The `access_control` section for `users` of run `run`.
+fn access_control(run: &str, users: &[String]) -> Result<Value> {
+    let r = format!("swarm/{run}");
+    let read = ["declare_subscriber", "query", "liveliness_query", "declare_liveliness_subscriber"];
+    let mut rules = vec![
+        // Everyone: declarations flow out (a client's publisher needs to see its readers).
+        rule("decl-out", "egress", &["declare_subscriber", "declare_queryable"], vec![format!("{r}/**")]),
+        // Observers and operators.
+        rule("observe-in", "ingress", &read, vec![format!("{r}/**")]),
+        rule("observe-out", "egress", &["put", "delete", "reply", "liveliness_token"], vec![format!("{r}/**")]),
+        rule("recorder-token", "ingress", &["liveliness_token"], vec![format!("{r}/alive/recorder")]),
+        rule("operate", "ingress", &["put"], vec![format!("{r}/netem/add")]),
+        // Every agent: the run-wide keys, and its neighbours' shares.
+        rule("agent-sub", "ingress", &["declare_subscriber"], agent_common_keys(&r)),
+        rule("agent-data", "egress", &["put"], agent_common_keys(&r)),
+        rule("agent-ask", "ingress", &["query"], vec![format!("{r}/scenario")]),
+        rule("agent-answer", "egress", &["reply"], vec![format!("{r}/scenario")]),
+        rule("agent-hub-watch", "ingress", &["declare_liveliness_subscriber", "liveliness_query"], vec![format!("{r}/alive/hub")]),
+        rule("agent-hub-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/hub")]),
+    ];
+    let mut subjects = Vec::new();
+    let mut policies = Vec::new();
+    let mut seen = BTreeMap::new();
+    for (n, user) in users.iter().enumerate() {
+        if seen.insert(user.clone(), ()).is_some() {
+            bail!("user {user:?} appears twice in the dictionary");
+        }
+        let subject = format!("user{n}");
+        subjects.push(json!({ "id": subject, "usernames": [user] }));
+        let granted: Vec<String> = match Role::of(user)? {
+            Role::Observer => vec!["decl-out".into(), "observe-in".into(), "observe-out".into(), "recorder-token".into()],
+            Role::Operator => {
+                vec!["decl-out".into(), "observe-in".into(), "observe-out".into(), "recorder-token".into(), "operate".into()]
+            }
+            Role::Agents(ids) => {
+                rules.extend(own_rules(&r, &subject, &ids));
+                let own = ["own-sub", "own-data", "own-pub", "own-token"].map(|k| format!("{subject}-{k}"));
+                ["decl-out", "agent-sub", "agent-data", "agent-ask", "agent-answer", "agent-hub-watch", "agent-hub-token"]
+                    .iter()
+                    .map(|s| s.to_string())
+                    .chain(own)
+                    .collect()
+            }
+        };
+        policies.push(json!({ "id": format!("{subject}-policy"), "rules": granted, "subjects": [subject] }));
+    }
+    Ok(json!({ "enabled": true, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies }))
+}
+
+/// Keys every agent may read: `clock`, `netem/rules`, and every UAV's shares.
+fn agent_common_keys(r: &str) -> Vec<String> {
+    vec![format!("{r}/clock"), format!("{r}/netem/rules"), format!("{r}/uav/*/share/**")]
+}
+
+/// The rules of the agents of `ids` (under subject id `subject`): their own sensors and radio
+/// in, their own command, shares and state out, their own liveliness tokens.
+fn own_rules(r: &str, subject: &str, ids: &[u32]) -> Vec<Value> {
+    let keys = |f: &dyn Fn(u32) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
+    let sensors = keys(&|i| vec![format!("{r}/uav/{i}/sense/**"), format!("{r}/radio/{i}")]);
+    let out = keys(&|i| vec![format!("{r}/uav/{i}/cmd"), format!("{r}/uav/{i}/share/**"), format!("{r}/uav/{i}/state")]);
+    let tokens = keys(&|i| vec![format!("{r}/alive/uav/{i}")]);
+    vec![
+        rule(&format!("{subject}-own-sub"), "ingress", &["declare_subscriber"], sensors.clone()),
+        rule(&format!("{subject}-own-data"), "egress", &["put"], sensors),
+        rule(&format!("{subject}-own-pub"), "ingress", &["put"], out),
+        rule(&format!("{subject}-own-token"), "ingress", &["liveliness_token"], tokens),
+    ]
+}
+
+/// `swarm credentials`.
+#[derive(Args, Debug, Clone)]
+pub struct CredentialsArgs {
+    /// Folder to write `users.txt` (the hub's `--users`) and one `<user>.password` per user.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Make `uav1` .. `uavN`.
+    #[arg(long, default_value_t = 0)]
+    pub uavs: u32,
+    /// Also an agent-host user for these UAVs, e.g. `1-20` makes `uavs1-20` (repeatable).
+    #[arg(long = "host", value_parser = parse_ids)]
+    pub hosts: Vec<crate::args::UavIds>,
+    /// More users by name (`observer-alice`, `operator-bob`, `uav7`...); `observer` and
+    /// `operator` are always made.
+    #[arg(long = "user")]
+    pub users: Vec<String>,
+}
+
+/// Runs `swarm credentials`: prints each user and its password file.
+pub fn credentials(a: CredentialsArgs) -> Result<ExitCode> {
+    let mut users: Vec<String> = (1..=a.uavs).map(|i| format!("uav{i}")).collect();
+    users.extend(a.hosts.iter().map(|h| host_user(&h.0)));
+    users.extend(["observer".to_string(), "operator".to_string()]);
+    users.extend(a.users);
+    let creds = Credentials::create(&a.out, &users)?;
+    println!("dictionary (swarm hub --users): {}", creds.dictionary().display());
+    for u in &users {
+        println!("{u}: --user {u} --password-file {}", a.out.join(format!("{u}.password")).display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roles_are_read_from_names() {
+        assert_eq!(Role::of("uav3").expect("agent"), Role::Agents(vec![3]));
+        assert_eq!(Role::of("uavs1-3,7").expect("host"), Role::Agents(vec![1, 2, 3, 7]));
+        assert_eq!(Role::of("observer").expect("o"), Role::Observer);
+        assert_eq!(Role::of("operator-bob").expect("op"), Role::Operator);
+        for bad in ["uav0", "uav", "uavx", "observers", "root", "uavs3-1"] {
+            assert!(Role::of(bad).is_err(), "{bad} has no role");
+        }
+    }
+
+    #[test]
+    fn host_users_round_trip() {
+        assert_eq!(host_user(&[1, 2, 3, 4, 7]), "uavs1-4,7");
+        assert_eq!(host_user(&[5]), "uavs5");
+        assert_eq!(Role::of(&host_user(&[2, 3, 9, 10])).expect("host"), Role::Agents(vec![2, 3, 9, 10]));
+    }
+
+    #[test]
+    fn credentials_are_private_and_rules_cover_each_user() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("swarm-auth-test-{}", std::process::id()));
+        let users: Vec<String> = ["uav1", "uavs2-3", "observer", "operator"].map(String::from).to_vec();
+        let c = Credentials::create(&dir, &users).expect("made");
+        let mode = std::fs::metadata(c.dictionary()).expect("dict").permissions().mode() & 0o777;
+        assert_eq!(mode, 0o600);
+        assert_eq!(users_of(&c.dictionary()).expect("read"), users);
+        let acl = access_control("r", &users).expect("acl");
+        assert_eq!(acl["default_permission"], "deny");
+        assert_eq!(acl["policies"].as_array().expect("p").len(), 4);
+        let text = acl.to_string();
+        assert!(text.contains("swarm/r/uav/3/cmd") && text.contains("swarm/r/alive/uav/2"), "{text}");
+        assert!(!text.contains("truth"), "no rule ever allows truth to an agent: {text}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,164 @@
+//! Issue 13, item 1: only what is theirs. A hub started with `--users` lets in only those users
+//! and its router enforces each role's rules: an agent reads its own sensors but never ground
+//! truth, and its put on another UAV's command key never reaches the hub; an observer reads
+//! everything and publishes nothing; an operator may also change the netem timeline; a session
+//! without credentials (or with a wrong password) is refused. Checked with our own Rust clients
+//! (`swarm tap`, `put`, `netem` logged in as each role) and with a client no one here wrote
+//! (Python `eclipse-zenoh` 1.10 from PyPI, `security/client.py`).
+//!
+//! The hub's log line `hub done` carries its counts: `malformed_cmds` (payloads that are not a
+//! command) and `ignored_cmds` (well-formed commands for a UAV outside the scenario or for a tick
+//! not yet opened). A refused put leaves both untouched; an allowed one on the sender's own key
+//! moves them, so each test also shows that the path it says is closed would have been counted.
+
+mod common;
+
+use common::{output_within, run_id, start_secure_hub, Creds, Proc, SWARM, TOOL_LIMIT};
+use std::process::Command;
+use std::time::Duration;
+
+/// Three UAVs in realtime at 2x for 120 s of sim time: 60 s of wall time in which the checks tap
+/// the live run.
+const THREE: &str = "name = \"three\"\n[swarm]\ncount = 3\nstart_positions = [[0.0, 0.0], [0.0, 2.0], [0.0, -2.0]]\ngoal = [100.0, 0.0]\n[time]\nmode = \"realtime\"\nrealtime_factor = 2.0\n[end]\ntime_limit_s = 120.0\n";
+
+/// A secured hub flying [`THREE`], its recorder (as `observer`) and agents (each as its own
+/// `uav{id}`).
+struct Flight {
+    dir: tempfile::TempDir,
+    run: String,
+    loc: String,
+    creds: Creds,
+    hub: Proc,
+    rec: Proc,
+    _agents: Vec<Proc>,
+}
+
+impl Flight {
+    fn start(tag: &str) -> Flight {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let run = run_id(tag);
+        let sc = dir.path().join("three.toml");
+        std::fs::write(&sc, THREE).expect("scenario");
+        let creds = Creds::make(dir.path(), 3);
+        let (hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
+        let out = dir.path().join("rec");
+        let mut args = vec!["record".to_string(), "--run".into(), run.clone(), "--out".into(), out.to_str().expect("utf8").into()];
+        args.extend(["--connect".into(), loc.clone()]);
+        args.extend(creds.login("observer"));
+        let rec = Proc::start(&args.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join("rec.log"));
+        let agents = (1..=3)
+            .map(|id| {
+                let mut a = vec!["agent".to_string(), "--run".into(), run.clone(), "--id".into(), id.to_string(), "--connect".into(), loc.clone()];
+                a.extend(creds.login(&format!("uav{id}")));
+                Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join(format!("a{id}.log")))
+            })
+            .collect();
+        let f = Flight { dir, run, loc, creds, hub, rec, _agents: agents };
+        let clock = f.tap_as("observer", "clock", &["--count", "5", "--duration", "60"]);
+        assert_eq!(clock.lines().count(), 5, "the run flies with every piece logged in");
+        f
+    }
+
+    /// Runs `swarm <cmd> --connect LOC <args>` logged in as `user` (none: no credentials).
+    fn as_user(&self, user: Option<&str>, cmd: &str, args: &[&str]) -> std::process::Output {
+        let login = user.map(|u| self.creds.login(u)).unwrap_or_default();
+        output_within(Command::new(SWARM).arg(cmd).args(["--connect", &self.loc]).args(login).args(args), TOOL_LIMIT)
+    }
+
+    /// `swarm tap swarm/{run}/{key} ARGS` as `user`; fails the test if the tap fails.
+    fn tap_as(&self, user: &str, key: &str, args: &[&str]) -> String {
+        let o = self.as_user(Some(user), "tap", &[&[format!("swarm/{}/{key}", self.run).as_str()], args].concat());
+        assert!(o.status.success(), "tap {key} as {user}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).expect("utf8")
+    }
+
+    /// `swarm put swarm/{run}/{key} ARGS` as `user`; the put itself succeeds (the router drops
+    /// what the user may not send without telling it).
+    fn put_as(&self, user: &str, key: &str, args: &[&str]) {
+        let o = self.as_user(Some(user), "put", &[&[format!("swarm/{}/{key}", self.run).as_str()], args].concat());
+        assert!(o.status.success(), "put {key} as {user}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+
+    /// Waits for the run's end and returns the hub's log.
+    fn finish(mut self) -> String {
+        assert!(self.rec.wait_for(Duration::from_secs(180)).expect("the run ends").success(), "recorder");
+        assert!(self.hub.wait_for(Duration::from_secs(30)).expect("hub exits").success(), "hub");
+        let log = std::fs::read_to_string(self.dir.path().join("hub.log")).expect("hub log");
+        assert!(log.contains("hub done"), "{log}");
+        log
+    }
+}
+
+/// A well-formed velocity command for a tick the hub will not open for a long time: the hub
+/// counts it in `ignored_cmds` if it ever arrives.
+const FUTURE_CMD: &str = r#"{"Cmd": {"tick": 1000000000, "kind": "Velocity", "x": -1.0, "y": 0.0, "yaw_rate": 0.0}}"#;
+
+#[test]
+fn each_role_touches_only_what_is_its_own_with_rust_clients() {
+    let f = Flight::start("sec-rust");
+    // No credentials, or a wrong password: the session is refused (quickly, with a short connect
+    // timeout instead of our clients' default wait for a hub that is not up yet).
+    let quick = ["--count", "1", "--duration", "5", "--cfg", "connect/timeout_ms:2000"];
+    let key = format!("swarm/{}/clock", f.run);
+    let anonymous = f.as_user(None, "tap", &[&[key.as_str()], &quick[..]].concat());
+    assert!(!anonymous.status.success(), "a session without credentials is refused: {}", String::from_utf8_lossy(&anonymous.stdout));
+    let wrong = output_within(
+        Command::new(SWARM)
+            .args(["tap", &key, "--connect", &f.loc, "--user", "uav3", "--password-file"])
+            .arg(f.creds.0.join("uav2.password"))
+            .args(quick),
+        TOOL_LIMIT,
+    );
+    assert!(!wrong.status.success(), "UAV 3 with UAV 2's password is refused");
+
+    // Agent: its own sensors, never truth, nor another UAV's sensors. A subscription broader
+    // than its keys (`swarm/{run}/**`) is refused whole by the router: it receives nothing.
+    assert_eq!(f.tap_as("uav3", "uav/3/sense/scan", &["--count", "3", "--duration", "30"]).lines().count(), 3);
+    assert_eq!(f.tap_as("uav3", "uav/2/sense/scan", &["--duration", "3"]).lines().count(), 0, "UAV 2's scan is not UAV 3's");
+    assert_eq!(f.tap_as("uav3", "**", &["--duration", "3"]).lines().count(), 0, "a subscription to everything is refused");
+    assert_eq!(f.tap_as("uav3", "truth/**", &["--duration", "3"]).lines().count(), 0, "UAV 3 reads no truth");
+    // Observer: everything, truth included.
+    assert_eq!(f.tap_as("observer", "truth/step", &["--count", "3", "--duration", "30"]).lines().count(), 3, "truth was flowing");
+    assert!(f.tap_as("observer", "uav/2/sense/scan", &["--count", "1", "--duration", "30"]).contains("Scan"));
+
+    // UAV 3's puts on UAV 2's command key (garbage, and a command) are refused by the router;
+    // the same on its own key reaches the hub (the counts below show both).
+    f.put_as("uav3", "uav/2/cmd", &["--hex", "05 02"]);
+    f.put_as("uav3", "uav/2/cmd", &["--json", FUTURE_CMD]);
+    f.put_as("uav3", "uav/3/cmd", &["--json", FUTURE_CMD]);
+    // An observer publishes nothing: neither a command nor a netem timeline.
+    f.put_as("observer", "uav/1/cmd", &["--hex", "05 02"]);
+    let o = f.as_user(Some("observer"), "netem", &["--run", &f.run, "freeze", "2"]);
+    assert!(o.status.success(), "sent (the router drops it): {}", String::from_utf8_lossy(&o.stderr));
+    // An operator may change the netem timeline.
+    let o = f.as_user(Some("operator"), "netem", &["--run", &f.run, "freeze", "1"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let log = f.finish();
+    assert!(log.contains("malformed_cmds=0"), "no garbage reached the hub: {log}");
+    assert!(log.contains("ignored_cmds=1"), "only UAV 3's command on its own key reached the hub: {log}");
+    assert_eq!(log.matches("netem timeline added").count(), 1, "the operator's freeze only: {log}");
+}
+
+#[test]
+fn a_python_client_no_one_here_wrote_is_held_to_its_role() {
+    let f = Flight::start("sec-py");
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/security/client.py");
+    let o = output_within(
+        Command::new(common::python()).arg(script).args([&f.loc, &f.run, &f.creds.password("uav3"), "5"]),
+        TOOL_LIMIT,
+    );
+    assert!(o.status.success(), "client.py: {}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON line");
+    assert_eq!(v["refused"], true, "no credentials: refused: {v}");
+    assert_eq!(v["wrong_password_refused"], true, "{v}");
+    assert!(v["scan"].as_u64().expect("n") > 0, "UAV 3 receives its scan: {v}");
+    assert_eq!(v["truth"], 0, "and nothing on truth/**: {v}");
+    // Its subscription to `swarm/{run}/**` is refused by the router; the session still hands it
+    // what reaches the session for its other subscriptions, and its own puts.
+    let keys: Vec<&str> = v["keys"].as_array().expect("keys").iter().filter_map(|k| k.as_str()).collect();
+    assert!(keys.iter().all(|k| !k.contains("/truth/") && !k.contains("/uav/2/sense/")), "{keys:?}");
+    let log = f.finish();
+    assert!(log.contains("malformed_cmds=1"), "its garbage on uav/3/cmd arrived, on uav/2/cmd it did not: {log}");
+    assert!(!log.contains("liveliness token of a UAV not in this scenario"), "its token for UAV 9 never reached the hub: {log}");
+}
