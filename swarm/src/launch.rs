@@ -57,6 +57,14 @@ pub struct RunArgs {
     /// Do not draw a progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Do not write `run.mcap` (the Foxglove recording of the run).
+    #[arg(long)]
+    pub no_mcap: bool,
+    /// Watch the run live: serve `swarm view`'s page on this port of 127.0.0.1 (default 8765;
+    /// 0 = any free port) and the Foxglove WebSocket beside it; prints the addresses, and keeps
+    /// serving after the run until Ctrl-C.
+    #[arg(long, num_args = 0..=1, default_missing_value = "8765", value_name = "PORT")]
+    pub view: Option<u16>,
     /// Agents per process: 1 is one process per UAV; more starts agent hosts. Default: 1 up to
     /// 10 UAVs, else one host per core. UAVs with kills, restarts or link faults in
     /// `[[failures]]` always get a process of their own.
@@ -90,9 +98,14 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     let per_process = agents_per_process(sc.count(), a.agents_per_process);
-    let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &a.cfg, a.quiet, per_process).await?;
+    let show = Show { quiet: a.quiet, mcap: !a.no_mcap, view: a.view };
+    let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &a.cfg, show, per_process).await?;
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
+    if a.view.is_some() {
+        eprintln!("the run is over; the view stays up until Ctrl-C");
+        let _ = tokio::signal::ctrl_c().await;
+    }
     Ok(summary.exit_code(hub_ok))
 }
 
@@ -124,6 +137,17 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
     Ok((sc, text))
 }
 
+/// What a run shows besides its run folder's CSV, summary and map.
+#[derive(Debug, Clone, Copy)]
+pub struct Show {
+    /// No progress bar.
+    pub quiet: bool,
+    /// Write `run.mcap`.
+    pub mcap: bool,
+    /// Serve the live view on this page port (see `RunArgs::view`).
+    pub view: Option<u16>,
+}
+
 /// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
 /// writes the run folder `out`, and returns the summary and whether the hub exited cleanly.
 /// `per_process` agents share a process (see [`agents_per_process`]).
@@ -133,7 +157,7 @@ pub async fn execute(
     run_id: &str,
     out: &Path,
     zenoh_cfg: &[String],
-    quiet: bool,
+    show: Show,
     per_process: u32,
 ) -> Result<(Summary, bool)> {
     Keys::new(run_id)?;
@@ -154,9 +178,18 @@ pub async fn execute(
     info!(?locators, "hub up");
     let proxies = start_proxies(sc, &locators).await?;
 
-    let rec = Recording::start(run_id, &locators, zenoh_cfg).await?;
+    let mut rec = Recording::start(run_id, &locators, zenoh_cfg, show.mcap).await?;
+    rec.write_mcap(sc, out)?;
+    if let Some(port) = show.view {
+        let live = crate::view::Live::start(run_id, &locators, zenoh_cfg, port).await?;
+        // Stdout, flushed at once: scripts (and tests) read the address while the run goes.
+        println!("{}", live.addresses());
+        use std::io::Write as _;
+        let _ = std::io::stdout().flush();
+        tokio::spawn(live.run());
+    }
     let mut agents = Agents::start(&launcher, sc, locators, proxies, per_process)?;
-    let progress = progress_bar(sc, quiet);
+    let progress = progress_bar(sc, show.quiet);
     let summary = rec.record(out, sc, &progress, Some(&mut hub.child), &mut |t| agents.on_tick(t)).await?;
     progress.finish_and_clear();
     let hub_ok = agents.stop(hub).await;

@@ -1,7 +1,7 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   tap | put | netem | compare | formations | sweep-error | scale | scenarios | check`).
+//!   view | tap | put | netem | compare | formations | sweep-error | scale | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`), run ids, scenario values on the command line.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
@@ -23,6 +23,10 @@
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
+//! - [`scene`]: the run as a Foxglove scene (the SDK's schemas on an explicit context): what the
+//!   recorder writes to `run.mcap`.
+//! - [`view`]: `swarm view` (and `swarm run --view`): a live web page and the Foxglove
+//!   WebSocket of a running swarm.
 //! - [`plot`]: `run.svg`, the map of the run and distances over time, and the studies' charts.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
@@ -46,7 +50,9 @@ mod plot;
 mod proxy;
 mod recorder;
 mod scale;
+mod scene;
 mod scenarios;
 mod study;
 pub mod summary;
 mod tap;
+mod view;

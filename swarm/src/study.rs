@@ -88,7 +88,9 @@ pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: Varia
     let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace('.', "_");
     eprintln!("{tag}: running");
     let per_process = agents_per_process(sc.count(), how.per_process);
-    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], !how.progress, per_process).await?;
+    // A study's runs are for its table: no MCAP recording each.
+    let show = crate::launch::Show { quiet: !how.progress, mcap: false, view: None };
+    let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &[], show, per_process).await?;
     Ok(summary)
 }
 
