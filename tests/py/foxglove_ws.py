@@ -1,5 +1,6 @@
-"""A small Foxglove WebSocket client (subprotocol foxglove.websocket.v1, written from the
-protocol's spec, none of our code): subscribes to one topic, decodes its messages with the
+"""A small Foxglove WebSocket client (written from the protocol's spec, none of our code). It
+offers the protocol's old name, foxglove.websocket.v1, and its current one, foxglove.sdk.v1 (the
+only one the pinned SDK's server accepts): subscribes to one topic, decodes its messages with the
 protobuf schema the server advertises, and prints one JSON object with what it received.
 
 usage: foxglove_ws.py ws://HOST:PORT TOPIC COUNT TIMEOUT_S
@@ -27,7 +28,7 @@ def main():
     deadline = time.monotonic() + timeout
     out = {"server": None, "channel": None, "poses": []}
     cls = None
-    with connect(url, subprotocols=["foxglove.websocket.v1"], open_timeout=timeout) as ws:
+    with connect(url, subprotocols=["foxglove.websocket.v1", "foxglove.sdk.v1"], open_timeout=timeout) as ws:
         out["subprotocol"] = ws.subprotocol
         while len(out["poses"]) < want and time.monotonic() < deadline:
             try:

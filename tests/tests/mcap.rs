@@ -68,7 +68,8 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
     assert_eq!(ticks, (FLY_S * 10.0) as u64, "the run flew to its time limit");
     let count = |t: &str| topics[t]["count"].as_u64().unwrap_or_else(|| panic!("topic {t} missing: {topics:#}"));
     let schema = |t: &str| topics[t]["schema"].as_str().unwrap_or_default().to_string();
-    assert_eq!(count("/world"), 1);
+    // Published by the hub, and fetched once more by the recorder in case that came first.
+    assert!((1..=2).contains(&count("/world")), "{topics:#}");
     assert_eq!(schema("/world"), "foxglove.SceneUpdate");
     assert_eq!(count("/tf"), ticks, "one transform set per tick");
     assert_eq!(count("/radio"), ticks, "one radio graph per tick");

@@ -1,5 +1,5 @@
 //! End to end: watching a run. `swarm run --view` serves the live page and the Foxglove
-//! WebSocket: a Foxglove client (Python `websockets`, speaking `foxglove.websocket.v1`) receives
+//! WebSocket: a Foxglove client (Python `websockets`, speaking the Foxglove WebSocket protocol, `foxglove.sdk.v1`) receives
 //! UAV poses during the run, and headless Chromium (Debian's, driven by playwright) sees the
 //! drawn UAVs move and sit where the run's truth puts them. `swarm replay` of a run folder seeks
 //! to a tick and draws that tick's positions. Screenshots are kept under the tests' target
@@ -112,7 +112,8 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     let (_run, page, ws) = start_serving(&args, "view: ", &dir.path().join("run.log"));
 
     let fox = py("foxglove_ws.py", &[&ws, "/uav/1/pose", "20", "60"]);
-    assert_eq!(fox["subprotocol"], "foxglove.websocket.v1", "{fox}");
+    // The pinned SDK (0.30.3) accepts only the protocol's current name.
+    assert_eq!(fox["subprotocol"], "foxglove.sdk.v1", "{fox}");
     assert_eq!(fox["channel"]["schemaName"], "foxglove.PoseInFrame", "{fox}");
     let poses = fox["poses"].as_array().expect("poses");
     assert!(poses.len() >= 20, "20 poses during the run: {fox}");

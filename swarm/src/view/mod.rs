@@ -82,7 +82,8 @@ async fn ring(s: &zenoh::Session, key: String) -> Result<Ring> {
 
 /// A live view: the session, its ring-buffered subscriptions, and what they feed.
 pub struct Live {
-    session: zenoh::Session,
+    /// Held: the subscriptions live as long as their session.
+    _session: zenoh::Session,
     subs: [Ring; 5],
     shown: Shown,
     page_port: u16,
@@ -132,7 +133,7 @@ impl Live {
             Ok(b) => shown.truth(&b),
             Err(e) => tracing::warn!("no world from the hub yet: {e}"),
         }
-        Ok(Live { session, subs, shown, page_port, foxglove })
+        Ok(Live { _session: session, subs, shown, page_port, foxglove })
     }
 
     /// The page's and the Foxglove WebSocket's addresses, as printed.
