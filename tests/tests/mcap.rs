@@ -15,20 +15,10 @@ const FLY_S: f64 = 5.0;
 /// The tick whose scan is compared.
 const TICK: u64 = 20;
 
-fn forest5_short(dir: &std::path::Path) -> String {
-    let src = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-5.toml");
-    let text = std::fs::read_to_string(src).expect("forest-5.toml");
-    let cut = text.replace("time_limit_s = 300.0", &format!("time_limit_s = {FLY_S:.1}"));
-    assert_ne!(cut, text, "forest-5's time limit line moved");
-    let path = dir.join("forest-5-short.toml");
-    std::fs::write(&path, cut).expect("write scenario");
-    path.to_str().expect("utf8").to_string()
-}
-
 #[test]
 fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let sc = forest5_short(dir.path());
+    let sc = common::forest5_cut(dir.path(), FLY_S);
     let run = run_id("mcap");
     let (mut hub, loc) = start_hub(&sc, &run, dir.path());
     let out = dir.path().join("rec");

@@ -15,17 +15,6 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Forest-5 cut to `limit_s` sim seconds, written into `dir`.
-fn forest5(dir: &Path, limit_s: f64) -> String {
-    let src = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-5.toml");
-    let text = std::fs::read_to_string(src).expect("forest-5.toml");
-    let cut = text.replace("time_limit_s = 300.0", &format!("time_limit_s = {limit_s:.1}"));
-    assert_ne!(cut, text, "forest-5's time limit line moved");
-    let path = dir.join("forest-5-cut.toml");
-    std::fs::write(&path, cut).expect("write scenario");
-    path.to_str().expect("utf8").to_string()
-}
-
 /// Where a test keeps its screenshots (kept after the test).
 fn output_dir(test: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("view").join(test);
@@ -105,7 +94,7 @@ fn wait_for_file(p: &Path, limit: Duration) {
 #[test]
 fn live_view_draws_the_run_and_serves_foxglove_poses() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let sc = forest5(dir.path(), 40.0);
+    let sc = common::forest5_cut(dir.path(), 40.0);
     let out = dir.path().join("run");
     let run = run_id("view");
     let args = ["run", &sc, "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet", "--time-mode", "realtime", "--view", "0"];
@@ -141,7 +130,7 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
 #[test]
 fn replay_seeks_to_a_tick_and_draws_its_positions() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let sc = forest5(dir.path(), 8.0);
+    let sc = common::forest5_cut(dir.path(), 8.0);
     let out = dir.path().join("run");
     let o = common::swarm_run(&[&sc, "--out", out.to_str().expect("utf8"), "--run", &run_id("replay")]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
