@@ -30,10 +30,10 @@ fn start_serving(args: &[&str], prefix: &str, log: &Path) -> (Proc, String, Stri
     let stdout = child.stdout.take().expect("stdout");
     let stdin = child.stdin.take();
     let (tx, rx) = std::sync::mpsc::channel();
-    let prefix = prefix.to_string();
+    let wanted = prefix.to_string();
     std::thread::spawn(move || {
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            if line.starts_with(&prefix) {
+            if line.starts_with(&wanted) {
                 let _ = tx.send(line);
             }
         }
