@@ -26,6 +26,11 @@ pub enum Cmd {
     Agent(crate::pieces::AgentArgs),
     /// Record a run started by hand: write the run folder when the hub ends the run.
     Record(crate::recorder::RecordArgs),
+    /// Watch a running swarm: a web page and the Foxglove WebSocket, on loopback.
+    View(crate::view::ViewArgs),
+    /// Replay a recorded run (`run.mcap` or its run folder) on the view's page and the Foxglove
+    /// WebSocket, with play, pause, seek and speed.
+    Replay(crate::view::ReplayArgs),
     /// Print every message on a key expression as JSON lines.
     Tap(crate::tap::TapArgs),
     /// Publish one message (as JSON, or raw hex) on a key.
@@ -94,6 +99,8 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Hub(a) => crate::pieces::hub(a).await,
         Cmd::Agent(a) => crate::pieces::agent(a).await,
         Cmd::Record(a) => crate::recorder::record(a).await,
+        Cmd::View(a) => crate::view::view(a).await,
+        Cmd::Replay(a) => crate::view::replay(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,
         Cmd::Put(a) => crate::tap::put(a).await,
         Cmd::Netem(a) => crate::netem_cli::netem(a).await,

@@ -64,6 +64,14 @@ pub struct RunArgs {
     /// No credentials: the hub lets anyone in (`swarm hub --insecure`; it says so loudly).
     #[arg(long)]
     pub insecure: bool,
+    /// Do not write `run.mcap` (the Foxglove recording of the run).
+    #[arg(long)]
+    pub no_mcap: bool,
+    /// Watch the run live: serve `swarm view`'s page on this port of 127.0.0.1 (default 8765;
+    /// 0 = any free port) and the Foxglove WebSocket beside it; prints the addresses, and keeps
+    /// serving after the run until Ctrl-C.
+    #[arg(long, num_args = 0..=1, default_missing_value = "8765", value_name = "PORT")]
+    pub view: Option<u16>,
     /// Agents per process: 1 is one process per UAV; more starts agent hosts. Default: 1 up to
     /// 10 UAVs, else one host per core. UAVs with kills, restarts or link faults in
     /// `[[failures]]` always get a process of their own.
@@ -97,10 +105,15 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     let per_process = agents_per_process(sc.count(), a.agents_per_process);
-    let how = How { zenoh_cfg: &a.cfg, quiet: a.quiet, per_process, insecure: a.insecure };
+    let show = Show { quiet: a.quiet, mcap: !a.no_mcap, view: a.view };
+    let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
+    if a.view.is_some() {
+        eprintln!("the run is over; the view stays up until Ctrl-C");
+        let _ = tokio::signal::ctrl_c().await;
+    }
     Ok(summary.exit_code(hub_ok))
 }
 
@@ -137,12 +150,23 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
 pub struct How<'a> {
     /// `--cfg` overrides for every piece.
     pub zenoh_cfg: &'a [String],
-    /// No progress bar.
-    pub quiet: bool,
+    /// What the run shows besides its run folder's CSV, summary and figures.
+    pub show: Show,
     /// Agents per process (see [`agents_per_process`]).
     pub per_process: u32,
     /// Start the hub with `--insecure` instead of fresh credentials.
     pub insecure: bool,
+}
+
+/// What a run shows besides its run folder's CSV, summary and figures.
+#[derive(Debug, Clone, Copy)]
+pub struct Show {
+    /// No progress bar.
+    pub quiet: bool,
+    /// Write `run.mcap`.
+    pub mcap: bool,
+    /// Serve the live view on this page port (see `RunArgs::view`).
+    pub view: Option<u16>,
 }
 
 /// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
@@ -150,7 +174,7 @@ pub struct How<'a> {
 /// Unless `insecure`, every piece logs in with credentials made for this run in
 /// `<out>/credentials/` (readable by the owner only).
 pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &How<'_>) -> Result<(Summary, bool)> {
-    let How { zenoh_cfg, quiet, per_process, insecure } = *how;
+    let How { zenoh_cfg, show, per_process, insecure } = *how;
     Keys::new(run_id)?;
     let logs = out.join("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("cannot create {}", logs.display()))?;
@@ -176,9 +200,18 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         None => Vec::new(),
     };
     rec_cfg.extend(zenoh_cfg.iter().cloned());
-    let rec = Recording::start(run_id, &locators, &rec_cfg).await?;
+    let mut rec = Recording::start(run_id, &locators, &rec_cfg, show.mcap).await?;
+    rec.write_mcap(sc, out)?;
+    if let Some(port) = show.view {
+        let live = crate::view::Live::start(run_id, &locators, &rec_cfg, port).await?;
+        // Stdout, flushed at once: scripts (and tests) read the address while the run goes.
+        println!("{}", live.addresses());
+        use std::io::Write as _;
+        let _ = std::io::stdout().flush();
+        tokio::spawn(live.run());
+    }
     let mut agents = Agents::start(&launcher, sc, locators, proxies, per_process)?;
-    let progress = progress_bar(sc, quiet);
+    let progress = progress_bar(sc, show.quiet);
     let summary = rec.record(out, sc, &progress, Some(&mut hub.child), &mut |t| agents.on_tick(t)).await?;
     progress.finish_and_clear();
     let hub_ok = agents.stop(hub).await;

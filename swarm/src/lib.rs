@@ -1,8 +1,8 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   tap | put | netem | compare | formations | sweep-error | scale | plot | credentials |
-//!   scenarios | check`).
+//!   view | replay | tap | put | netem | compare | formations | sweep-error | scale | plot |
+//!   credentials | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
 //! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
@@ -29,6 +29,10 @@
 //! - [`plot`]: `swarm plot`, the figures of a run folder as SVG and PNG (the map and distances
 //!   in `run.svg`, K21 vectors, localization, connectivity; written at the end of every run too),
 //!   and the studies' charts, all drawn with plotters.
+//! - [`scene`]: the run as a Foxglove scene (the SDK's schemas on an explicit context): what the
+//!   recorder writes to `run.mcap`.
+//! - [`view`]: `swarm view` (and `swarm run --view`): a live web page and the Foxglove
+//!   WebSocket of a running swarm.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
 //! Public surface: [`cli::main`] (what the `swarm` binary and the end-to-end tests' copy of it
@@ -52,7 +56,9 @@ mod plot;
 mod proxy;
 mod recorder;
 mod scale;
+mod scene;
 mod scenarios;
 mod study;
 pub mod summary;
 mod tap;
+mod view;

@@ -203,6 +203,8 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("state", Key(|k: &Keys, id| k.state(id))),
         ("state_any", Wildcard(|k: &Keys, _| k.state_any())),
         ("radio", Key(|k: &Keys, id| k.radio(id))),
+        ("radio_any", Wildcard(|k: &Keys, _| k.radio_any())),
+        ("scan_any", Wildcard(|k: &Keys, _| k.scan_any())),
         ("netem_rules", Key(|k: &Keys, _| k.netem_rules())),
         ("netem_add", Key(|k: &Keys, _| k.netem_add())),
         ("truth_world", Key(|k: &Keys, _| k.truth_world())),

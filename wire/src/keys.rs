@@ -100,6 +100,14 @@ impl Keys {
     pub fn radio(&self, id: u32) -> String {
         format!("{}/radio/{id}", self.prefix)
     }
+    /// `swarm/{run}/radio/*`
+    pub fn radio_any(&self) -> String {
+        format!("{}/radio/*", self.prefix)
+    }
+    /// `swarm/{run}/uav/*/sense/scan`
+    pub fn scan_any(&self) -> String {
+        format!("{}/uav/*/sense/scan", self.prefix)
+    }
     /// `swarm/{run}/netem/rules`
     pub fn netem_rules(&self) -> String {
         format!("{}/netem/rules", self.prefix)

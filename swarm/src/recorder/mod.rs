@@ -1,5 +1,6 @@
 //! The recorder: a Zenoh client that listens to `truth/**` and every agent's `state`, writes
-//! `trajectories.csv` (one row per UAV per tick), `agent_states.csv` and `localization.csv`, and
+//! `trajectories.csv` (one row per UAV per tick), `agent_states.csv` and `localization.csv`, `run.mcap` (through
+//! [`crate::scene`], unless `--no-mcap`), and
 //! folds everything into the run's [`Summary`](crate::summary::Summary) (`summary.json`) when
 //! the hub marks the last step; then it writes `world.json`, `connectivity.csv` and the figures
 //! of [`crate::plot`].
@@ -40,14 +41,18 @@ pub struct RecordArgs {
     /// Endpoints.
     #[command(flatten)]
     pub zenoh: ZenohArgs,
+    /// Do not write `run.mcap` (the Foxglove recording of the run).
+    #[arg(long)]
+    pub no_mcap: bool,
 }
 
 /// Runs `swarm record`: the recorder alone, for a run whose pieces were started by hand.
 pub async fn record(a: RecordArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "the recorder needs --connect <hub endpoint>");
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
-    let rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
+    let mut rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?, !a.no_mcap).await?;
     let sc = rec.fetch_scenario().await?;
+    rec.write_mcap(&sc, &a.out)?;
     let progress = progress_bar(&sc, false);
     let summary = rec.record(&a.out, &sc, &progress, None, &mut |_| Ok(())).await?;
     progress.finish_and_clear();

@@ -4,6 +4,7 @@
 
 use super::files::{decode, write_connectivity, write_world, Files};
 use super::metrics::Metrics;
+use crate::scene::{Feed, Scene};
 use crate::summary::Summary;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
@@ -31,6 +32,8 @@ pub struct Recording {
     states: mpsc::UnboundedReceiver<Vec<u8>>,
     hub_alive: watch::Receiver<bool>,
     _subs: [Subscription; 3],
+    feed: Option<Feed>,
+    scene: Option<Scene>,
     _token: zenoh::liveliness::LivelinessToken,
 }
 
@@ -41,6 +44,7 @@ struct Sink<'a> {
     malformed: u64,
     sc: &'a Scenario,
     pb: &'a ProgressBar,
+    scene: Option<Scene>,
 }
 
 impl Sink<'_> {
@@ -48,6 +52,9 @@ impl Sink<'_> {
     fn truth(&mut self, b: &[u8]) -> Result<bool> {
         match decode(b, &mut self.malformed) {
             Some(Msg::TruthStep(s)) => {
+                if let Some(scene) = self.scene.as_mut() {
+                    scene.on_step(&s);
+                }
                 self.files.write_step(&s)?;
                 self.m.on_step(&s);
                 self.files.write_scored(&self.m.take_scored())?;
@@ -62,6 +69,9 @@ impl Sink<'_> {
                 Ok(self.m.ended().is_some())
             }
             Some(Msg::TruthWorld(w)) => {
+                if let Some(scene) = self.scene.as_mut() {
+                    scene.on_world(&w);
+                }
                 self.m.on_world(w);
                 Ok(false)
             }
@@ -74,6 +84,9 @@ impl Sink<'_> {
         if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
             if (1..=self.sc.swarm.count).contains(&st.id) {
                 self.files.write_state(&st)?;
+                if let Some(scene) = self.scene.as_mut() {
+                    scene.on_state(&st);
+                }
                 self.m.on_state(*st);
                 self.files.write_scored(&self.m.take_scored())?;
             }
@@ -83,8 +96,9 @@ impl Sink<'_> {
 }
 
 impl Recording {
-    /// Opens the recorder's session to `connect`, subscribes, then announces `alive/recorder`.
-    pub async fn start(run_id: &str, connect: &[String], cfg: &[String]) -> Result<Recording> {
+    /// Opens the recorder's session to `connect`, subscribes (to what `run.mcap` needs too when
+    /// `mcap`), then announces `alive/recorder`.
+    pub async fn start(run_id: &str, connect: &[String], cfg: &[String], mcap: bool) -> Result<Recording> {
         let keys = Keys::new(run_id)?;
         let session = session::open(Role::Client, &[], connect, cfg).await?;
         let (ttx, truth) = mpsc::unbounded_channel();
@@ -92,6 +106,7 @@ impl Recording {
         let t_sub = plumbing::subscribe_payloads(&session, keys.truth_all(), ttx).await?;
         let s_sub = plumbing::subscribe_payloads(&session, keys.state_any(), stx).await?;
         let (hub_alive, h_sub) = plumbing::watch_token(&session, keys.alive_hub()).await?;
+        let feed = if mcap { Some(Feed::subscribe(&session, &keys).await?) } else { None };
         // Subscribed: say so, for whoever starts agents by hand and wants the whole run recorded.
         let token = session
             .liveliness()
@@ -106,8 +121,20 @@ impl Recording {
             states,
             hub_alive,
             _subs: [t_sub, s_sub, h_sub],
+            feed,
+            scene: None,
             _token: token,
         })
+    }
+
+    /// Starts `run.mcap` in `out`, for a recording started with `mcap` (else does nothing).
+    pub fn write_mcap(&mut self, sc: &Scenario, out: &Path) -> Result<()> {
+        if self.feed.is_some() {
+            let mut scene = Scene::new(sc)?;
+            scene.write_mcap(&out.join("run.mcap"))?;
+            self.scene = Some(scene);
+        }
+        Ok(())
     }
 
     /// The scenario the hub serves.
@@ -128,7 +155,8 @@ impl Recording {
         hub: Option<&mut Child>,
         on_tick: &mut dyn FnMut(f64) -> Result<()>,
     ) -> Result<Summary> {
-        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), malformed: 0, sc, pb };
+        let (scene, mut feed) = (self.scene.take(), self.feed.take());
+        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), malformed: 0, sc, pb, scene };
         // The world is published once; ask for it too, in case that was before we subscribed.
         match plumbing::fetch(&self.session, &self.keys.truth_world(), ASK_WAIT).await {
             Ok(b) => {
@@ -136,10 +164,13 @@ impl Recording {
             }
             Err(e) => warn!("no world from the hub yet: {e}"),
         }
-        self.follow(&mut sink, hub, on_tick).await?;
-        self.drain(&mut sink).await?;
-        let Sink { mut files, m, malformed, .. } = sink;
+        self.follow(&mut sink, feed.as_mut(), hub, on_tick).await?;
+        self.drain(&mut sink, feed.as_mut()).await?;
+        let Sink { mut files, m, malformed, scene, .. } = sink;
         files.flush()?;
+        if let Some(mut scene) = scene {
+            scene.finish()?;
+        }
         let summary = m.summary(&self.run_id, sc);
         write_outputs(out, &summary, &m)?;
         if malformed > 0 {
@@ -150,13 +181,25 @@ impl Recording {
     }
 
     /// Takes truth steps and states as they come until the run ends (see [`Recording::record`]).
-    async fn follow(&mut self, sink: &mut Sink<'_>, mut hub: Option<&mut Child>, on_tick: &mut dyn FnMut(f64) -> Result<()>) -> Result<()> {
+    async fn follow(
+        &mut self,
+        sink: &mut Sink<'_>,
+        mut feed: Option<&mut Feed>,
+        mut hub: Option<&mut Child>,
+        on_tick: &mut dyn FnMut(f64) -> Result<()>,
+    ) -> Result<()> {
         let mut hub_seen = *self.hub_alive.borrow();
         let mut stop_at: Option<tokio::time::Instant> = None;
         loop {
             let hub_exit = async {
                 match hub.as_mut() {
                     Some(h) => h.wait().await.ok(),
+                    None => std::future::pending().await,
+                }
+            };
+            let extra = async {
+                match feed.as_mut() {
+                    Some(f) => f.rx.recv().await,
                     None => std::future::pending().await,
                 }
             };
@@ -174,6 +217,7 @@ impl Recording {
                     if let Some(t) = sink.m.last_step().map(|s| s.t_secs) { on_tick(t)?; }
                 },
                 Some(b) = self.states.recv() => sink.state(&b)?,
+                Some(e) = extra => if let Some(scene) = sink.scene.as_mut() { scene.on_extra(e) },
                 changed = self.hub_alive.changed() => {
                     let up = changed.is_ok() && *self.hub_alive.borrow();
                     if up { hub_seen = true; } else if hub_seen || changed.is_err() { warn!("hub gone before the end of the run"); break; }
@@ -190,9 +234,14 @@ impl Recording {
     }
 
     /// Takes the truth steps already queued, and the states of the last tick still in flight.
-    async fn drain(&mut self, sink: &mut Sink<'_>) -> Result<()> {
+    async fn drain(&mut self, sink: &mut Sink<'_>, feed: Option<&mut Feed>) -> Result<()> {
         while let Ok(b) = self.truth.try_recv() {
             sink.truth(&b)?;
+        }
+        if let (Some(f), Some(scene)) = (feed, sink.scene.as_mut()) {
+            while let Ok(e) = f.rx.try_recv() {
+                scene.on_extra(e);
+            }
         }
         let drain_until = tokio::time::Instant::now() + Duration::from_millis(200);
         while let Ok(Some(b)) = tokio::time::timeout_at(drain_until, self.states.recv()).await {

@@ -268,3 +268,14 @@ pub fn python() -> std::path::PathBuf {
     );
     venv
 }
+
+/// The built-in forest-5 cut to `limit_s` sim seconds, written into `dir`; returns its path.
+pub fn forest5_cut(dir: &Path, limit_s: f64) -> String {
+    let src = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-5.toml");
+    let text = std::fs::read_to_string(src).expect("forest-5.toml");
+    let cut = text.replace("time_limit_s = 300.0", &format!("time_limit_s = {limit_s:.1}"));
+    assert_ne!(cut, text, "forest-5's time limit line moved");
+    let path = dir.join("forest-5-cut.toml");
+    std::fs::write(&path, cut).expect("write scenario");
+    path.to_str().expect("utf8").to_string()
+}

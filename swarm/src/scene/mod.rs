@@ -1,0 +1,355 @@
+//! The run as a Foxglove scene: what the recorder writes to `run.mcap` and what `swarm view`
+//! serves on the Foxglove WebSocket, made by the same code from the messages the recorder
+//! already receives (truth, agent states, scans, radio sets, the netem timeline). Every message
+//! is stamped with its sim time, so a recording replays on the run's own clock.
+//!
+//! - `shapes`: the pure conversions to the SDK's schemas.
+//! - `feed`: the subscriptions a scene needs beyond the recorder's (scans, radio sets, netem
+//!   rules), as a [`Feed`].
+//!
+//! [`Scene`] owns an explicit [`foxglove::Context`] (never the SDK's global one: two scenes in
+//! one process, a test's say, must not mix). Sinks are attached to that context: an MCAP file
+//! ([`Scene::write_mcap`]) and/or a WebSocket server; with none, logging costs an `if`.
+//!
+//! Topics (frames: `world`, `uav{id}`):
+//!
+//! | topic | schema | when |
+//! |---|---|---|
+//! | `/world` | SceneUpdate (trees, walls, goal) | once |
+//! | `/swarm/world` | JSON: the hub's `TruthWorld`, the tick length `dt_s`, the scenario's name (for `swarm replay`) | once |
+//! | `/tf` | FrameTransforms (`world` -> `uav{id}`) | every truth step |
+//! | `/uav/{id}/pose` | PoseInFrame (truth) | every truth step, per UAV |
+//! | `/trails` | SceneUpdate (the last [`TRAIL_S`] of each UAV's path) | every sim second |
+//! | `/uav/{id}/scan` | LaserScan (body frame) | every scan the hub sends |
+//! | `/uav/{id}/estimates` | SceneUpdate (estimate dots, lines to the truth) | every agent state |
+//! | `/radio` | SceneUpdate (links coloured clean/impaired/cut; metadata `links`: the ids at the ends) | every truth step |
+//! | `/events` | Log (collisions, failures, netem rules) | as they happen |
+//! | `/uav/{id}/numbers` | JSON (step time, neighbours, K21 vectors, localization error) | every agent state |
+
+mod feed;
+mod shapes;
+
+pub use feed::{Extra, Feed};
+
+use anyhow::{Context as _, Result};
+use foxglove::messages::log::Level;
+use foxglove::messages::{FrameTransforms, LaserScan, Log, PoseInFrame, SceneUpdate};
+use foxglove::{Channel, PartialMetadata, RawChannel, Schema};
+use std::collections::{BTreeMap, VecDeque};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+use std::sync::Arc;
+use swarm_config::Scenario;
+use swarm_wire::msg::{AgentState, RadioSet, Scan, TruthBody, TruthStep, TruthWorld};
+
+/// How much of each UAV's path `/trails` shows [sim s].
+pub const TRAIL_S: f64 = 20.0;
+
+/// The JSON schema of `/uav/{id}/numbers`.
+const NUMBERS_SCHEMA: &str = r#"{"type":"object","properties":{"t_s":{"type":"number"},"step_time_ms":{"type":"number"},"neighbours":{"type":"integer"},"in_radio_range":{"type":"integer"},"cohesion":{"type":"number"},"separation":{"type":"number"},"avoidance":{"type":"number"},"navigation":{"type":"number"},"output":{"type":"number"},"localization_error_m":{"type":["number","null"]}}}"#;
+
+/// The JSON schema of `/swarm/world`.
+const WORLD_SCHEMA: &str = r#"{"type":"object","properties":{"world":{"type":"object"},"dt_s":{"type":"number"},"name":{"type":"string"}}}"#;
+
+/// One UAV's channels.
+struct UavChannels {
+    pose: Channel<PoseInFrame>,
+    scan: Channel<LaserScan>,
+    estimates: Channel<SceneUpdate>,
+    numbers: Arc<RawChannel>,
+}
+
+/// The scene of one run: the context, its channels, and what the conversions need to remember.
+pub struct Scene {
+    ctx: Arc<foxglove::Context>,
+    world: Channel<SceneUpdate>,
+    world_update: Option<SceneUpdate>,
+    world_json: Arc<RawChannel>,
+    dt_s: f64,
+    name: String,
+    tf: Channel<FrameTransforms>,
+    trails_ch: Channel<SceneUpdate>,
+    radio_ch: Channel<SceneUpdate>,
+    events: Channel<Log>,
+    uavs: BTreeMap<u32, UavChannels>,
+    timeline: netem::Timeline,
+    /// Latest truth of every UAV (the pose its next state's estimates are relative to).
+    bodies: BTreeMap<u32, TruthBody>,
+    trails: BTreeMap<u32, VecDeque<(f64, [f64; 2])>>,
+    radio: BTreeMap<u32, Vec<u32>>,
+    last_t: Option<f64>,
+    next_trail_t: f64,
+    mcap: Option<foxglove::McapWriterHandle<BufWriter<File>>>,
+}
+
+impl Scene {
+    /// A scene for `sc` on a fresh context, with no sink yet.
+    pub fn new(sc: &Scenario) -> Result<Scene> {
+        let ctx = foxglove::Context::new();
+        let numbers_schema = Schema::new("swarm.AgentNumbers", "jsonschema", NUMBERS_SCHEMA.as_bytes());
+        let mut uavs = BTreeMap::new();
+        for id in 1..=sc.swarm.count {
+            let numbers = ctx
+                .channel_builder(format!("/uav/{id}/numbers"))
+                .message_encoding("json")
+                .schema(numbers_schema.clone())
+                .build_raw()
+                .context("cannot make the numbers channel")?;
+            uavs.insert(
+                id,
+                UavChannels {
+                    pose: ctx.channel_builder(format!("/uav/{id}/pose")).build(),
+                    scan: ctx.channel_builder(format!("/uav/{id}/scan")).build(),
+                    estimates: ctx.channel_builder(format!("/uav/{id}/estimates")).build(),
+                    numbers,
+                },
+            );
+        }
+        Ok(Scene {
+            world: ctx.channel_builder("/world").build(),
+            world_update: None,
+            world_json: ctx
+                .channel_builder("/swarm/world")
+                .message_encoding("json")
+                .schema(Schema::new("swarm.World", "jsonschema", WORLD_SCHEMA.as_bytes()))
+                .build_raw()
+                .context("cannot make the world channel")?,
+            dt_s: sc.dt_secs(),
+            name: sc.name.clone(),
+            tf: ctx.channel_builder("/tf").build(),
+            trails_ch: ctx.channel_builder("/trails").build(),
+            radio_ch: ctx.channel_builder("/radio").build(),
+            events: ctx.channel_builder("/events").build(),
+            ctx,
+            uavs,
+            timeline: netem::Timeline::from_scenario(sc),
+            bodies: BTreeMap::new(),
+            trails: BTreeMap::new(),
+            radio: BTreeMap::new(),
+            last_t: None,
+            next_trail_t: 0.0,
+            mcap: None,
+        })
+    }
+
+    /// The context sinks attach to (the WebSocket server of `swarm view`).
+    pub fn context(&self) -> &Arc<foxglove::Context> {
+        &self.ctx
+    }
+
+    /// Starts writing everything logged from now on to the MCAP file `path`.
+    pub fn write_mcap(&mut self, path: &Path) -> Result<()> {
+        let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+        let h = self.ctx.mcap_writer().create(BufWriter::new(file)).context("cannot start the MCAP writer")?;
+        self.mcap = Some(h);
+        Ok(())
+    }
+
+    /// Closes the MCAP file (its summary and index are written here).
+    pub fn finish(&mut self) -> Result<()> {
+        if let Some(h) = self.mcap.take() {
+            h.close().context("cannot finish run.mcap")?;
+        }
+        Ok(())
+    }
+
+    /// The world, at sim time 0.
+    pub fn on_world(&mut self, w: &TruthWorld) {
+        let update = shapes::world(w);
+        self.world.log_with_time(&update, 0u64);
+        self.world_update = Some(update);
+        let json = serde_json::json!({ "world": w, "dt_s": self.dt_s, "name": self.name });
+        self.world_json.log_with_meta(json.to_string().as_bytes(), PartialMetadata::with_log_time(0u64));
+    }
+
+    /// The world again, at the latest sim time (for WebSocket clients that joined late).
+    pub fn relog_world(&self) {
+        if let Some(u) = &self.world_update {
+            self.world.log_with_time(u, shapes::log_time_ns(self.last_t.unwrap_or(0.0)));
+        }
+    }
+
+    /// The netem timeline in force (the hub's `netem/rules`), replacing the scenario's.
+    pub fn on_timeline(&mut self, t: swarm_config::Timeline) {
+        self.timeline = netem::Timeline::from(t);
+    }
+
+    /// One UAV's radio set (drawn with the next truth step).
+    pub fn on_radio(&mut self, r: &RadioSet) {
+        self.radio.insert(r.id, r.in_range.clone());
+    }
+
+    /// One scan the hub sent UAV `id`.
+    pub fn on_scan(&mut self, id: u32, s: &Scan) {
+        if let Some(u) = self.uavs.get(&id) {
+            u.scan.log_with_time(&shapes::laser_scan(id, s), shapes::log_time_ns(s.t_secs));
+        }
+    }
+
+    /// One truth step: poses, transforms, trails, the radio graph, and the step's events.
+    pub fn on_step(&mut self, s: &TruthStep) {
+        let t = s.t_secs;
+        let ns = shapes::log_time_ns(t);
+        let transforms = s.bodies.iter().map(|b| shapes::transform(b, t)).collect();
+        self.tf.log_with_time(&FrameTransforms { transforms }, ns);
+        for b in &s.bodies {
+            if let Some(u) = self.uavs.get(&b.id) {
+                u.pose.log_with_time(&shapes::pose(b, t), ns);
+            }
+            let trail = self.trails.entry(b.id).or_default();
+            trail.push_back((t, [b.x, b.y]));
+            while trail.front().is_some_and(|(t0, _)| *t0 < t - TRAIL_S) {
+                trail.pop_front();
+            }
+        }
+        self.events_of(s);
+        for b in &s.bodies {
+            self.bodies.insert(b.id, *b);
+        }
+        self.radio_graph(t);
+        if t >= self.next_trail_t {
+            self.next_trail_t = t.floor() + 1.0;
+            self.draw_trails(t);
+        }
+        self.last_t = Some(t);
+    }
+
+    /// One agent's state: its neighbour estimates against the truth, and its numbers.
+    pub fn on_state(&mut self, st: &AgentState) {
+        let Some(u) = self.uavs.get(&st.id) else { return };
+        let ns = shapes::log_time_ns(st.t_secs);
+        let (update, error) = self.estimates(st);
+        u.estimates.log_with_time(&update, ns);
+        let v = &st.vectors;
+        let numbers = serde_json::json!({
+            "t_s": st.t_secs,
+            "step_time_ms": f64::from(st.step_time_us) / 1000.0,
+            "neighbours": st.neighbours.len(),
+            "in_radio_range": st.in_radio_range,
+            "cohesion": v.cohesion, "separation": v.separation, "avoidance": v.avoidance,
+            "navigation": v.navigation, "output": v.output,
+            "localization_error_m": error,
+        });
+        u.numbers.log_with_meta(numbers.to_string().as_bytes(), PartialMetadata::with_log_time(ns));
+    }
+
+    /// The estimates of `st` in the world (placed by the agent's true pose), lines from each to
+    /// its neighbour's truth, and their mean error [m] (estimates of known id only).
+    fn estimates(&self, st: &AgentState) -> (SceneUpdate, Option<f64>) {
+        let mut e = shapes::entity(format!("estimates{}", st.id), st.t_secs);
+        let Some(me) = self.bodies.get(&st.id) else { return (SceneUpdate { entities: vec![e], ..Default::default() }, None) };
+        let (sin, cos) = me.yaw.sin_cos();
+        // Body to world: p_w = p_me + R(yaw) p_b.
+        let world = |x: f32, y: f32| [me.x + cos * f64::from(x) - sin * f64::from(y), me.y + sin * f64::from(x) + cos * f64::from(y)];
+        let points: Vec<[f64; 2]> = st.neighbours.iter().map(|n| world(n.x, n.y)).collect();
+        let grey = shapes::rgb(0.5, 0.5, 0.5);
+        let mut segs = Vec::new();
+        let mut errors = Vec::new();
+        for (n, p) in st.neighbours.iter().zip(&points) {
+            if let Some(truth) = n.id.and_then(|id| self.bodies.get(&id)) {
+                segs.push((*p, [truth.x, truth.y], grey));
+                errors.push((p[0] - truth.x).hypot(p[1] - truth.y));
+            }
+        }
+        e.spheres = shapes::dots(&points, shapes::rgb(0.2, 0.4, 0.95), 0.25);
+        e.lines = vec![shapes::segments(&segs, 0.03)];
+        let error = (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64);
+        (SceneUpdate { entities: vec![e], ..Default::default() }, error)
+    }
+
+    /// The radio links of the latest radio sets, each coloured by the worse netem class of its
+    /// two directions at `t`.
+    fn radio_graph(&self, t: f64) {
+        let mut segs = Vec::new();
+        let mut ends = Vec::new();
+        for (&i, ids) in &self.radio {
+            for &j in ids.iter().filter(|&&j| j > i) {
+                let (Some(a), Some(b)) = (self.bodies.get(&i), self.bodies.get(&j)) else { continue };
+                let class = link_class(&self.timeline, t, i, j);
+                segs.push(([a.x, a.y], [b.x, b.y], class_color(class)));
+                ends.extend([i.to_string(), j.to_string()]);
+            }
+        }
+        let mut e = shapes::entity("radio".into(), t);
+        e.lines = vec![shapes::segments(&segs, 0.04)];
+        // The UAV ids at the segments' ends, in order (for `swarm replay`'s page).
+        e.metadata = vec![foxglove::messages::KeyValuePair { key: "links".into(), value: ends.join(",") }];
+        self.radio_ch.log_with_time(&SceneUpdate { entities: vec![e], ..Default::default() }, shapes::log_time_ns(t));
+    }
+
+    fn draw_trails(&self, t: f64) {
+        let mut e = shapes::entity("trails".into(), t);
+        e.lines = self.trails.values().map(|tr| shapes::strip(tr.iter().map(|(_, p)| *p), shapes::rgb(0.3, 0.3, 0.8), 0.05)).collect();
+        self.trails_ch.log_with_time(&SceneUpdate { entities: vec![e], ..Default::default() }, shapes::log_time_ns(t));
+    }
+
+    /// Logs the step's collisions, UAVs lost, and the netem rules and failures that came due
+    /// since the last step.
+    fn events_of(&self, s: &TruthStep) {
+        let t = s.t_secs;
+        let ns = shapes::log_time_ns(t);
+        let log = |level, message: String| self.events.log_with_time(&shapes::log(t, level, "swarm", message), ns);
+        for c in &s.collisions {
+            let with = c.other_uav.map_or_else(|| "an obstacle".to_string(), |o| format!("UAV {o}"));
+            log(Level::Warning, format!("collision: UAV {} with {with} at ({:.2}, {:.2})", c.id, c.x, c.y));
+        }
+        for b in s.bodies.iter().filter(|b| !b.alive && self.bodies.get(&b.id).is_some_and(|p| p.alive)) {
+            log(Level::Error, format!("UAV {} lost (no longer alive)", b.id));
+        }
+        let due = |at: f64| self.last_t.map_or(at <= t + 1e-9, |l| at > l + 1e-9 && at <= t + 1e-9);
+        for r in self.timeline.rules().iter().filter(|r| due(r.at_s)) {
+            log(Level::Info, format!("netem at {:.2} s: {}", r.at_s, serde_json::to_string(r).unwrap_or_default()));
+        }
+        for f in self.timeline.failures().iter().filter(|f| due(f.at_s)) {
+            log(Level::Warning, format!("failure at {:.2} s: {}", f.at_s, serde_json::to_string(f).unwrap_or_default()));
+        }
+    }
+}
+
+/// The worse netem class of the link between `i` and `j` at `t` (both directions).
+pub(crate) fn link_class(timeline: &netem::Timeline, t: f64, i: u32, j: u32) -> netem::LinkClass {
+    let a = netem::LinkClass::of(timeline.rule_at(t, i, j));
+    let b = netem::LinkClass::of(timeline.rule_at(t, j, i));
+    if (a as u8) >= (b as u8) {
+        a
+    } else {
+        b
+    }
+}
+
+/// The class a link colour of [`class_color`] stands for (unknown colours: clean).
+pub(crate) fn class_of_color(c: &foxglove::messages::Color) -> netem::LinkClass {
+    netem::LinkClass::ALL.into_iter().find(|&k| class_color(k) == *c).unwrap_or(netem::LinkClass::Clean)
+}
+
+/// Green clean, orange impaired, red cut.
+fn class_color(c: netem::LinkClass) -> foxglove::messages::Color {
+    match c {
+        netem::LinkClass::Clean => shapes::rgb(0.2, 0.7, 0.3),
+        netem::LinkClass::Impaired => shapes::rgb(0.95, 0.6, 0.1),
+        netem::LinkClass::Cut => shapes::rgb(0.85, 0.1, 0.1),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scene_writes_an_mcap_with_its_topics() {
+        let sc = Scenario::from_arg("forest-5").expect("built-in").0;
+        let path = std::env::temp_dir().join(format!("scene-test-{}.mcap", std::process::id()));
+        let mut scene = Scene::new(&sc).expect("scene");
+        scene.write_mcap(&path).expect("mcap");
+        let body = TruthBody { id: 1, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
+        let step = TruthStep { tick: 1, t_secs: 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() };
+        scene.on_step(&step);
+        scene.finish().expect("close");
+        let bytes = std::fs::read(&path).expect("read");
+        let _ = std::fs::remove_file(&path);
+        assert!(bytes.starts_with(b"\x89MCAP0\r\n"), "MCAP magic");
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(text.contains("/uav/1/pose") && text.contains("/tf"), "channels recorded");
+    }
+}

@@ -1,0 +1,141 @@
+//! What the web page draws, as JSON: the world once, then frames of the latest truth step with
+//! the radio graph, the estimates, the collisions and failures so far, and each agent's numbers.
+//! Pure: fed message by message like the recorder, tested without a network.
+
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use swarm_wire::msg::{AgentState, CollisionEvent, RadioSet, TruthStep, TruthWorld};
+
+/// The page's view of the run.
+#[derive(Default)]
+pub struct Board {
+    world: Option<Value>,
+    step: Option<TruthStep>,
+    radio: BTreeMap<u32, Vec<u32>>,
+    timeline: netem::Timeline,
+    states: BTreeMap<u32, AgentState>,
+    collisions: Vec<CollisionEvent>,
+    lost: BTreeMap<u32, f64>,
+}
+
+impl Board {
+    /// A board for `sc` (its netem timeline until the hub says otherwise).
+    pub fn new(sc: &swarm_config::Scenario) -> Board {
+        Board { timeline: netem::Timeline::from_scenario(sc), ..Board::default() }
+    }
+
+    /// The world frame the page draws first.
+    pub fn on_world(&mut self, run: &str, w: &TruthWorld) {
+        self.world = Some(json!({
+            "kind": "world", "run": run, "trees": w.trees, "walls": w.walls, "goal": w.goal,
+            "starts": w.starts, "body_radius_m": w.body_radius_m,
+        }));
+    }
+
+    /// The world frame, once known.
+    pub fn world(&self) -> Option<&Value> {
+        self.world.as_ref()
+    }
+
+    /// The netem timeline in force.
+    pub fn on_timeline(&mut self, t: swarm_config::Timeline) {
+        self.timeline = netem::Timeline::from(t);
+    }
+
+    /// One radio set.
+    pub fn on_radio(&mut self, r: &RadioSet) {
+        self.radio.insert(r.id, r.in_range.clone());
+    }
+
+    /// One agent state.
+    pub fn on_state(&mut self, st: &AgentState) {
+        self.states.insert(st.id, st.clone());
+    }
+
+    /// One truth step.
+    pub fn on_step(&mut self, s: TruthStep) {
+        self.collisions.extend(s.collisions.iter().copied());
+        for b in s.bodies.iter().filter(|b| !b.alive) {
+            self.lost.entry(b.id).or_insert(s.t_secs);
+        }
+        self.step = Some(s);
+    }
+
+    /// The latest truth step, if any.
+    pub fn tick(&self) -> Option<u64> {
+        self.step.as_ref().map(|s| s.tick)
+    }
+
+    /// The frame of the latest step: what the page redraws.
+    pub fn frame(&self) -> Option<Value> {
+        let s = self.step.as_ref()?;
+        let uavs: Vec<Value> = s
+            .bodies
+            .iter()
+            .map(|b| json!({"id": b.id, "x": b.x, "y": b.y, "yaw": b.yaw, "alive": b.alive, "colliding": b.colliding}))
+            .collect();
+        let pos: BTreeMap<u32, [f64; 3]> = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
+        let mut links = Vec::new();
+        for (&i, ids) in &self.radio {
+            for &j in ids.iter().filter(|&&j| j > i && pos.contains_key(&j)) {
+                if pos.contains_key(&i) {
+                    links.push(json!([i, j, crate::scene::link_class(&self.timeline, s.t_secs, i, j).name()]));
+                }
+            }
+        }
+        let mut estimates = BTreeMap::new();
+        let mut numbers = BTreeMap::new();
+        for (id, st) in &self.states {
+            let Some(&[x, y, yaw]) = pos.get(id) else { continue };
+            let (sin, cos) = yaw.sin_cos();
+            // Body to world: p_w = p_me + R(yaw) p_b.
+            let est: Vec<[f64; 2]> = st
+                .neighbours
+                .iter()
+                .map(|n| [x + cos * f64::from(n.x) - sin * f64::from(n.y), y + sin * f64::from(n.x) + cos * f64::from(n.y)])
+                .collect();
+            estimates.insert(id.to_string(), est);
+            let v = &st.vectors;
+            numbers.insert(
+                id.to_string(),
+                json!({"step_time_ms": f64::from(st.step_time_us) / 1000.0, "neighbours": st.neighbours.len(),
+                       "in_radio_range": st.in_radio_range, "cohesion": v.cohesion, "separation": v.separation,
+                       "avoidance": v.avoidance, "navigation": v.navigation, "output": v.output}),
+            );
+        }
+        let speed = if s.wall_secs > 0.0 { Some(s.t_secs / s.wall_secs) } else { None };
+        Some(json!({
+            "kind": "step", "tick": s.tick, "t": s.t_secs, "speed": speed, "ended": s.ended.map(|e| format!("{e:?}")),
+            "uavs": uavs, "links": links, "estimates": estimates, "numbers": numbers,
+            "collisions": self.collisions.iter().map(|c| json!([c.id, c.x, c.y, c.other_uav])).collect::<Vec<_>>(),
+            "lost": self.lost,
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use swarm_wire::msg::TruthBody;
+
+    fn body(id: u32, x: f64, alive: bool) -> TruthBody {
+        TruthBody { id, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, alive, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false }
+    }
+
+    #[test]
+    fn a_frame_holds_the_latest_step_links_and_losses() {
+        let sc = swarm_config::Scenario::from_arg("forest-5").expect("built-in").0;
+        let mut b = Board::new(&sc);
+        assert!(b.frame().is_none());
+        b.on_radio(&RadioSet { tick: 1, id: 1, in_range: vec![2], loss: vec![] });
+        let step = |tick, alive| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(1, 1.0, true), body(2, 2.0, alive)], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.01, timing: Box::default() };
+        b.on_step(step(1, true));
+        b.on_step(step(2, false));
+        let f = b.frame().expect("frame");
+        assert_eq!(f["tick"], 2);
+        assert_eq!(f["uavs"][1]["x"], 2.0);
+        assert_eq!(f["links"][0], json!([1, 2, "clean"]));
+        assert_eq!(f["lost"]["2"], 0.2);
+        assert!((f["speed"].as_f64().expect("speed") - 20.0).abs() < 1e-9);
+    }
+}

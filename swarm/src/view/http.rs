@@ -1,0 +1,137 @@
+//! The page's HTTP side: a small HTTP/1.1 server on tokio, four routes and no framework, so the
+//! page needs no build step and the binary no web stack:
+//!
+//! - `/`: the page (HTML, JS and canvas, embedded in the binary);
+//! - `/events`: Server-Sent Events: the world (`event: world`), then the latest frame whenever it
+//!   changes (a slow browser skips frames; it never slows the producer);
+//! - `/state`: the world and the latest frame as one JSON object (scripts, tests);
+//! - `/control?cmd=...`: replay's play, pause, seek and speed (404 on a live view).
+
+use std::sync::Arc;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{mpsc, watch};
+use tracing::debug;
+
+/// The page.
+const PAGE: &str = include_str!("page.html");
+/// The longest request head read [bytes].
+const MAX_HEAD: usize = 8192;
+
+/// What the page shows now: JSON texts of the world and of the latest frame.
+#[derive(Debug, Default, Clone)]
+pub struct Snapshot {
+    /// The world frame.
+    pub world: Option<Arc<str>>,
+    /// The latest step frame.
+    pub frame: Option<Arc<str>>,
+}
+
+/// A replay command: the query pairs of `/control`.
+pub type Command = Vec<(String, String)>;
+
+/// Serves the page on `listener` until the process ends.
+pub async fn serve(listener: TcpListener, snap: watch::Receiver<Snapshot>, control: Option<mpsc::UnboundedSender<Command>>) {
+    loop {
+        let Ok((stream, _)) = listener.accept().await else { continue };
+        let snap = snap.clone();
+        let control = control.clone();
+        tokio::spawn(async move {
+            if let Err(e) = handle(stream, snap, control).await {
+                debug!("page connection: {e}");
+            }
+        });
+    }
+}
+
+async fn handle(mut s: TcpStream, snap: watch::Receiver<Snapshot>, control: Option<mpsc::UnboundedSender<Command>>) -> std::io::Result<()> {
+    let Some(target) = read_target(&mut s).await? else { return Ok(()) };
+    let (path, query) = target.split_once('?').unwrap_or((&target, ""));
+    match path {
+        "/" | "/index.html" => respond(&mut s, "200 OK", "text/html; charset=utf-8", PAGE.as_bytes()).await,
+        "/state" => {
+            let now = snap.borrow().clone();
+            let body = format!("{{\"world\":{},\"frame\":{}}}", now.world.as_deref().unwrap_or("null"), now.frame.as_deref().unwrap_or("null"));
+            respond(&mut s, "200 OK", "application/json", body.as_bytes()).await
+        }
+        "/events" => events(s, snap).await,
+        "/control" => match control {
+            Some(c) => {
+                let _ = c.send(parse_query(query));
+                respond(&mut s, "204 No Content", "text/plain", b"").await
+            }
+            None => respond(&mut s, "404 Not Found", "text/plain", b"a live view has no controls").await,
+        },
+        _ => respond(&mut s, "404 Not Found", "text/plain", b"not found").await,
+    }
+}
+
+/// Reads the request head and returns its target (`/path?query`), `None` for a non-GET.
+async fn read_target(s: &mut TcpStream) -> std::io::Result<Option<String>> {
+    let mut head = Vec::new();
+    let mut buf = [0u8; 1024];
+    while !head.windows(4).any(|w| w == b"\r\n\r\n") && head.len() < MAX_HEAD {
+        let n = s.read(&mut buf).await?;
+        if n == 0 {
+            break;
+        }
+        head.extend_from_slice(&buf[..n]);
+    }
+    let text = String::from_utf8_lossy(&head);
+    let mut words = text.lines().next().unwrap_or_default().split_whitespace();
+    Ok(match (words.next(), words.next()) {
+        (Some("GET"), Some(t)) => Some(t.to_string()),
+        _ => None,
+    })
+}
+
+async fn respond(s: &mut TcpStream, status: &str, ctype: &str, body: &[u8]) -> std::io::Result<()> {
+    let head = format!("HTTP/1.1 {status}\r\nContent-Type: {ctype}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n", body.len());
+    s.write_all(head.as_bytes()).await?;
+    s.write_all(body).await?;
+    s.flush().await
+}
+
+/// Streams the world and then every new frame as Server-Sent Events.
+async fn events(mut s: TcpStream, mut snap: watch::Receiver<Snapshot>) -> std::io::Result<()> {
+    s.write_all(b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\nConnection: keep-alive\r\n\r\n").await?;
+    let mut sent = Snapshot::default();
+    loop {
+        let now = snap.borrow_and_update().clone();
+        if now.world.is_some() && !same(&now.world, &sent.world) {
+            s.write_all(format!("event: world\ndata: {}\n\n", now.world.as_deref().unwrap_or("null")).as_bytes()).await?;
+        }
+        if now.frame.is_some() && !same(&now.frame, &sent.frame) {
+            s.write_all(format!("data: {}\n\n", now.frame.as_deref().unwrap_or("null")).as_bytes()).await?;
+        }
+        s.flush().await?;
+        sent = now;
+        if snap.changed().await.is_err() {
+            return Ok(());
+        }
+    }
+}
+
+fn same(a: &Option<Arc<str>>, b: &Option<Arc<str>>) -> bool {
+    match (a, b) {
+        (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+        (None, None) => true,
+        _ => false,
+    }
+}
+
+/// `a=1&b=x` as pairs (no percent-decoding: the page sends plain words and numbers).
+fn parse_query(q: &str) -> Command {
+    q.split('&').filter(|p| !p.is_empty()).map(|p| p.split_once('=').unwrap_or((p, ""))).map(|(k, v)| (k.to_string(), v.to_string())).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn queries_split_into_pairs() {
+        assert_eq!(parse_query("cmd=seek&tick=40"), vec![("cmd".to_string(), "seek".to_string()), ("tick".to_string(), "40".to_string())]);
+        assert!(parse_query("").is_empty());
+    }
+}

@@ -1,0 +1,221 @@
+//! `swarm view`: watch a running swarm. An observer that joins the run's key space, drains
+//! every subscription into a ring buffer (like `swarm tap`: a slow viewer drops its oldest
+//! samples, it never holds a lockstep run back), and serves two things on loopback:
+//!
+//! - a web page (`http`; the page itself is `page.html`, embedded) drawing the map, the UAVs
+//!   with heading and trail, radio links by netem state, estimates, collisions and failures,
+//!   the clock and x real time, and a panel per UAV, from the frames of a `board`;
+//! - the Foxglove WebSocket protocol (the SDK's server on the [`Scene`]'s context, the same
+//!   topics as `run.mcap`), for Foxglove or Lichtblick.
+//!
+//! `swarm run --view` starts the same [`Live`] view inside the run ([`Live::start`]);
+//! `replay` is `swarm replay`: the same page and WebSocket over a recorded `run.mcap`.
+
+mod board;
+mod http;
+mod replay;
+
+pub use replay::{replay, ReplayArgs};
+
+use crate::args::ZenohArgs;
+use crate::scene::{Extra, Scene};
+use anyhow::{Context as _, Result};
+use board::Board;
+use clap::Args;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+use swarm_config::Scenario;
+use swarm_wire::session::{self, Role};
+use swarm_wire::{plumbing, Keys, Msg, WireError};
+use tokio::sync::watch;
+use zenoh::handlers::{RingChannel, RingChannelHandler};
+use zenoh::pubsub::Subscriber;
+use zenoh::sample::Sample;
+
+/// How long the view asks the hub for the scenario and the world.
+const ASK_WAIT: Duration = Duration::from_secs(10);
+/// How often the page gets a new frame at most [wall].
+const FRAME_EVERY: Duration = Duration::from_millis(50);
+/// How often the world is logged again for Foxglove clients that joined late [wall].
+const WORLD_EVERY: Duration = Duration::from_secs(2);
+/// Samples each subscription keeps when the view falls behind.
+const RING: usize = 4096;
+
+/// `swarm view`.
+#[derive(Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// Run id.
+    #[arg(long)]
+    pub run: String,
+    /// Endpoints (the hub's).
+    #[command(flatten)]
+    pub zenoh: ZenohArgs,
+    /// The page's HTTP port on 127.0.0.1 (0: any free port); the Foxglove WebSocket is on the
+    /// next port (or any free port when this is 0).
+    #[arg(long, default_value_t = 8765)]
+    pub port: u16,
+}
+
+/// Runs `swarm view` until Ctrl-C.
+pub async fn view(a: ViewArgs) -> Result<ExitCode> {
+    anyhow::ensure!(!a.zenoh.connect.is_empty(), "the view needs --connect <hub endpoint>");
+    let live = Live::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?, a.port).await?;
+    println!("{}", live.addresses());
+    tokio::select! {
+        r = live.run() => r?,
+        _ = tokio::signal::ctrl_c() => {}
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The page's port and the Foxglove WebSocket's for a requested page port.
+fn ports(page: u16) -> (u16, u16) {
+    (page, if page == 0 { 0 } else { page.saturating_add(1) })
+}
+
+type Ring = Subscriber<RingChannelHandler<Sample>>;
+
+async fn ring(s: &zenoh::Session, key: String) -> Result<Ring> {
+    Ok(s.declare_subscriber(key).with(RingChannel::new(RING)).await.map_err(WireError::zenoh)?)
+}
+
+/// A live view: the session, its ring-buffered subscriptions, and what they feed.
+pub struct Live {
+    /// Held: the subscriptions live as long as their session.
+    _session: zenoh::Session,
+    subs: [Ring; 5],
+    shown: Shown,
+    page_port: u16,
+    foxglove: foxglove::WebSocketServerHandle,
+}
+
+/// What the samples feed: the Foxglove scene and the page's board.
+struct Shown {
+    keys: Keys,
+    run_id: String,
+    scene: Scene,
+    board: Board,
+    snap: watch::Sender<http::Snapshot>,
+}
+
+impl Live {
+    /// Joins run `run_id` at `connect`, fetches the scenario and the world, and starts serving
+    /// the page on 127.0.0.1:`page_port` and the Foxglove WebSocket beside it.
+    pub async fn start(run_id: &str, connect: &[String], cfg: &[String], page_port: u16) -> Result<Live> {
+        let keys = Keys::new(run_id)?;
+        let session = session::open(Role::Client, &[], connect, cfg).await?;
+        let subs = [
+            ring(&session, keys.truth_all()).await?,
+            ring(&session, keys.state_any()).await?,
+            ring(&session, keys.scan_any()).await?,
+            ring(&session, keys.radio_any()).await?,
+            ring(&session, keys.netem_rules()).await?,
+        ];
+        let text = plumbing::fetch_scenario_text(&session, &keys, ASK_WAIT).await?;
+        let sc = Scenario::from_toml_str(&text, "hub")?;
+        let (page, fox) = ports(page_port);
+        let scene = Scene::new(&sc)?;
+        let foxglove = scene
+            .context()
+            .websocket_server()
+            .name(format!("swarm view {run_id}"))
+            .bind("127.0.0.1", fox)
+            .start()
+            .await
+            .context("cannot start the Foxglove WebSocket server")?;
+        let listener = tokio::net::TcpListener::bind(("127.0.0.1", page)).await.with_context(|| format!("cannot listen on port {page}"))?;
+        let page_port = listener.local_addr()?.port();
+        let (snap, rx) = watch::channel(http::Snapshot::default());
+        tokio::spawn(http::serve(listener, rx, None));
+        let mut shown = Shown { keys, run_id: run_id.to_string(), scene, board: Board::new(&sc), snap };
+        match plumbing::fetch(&session, &shown.keys.truth_world(), ASK_WAIT).await {
+            Ok(b) => shown.truth(&b),
+            Err(e) => tracing::warn!("no world from the hub yet: {e}"),
+        }
+        Ok(Live { _session: session, subs, shown, page_port, foxglove })
+    }
+
+    /// The page's and the Foxglove WebSocket's addresses, as printed.
+    pub fn addresses(&self) -> String {
+        format!("view: http://127.0.0.1:{}/  foxglove: ws://127.0.0.1:{}", self.page_port, self.foxglove.port())
+    }
+
+    /// Takes samples as they come, forever (the view outlives the run: Ctrl-C ends it).
+    pub async fn run(mut self) -> Result<()> {
+        let mut frames = tokio::time::interval(FRAME_EVERY);
+        let mut world = tokio::time::interval(WORLD_EVERY);
+        let mut shown = None;
+        loop {
+            let [truth, states, scans, radio, rules] = &self.subs;
+            tokio::select! {
+                Ok(s) = truth.recv_async() => self.shown.truth(&plumbing::payload(&s)),
+                Ok(s) = states.recv_async() => {
+                    if let Ok(Msg::State(st)) = Msg::decode(&plumbing::payload(&s)) {
+                        self.shown.scene.on_state(&st);
+                        self.shown.board.on_state(&st);
+                    }
+                }
+                Ok(s) = scans.recv_async() => {
+                    let id = self.shown.keys.uav_id_of(s.key_expr().as_str());
+                    if let (Some(id), Ok(Msg::Scan(scan))) = (id, Msg::decode(&plumbing::payload(&s))) {
+                        self.shown.scene.on_extra(Extra::Scan(id, scan));
+                    }
+                }
+                Ok(s) = radio.recv_async() => {
+                    if let Ok(Msg::Radio(r)) = Msg::decode(&plumbing::payload(&s)) {
+                        self.shown.board.on_radio(&r);
+                        self.shown.scene.on_extra(Extra::Radio(r));
+                    }
+                }
+                Ok(s) = rules.recv_async() => {
+                    if let Ok(Msg::NetemRules(json)) = Msg::decode(&plumbing::payload(&s)) {
+                        if let Ok(t) = serde_json::from_str::<swarm_config::Timeline>(&json) {
+                            self.shown.board.on_timeline(t.clone());
+                            self.shown.scene.on_timeline(t);
+                        }
+                    }
+                }
+                _ = frames.tick() => {
+                    if self.shown.board.tick() != shown {
+                        shown = self.shown.board.tick();
+                        self.shown.publish();
+                    }
+                }
+                _ = world.tick() => self.shown.scene.relog_world(),
+            }
+        }
+    }
+}
+
+impl Shown {
+
+    fn truth(&mut self, b: &[u8]) {
+        match Msg::decode(b) {
+            Ok(Msg::TruthStep(s)) => {
+                self.scene.on_step(&s);
+                self.board.on_step(s);
+            }
+            Ok(Msg::TruthWorld(w)) => {
+                self.scene.on_world(&w);
+                self.board.on_world(&self.run_id, &w);
+                self.publish();
+            }
+            _ => {}
+        }
+    }
+
+    /// Hands the page the world and the latest frame.
+    fn publish(&self) {
+        let world = self.board.world().map(|w| Arc::<str>::from(w.to_string()));
+        let frame = self.board.frame().map(|f| Arc::<str>::from(f.to_string()));
+        self.snap.send_modify(|s| {
+            if s.world.is_none() {
+                s.world = world;
+            }
+            if frame.is_some() {
+                s.frame = frame;
+            }
+        });
+    }
+}
