@@ -588,3 +588,6 @@ impl PerceptionParams {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod fuzz;

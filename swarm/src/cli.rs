@@ -24,6 +24,8 @@ pub enum Cmd {
     Hub(crate::pieces::HubArgs),
     /// Start one UAV agent (`--id`) or an agent host (`--ids`) by hand (a Zenoh client of the hub).
     Agent(crate::pieces::AgentArgs),
+    /// Start a bare Zenoh router that agents connect to and that connects to the hub.
+    Router(crate::router::RouterArgs),
     /// Record a run started by hand: write the run folder when the hub ends the run.
     Record(crate::recorder::RecordArgs),
     /// Print every message on a key expression as JSON lines.
@@ -88,6 +90,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Run(a) => crate::launch::run(a).await,
         Cmd::Hub(a) => crate::pieces::hub(a).await,
         Cmd::Agent(a) => crate::pieces::agent(a).await,
+        Cmd::Router(a) => crate::router::router(a).await,
         Cmd::Record(a) => crate::recorder::record(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,
         Cmd::Put(a) => crate::tap::put(a).await,
