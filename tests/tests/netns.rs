@@ -254,6 +254,8 @@ fn a_swarm_over_four_machines_lives_through_a_cut_link() {
     let up_at = Instant::now();
     net.set_link("far", true);
     let whole_at = wait_alive(&alive, &run, &[3, 4, 5], true, "the far agents back at the hub");
+    let (to_hover_s, to_whole_s) = (gone_at.duration_since(down_at).as_secs_f64(), whole_at.duration_since(up_at).as_secs_f64());
+    println!("netns: link down -> far agents out at the hub, hovering: {to_hover_s:.2} s; link up -> swarm whole again: {to_whole_s:.2} s");
 
     let status = rec.wait_for(RUN_LIMIT).expect("the recorder finishes with the run");
     assert!(status.success(), "recorder: {status:?}");
@@ -274,19 +276,15 @@ fn a_swarm_over_four_machines_lives_through_a_cut_link() {
     }
     assert!(hub.wait_for(Duration::from_secs(30)).expect("hub exits after the run").success(), "hub");
     for (i, a) in far.iter_mut().enumerate() {
-        let st = a.wait_for(Duration::from_secs(30)).expect("far agent exits after the run");
-        assert!(st.success(), "agent {}: the same process lived through the cut: {st:?}", i + 3);
+        // Still running (waiting out its long grace for the hub that ended the run): the same
+        // process lived through the cut.
+        assert!(a.child.try_wait().expect("try_wait").is_none(), "agent {}: the same process lived through the cut", i + 3);
         let log = std::fs::read_to_string(d.join(format!("agent-{}.log", i + 3))).expect("log");
         assert!(log.contains("hub back"), "agent {}: its session came back: {log}", i + 3);
     }
     println!(
-        "netns: link down -> far agents out at the hub, hovering: {:.2} s; link up -> swarm whole again: {:.2} s; \
-         goal at {} s sim, min UAV distance {} m, min obstacle distance {} m",
-        gone_at.duration_since(down_at).as_secs_f64(),
-        whole_at.duration_since(up_at).as_secs_f64(),
-        s["time_to_goal_s"],
-        s["min_agent_distance_m"],
-        s["min_obstacle_distance_m"]
+        "netns: goal at {} s sim, min UAV distance {} m, min obstacle distance {} m",
+        s["time_to_goal_s"], s["min_agent_distance_m"], s["min_obstacle_distance_m"]
     );
     drop(router);
 }
