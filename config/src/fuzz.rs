@@ -235,6 +235,23 @@ fn builtin_text(name: &str) -> &'static str {
     BUILTIN.iter().find(|(n, _)| *n == name).map(|(_, t)| *t).expect("built-in")
 }
 
+/// `text` with each `(index, byte, op)` applied: overwrite, cut there, or insert (index mod len).
+fn edited(text: &str, edits: &[(usize, u8, u8)]) -> Vec<u8> {
+    let mut bytes = text.as_bytes().to_vec();
+    for &(at, b, op) in edits {
+        if bytes.is_empty() {
+            break;
+        }
+        let at = at % bytes.len();
+        match op {
+            0 => bytes[at] = b,
+            1 => bytes.truncate(at),
+            _ => bytes.insert(at, b),
+        }
+    }
+    bytes
+}
+
 #[test]
 fn arbitrary_text_is_refused_with_the_file_named() {
     let text = prop_oneof![".{0,400}", prop::collection::vec(any::<u8>(), 0..400).prop_map(|b| String::from_utf8_lossy(&b).into_owned())];
@@ -246,18 +263,7 @@ fn builtins_with_bytes_edited() {
     let edit = (any::<usize>(), any::<u8>(), 0u8..3);
     let strategy = (0..BUILTIN.len(), prop::collection::vec(edit, 1..6));
     fuzz("scenario parser (built-ins, bytes edited)", strategy, |(i, edits)| {
-        let mut bytes = BUILTIN[i].1.as_bytes().to_vec();
-        for (at, b, op) in edits {
-            let at = at % bytes.len().max(1);
-            match op {
-                0 => bytes[at] = b,
-                1 => bytes.truncate(at),
-                _ => bytes.insert(at, b),
-            }
-            if bytes.is_empty() {
-                break;
-            }
-        }
+        let bytes = edited(BUILTIN[i].1, &edits);
         check_scenario(&Scenario::from_toml_str(&String::from_utf8_lossy(&bytes), FILE))
     });
 }
@@ -317,18 +323,7 @@ fn timeline_json_edited() {
     let sc = builtin("example").expect("example");
     let edit = (any::<usize>(), any::<u8>(), 0u8..3);
     fuzz("timeline JSON parser (edited)", prop::collection::vec(edit, 1..6), |edits| {
-        let mut bytes = json.as_bytes().to_vec();
-        for (at, b, op) in edits {
-            let at = at % bytes.len().max(1);
-            match op {
-                0 => bytes[at] = b,
-                1 => bytes.truncate(at),
-                _ => bytes.insert(at, b),
-            }
-            if bytes.is_empty() {
-                break;
-            }
-        }
+        let bytes = edited(&json, &edits);
         if let Ok(t) = serde_json::from_str::<Timeline>(&String::from_utf8_lossy(&bytes)) {
             let _ = sc.check_timeline(&t, true);
         }

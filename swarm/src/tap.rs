@@ -102,7 +102,7 @@ async fn flood(s: &zenoh::Session, a: &PutArgs, bytes: Vec<u8>) -> Result<()> {
         tick.tick().await;
         p.put(bytes.clone()).await.map_err(WireError::zenoh)?;
         sent += 1;
-        if sent % 1000 == 0 {
+        if sent.is_multiple_of(1000) {
             tracing::info!(sent, key = %a.key, "flooding");
         }
     }
