@@ -104,7 +104,14 @@ fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, source_name: &str) -> 
     serde_path_to_error::deserialize(de).map_err(|e| {
         let field = e.path().to_string();
         let field = if field == "." { "(top level)".to_string() } else { field };
-        ScenarioError::new(source_name, field, e.into_inner().message().trim().to_string())
+        let inner = e.into_inner();
+        // A syntax error has no field and, for some inputs, no message of its own: the full text
+        // then says where (line, column) and what.
+        let message = match inner.message().trim() {
+            "" => inner.to_string().trim().to_string(),
+            m => m.to_string(),
+        };
+        ScenarioError::new(source_name, field, message)
     })
 }
 
@@ -309,6 +316,7 @@ impl Scenario {
         for (i, m) in self.mission.iter().enumerate() {
             non_negative(&format!("mission[{i}].at_s"), m.at_s)?;
             finite(&format!("mission[{i}].goal"), &m.goal)?;
+            finite(&format!("mission[{i}].velocity_mps"), &m.velocity_mps)?;
             self.check_uav_set(&format!("mission[{i}].uavs"), &m.uavs)?;
         }
         Ok(())
@@ -588,3 +596,6 @@ impl PerceptionParams {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod fuzz;

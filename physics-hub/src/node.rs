@@ -4,7 +4,8 @@
 //! 1. publish the clock, then for every UAV its radio set, odometry, GNSS (broadcast mode) and
 //!    scan, in that order on one session, so an agent that has the scan has the rest;
 //! 2. wait until every agent holding a liveliness token has sent its command for tick k, or
-//!    `time.tick_timeout_ms` passes (a missing agent keeps its last command);
+//!    `time.tick_timeout_ms` passes (a missing agent keeps its last command; a UAV whose agent
+//!    lost its liveliness token hovers);
 //! 3. integrate to t_{k+1} and publish `truth/step` (the last one carries `ended`).
 //!
 //! In `realtime` mode step 2 is a wall-clock wait of dt / `realtime_factor`, and whatever

@@ -254,13 +254,17 @@ impl Sim {
     }
 
     /// Integrates one tick. `cmds[i]` is UAV i+1's command for this tick, `None` when it did not
-    /// answer in time (it keeps its last command: a frozen or dead UAV). `alive[i]` is whether its
-    /// agent holds a liveliness token.
+    /// answer in time (it keeps its last command). `alive[i]` is whether its agent holds a
+    /// liveliness token: a UAV whose agent lost it (killed, or cut off by the network) hovers where
+    /// it is, as the agent itself commands when it loses the hub, a command that cannot cross a
+    /// cut link.
     pub fn step(&mut self, cmds: &[Option<Cmd>], alive: &[bool], wall_secs: f64) -> TruthStep {
         let t_now = self.t_secs();
         for (i, b) in self.bodies.iter_mut().enumerate() {
             if self.timeline.frozen_at(i as u32 + 1, t_now) {
                 // A frozen UAV hovers where it is, whatever its agent says (seed 000 6.2).
+                self.last_cmds[i] = Cmd { tick: self.tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
+            } else if !alive.get(i).copied().unwrap_or(true) {
                 self.last_cmds[i] = Cmd { tick: self.tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
             } else if let Some(Some(c)) = cmds.get(i) {
                 self.last_cmds[i] = *c;
@@ -518,7 +522,20 @@ time_limit_s = 1.0
             sim.step(&[vel(0.5), vel(0.0)], &[true, true], 0.0);
         }
         let before = sim.bodies()[0].vel;
-        sim.step(&[None, vel(0.0)], &[false, true], 0.0);
+        sim.step(&[None, vel(0.0)], &[true, true], 0.0);
         assert!((sim.bodies()[0].vel - before).norm() < 1e-12, "keeps flying its last command");
+    }
+
+    #[test]
+    fn a_uav_whose_agent_lost_its_token_hovers() {
+        let mut sim = Sim::new(&scenario());
+        for _ in 0..10 {
+            sim.step(&[vel(0.5), vel(0.0)], &[true, true], 0.0);
+        }
+        assert!(sim.bodies()[0].vel.norm() > 0.4, "flies while its agent is alive");
+        for _ in 0..10 {
+            sim.step(&[vel(0.5), vel(0.0)], &[false, true], 0.0);
+        }
+        assert!(sim.bodies()[0].vel.norm() < 1e-9, "hovers once its agent is gone, whatever arrives");
     }
 }

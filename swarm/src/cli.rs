@@ -24,6 +24,8 @@ pub enum Cmd {
     Hub(crate::pieces::HubArgs),
     /// Start one UAV agent (`--id`) or an agent host (`--ids`) by hand (a Zenoh client of the hub).
     Agent(crate::pieces::AgentArgs),
+    /// Start a bare Zenoh router that agents connect to and that connects to the hub.
+    Router(crate::router::RouterArgs),
     /// Record a run started by hand: write the run folder when the hub ends the run.
     Record(crate::recorder::RecordArgs),
     /// Watch a running swarm: a web page and the Foxglove WebSocket, on loopback.
@@ -98,6 +100,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Run(a) => crate::launch::run(a).await,
         Cmd::Hub(a) => crate::pieces::hub(a).await,
         Cmd::Agent(a) => crate::pieces::agent(a).await,
+        Cmd::Router(a) => crate::router::router(a).await,
         Cmd::Record(a) => crate::recorder::record(a).await,
         Cmd::View(a) => crate::view::view(a).await,
         Cmd::Replay(a) => crate::view::replay(a).await,

@@ -1,8 +1,8 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   view | replay | tap | put | netem | compare | formations | sweep-error | scale | plot |
-//!   credentials | scenarios | check`).
+//!   router | view | replay | tap | put | netem | compare | formations | sweep-error | scale |
+//!   plot | credentials | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
 //! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
@@ -12,6 +12,8 @@
 //!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
 //! - [`pieces`]: `swarm hub` and `swarm agent`, the processes the launcher starts (or a person,
 //!   by hand).
+//! - [`router`]: `swarm router`: a bare Zenoh router between a group of agents and the hub, for
+//!   swarms spread over several machines.
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV), folds
 //!   the metrics of [`summary`] (pure, in `recorder::metrics`); `swarm record` runs it alone.
 //! - [`proxy`]: the TCP proxy `swarm run` puts between an agent and the hub for link-level faults
@@ -55,6 +57,7 @@ mod pieces;
 mod plot;
 mod proxy;
 mod recorder;
+mod router;
 mod scale;
 mod scene;
 mod scenarios;

@@ -63,7 +63,7 @@ pub struct AgentArgs {
 }
 
 /// Resolves when Ctrl-C arrives or, with `watch_stdin`, when standard input closes.
-async fn shutdown_signal(watch_stdin: bool) {
+pub(crate) async fn shutdown_signal(watch_stdin: bool) {
     let stdin_closed = async {
         if watch_stdin {
             use tokio::io::AsyncReadExt;

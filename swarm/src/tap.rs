@@ -5,7 +5,7 @@
 //!
 //! `swarm put KEY`: the other direction, for poking a live run: publish a message written as the
 //! JSON that `tap` prints (`{"Cmd": {...}}`), or raw bytes in hex (to see a malformed payload
-//! counted and dropped).
+//! counted and dropped), once or repeated as a flood (`--repeat`, `--every-ms`).
 
 use anyhow::{anyhow, Result};
 use clap::Args;
@@ -50,6 +50,12 @@ pub struct PutArgs {
     /// Raw payload bytes in hex, sent as they are.
     #[arg(long)]
     pub hex: Option<String>,
+    /// Publish the payload this many times (0: until stopped), for floods of bad input.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: u64,
+    /// Milliseconds between two publications when repeating.
+    #[arg(long, default_value_t = 1)]
+    pub every_ms: u64,
     /// Endpoints.
     #[command(flatten)]
     pub zenoh: crate::args::ZenohArgs,
@@ -76,10 +82,31 @@ pub async fn put(a: PutArgs) -> Result<ExitCode> {
         (None, None) => anyhow::bail!("give --json or --hex"),
     };
     let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
-    // Zenoh's default for a put: dropped rather than blocking under congestion.
-    plumbing::put_once(&s, &a.key, bytes, CongestionControl::Drop).await?;
+    if a.repeat == 1 {
+        // Zenoh's default for a put: dropped rather than blocking under congestion.
+        plumbing::put_once(&s, &a.key, bytes, CongestionControl::Drop).await?;
+    } else {
+        flood(&s, &a, bytes).await?;
+    }
     let _ = s.close().await;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Publishes `bytes` `a.repeat` times (0: until killed), one every `a.every_ms`, dropped rather
+/// than blocking under congestion; logs how many went out every 1000.
+async fn flood(s: &zenoh::Session, a: &PutArgs, bytes: Vec<u8>) -> Result<()> {
+    let p = s.declare_publisher(a.key.clone()).congestion_control(CongestionControl::Drop).await.map_err(WireError::zenoh)?;
+    let mut tick = tokio::time::interval(Duration::from_millis(a.every_ms.max(1)));
+    let mut sent = 0u64;
+    while a.repeat == 0 || sent < a.repeat {
+        tick.tick().await;
+        p.put(bytes.clone()).await.map_err(WireError::zenoh)?;
+        sent += 1;
+        if sent.is_multiple_of(1000) {
+            tracing::info!(sent, key = %a.key, "flooding");
+        }
+    }
+    Ok(())
 }
 
 /// Decodes one payload into a JSON value (never fails: undecodable payloads are described).

@@ -4,17 +4,9 @@
 
 mod common;
 
-use common::{output_within, run_id, start_hub, tap, wait_output, Proc, SWARM, TOOL_LIMIT};
+use common::{output_within, run_id, start_hub, start_recorder, tap, wait_output, Proc, SWARM, TOOL_LIMIT};
 use std::process::Command;
 use std::time::Duration;
-
-/// Starts `swarm record` into `out` and waits until it holds its token, i.e. is subscribed.
-fn start_recorder(run: &str, loc: &str, out: &std::path::Path, dir: &std::path::Path) -> Proc {
-    let rec = Proc::start(&["record", "--run", run, "--out", out.to_str().expect("utf8"), "--connect", loc], &dir.join("rec.log"));
-    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", loc, "--count", "1", "--duration", "30"]);
-    assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
-    rec
-}
 
 #[test]
 fn pieces_by_hand_fly_and_tap_decodes_the_key_space() {

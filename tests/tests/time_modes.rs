@@ -47,7 +47,7 @@ fn realtime_mode_flies_and_never_outruns_its_factor() {
 }
 
 /// Lockstep waits only for live agents: kill one mid-run and the hub keeps ticking to the time
-/// limit; the dead UAV is marked not alive and keeps its last command (it drifts on, an obstacle).
+/// limit; the dead UAV is marked not alive and hovers where it is (an obstacle).
 #[test]
 fn lockstep_goes_on_when_an_agent_dies() {
     let dir = tempfile::tempdir().expect("tempdir");

@@ -18,6 +18,9 @@ pub mod msg;
 pub mod plumbing;
 pub mod session;
 
+#[cfg(test)]
+mod fuzz;
+
 pub use keys::Keys;
 pub use msg::*;
 
@@ -31,6 +34,14 @@ pub enum WireError {
         len: usize,
         /// Postcard's reason.
         source: postcard::Error,
+    },
+    /// A payload held a whole [`Msg`] and more bytes after it.
+    #[error("malformed message ({len} bytes): {extra} bytes after its end")]
+    Trailing {
+        /// Payload size.
+        len: usize,
+        /// Bytes left after the message.
+        extra: usize,
     },
     /// A message could not be encoded.
     #[error("cannot encode message: {0}")]

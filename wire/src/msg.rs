@@ -52,9 +52,15 @@ impl Msg {
         postcard::to_allocvec(self).map_err(WireError::Encode)
     }
 
-    /// Decodes a payload; a malformed one is an error to count and drop, never a panic.
+    /// Decodes a payload; a malformed one is an error to count and drop, never a panic. Bytes
+    /// after the end of a message make it malformed (postcard alone would ignore them).
     pub fn decode(bytes: &[u8]) -> Result<Msg, WireError> {
-        postcard::from_bytes(bytes).map_err(|source| WireError::Decode { len: bytes.len(), source })
+        let (msg, rest) = postcard::take_from_bytes(bytes).map_err(|source| WireError::Decode { len: bytes.len(), source })?;
+        if rest.is_empty() {
+            Ok(msg)
+        } else {
+            Err(WireError::Trailing { len: bytes.len(), extra: rest.len() })
+        }
     }
 
     /// Short name of the variant, for logs and counters.
@@ -500,7 +506,7 @@ pub struct HubTiming {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// The variant names of `Msg`, read from its own `Deserialize` impl (serde hands them to
@@ -556,7 +562,7 @@ mod tests {
     /// One representative value of every variant and its exact postcard bytes (hex). Values use
     /// small integers, exact binary fractions, `Some` and non-empty vectors so every field shows
     /// in the bytes.
-    fn golden() -> Vec<(Msg, &'static str)> {
+    pub(crate) fn golden() -> Vec<(Msg, &'static str)> {
         let state = AgentState {
             id: 2,
             tick: 7,

@@ -183,6 +183,14 @@ fn start_hub_with(scenario: &str, run: &str, dir: &Path, access: &[&str]) -> (Pr
     (hub, locator)
 }
 
+/// Starts `swarm record` into `out` and waits until it holds its token, i.e. is subscribed.
+pub fn start_recorder(run: &str, loc: &str, out: &std::path::Path, dir: &std::path::Path) -> Proc {
+    let rec = Proc::start(&["record", "--run", run, "--out", out.to_str().expect("utf8"), "--connect", loc], &dir.join("rec.log"));
+    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", loc, "--count", "1", "--duration", "30"]);
+    assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
+    rec
+}
+
 /// The alive column of one UAV in `trajectories.csv`, as (sim time, alive) at each change.
 pub fn alive_changes(dir: &std::path::Path, id: &str) -> Vec<(f64, bool)> {
     let traj = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
