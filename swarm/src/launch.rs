@@ -62,6 +62,10 @@ pub struct RunArgs {
     /// `[[failures]]` always get a process of their own.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub agents_per_process: Option<u32>,
+    /// Exit with status 2 when a check of the scenario's `[expect]` fails (`checks[]` of the
+    /// summary), after a run that otherwise ended well.
+    #[arg(long)]
+    pub check: bool,
 }
 
 /// Up to this many UAVs, `swarm run` starts one process per UAV by default.
@@ -93,6 +97,9 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &a.cfg, a.quiet, per_process).await?;
     println!("{}", summary.human());
     println!("run folder: {}", out.display());
+    if a.check && hub_ok && summary.failed_checks().next().is_some() {
+        return Ok(ExitCode::from(2));
+    }
     Ok(summary.exit_code(hub_ok))
 }
 

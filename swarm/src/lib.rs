@@ -9,6 +9,9 @@
 //!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
 //! - [`pieces`]: `swarm hub` and `swarm agent`, the processes the launcher starts (or a person,
 //!   by hand).
+//! - [`checks`]: the run's invariants (no collision, separation, no stale or phantom neighbour,
+//!   reconnection after heals, connected at the end, the goal), judged from what the recorder
+//!   sees, with the first failing moment of each; `summary.json`'s `checks[]`.
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV), folds
 //!   the metrics of [`summary`] (pure, in `recorder::metrics`); `swarm record` runs it alone.
 //! - [`proxy`]: the TCP proxy `swarm run` puts between an agent and the hub for link-level faults
@@ -38,6 +41,7 @@
 //! `truth/**` besides tools a person points at it.
 
 mod args;
+mod checks;
 pub mod cli;
 mod launch;
 mod netem_cli;

@@ -4,6 +4,7 @@
 
 use super::files::{decode, Files};
 use super::metrics::Metrics;
+use crate::checks::Checker;
 use crate::summary::Summary;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
@@ -38,6 +39,7 @@ pub struct Recording {
 struct Sink<'a> {
     files: Files,
     m: Metrics,
+    checks: Checker,
     malformed: u64,
     sc: &'a Scenario,
     pb: &'a ProgressBar,
@@ -50,6 +52,7 @@ impl Sink<'_> {
             Some(Msg::TruthStep(s)) => {
                 self.files.write_step(&s)?;
                 self.m.on_step(&s);
+                self.checks.on_step(&s);
                 let g = self.sc.swarm.goal;
                 let d = s.bodies.iter().map(|b| (b.x - g[0]).hypot(b.y - g[1])).fold(0.0, f64::max);
                 self.pb.set_position(s.tick);
@@ -73,6 +76,7 @@ impl Sink<'_> {
         if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
             if (1..=self.sc.swarm.count).contains(&st.id) {
                 self.files.write_state(&st)?;
+                self.checks.on_state(&st);
                 self.m.on_state(*st);
             }
         }
@@ -126,7 +130,7 @@ impl Recording {
         hub: Option<&mut Child>,
         on_tick: &mut dyn FnMut(f64) -> Result<()>,
     ) -> Result<Summary> {
-        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), malformed: 0, sc, pb };
+        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), checks: Checker::new(sc), malformed: 0, sc, pb };
         // The world is published once; ask for it too, in case that was before we subscribed.
         match plumbing::fetch(&self.session, &self.keys.truth_world(), ASK_WAIT).await {
             Ok(b) => {
@@ -136,9 +140,10 @@ impl Recording {
         }
         self.follow(&mut sink, hub, on_tick).await?;
         self.drain(&mut sink).await?;
-        let Sink { mut files, m, malformed, .. } = sink;
+        let Sink { mut files, m, checks, malformed, .. } = sink;
         files.flush()?;
-        let summary = m.summary(&self.run_id, sc);
+        let mut summary = m.summary(&self.run_id, sc);
+        summary.checks = checks.finish(sc, &summary);
         write_outputs(out, sc, &self.run_id, &summary, &m)?;
         if malformed > 0 {
             warn!(malformed, "recorder dropped malformed messages");
