@@ -40,6 +40,9 @@ pub enum Cmd {
     SweepError(crate::study::SweepArgs),
     /// Fly swarms of growing size and print (and plot) speed, tick and step times and memory.
     Scale(crate::scale::ScaleArgs),
+    /// Generate scenarios with nemesis schedules from a seed, fly them, check the invariants,
+    /// and shrink each failure to a minimal scenario file.
+    Fuzz(crate::fuzz::FuzzArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -96,6 +99,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
+        Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario),
     }

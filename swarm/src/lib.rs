@@ -1,7 +1,7 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   tap | put | netem | compare | formations | sweep-error | scale | scenarios | check`).
+//!   tap | put | netem | compare | formations | sweep-error | scale | fuzz | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`), run ids, scenario values on the command line.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
@@ -24,6 +24,8 @@
 //!   full runs with a table and a plot.
 //! - [`scale`]: `swarm scale`: a series of growing swarms (5 to 1000 UAVs) flown in turn, with
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
+//! - [`fuzz`]: `swarm fuzz`: generated scenarios with nemesis schedules flown through the
+//!   `study` runner, judged by [`checks`], each failure shrunk to a minimal scenario file.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
 //! - [`plot`]: `run.svg`, the map of the run and distances over time, and the studies' charts.
@@ -43,6 +45,7 @@
 mod args;
 mod checks;
 pub mod cli;
+mod fuzz;
 mod launch;
 mod netem_cli;
 mod pieces;
