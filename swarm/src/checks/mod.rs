@@ -5,7 +5,9 @@
 //! and with what bounds is the scenario's `[expect]` (`swarm_config::Expect`); `swarm run --check`
 //! and `swarm fuzz` fail on any failed check.
 //!
-//! Pure: no IO, no clock, so it is tested with hand-made steps and states.
+//! Pure: no IO, no clock, so it is tested with hand-made steps and states. [`Checker`] folds the
+//! run; `verdicts` judges each check at the end (those judged only then: connected at the end,
+//! the goal, reconnection after each heal).
 
 mod verdicts;
 

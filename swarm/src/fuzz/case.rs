@@ -11,7 +11,9 @@ use swarm_config::{ControllerKind, LocalizationMode, Scenario, Tree};
 /// What `--weaken` turns off, to show the fuzzer finds a broken swarm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Weaken {
-    /// K21's separation gain `ks = 0` (and no all-around separation): UAVs no longer keep apart.
+    /// K21's separation off (`ks = 0`, no all-around separation) and cohesion's dead radius,
+    /// which alone keeps a K21 swarm about 2.5 m apart, cut to 0.2 m: cohesion pulls neighbours
+    /// into each other.
     Separation,
 }
 
@@ -189,6 +191,7 @@ impl Case {
         if self.weaken == Some(Weaken::Separation) {
             sc.controller.k21.ks = 0.0;
             sc.controller.k21.separation_all_around_m = 0.0;
+            sc.controller.k21.cohesion_radius_m = 0.2;
         }
         // Through TOML, so the scenario is exactly what a file of it reads as, validated.
         let text = toml::to_string(&sc)?;

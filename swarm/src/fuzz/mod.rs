@@ -3,7 +3,8 @@
 //! `netem::nemesis`), fly each in lockstep through the study runner (`study::run_variant`, `--jobs`
 //! at a time), judge the invariants of `checks`, and shrink each failure ([`shrink`]) while the same
 //! check still fails. The minimal failing scenario is written as a TOML file anyone can
-//! `swarm run`, and printed; `fuzz.json` lists every case and finding.
+//! `swarm run`, and printed; `fuzz.json` lists every case and finding. `--jobs` cases fly at once,
+//! polled together in one task.
 //!
 //! Deterministic for a seed: case `i` is drawn from its own seed (the `i`-th draw of the master
 //! stream), lockstep runs repeat, and shrinking tries candidates in a fixed order, one at a time.
@@ -22,7 +23,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use netem::nemesis::NemesisKind;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
+use std::future::Future;
 use std::path::{Path, PathBuf};
+use std::pin::Pin;
+use std::task::Poll;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use swarm_config::ControllerKind;
@@ -58,8 +62,8 @@ pub struct FuzzArgs {
     /// Most faults per case.
     #[arg(long, default_value_t = 3)]
     pub max_faults: usize,
-    /// Weaken every case on purpose (`separation`: K21 separation gain 0), to show a failure is
-    /// found and shrunk.
+    /// Weaken every case on purpose (`separation`: K21 separation gain 0 and cohesion pulling all
+    /// the way in), to show a failure is found and shrunk.
     #[arg(long, value_enum)]
     pub weaken: Option<Weaken>,
     /// Runs each failure's shrinking may spend.
@@ -88,12 +92,15 @@ struct Finding {
     shrink_runs: usize,
 }
 
-/// The first failed check of a summary, with its first failing moment [s].
+/// The check to shrink: the failed check whose first failure came first (checks judged as
+/// they happen before those judged at the end), with that moment [s].
 fn first_failed(s: &Summary) -> Option<(String, f64, String)> {
-    s.failed_checks().next().map(|c| {
-        let (t, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
-        (c.name.clone(), t, what)
-    })
+    s.failed_checks()
+        .map(|c| {
+            let (t, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
+            (c.name.clone(), t, what)
+        })
+        .min_by(|a, b| (shrink::judged_at_end(&a.0), a.1).partial_cmp(&(shrink::judged_at_end(&b.0), b.1)).unwrap_or(std::cmp::Ordering::Equal))
 }
 
 fn space(a: &FuzzArgs) -> Result<Space> {
@@ -114,37 +121,47 @@ async fn fly(case: &Case, out: &Path, tag: &str) -> Result<Summary> {
     run_variant(&case.render()?, out, tag, VariantRun { per_process: None, progress: false }).await
 }
 
-/// Flies cases `jobs` at a time (the runner's futures hold non-`Send` state, so they share one
-/// thread's `LocalSet`); results come back in case order.
-async fn fly_all(cases: Vec<Case>, out: &Path, jobs: usize, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
-    let local = tokio::task::LocalSet::new();
-    local
-        .run_until(async {
-            let mut set = tokio::task::JoinSet::new();
-            let mut done = Vec::new();
-            for case in cases {
-                while set.len() >= jobs.max(1) {
-                    if let Some(Ok(r)) = set.join_next().await {
-                        pb.inc(1);
-                        done.push(r);
+/// Polls every future of `futs` until all are done, in this one task (the runner holds state
+/// that is not `Send`, and Zenoh needs the multi-threaded runtime's own task); results in order.
+async fn join_all<T>(futs: Vec<Pin<Box<dyn Future<Output = T> + '_>>>) -> Vec<T> {
+    let mut futs: Vec<_> = futs.into_iter().map(Some).collect();
+    let mut out: Vec<Option<T>> = futs.iter().map(|_| None).collect();
+    std::future::poll_fn(|cx| {
+        let mut pending = false;
+        for (slot, done) in futs.iter_mut().zip(out.iter_mut()) {
+            if let Some(fut) = slot {
+                match fut.as_mut().poll(cx) {
+                    Poll::Ready(v) => {
+                        *done = Some(v);
+                        *slot = None;
                     }
-                }
-                let out = out.to_path_buf();
-                set.spawn_local(async move {
-                    let r = fly(&case, &out, &format!("case-{}", case.index)).await;
-                    (case, r)
-                });
-            }
-            while let Some(r) = set.join_next().await {
-                if let Ok(r) = r {
-                    pb.inc(1);
-                    done.push(r);
+                    Poll::Pending => pending = true,
                 }
             }
-            done.sort_by_key(|(c, _)| c.index);
-            done
+        }
+        if pending {
+            Poll::Pending
+        } else {
+            Poll::Ready(())
+        }
+    })
+    .await;
+    out.into_iter().flatten().collect()
+}
+
+/// Flies a batch of cases at once; results come back in case order.
+async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
+    let futs: Vec<Pin<Box<dyn Future<Output = (Case, Result<Summary>)> + '_>>> = cases
+        .into_iter()
+        .map(|case| {
+            Box::pin(async move {
+                let r = fly(&case, out, &format!("case-{}", case.index)).await;
+                pb.inc(1);
+                (case, r)
+            }) as Pin<Box<dyn Future<Output = _> + '_>>
         })
-        .await
+        .collect();
+    join_all(futs).await
 }
 
 /// Shrinks `case`, which fails `check` first at `t_s`, while the same check still fails.
@@ -206,7 +223,7 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
         if runs == usize::MAX {
             pb.set_length(next as u64);
         }
-        for (case, r) in fly_all(batch, &out, a.jobs, &pb).await {
+        for (case, r) in fly_all(batch, &out, &pb).await {
             let s = match r {
                 Ok(s) => s,
                 Err(e) => {
