@@ -1,13 +1,13 @@
 //! Shrinking a failing [`Case`] (after QuickCheck and Jepsen): propose smaller cases one at a
 //! time and keep the first that still fails the same check, until none does or the budget of
-//! runs is spent. Smaller means, in this order: a shorter flight (to a little after the first
-//! failing moment, for checks judged as they happen), fewer UAVs, fewer faults, fewer trees,
+//! runs is spent. Smaller means, in this order: a shorter flight (to twice the first failing
+//! moment and 5 s, for checks judged as they happen), fewer UAVs, fewer faults, fewer trees,
 //! shorter faults.
 
 use super::case::Case;
 use swarm_config::CheckName;
 
-/// Seconds of flight kept after the first failing moment when the flight is cut short.
+/// Seconds of flight kept beyond twice the first failing moment when the flight is cut short.
 pub const AFTER_FAILURE_S: f64 = 5.0;
 
 /// Checks judged at the end of the run: cutting the flight short would fail them trivially.
@@ -19,7 +19,8 @@ pub fn judged_at_end(check: &str) -> bool {
 /// failing moment of the check being shrunk.
 pub fn candidates(c: &Case, check: &str, failed_at_s: f64) -> Vec<Case> {
     let mut out = Vec::new();
-    let cut_to = (failed_at_s + AFTER_FAILURE_S).ceil();
+    // Twice the time to the failure, and a little: a smaller swarm may take longer to fail.
+    let cut_to = (2.0 * failed_at_s + AFTER_FAILURE_S).ceil();
     if !judged_at_end(check) && cut_to < c.time_limit_s {
         out.push(Case { time_limit_s: cut_to, ..c.clone() });
     }
@@ -92,7 +93,7 @@ mod tests {
             .expect("a case with UAVs, faults and trees");
         let (n, t, f, limit) = size(&c);
         let cands = candidates(&c, "min_separation", 10.0);
-        assert_eq!(cands[0].time_limit_s, 15.0, "cut to just after the failure");
+        assert_eq!(cands[0].time_limit_s, 25.0, "cut to twice the failure time and 5 s");
         for k in &cands {
             let (n2, t2, f2, l2) = size(k);
             assert!(n2 <= n && t2 <= t && f2 <= f && l2 <= limit, "never larger");
