@@ -121,9 +121,12 @@ async fn fly(case: &Case, out: &Path, tag: &str) -> Result<Summary> {
     run_variant(&case.render()?, out, tag, VariantRun { per_process: None, progress: false }).await
 }
 
+/// A future borrowed for `'a`, boxed so futures of different bodies share one list.
+type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + 'a>>;
+
 /// Polls every future of `futs` until all are done, in this one task (the runner holds state
 /// that is not `Send`, and Zenoh needs the multi-threaded runtime's own task); results in order.
-async fn join_all<T>(futs: Vec<Pin<Box<dyn Future<Output = T> + '_>>>) -> Vec<T> {
+async fn join_all<T>(futs: Vec<BoxFuture<'_, T>>) -> Vec<T> {
     let mut futs: Vec<_> = futs.into_iter().map(Some).collect();
     let mut out: Vec<Option<T>> = futs.iter().map(|_| None).collect();
     std::future::poll_fn(|cx| {
@@ -151,14 +154,14 @@ async fn join_all<T>(futs: Vec<Pin<Box<dyn Future<Output = T> + '_>>>) -> Vec<T>
 
 /// Flies a batch of cases at once; results come back in case order.
 async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
-    let futs: Vec<Pin<Box<dyn Future<Output = (Case, Result<Summary>)> + '_>>> = cases
+    let futs: Vec<BoxFuture<'_, (Case, Result<Summary>)>> = cases
         .into_iter()
         .map(|case| {
             Box::pin(async move {
                 let r = fly(&case, out, &format!("case-{}", case.index)).await;
                 pb.inc(1);
                 (case, r)
-            }) as Pin<Box<dyn Future<Output = _> + '_>>
+            }) as BoxFuture<'_, _>
         })
         .collect();
     join_all(futs).await
