@@ -106,6 +106,8 @@ fn an_estimate_across_a_cut_link_fails_and_a_heal_must_reconnect() {
     assert!((f.t_s - 3.0).abs() < 1e-9 && f.what.contains("2 component"), "{f:?}");
     let back: Vec<_> = (1..=40).map(|k| (near(k), vec![state(1, k, if (5..22).contains(&k) { &[] } else { &[2] }), state(2, k, &[])])).collect();
     assert!(judge(&sc, &back, "reconnect").passed, "regained 0.2 s after the heal");
+    let never: Vec<_> = (1..=40).map(|k| (near(k), vec![state(1, k, &[]), state(2, k, &[])])).collect();
+    assert!(judge(&sc, &never, "reconnect").passed, "never one component before the heal: nothing to come back to");
 }
 
 #[test]

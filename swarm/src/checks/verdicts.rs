@@ -69,7 +69,8 @@ impl Checker {
     }
 
     /// After every heal, one component again within the bound (a deadline after the end of the
-    /// run cannot fail).
+    /// run cannot fail, and neither can a heal before which the graph was never one component:
+    /// there is nothing to come back to, e.g. ICP in an open field localizes no one).
     fn reconnect(&self, s: &Summary) -> CheckResult {
         let c = CheckName::Reconnect;
         let within = self.bounds.reconnect_within_s;
@@ -80,7 +81,8 @@ impl Checker {
         for d in &self.deadlines {
             let r = s.connectivity.reconnections.iter().find(|r| (r.heal_at_s - d.heal_s).abs() < 1e-9);
             let late = r.is_none_or(|r| r.reconnected_after_s.is_none_or(|a| a > within + 1e-9));
-            if late && d.due_s <= s.sim_time_s + 1e-9 {
+            let was_connected = s.connectivity.components_changes.iter().any(|c| c.t_s < d.heal_s && c.components == 1);
+            if late && was_connected && d.due_s <= s.sim_time_s + 1e-9 {
                 let sets = component_sets(&d.graph);
                 let apart: Vec<u32> = sets.iter().skip(1).flatten().copied().collect();
                 let what = format!(
