@@ -18,13 +18,15 @@
 //!
 //! Modules (private, their items re-exported at the root): `schema` (the scenario structs),
 //! `impairment` (a netem rule's impairment and partition, and their validation), and one module
-//! per controller or sensor with parameters of its own (`p17`, `a21`, `m23`, `costmap`, `uvdar`).
+//! per controller or sensor with parameters of its own (`p17`, `a21`, `m23`, `costmap`, `uvdar`),
+//! and `expect` (the `[expect]` table: which run invariants apply, with what bounds).
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 mod a21;
 mod costmap;
+mod expect;
 mod impairment;
 mod m23;
 mod p17;
@@ -32,6 +34,7 @@ mod schema;
 mod uvdar;
 pub use a21::*;
 pub use costmap::*;
+pub use expect::*;
 pub use impairment::*;
 pub use m23::*;
 pub use p17::*;
@@ -297,6 +300,7 @@ impl Scenario {
         self.validate_netem()?;
         self.validate_failures()?;
         self.validate_mission()?;
+        self.validate_expect()?;
         positive("end.goal_radius_m", self.end.goal_radius_m)?;
         positive("end.time_limit_s", self.end.time_limit_s)?;
         Ok(())

@@ -56,6 +56,10 @@ pub struct Scenario {
     /// instead of `swarm.goal`. The end condition always uses `swarm.goal`.
     #[serde(default)]
     pub mission: Vec<GoalChange>,
+    /// What the run must show (`swarm run --check`, `swarm fuzz`): which invariants apply and
+    /// with what bounds.
+    #[serde(default)]
+    pub expect: crate::Expect,
 }
 
 /// A new goal for some UAVs from some time on.

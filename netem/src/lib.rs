@@ -16,7 +16,9 @@
 //!
 //! Modules: [`impair`], the pure impairment core (delay, jitter, loss and burst loss, duplication,
 //! reordering, rate, partitions, hold) following Linux netem; `timeline` ([`Timeline`]: which rule
-//! is in force on a link at a sim time, who is frozen). [`Link`] runs one seeded
+//! is in force on a link at a sim time, who is frozen); [`nemesis`], Jepsen's vocabulary of
+//! generated faults (partitions by scheme, loss and bursts, delay, duplication, freezes, kills,
+//! link stalls) in seeded random schedules, rendered into `[[netem]]` and `[[failures]]`. [`Link`] runs one seeded
 //! [`impair::LinkSim`] per sender under the rule the caller looked up.
 //!
 //! Metrics: every message is counted under the class of the rule in force on its link when it was
@@ -28,6 +30,7 @@
 use serde::{Deserialize, Serialize};
 
 pub mod impair;
+pub mod nemesis;
 mod timeline;
 
 pub use timeline::Timeline;

@@ -52,6 +52,9 @@ pub enum Cmd {
     Plot(crate::plot::PlotArgs),
     /// Make fresh users and passwords for a hub and pieces started by hand (README "Security").
     Credentials(crate::auth::CredentialsArgs),
+    /// Generate scenarios with nemesis schedules from a seed, fly them, check the invariants,
+    /// and shrink each failure to a minimal scenario file.
+    Fuzz(crate::fuzz::FuzzArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Validate a scenario file and print what it resolves to.
@@ -113,6 +116,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Scale(a) => crate::scale::scale(a).await,
         Cmd::Plot(a) => crate::plot::plot(a),
         Cmd::Credentials(a) => crate::auth::credentials(a),
+        Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario),
     }

@@ -77,6 +77,10 @@ pub struct RunArgs {
     /// `[[failures]]` always get a process of their own.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub agents_per_process: Option<u32>,
+    /// Exit with status 2 when a check of the scenario's `[expect]` fails (`checks[]` of the
+    /// summary), after a run that otherwise ended well.
+    #[arg(long)]
+    pub check: bool,
 }
 
 /// Up to this many UAVs, `swarm run` starts one process per UAV by default.
@@ -113,6 +117,9 @@ pub async fn run(a: RunArgs) -> Result<ExitCode> {
     if a.view.is_some() {
         eprintln!("the run is over; the view stays up until Ctrl-C");
         let _ = tokio::signal::ctrl_c().await;
+    }
+    if a.check && hub_ok && summary.failed_checks().next().is_some() {
+        return Ok(ExitCode::from(2));
     }
     Ok(summary.exit_code(hub_ok))
 }

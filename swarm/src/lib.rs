@@ -2,7 +2,7 @@
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
 //!   router | view | replay | tap | put | netem | compare | formations | sweep-error | scale |
-//!   plot | credentials | scenarios | check`).
+//!   plot | credentials | fuzz | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
 //! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
@@ -14,6 +14,9 @@
 //!   by hand).
 //! - [`router`]: `swarm router`: a bare Zenoh router between a group of agents and the hub, for
 //!   swarms spread over several machines.
+//! - [`checks`]: the run's invariants (no collision, separation, no stale or phantom neighbour,
+//!   reconnection after heals, connected at the end, the goal), judged from what the recorder
+//!   sees, with the first failing moment of each; `summary.json`'s `checks[]`.
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV), folds
 //!   the metrics of [`summary`] (pure, in `recorder::metrics`); `swarm record` runs it alone.
 //! - [`proxy`]: the TCP proxy `swarm run` puts between an agent and the hub for link-level faults
@@ -26,6 +29,8 @@
 //!   full runs with a table and a plot.
 //! - [`scale`]: `swarm scale`: a series of growing swarms (5 to 1000 UAVs) flown in turn, with
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
+//! - [`fuzz`]: `swarm fuzz`: generated scenarios with nemesis schedules flown through the
+//!   `study` runner, judged by [`checks`], each failure shrunk to a minimal scenario file.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
 //! - [`plot`]: `swarm plot`, the figures of a run folder as SVG and PNG (the map and distances
@@ -50,7 +55,9 @@
 
 mod args;
 mod auth;
+mod checks;
 pub mod cli;
+mod fuzz;
 mod launch;
 mod netem_cli;
 mod pieces;

@@ -87,6 +87,45 @@ pub struct Summary {
     /// lockstep). Appended; absent (zero) in older summaries.
     #[serde(default)]
     pub timing: TimingSummary,
+    /// The invariants of the scenario's `[expect]`, each passed or failed with its first failing
+    /// moment (issue 15). Appended; empty in older summaries.
+    #[serde(default)]
+    pub checks: Vec<CheckResult>,
+}
+
+/// One invariant evaluated over a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CheckResult {
+    /// The check's name (`collision`, `min_separation`, ... as in `[expect]`).
+    pub name: String,
+    /// Whether it held.
+    pub passed: bool,
+    /// What was checked, with the bound (and why it passed vacuously, when it did).
+    pub detail: String,
+    /// The first moment it failed (null when it passed).
+    pub first_failure: Option<CheckFailure>,
+}
+
+/// The first moment an invariant failed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CheckFailure {
+    /// Sim time.
+    pub t_s: f64,
+    /// What went wrong, in words.
+    pub what: String,
+    /// The UAVs involved, each with its world position then.
+    pub uavs: Vec<UavAt>,
+}
+
+/// A UAV and where it was.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UavAt {
+    /// UAV id.
+    pub id: u32,
+    /// World x.
+    pub x_m: f64,
+    /// World y.
+    pub y_m: f64,
 }
 
 /// What a run cost on the wall clock, and how well the agents kept up (issue 11: the `swarm
@@ -349,6 +388,25 @@ impl Summary {
         }
     }
 
+    /// The checks that failed.
+    pub fn failed_checks(&self) -> impl Iterator<Item = &CheckResult> {
+        self.checks.iter().filter(|c| !c.passed)
+    }
+
+    /// The checks in a few lines: a count, then one line per failure with its first moment.
+    pub fn checks_human(&self) -> String {
+        let failed = self.failed_checks().count();
+        let mut s = format!("checks: {} passed, {failed} failed", self.checks.len() - failed);
+        for c in self.failed_checks() {
+            let _ = write!(s, "\n  FAIL {}: {}", c.name, c.detail);
+            if let Some(f) = &c.first_failure {
+                let at: Vec<String> = f.uavs.iter().map(|u| format!("{} at ({:.2}, {:.2})", u.id, u.x_m, u.y_m)).collect();
+                let _ = write!(s, "\n       first at t={:.1} s: {}; UAVs {}", f.t_s, f.what, at.join(", "));
+            }
+        }
+        s
+    }
+
     /// A human rendering for the terminal.
     pub fn human(&self) -> String {
         let mut s = String::new();
@@ -415,6 +473,9 @@ impl Summary {
             f(self.min_obstacle_distance_m),
             f(self.min_agent_distance_m)
         );
+        if !self.checks.is_empty() {
+            let _ = write!(s, "\n{}", self.checks_human());
+        }
         s
     }
 }

@@ -472,6 +472,7 @@ impl Metrics {
             formation,
             agents,
             timing: self.timing(),
+            checks: Vec::new(),
         }
     }
 
@@ -537,16 +538,7 @@ impl Metrics {
                 across += ids.iter().filter(|&&j| blocked(j, i, *t) && blocked(j, i, t - grace)).count() as u64;
             }
         }
-        // A heal: a per-link rule with no impairment, or the end of a partition (several at one
-        // instant count once).
-        let is_heal = |r: &&swarm_config::NetemRule| match &r.partition {
-            None => r.rule.is_identity(),
-            Some(p) => *p == netem::impair::Partition::Healed,
-        };
-        let mut heal_times: Vec<f64> = sc.netem.iter().filter(is_heal).map(|r| r.at_s).collect();
-        heal_times.sort_by(f64::total_cmp);
-        heal_times.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-        let reconnections = heal_times
+        let reconnections = crate::checks::heal_times(sc)
             .iter()
             .map(|&h| {
                 let after: Vec<&(f64, usize)> = series.iter().filter(|(t, _)| *t >= h - 1e-9).collect();

@@ -5,6 +5,7 @@
 use super::files::{decode, write_connectivity, write_world, Files};
 use super::metrics::Metrics;
 use crate::scene::{Feed, Scene};
+use crate::checks::Checker;
 use crate::summary::Summary;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
@@ -41,6 +42,7 @@ pub struct Recording {
 struct Sink<'a> {
     files: Files,
     m: Metrics,
+    checks: Checker,
     malformed: u64,
     sc: &'a Scenario,
     pb: &'a ProgressBar,
@@ -58,6 +60,7 @@ impl Sink<'_> {
                 self.files.write_step(&s)?;
                 self.m.on_step(&s);
                 self.files.write_scored(&self.m.take_scored())?;
+                self.checks.on_step(&s);
                 let g = self.sc.swarm.goal;
                 let d = s.bodies.iter().map(|b| (b.x - g[0]).hypot(b.y - g[1])).fold(0.0, f64::max);
                 self.pb.set_position(s.tick);
@@ -87,6 +90,7 @@ impl Sink<'_> {
                 if let Some(scene) = self.scene.as_mut() {
                     scene.on_state(&st);
                 }
+                self.checks.on_state(&st);
                 self.m.on_state(*st);
                 self.files.write_scored(&self.m.take_scored())?;
             }
@@ -156,7 +160,7 @@ impl Recording {
         on_tick: &mut dyn FnMut(f64) -> Result<()>,
     ) -> Result<Summary> {
         let (scene, mut feed) = (self.scene.take(), self.feed.take());
-        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), malformed: 0, sc, pb, scene };
+        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), checks: Checker::new(sc), malformed: 0, sc, pb, scene };
         // The world is published once; ask for it too, in case that was before we subscribed.
         match plumbing::fetch(&self.session, &self.keys.truth_world(), ASK_WAIT).await {
             Ok(b) => {
@@ -166,12 +170,13 @@ impl Recording {
         }
         self.follow(&mut sink, feed.as_mut(), hub, on_tick).await?;
         self.drain(&mut sink, feed.as_mut()).await?;
-        let Sink { mut files, m, malformed, scene, .. } = sink;
+        let Sink { mut files, m, checks, malformed, scene, .. } = sink;
         files.flush()?;
         if let Some(mut scene) = scene {
             scene.finish()?;
         }
-        let summary = m.summary(&self.run_id, sc);
+        let mut summary = m.summary(&self.run_id, sc);
+        summary.checks = checks.finish(sc, &summary);
         write_outputs(out, &summary, &m)?;
         if malformed > 0 {
             warn!(malformed, "recorder dropped malformed messages");

@@ -1,0 +1,272 @@
+//! `swarm fuzz`: Jepsen for swarms. From one seed, generate scenarios ([`case`]: forest density
+//! and layout, start layout, swarm size, controller and localization mode, a nemesis schedule of
+//! `netem::nemesis`), fly each in lockstep through the study runner (`study::run_variant`, `--jobs`
+//! at a time), judge the invariants of `checks`, and shrink each failure ([`shrink`]) while the same
+//! check still fails. The minimal failing scenario is written as a TOML file anyone can
+//! `swarm run`, and printed; `fuzz.json` lists every case and finding. `--jobs` cases fly at once,
+//! polled together in one task.
+//!
+//! Deterministic for a seed: case `i` is drawn from its own seed (the `i`-th draw of the master
+//! stream), lockstep runs repeat, and shrinking tries candidates in a fixed order, one at a time.
+//! `--minutes` only decides how many cases are started.
+
+mod case;
+mod shrink;
+
+use crate::args::unix_secs;
+use crate::study::{run_variant, VariantRun};
+use crate::summary::Summary;
+use anyhow::{Context, Result};
+use case::{Case, Space, Weaken};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use netem::nemesis::NemesisKind;
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+use std::future::Future;
+use std::path::{Path, PathBuf};
+use std::pin::Pin;
+use std::task::Poll;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+use swarm_config::ControllerKind;
+
+/// `swarm fuzz`.
+#[derive(Args, Debug, Clone)]
+pub struct FuzzArgs {
+    /// Master seed: the same seed generates, flies and shrinks the same cases.
+    #[arg(long)]
+    pub seed: u64,
+    /// Cases to fly (default 20 unless `--minutes` is given).
+    #[arg(long)]
+    pub runs: Option<usize>,
+    /// Start no new case after this many wall minutes.
+    #[arg(long)]
+    pub minutes: Option<f64>,
+    /// Cases flown at once.
+    #[arg(long, default_value_t = 2)]
+    pub jobs: usize,
+    /// Output folder (default: runs/fuzz-<seed>-<time>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Controllers to draw from, comma-separated (each flies from its built-in forest scenario).
+    #[arg(long, default_value = "k21,p17,a21")]
+    pub controllers: String,
+    /// Largest swarm drawn.
+    #[arg(long, default_value_t = 6)]
+    pub max_uavs: u32,
+    /// Nemesis kinds, comma-separated (partition, loss, burst, delay, duplicate, freeze,
+    /// kill_restart, link_stall); default: those decided in sim time alone.
+    #[arg(long, default_value = "partition,loss,burst,delay,duplicate,freeze")]
+    pub nemesis: String,
+    /// Most faults per case.
+    #[arg(long, default_value_t = 3)]
+    pub max_faults: usize,
+    /// Weaken every case on purpose (`separation`: K21 separation gain 0 and cohesion pulling all
+    /// the way in), to show a failure is found and shrunk.
+    #[arg(long, value_enum)]
+    pub weaken: Option<Weaken>,
+    /// Runs each failure's shrinking may spend.
+    #[arg(long, default_value_t = 30)]
+    pub shrink_runs: usize,
+}
+
+/// One flown case, as `fuzz.json` lists it.
+#[derive(Debug, Clone, Serialize)]
+struct Flown {
+    case: usize,
+    label: String,
+    failed: Vec<String>,
+    end_reason: String,
+}
+
+/// A failure and its shrunk scenario.
+#[derive(Debug, Clone, Serialize)]
+struct Finding {
+    case: usize,
+    check: String,
+    original: String,
+    shrunk: String,
+    first_failure: String,
+    file: PathBuf,
+    shrink_runs: usize,
+}
+
+/// The check to shrink: the failed check whose first failure came first (checks judged as
+/// they happen before those judged at the end), with that moment [s].
+fn first_failed(s: &Summary) -> Option<(String, f64, String)> {
+    s.failed_checks()
+        .map(|c| {
+            let (t, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
+            (c.name.clone(), t, what)
+        })
+        .min_by(|a, b| (shrink::judged_at_end(&a.0), a.1).partial_cmp(&(shrink::judged_at_end(&b.0), b.1)).unwrap_or(std::cmp::Ordering::Equal))
+}
+
+fn space(a: &FuzzArgs) -> Result<Space> {
+    let controllers: Vec<ControllerKind> =
+        a.controllers.split(',').map(|c| crate::args::scenario_value("--controllers", c)).collect::<Result<_>>()?;
+    let nemesis: Vec<NemesisKind> = a
+        .nemesis
+        .split(',')
+        .filter(|n| !n.trim().is_empty())
+        .map(|n| crate::args::scenario_value("--nemesis", n))
+        .collect::<Result<_>>()?;
+    anyhow::ensure!(!controllers.is_empty(), "--controllers: none given");
+    Ok(Space { controllers, max_uavs: a.max_uavs, nemesis, max_faults: a.max_faults, weaken: a.weaken })
+}
+
+/// Flies `case` as `<out>/<tag>` and returns its summary.
+async fn fly(case: &Case, out: &Path, tag: &str) -> Result<Summary> {
+    run_variant(&case.render()?, out, tag, VariantRun { per_process: None, progress: false }).await
+}
+
+/// A future borrowed for `'a`, boxed so futures of different bodies share one list.
+type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + 'a>>;
+
+/// Polls every future of `futs` until all are done, in this one task (the runner holds state
+/// that is not `Send`, and Zenoh needs the multi-threaded runtime's own task); results in order.
+async fn join_all<T>(futs: Vec<BoxFuture<'_, T>>) -> Vec<T> {
+    let mut futs: Vec<_> = futs.into_iter().map(Some).collect();
+    let mut out: Vec<Option<T>> = futs.iter().map(|_| None).collect();
+    std::future::poll_fn(|cx| {
+        let mut pending = false;
+        for (slot, done) in futs.iter_mut().zip(out.iter_mut()) {
+            if let Some(fut) = slot {
+                match fut.as_mut().poll(cx) {
+                    Poll::Ready(v) => {
+                        *done = Some(v);
+                        *slot = None;
+                    }
+                    Poll::Pending => pending = true,
+                }
+            }
+        }
+        if pending {
+            Poll::Pending
+        } else {
+            Poll::Ready(())
+        }
+    })
+    .await;
+    out.into_iter().flatten().collect()
+}
+
+/// Flies a batch of cases at once; results come back in case order.
+async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
+    let futs: Vec<BoxFuture<'_, (Case, Result<Summary>)>> = cases
+        .into_iter()
+        .map(|case| {
+            Box::pin(async move {
+                let r = fly(&case, out, &format!("case-{}", case.index)).await;
+                pb.inc(1);
+                (case, r)
+            }) as BoxFuture<'_, _>
+        })
+        .collect();
+    join_all(futs).await
+}
+
+/// Shrinks `case`, which fails `check` first at `t_s`, while the same check still fails.
+async fn shrink(case: Case, check: &str, t_s: f64, out: &Path, budget: usize, pb: &ProgressBar) -> (Case, f64, String, usize) {
+    let (mut best, mut at, mut what, mut spent) = (case, t_s, String::new(), 0);
+    'outer: while spent < budget {
+        for cand in shrink::candidates(&best, check, at) {
+            if spent >= budget {
+                break 'outer;
+            }
+            spent += 1;
+            pb.set_message(format!("shrinking case {}: {}", best.index, cand.label()));
+            let tag = format!("shrink-{}-{spent}", best.index);
+            let Ok(s) = fly(&cand, out, &tag).await else { continue };
+            let hit = s.failed_checks().find(|c| c.name == check).map(|c| c.first_failure.clone());
+            if let Some(first) = hit {
+                at = first.as_ref().map_or(s.sim_time_s, |f| f.t_s);
+                what = first.map_or_else(String::new, |f| f.what);
+                best = cand;
+                continue 'outer;
+            }
+        }
+        break;
+    }
+    (best, at, what, spent)
+}
+
+/// Writes the shrunk case as a scenario file with a header saying what it shows; returns its text.
+fn write_found(case: &Case, seed: u64, check: &str, at: f64, what: &str, path: &Path) -> Result<String> {
+    let mut sc = case.render()?;
+    sc.name = format!("found-{seed}-{}", case.index);
+    let header = format!(
+        "# Found by `swarm fuzz --seed {seed}` (case {}), shrunk: `swarm run {} --check` fails check\n# `{check}` first at t = {at:.1} s: {what}\n",
+        case.index,
+        path.display()
+    );
+    let text = format!("{header}{}", toml::to_string(&sc)?);
+    std::fs::write(path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(text)
+}
+
+/// Runs `swarm fuzz`.
+pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
+    let space = space(&a)?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("fuzz-{}-{}", a.seed, unix_secs())));
+    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let runs = a.runs.unwrap_or(if a.minutes.is_some() { usize::MAX } else { 20 });
+    let deadline = a.minutes.map(|m| Instant::now() + Duration::from_secs_f64(m * 60.0));
+    let pb = ProgressBar::new(if runs == usize::MAX { 0 } else { runs as u64 });
+    pb.set_style(ProgressStyle::with_template("{elapsed:>4} [{bar:32}] {pos}/{len} {msg}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    let mut master = rand_chacha::ChaCha8Rng::seed_from_u64(a.seed);
+    let (mut flown, mut findings, mut next) = (Vec::new(), Vec::new(), 0usize);
+    // Batches of `jobs` cases, so `--minutes` is checked between batches.
+    while next < runs && deadline.is_none_or(|d| Instant::now() < d) {
+        let batch: Vec<Case> = (next..(next + a.jobs.max(1)).min(runs))
+            .map(|i| Case::generate(&space, i, master.gen()))
+            .collect::<Result<_>>()?;
+        next += batch.len();
+        if runs == usize::MAX {
+            pb.set_length(next as u64);
+        }
+        for (case, r) in fly_all(batch, &out, &pb).await {
+            let s = match r {
+                Ok(s) => s,
+                Err(e) => {
+                    // A run that could not be flown is reported, not shrunk: the fuzz goes on.
+                    tracing::warn!("case {} ({}): {e:#}", case.index, case.label());
+                    flown.push(Flown { case: case.index, label: case.label(), failed: vec!["run_error".into()], end_reason: "error".into() });
+                    continue;
+                }
+            };
+            let failed: Vec<String> = s.failed_checks().map(|c| c.name.clone()).collect();
+            flown.push(Flown { case: case.index, label: case.label(), failed, end_reason: s.end_reason.clone() });
+            if let Some((check, t, _)) = first_failed(&s) {
+                let original = case.label();
+                let (small, at, what, spent) = shrink(case, &check, t, &out, a.shrink_runs, &pb).await;
+                let file = out.join(format!("found-{}-{}.toml", a.seed, small.index));
+                let text = write_found(&small, a.seed, &check, at, &what, &file)?;
+                pb.suspend(|| println!("case {}: `{check}` failed; shrunk from {original} to {}:\n{text}", small.index, small.label()));
+                findings.push(Finding { case: small.index, check, original, shrunk: small.label(), first_failure: what, file, shrink_runs: spent });
+            }
+        }
+    }
+    pb.finish_and_clear();
+    report(&out, a.seed, &flown, &findings)
+}
+
+/// Prints the tally and writes `fuzz.json`; exit status 2 when something failed.
+fn report(out: &Path, seed: u64, flown: &[Flown], findings: &[Finding]) -> Result<ExitCode> {
+    let mut by_check: std::collections::BTreeMap<&str, usize> = Default::default();
+    for f in flown {
+        for c in &f.failed {
+            *by_check.entry(c.as_str()).or_default() += 1;
+        }
+    }
+    let failed = flown.iter().filter(|f| !f.failed.is_empty()).count();
+    println!("fuzz seed {seed}: {} cases flown, {failed} failed; failures by check: {by_check:?}", flown.len());
+    for f in findings {
+        println!("  case {} `{}`: {} -> {} ({})", f.case, f.check, f.original, f.shrunk, f.file.display());
+    }
+    let json = serde_json::json!({ "seed": seed, "flown": flown, "findings": findings, "failures_by_check": by_check });
+    std::fs::write(out.join("fuzz.json"), serde_json::to_string_pretty(&json)?)?;
+    println!("fuzz folder: {}", out.display());
+    Ok(if failed > 0 { ExitCode::from(2) } else { ExitCode::SUCCESS })
+}
