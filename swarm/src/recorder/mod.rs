@@ -5,6 +5,8 @@
 //!
 //! - [`metrics`]: the pure folding, [`Metrics`](metrics::Metrics), fed message by message and
 //!   tested without a network.
+//! - [`solitude`]: each UAV's time out of radio reach of every other, its rejoining and how far it
+//!   strayed (ground truth; the lost-contact behaviour's yardstick).
 //! - `files`: the CSV files that grow while the run goes.
 //! - `recording`: the Zenoh side, [`Recording`]: session, subscriptions, the loop that ends with
 //!   the run.
@@ -15,6 +17,7 @@
 mod files;
 pub mod metrics;
 mod recording;
+pub mod solitude;
 
 pub use recording::Recording;
 
