@@ -276,6 +276,9 @@ impl Scenario {
         positive("lost_contact.after_s", self.lost_contact.after_s)?;
         positive("lost_contact.speed_mps", self.lost_contact.speed_mps)?;
         positive("lost_contact.hold_radius_m", self.lost_contact.hold_radius_m)?;
+        if let Some(r) = self.lost_contact.contact_radius_m {
+            positive("lost_contact.contact_radius_m", r)?;
+        }
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;
         if let Some(e) = &self.localization.broadcast_error {

@@ -149,22 +149,6 @@ pub struct LocalizationSummary {
     /// Its 95th percentile [s].
     #[serde(with = "inf_as_null")]
     pub p95_info_age_s: f64,
-    /// Sim time it spent alone: no other UAV within radio range, by ground truth (alone once
-    /// beyond `range_m + hysteresis_m` of every UAV, back once within `range_m` of one) [s].
-    #[serde(default)]
-    pub time_alone_s: f64,
-    /// Times it became alone.
-    #[serde(default)]
-    pub alone_spells: u32,
-    /// Null if never alone; else whether its last time alone ended before the run did.
-    #[serde(default)]
-    pub rejoined: Option<bool>,
-    /// When its last time alone ended (null: never alone, or alone at the end) [s].
-    #[serde(default)]
-    pub rejoined_at_s: Option<f64>,
-    /// Its largest distance to the nearest other UAV over the run [m].
-    #[serde(default, with = "inf_as_null")]
-    pub max_nearest_uav_m: f64,
 }
 
 /// Connectivity of the graph "agent i has a current estimate of j" (weakly connected components
