@@ -34,7 +34,9 @@ pub fn solitude(samples: &[[f64; 5]], range_m: f64, hysteresis_m: f64) -> Solitu
         if alone {
             s.time_alone_s += prev_t.map_or(0.0, |p| t - p);
         }
-        if !alone && !(nearest <= range_m + hysteresis_m) {
+        // No other UAV (inf) or no number (NaN) is alone too.
+        let out_of_range = nearest.is_nan() || nearest > range_m + hysteresis_m;
+        if !alone && out_of_range {
             alone = true;
             s.spells += 1;
         } else if alone && nearest <= range_m {
