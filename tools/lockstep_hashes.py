@@ -11,7 +11,9 @@ Run it before and after a refactoring and diff the two outputs:
     python3 tools/lockstep_hashes.py > after.txt && diff before.txt after.txt
 
 Options: --bin PATH (default target/release/swarm), --jobs N (default 2), --only NAME[,NAME],
---agents-per-process N (passed to `swarm run`: the hashes must not depend on it).
+--agents-per-process N (passed to `swarm run`: the hashes must not depend on it),
+--drop-fields A,B (summary fields removed wherever they occur, like the wall-clock ones: to compare
+with a baseline taken before those fields were added to summary.json).
 """
 import argparse
 import concurrent.futures
@@ -35,11 +37,11 @@ WALL_CLOCK_SCENARIOS = {"open-field-5-restart"}
 SCALE_SCENARIOS = {"open-1000"}
 
 
-def strip_wall(value):
+def strip_wall(value, drop=WALL_FIELDS):
     if isinstance(value, dict):
-        return {k: strip_wall(v) for k, v in value.items() if k not in WALL_FIELDS}
+        return {k: strip_wall(v, drop) for k, v in value.items() if k not in drop}
     if isinstance(value, list):
-        return [strip_wall(v) for v in value]
+        return [strip_wall(v, drop) for v in value]
     return value
 
 
@@ -55,7 +57,7 @@ def lockstep_scenarios(root):
     return names
 
 
-def fingerprint(binary, name, extra):
+def fingerprint(binary, name, extra, drop=WALL_FIELDS):
     with tempfile.TemporaryDirectory() as tmp:
         out = pathlib.Path(tmp) / "run"
         proc = subprocess.run(
@@ -63,7 +65,7 @@ def fingerprint(binary, name, extra):
             capture_output=True, text=True)
         if not (out / "summary.json").exists():
             return f"{name} FAILED exit {proc.returncode}: {proc.stderr.strip()[-300:]}"
-        summary = strip_wall(json.loads((out / "summary.json").read_text()))
+        summary = strip_wall(json.loads((out / "summary.json").read_text()), drop)
         s_hash = hashlib.sha256(json.dumps(summary, sort_keys=True).encode()).hexdigest()[:16]
         t_hash = hashlib.sha256((out / "trajectories.csv").read_bytes()).hexdigest()[:16]
         return f"{name} trajectories={t_hash} summary={s_hash}"
@@ -76,11 +78,13 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--only", default="")
     ap.add_argument("--agents-per-process", default="")
+    ap.add_argument("--drop-fields", default="")
     args = ap.parse_args()
+    drop = WALL_FIELDS | set(filter(None, args.drop_fields.split(",")))
     extra = ["--agents-per-process", args.agents_per_process] if args.agents_per_process else []
     names = args.only.split(",") if args.only else lockstep_scenarios(root)
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-        for line in pool.map(lambda n: fingerprint(args.bin, n, extra), names):
+        for line in pool.map(lambda n: fingerprint(args.bin, n, extra, drop), names):
             print(line, flush=True)
             print(line, file=sys.stderr, flush=True)
 

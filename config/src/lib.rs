@@ -19,7 +19,7 @@
 //! Modules (private, their items re-exported at the root): `schema` (the scenario structs),
 //! `impairment` (a netem rule's impairment and partition, and their validation), and one module
 //! per controller or sensor with parameters of its own (`p17`, `a21`, `m23`, `costmap`, `uvdar`),
-//! and `expect` (the `[expect]` table: which run invariants apply, with what bounds).
+//! `lost_contact` (what every controller does once its swarm is out of reach) and `expect` (the `[expect]` table: which run invariants apply, with what bounds).
 
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -28,6 +28,7 @@ mod a21;
 mod costmap;
 mod expect;
 mod impairment;
+mod lost_contact;
 mod m23;
 mod p17;
 mod schema;
@@ -36,6 +37,7 @@ pub use a21::*;
 pub use costmap::*;
 pub use expect::*;
 pub use impairment::*;
+pub use lost_contact::*;
 pub use m23::*;
 pub use p17::*;
 pub use schema::*;
@@ -68,6 +70,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5-linkloss", include_str!("../../scenarios/forest-5-linkloss.toml")),
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
+    ("forest-9-stranded", include_str!("../../scenarios/forest-9-stranded.toml")),
     ("forest-40", include_str!("../../scenarios/forest-40.toml")),
     ("forest-100", include_str!("../../scenarios/forest-100.toml")),
     ("forest-40-icp", include_str!("../../scenarios/forest-40-icp.toml")),
@@ -279,6 +282,12 @@ impl Scenario {
         self.controller.m23.costmap.validate("controller.m23.costmap")?;
         self.localization.uvdar.validate("localization.uvdar")?;
         self.perception.validate()?;
+        positive("lost_contact.after_s", self.lost_contact.after_s)?;
+        positive("lost_contact.speed_mps", self.lost_contact.speed_mps)?;
+        positive("lost_contact.hold_radius_m", self.lost_contact.hold_radius_m)?;
+        if let Some(r) = self.lost_contact.contact_radius_m {
+            positive("lost_contact.contact_radius_m", r)?;
+        }
         positive("localization.stale_after_s", self.localization.stale_after_s)?;
         self.localization.icp.validate()?;
         if let Some(e) = &self.localization.broadcast_error {

@@ -42,6 +42,9 @@ pub struct Scenario {
     /// How agents learn where their neighbours are.
     #[serde(default)]
     pub localization: Localization,
+    /// What an agent does when it has lost every neighbour (every controller).
+    #[serde(default)]
+    pub lost_contact: crate::LostContactParams,
     /// When the run ends.
     #[serde(default)]
     pub end: End,

@@ -357,6 +357,31 @@ pub struct AgentSummary {
     /// Its 95th percentile [s].
     #[serde(with = "inf_as_null")]
     pub p95_info_age_s: f64,
+    /// Sim time it spent alone: no other UAV within radio range, by ground truth (alone once
+    /// beyond `range_m + hysteresis_m` of every UAV, back once within `range_m` of one) [s].
+    #[serde(default)]
+    pub time_alone_s: f64,
+    /// Times it became alone.
+    #[serde(default)]
+    pub alone_spells: u32,
+    /// Null if never alone; else whether its last time alone ended before the run did.
+    #[serde(default)]
+    pub rejoined: Option<bool>,
+    /// When its last time alone ended (null: never alone, or alone at the end) [s].
+    #[serde(default)]
+    pub rejoined_at_s: Option<f64>,
+    /// Its largest distance to the nearest other UAV over the run [m].
+    #[serde(default, with = "inf_as_null")]
+    pub max_nearest_uav_m: f64,
+}
+
+/// The `rejoined` column: `-` never alone, `no` alone at the end, else when it came back [s].
+fn rejoined(a: &AgentSummary) -> String {
+    match (a.rejoined, a.rejoined_at_s) {
+        (None, _) => "-".into(),
+        (Some(true), Some(t)) => format!("{t:.1}"),
+        _ => "no".into(),
+    }
 }
 
 fn f3(v: f64) -> String {
@@ -424,13 +449,14 @@ impl Summary {
         );
         let _ = writeln!(
             s,
-            "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>8}",
-            "uav", "obst min", "obst mean", "uav min", "uav mean", "path m", "msgs tx", "bytes tx", "msgs rx", "step ms"
+            "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>9}",
+            "uav", "obst min", "obst mean", "uav min", "uav mean", "path m", "msgs tx", "bytes tx", "msgs rx", "step ms",
+            "alone s", "rejoined", "uav max"
         );
         for a in &self.agents {
             let _ = writeln!(
                 s,
-                "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8.1} {:>8} {:>9} {:>9} {:>8.3}",
+                "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8.1} {:>8} {:>9} {:>9} {:>8.3} {:>8.1} {:>8} {:>9}",
                 a.id,
                 f(a.min_obstacle_distance_m),
                 f(a.mean_obstacle_distance_m),
@@ -440,7 +466,10 @@ impl Summary {
                 a.messages_sent,
                 a.bytes_sent,
                 a.messages_received,
-                a.mean_step_time_ms
+                a.mean_step_time_ms,
+                a.time_alone_s,
+                rejoined(a),
+                f(a.max_nearest_uav_m)
             );
         }
         let l = &self.localization;

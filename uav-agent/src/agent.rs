@@ -7,14 +7,15 @@
 //! 1. perception: the scan becomes circles, wall segments and points ([`perception::extract`]);
 //! 2. localization: the mode's [`Localizer`] places the neighbours;
 //! 3. the view: the obstacles minus the neighbours the LIDAR sees, built once ([`surroundings`]);
-//! 4. control: the [`Pilot`] turns the view into a command;
+//! 4. control: the [`Pilot`] turns the view into a command, which the [`LostContact`] layer
+//!    replaces while the agent has lost its swarm;
 //! 5. out: the command, the share the localizer sends, and a [`StepReport`] that becomes the
 //!    agent's state message once the node adds what its link measured ([`StepReport::into_state`]).
 //!
 //! Architecture invariant: an agent sees the world only through its own sensor messages and its
 //! neighbours' shares. Nothing here can reach ground truth.
 
-use crate::control::{Command, Pilot, View};
+use crate::control::{Command, LostContact, Pilot, View};
 use crate::localization::{Estimate, Localizer, Share};
 use crate::perception::{self, Circle, Extracted};
 use crate::sensing::{FrameCollector, SensorFrame};
@@ -93,6 +94,8 @@ pub struct Agent {
     localizer: Localizer,
     /// The controller and what it keeps between steps.
     pilot: Pilot,
+    /// Where the swarm was last estimated, and whether the agent has lost it.
+    lost: LostContact,
 }
 
 impl Agent {
@@ -100,7 +103,7 @@ impl Agent {
     pub fn new(id: u32, sc: Scenario) -> Agent {
         let localizer = Localizer::new(id, &sc);
         let pilot = Pilot::new(&sc);
-        Agent { id, sc, localizer, pilot }
+        Agent { id, sc, localizer, pilot, lost: LostContact::new() }
     }
 
     /// A collector of the sensor frames this agent's localizer needs.
@@ -134,7 +137,8 @@ impl Agent {
             walls: &seen.segments,
             static_points: &around.static_points,
         };
-        let command = self.pilot.step(&self.sc, &view);
+        let flock = self.pilot.step(&self.sc, &view);
+        let command = self.lost.steer(&self.sc, &view, flock);
         let share = self.localizer.share(frame, &seen.circles);
         let report = StepReport {
             id: self.id,

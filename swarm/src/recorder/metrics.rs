@@ -3,6 +3,7 @@
 //! formation quality) when the hub marks the last step. No IO and no clock, so it is tested
 //! without a network.
 
+use super::solitude::solitude;
 use crate::summary::{
     AgentSummary, ClassSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, FormationMetrics,
     LocalizationSummary, Reconnection, Summary, TimingSummary, SCHEMA,
@@ -425,6 +426,12 @@ impl Metrics {
             if let Some(t) = self.tracks.get(&a.id) {
                 a.blocking_time_s = blocking_time(&t.samples);
                 a.agent_distance_std_m = std_dev(t.samples.iter().map(|s| s[4]));
+                let alone = solitude(&t.samples, scenario.radio.range_m, scenario.radio.hysteresis_m);
+                a.time_alone_s = alone.time_alone_s;
+                a.alone_spells = alone.spells;
+                a.rejoined = alone.rejoined;
+                a.rejoined_at_s = alone.rejoined_at_s;
+                a.max_nearest_uav_m = alone.max_nearest_uav_m;
             }
         }
         let formation = formation_metrics(&agents);
@@ -636,6 +643,12 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         neighbours_reported_while_alone: a.reported_while_alone,
         mean_info_age_s: mean_finite(a.ages.iter().copied()),
         p95_info_age_s: quantile(&a.ages, 0.95),
+        // Filled in from the track by `Metrics::summary`.
+        time_alone_s: 0.0,
+        alone_spells: 0,
+        rejoined: None,
+        rejoined_at_s: None,
+        max_nearest_uav_m: f64::NAN,
     }
 }
 

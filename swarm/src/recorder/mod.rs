@@ -7,6 +7,8 @@
 //!
 //! - [`metrics`]: the pure folding, [`Metrics`](metrics::Metrics), fed message by message and
 //!   tested without a network.
+//! - [`solitude`]: each UAV's time out of radio reach of every other, its rejoining and how far it
+//!   strayed (ground truth; the lost-contact behaviour's yardstick).
 //! - `files`: the run folder's files: the CSVs that grow while the run goes, and those written
 //!   at its end.
 //! - `recording`: the Zenoh side, [`Recording`]: session, subscriptions, the loop that ends with
@@ -18,6 +20,7 @@
 mod files;
 pub mod metrics;
 mod recording;
+pub mod solitude;
 
 pub use recording::Recording;
 

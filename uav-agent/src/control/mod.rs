@@ -7,12 +7,15 @@
 //! - `a21`: the A21 controller of seed 003 section III (proximal control, φ-limited navigation).
 //! - `m23`: the formation layer of seed 004 (topology goals, the leader's wait, the tracker).
 //! - `neighbour_velocity`: each neighbour's velocity from its positions, for P17 and M23.
+//! - [`lost_contact`]: what every controller's UAV does once it has lost its swarm (flies back
+//!   to where it last estimated it, then hovers), a layer over the pilot's command.
 //!
 //! The controllers are pure functions of their seeds' inputs. A21 and M23 plan on maps from
 //! [`crate::planning`]; nothing here reaches back up to the agent or the node.
 
 mod a21;
 mod k21;
+pub(crate) mod lost_contact;
 // Seed API kept whole and tested, partly unused by the pilot (see `lib.rs`).
 #[cfg_attr(not(test), allow(dead_code))]
 mod m23;
@@ -21,4 +24,5 @@ mod neighbour_velocity;
 mod p17;
 pub(crate) mod pilot;
 
+pub use lost_contact::LostContact;
 pub use pilot::{Command, Pilot, View};

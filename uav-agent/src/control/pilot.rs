@@ -135,13 +135,23 @@ fn goal_heading(odom: &Odom) -> Option<f64> {
 }
 
 fn fly_k21(sc: &Scenario, v: &View) -> Command {
+    k21_command(&sc.controller.k21, v, v.neighbours, goal_heading(v.odom), &[])
+}
+
+/// One K21 step on `neighbours`, the view's trees plus `more_obstacles` (body frame), towards
+/// `goal_heading` (body frame): the flock's step, and the lost-contact layer's flight back.
+pub(super) fn k21_command(
+    p: &swarm_config::K21Params,
+    v: &View,
+    neighbours: &[Estimate],
+    goal_heading: Option<f64>,
+    more_obstacles: &[Vector2<f64>],
+) -> Command {
     let neighbours: Vec<k21::Neighbour> =
-        v.neighbours.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
-    let obstacles: Vec<Vector2<f64>> = v.trees.iter().map(|c| c.center.coords).collect();
-    let out = k21::step(
-        &sc.controller.k21,
-        &k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading: goal_heading(v.odom) },
-    );
+        neighbours.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
+    let obstacles: Vec<Vector2<f64>> =
+        v.trees.iter().map(|c| c.center.coords).chain(more_obstacles.iter().copied()).collect();
+    let out = k21::step(p, &k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading });
     Command {
         kind: CmdKind::Velocity,
         xy: out.velocity,

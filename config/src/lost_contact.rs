@@ -1,0 +1,78 @@
+//! LostContactParams: what an agent does once it has had no neighbour estimate for a while.
+//!
+//! The seeds are silent on it (seed 000 6.2 only reports a separated UAV that rejoins), and a
+//! flocking controller left alone keeps flying: K21's navigation pushes along the body x axis
+//! with nothing to turn it, so a UAV cut off from its swarm flies on in a straight line for ever.
+//! The agent's choice, in its own odometry frame and never from ground truth:
+//!
+//! 1. flock as usual while it has a neighbour estimate within `contact_radius_m` (one its
+//!    controller flocks with), and remember where the swarm was last estimated (the centroid of
+//!    its neighbour estimates, odometry frame);
+//! 2. after `after_s` with none, if it still has estimates farther away (the swarm is heard but
+//!    out of the controller's reach), fly towards them at K21's speed `kf`; with no estimate at
+//!    all, fly back to where the swarm was last estimated at `speed_mps` (slower than the flock,
+//!    so the swarm can catch up); either way avoiding the trees and walls its LIDAR sees (seed
+//!    000's avoidance, 4.10–4.13);
+//! 3. within `hold_radius_m` of where the swarm was last estimated, hover and wait;
+//! 4. as soon as it has an estimate within reach again, flock again.
+//!
+//! An informed UAV (one that has a goal) keeps flying to its goal, where the swarm is going,
+//! unless `informed_return` is set. A UAV that never had an estimate flocks as before (there is
+//! nowhere to go back to).
+
+use serde::{Deserialize, Serialize};
+
+/// The lost-contact behaviour of every controller (see the module doc).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LostContactParams {
+    /// Off: the controller alone, as before (a lost UAV flies on).
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// With no neighbour estimate for this long, the UAV is lost [s]. 5 s: longer than the
+    /// gaps of an ICP estimate among neighbours (a suspended entry waits 5 s too) and the
+    /// 5 s link loss of `forest-5-linkloss`, so runs where nobody is cut off are untouched.
+    #[serde(default = "d_after")]
+    pub after_s: f64,
+    /// Speed of the flight back [m/s]; below K21's 0.4 m/s so that the UAV slows down.
+    #[serde(default = "d_speed")]
+    pub speed_mps: f64,
+    /// A neighbour estimate closer than this is contact [m]. Default (none): the reach of the
+    /// scenario's controller: K21's `neighbour_radius_m` (it ignores farther neighbours, so a
+    /// UAV that hears its swarm only beyond it flies on as if alone), any distance for the others
+    /// (their cohesion pulls at any range).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_radius_m: Option<f64>,
+    /// Within this distance of where the swarm was last estimated, the UAV hovers and waits [m].
+    #[serde(default = "d_hold")]
+    pub hold_radius_m: f64,
+    /// An informed UAV goes back too, instead of flying on to its goal.
+    #[serde(default)]
+    pub informed_return: bool,
+}
+
+impl Default for LostContactParams {
+    fn default() -> Self {
+        LostContactParams {
+            enabled: true,
+            after_s: d_after(),
+            speed_mps: d_speed(),
+            hold_radius_m: d_hold(),
+            contact_radius_m: None,
+            informed_return: false,
+        }
+    }
+}
+
+fn yes() -> bool {
+    true
+}
+fn d_after() -> f64 {
+    5.0
+}
+fn d_speed() -> f64 {
+    0.25
+}
+fn d_hold() -> f64 {
+    1.0
+}

@@ -1,0 +1,224 @@
+//! Lost contact: what every controller does once the agent has had no neighbour estimate for a
+//! while (the behaviour and its parameters: `swarm_config::LostContactParams`).
+//!
+//! Why a layer of its own, after the controller: a flocking controller with no neighbour has
+//! nothing to flock to, and each seed's controller then does its own thing (K21 flies on along
+//! its body x axis for ever). This layer watches the neighbour estimates, remembers where the
+//! swarm was last estimated in the agent's odometry frame, and once the agent is lost replaces
+//! the controller's command: a slow flight back there with seed 000's obstacle avoidance on the
+//! trees and walls of the scan, then a hover until a neighbour is estimated again. The
+//! controller still runs every step, so its maps and memory stay current for when contact is
+//! back. Nothing here reads ground truth: odometry, the scan and the estimates only.
+
+use super::pilot::{k21_command, Command, View};
+use crate::geometry::wrap_angle;
+use nalgebra::{Rotation2, Vector2};
+use swarm_config::{ControllerKind, Scenario};
+use swarm_wire::{CmdKind, VectorMagnitudes};
+
+/// What the layer does this step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Phase {
+    /// In contact (or not lost long enough, or informed): the controller's command.
+    Flock,
+    /// Lost, but the swarm is heard beyond the controller's reach: fly towards the centroid of
+    /// those estimates (odometry frame) [m], at K21's speed.
+    Approach(Vector2<f64>),
+    /// Lost and hearing no one: fly back to where the swarm was last estimated (odometry
+    /// frame) [m], slowly.
+    Return(Vector2<f64>),
+    /// Lost and back where the swarm was: hover and wait.
+    Hold,
+}
+
+/// The layer's memory between steps.
+#[derive(Debug, Default)]
+pub struct LostContact {
+    /// Sim time of the last step with a neighbour estimate within reach [s].
+    last_contact_s: Option<f64>,
+    /// Centroid of the last neighbour estimates, odometry frame [m].
+    swarm_odom: Option<Vector2<f64>>,
+    /// Reached the place: hover until contact is back (sticky, so a hover's drift does not
+    /// start a new flight).
+    holding: bool,
+}
+
+/// The distance within which a neighbour estimate is contact: the scenario's, or the reach of
+/// its controller (K21 ignores neighbours beyond `neighbour_radius_m`; the others' cohesion pulls
+/// at any range).
+fn contact_radius_m(sc: &Scenario) -> f64 {
+    sc.lost_contact.contact_radius_m.unwrap_or(match sc.controller.kind {
+        ControllerKind::K21 => sc.controller.k21.neighbour_radius_m,
+        _ => f64::INFINITY,
+    })
+}
+
+impl LostContact {
+    /// A layer that has seen no neighbour yet.
+    pub fn new() -> LostContact {
+        LostContact::default()
+    }
+
+    /// Notes this step's neighbour estimates and decides the phase.
+    pub fn phase(&mut self, sc: &Scenario, v: &View) -> Phase {
+        let p = &sc.lost_contact;
+        let p0 = Vector2::new(v.odom.x, v.odom.y);
+        if !v.neighbours.is_empty() {
+            let n = v.neighbours.len() as f64;
+            let centroid_body = v.neighbours.iter().map(|e| e.pos_in_body).sum::<Vector2<f64>>() / n;
+            self.swarm_odom = Some(p0 + Rotation2::new(v.odom.yaw) * centroid_body);
+            self.holding = false;
+            let reach = contact_radius_m(sc);
+            if v.neighbours.iter().any(|e| e.pos_in_body.norm() <= reach) {
+                self.last_contact_s = Some(v.t_secs);
+                return Phase::Flock;
+            }
+        }
+        let (Some(since), Some(target)) = (self.last_contact_s, self.swarm_odom) else { return Phase::Flock };
+        let informed_flies_on = v.odom.goal.is_some() && !p.informed_return;
+        if !p.enabled || informed_flies_on || v.t_secs - since < p.after_s - 1e-9 {
+            return Phase::Flock;
+        }
+        if !v.neighbours.is_empty() {
+            return Phase::Approach(target);
+        }
+        self.holding |= (target - p0).norm() <= p.hold_radius_m;
+        if self.holding {
+            Phase::Hold
+        } else {
+            Phase::Return(target)
+        }
+    }
+
+    /// The command of this step: the controller's (`flock`) unless the agent is lost.
+    pub fn steer(&mut self, sc: &Scenario, v: &View, flock: Command) -> Command {
+        match self.phase(sc, v) {
+            Phase::Flock => flock,
+            Phase::Hold => {
+                Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+            }
+            Phase::Approach(target) => fly_to(sc, v, target, sc.controller.k21.kf),
+            Phase::Return(target) => fly_to(sc, v, target, sc.lost_contact.speed_mps),
+        }
+    }
+}
+
+/// The flight to the swarm: K21 with no neighbour and the place as its goal (seed 000 eq.
+/// 4.14–4.17 turn the UAV towards it and avoid the closest obstacle, eq. 4.10–4.13), scaled from
+/// K21's speed `kf` to `speed_mps`. Wall faces count as obstacles at their point nearest the UAV.
+fn fly_to(sc: &Scenario, v: &View, target_odom: Vector2<f64>, speed_mps: f64) -> Command {
+    let p0 = Vector2::new(v.odom.x, v.odom.y);
+    let to_target = target_odom - p0;
+    let heading = wrap_angle(to_target.y.atan2(to_target.x) - v.odom.yaw);
+    let mut c = k21_command(&sc.controller.k21, v, &[], Some(heading), &wall_points(v));
+    let scale = speed_mps / sc.controller.k21.kf;
+    c.xy *= scale;
+    c.vectors.output = c.xy.norm() as f32;
+    c
+}
+
+/// The point of each wall face nearest the UAV, body frame [m].
+fn wall_points(v: &View) -> Vec<Vector2<f64>> {
+    v.walls
+        .iter()
+        .map(|s| {
+            let (a, ab) = (s.a.coords, s.b.coords - s.a.coords);
+            let t = if ab.norm_squared() > 0.0 { (-a.dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0) } else { 0.0 };
+            a + t * ab
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::localization::Estimate;
+    use crate::perception::Circle;
+    use nalgebra::Point2;
+    use swarm_wire::Odom;
+
+    fn scenario() -> Scenario {
+        swarm_config::builtin("forest-5").expect("builtin")
+    }
+
+    fn odom(x: f64, y: f64, yaw: f64, goal: Option<[f64; 2]>) -> Odom {
+        Odom { tick: 0, t_secs: 0.0, x, y, yaw, vx: 0.0, vy: 0.0, goal, goal_vel: None }
+    }
+
+    fn view<'a>(t: f64, o: &'a Odom, n: &'a [Estimate], trees: &'a [Circle]) -> View<'a> {
+        View { id: 1, t_secs: t, odom: o, neighbours: n, trees, walls: &[], static_points: &[] }
+    }
+
+    fn flock() -> Command {
+        Command { kind: CmdKind::Velocity, xy: Vector2::new(0.4, 0.0), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+    }
+
+    fn neighbour(x: f64, y: f64) -> Estimate {
+        Estimate { id: Some(2), pos_in_body: Vector2::new(x, y), heading: 0.0, age_secs: 0.0 }
+    }
+
+    #[test]
+    fn lost_after_the_delay_it_flies_back_slowly_then_holds() {
+        let sc = scenario();
+        let after = sc.lost_contact.after_s;
+        let mut l = LostContact::new();
+        // Heading +y at (0, 0), neighbours 2 m ahead and 2 m left-ahead: centroid (−1, 2) in odometry.
+        let o = odom(0.0, 0.0, std::f64::consts::FRAC_PI_2, None);
+        assert_eq!(l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0), neighbour(2.0, 2.0)], &[])), Phase::Flock);
+        let far = odom(0.0, 10.0, std::f64::consts::FRAC_PI_2, None);
+        assert_eq!(l.phase(&sc, &view(after - 0.1, &far, &[], &[])), Phase::Flock, "not lost yet");
+        match l.phase(&sc, &view(after, &far, &[], &[])) {
+            Phase::Return(t) => assert!((t - Vector2::new(-1.0, 2.0)).norm() < 1e-9, "{t}"),
+            other => panic!("{other:?}"),
+        }
+        let c = l.steer(&sc, &view(after + 0.1, &far, &[], &[]), flock());
+        assert!(c.xy.norm() <= sc.lost_contact.speed_mps + 1e-9 && c.yaw_rate.abs() > 0.0, "turns back, slowly: {c:?}");
+        let there = odom(-1.0, 2.5, 0.0, None);
+        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &[], &[])), Phase::Hold);
+        let c = l.steer(&sc, &view(after + 20.1, &odom(-1.0, 4.0, 0.0, None), &[], &[]), flock());
+        assert_eq!(c.kind, CmdKind::Hover, "holding is sticky");
+        let back = l.steer(&sc, &view(after + 21.0, &there, &[neighbour(3.0, 0.0)], &[]), flock());
+        assert_eq!(back, flock(), "contact again: the controller flies");
+    }
+
+    #[test]
+    fn a_swarm_heard_beyond_reach_is_approached() {
+        let sc = scenario();
+        let reach = sc.controller.k21.neighbour_radius_m;
+        let mut l = LostContact::new();
+        let o = odom(0.0, 0.0, 0.0, None);
+        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]));
+        let heard = [neighbour(reach + 3.0, 0.0)];
+        assert_eq!(l.phase(&sc, &view(1.0, &o, &heard, &[])), Phase::Flock, "not lost yet");
+        assert_eq!(l.phase(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[])), Phase::Approach(Vector2::new(reach + 3.0, 0.0)));
+        let c = l.steer(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), flock());
+        assert!(c.xy.x > sc.lost_contact.speed_mps, "at the flock's speed: {c:?}");
+    }
+
+    #[test]
+    fn informed_uavs_and_those_never_in_contact_fly_on() {
+        let mut sc = scenario();
+        let mut never = LostContact::new();
+        let o = odom(0.0, 0.0, 0.0, None);
+        assert_eq!(never.phase(&sc, &view(100.0, &o, &[], &[])), Phase::Flock);
+        let mut informed = LostContact::new();
+        let g = odom(0.0, 0.0, 0.0, Some([30.0, 0.0]));
+        informed.phase(&sc, &view(0.0, &g, &[neighbour(2.0, 0.0)], &[]));
+        assert_eq!(informed.phase(&sc, &view(100.0, &g, &[], &[])), Phase::Flock);
+        sc.lost_contact.enabled = false;
+        let mut l = LostContact::new();
+        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]));
+        assert_eq!(l.phase(&sc, &view(100.0, &o, &[], &[])), Phase::Flock);
+    }
+
+    #[test]
+    fn the_flight_back_avoids_a_tree_in_the_way() {
+        let sc = scenario();
+        let o = odom(0.0, 0.0, 0.0, None);
+        let open = fly_to(&sc, &view(10.0, &o, &[], &[]), Vector2::new(10.0, 0.0), 0.25);
+        let tree = [Circle { center: Point2::new(1.5, 0.1), radius: 0.2 }];
+        let blocked = fly_to(&sc, &view(10.0, &o, &[], &tree), Vector2::new(10.0, 0.0), 0.25);
+        assert!(open.xy.y.abs() < 1e-9 && open.xy.x > 0.0, "{open:?}");
+        assert!(blocked.xy.y < -1e-3, "steers away from a tree just left of the line: {blocked:?}");
+    }
+}
