@@ -1,7 +1,7 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   tap | put | netem | compare | formations | sweep-error | scale | scenarios | check`).
+//!   tap | put | netem | compare | formations | sweep-error | sweep-seeds | icp-eval | scale | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`), run ids, scenario values on the command line.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
@@ -19,11 +19,18 @@
 //! - [`study`]: `swarm compare` (one scenario, each controller), `swarm formations` (seed 004's
 //!   topologies) and `swarm sweep-error` (seed 001's broadcast error study), each a series of
 //!   full runs with a table and a plot.
+//! - [`sweep_seeds`]: `swarm sweep-seeds`: one scenario over many seeds, several runs at once and
+//!   resumable, every headline metric as a mean with its 95 % interval (Student t) and the success
+//!   rate with its Wilson interval, a table and a plot of the distributions.
+//! - [`icp_eval`]: `swarm icp-eval`: pairs of views (generated from a seed, or a JSON file) run
+//!   through the neighbour database's own initial-placement decision; right / no estimate /
+//!   wrong-but-accepted rates by shared trees, ms per case.
 //! - [`scale`]: `swarm scale`: a series of growing swarms (5 to 1000 UAVs) flown in turn, with
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
 //! - [`plot`]: `run.svg`, the map of the run and distances over time, and the studies' charts.
+//! - [`font`]: the embedded font the plotters charts (`scale`, `sweep-seeds`) draw their text in.
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
 //! Public surface: [`cli::main`] (what the `swarm` binary and the end-to-end tests' copy of it
@@ -39,6 +46,8 @@
 
 mod args;
 pub mod cli;
+mod font;
+mod icp_eval;
 mod launch;
 mod netem_cli;
 mod pieces;
@@ -48,5 +57,6 @@ mod recorder;
 mod scale;
 mod scenarios;
 mod study;
+mod sweep_seeds;
 pub mod summary;
 mod tap;

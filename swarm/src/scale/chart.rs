@@ -1,7 +1,7 @@
 //! The `swarm scale` picture: x real time (left) and resident memory per UAV (right) against the
 //! UAV count on a log axis, one line per localization mode, as SVG and PNG. Drawn with plotters;
-//! text goes through ab_glyph with DejaVu Sans embedded in the binary, so it needs no system
-//! font (no fontconfig) and draws the same on every machine.
+//! text goes through ab_glyph with DejaVu Sans embedded in the binary ([`crate::font`]), so it
+//! needs no system font (no fontconfig) and draws the same on every machine.
 
 use super::ScaleRow;
 use anyhow::{anyhow, Result};
@@ -13,24 +13,13 @@ use std::path::Path;
 /// Picture size [px].
 const SIZE: (u32, u32) = (1200, 520);
 
-/// The font family every text asks for; registered once from the embedded DejaVu Sans.
-const FAMILY: &str = "sans-serif";
+const FAMILY: &str = crate::font::FAMILY;
 
 const COLORS: [RGBColor; 4] = [RGBColor(31, 119, 180), RGBColor(255, 127, 14), RGBColor(44, 160, 44), RGBColor(214, 39, 40)];
 
-fn register_font() -> Result<()> {
-    static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    let ok = *ONCE.get_or_init(|| plotters::style::register_font(FAMILY, FontStyle::Normal, dejavu::sans::regular()).is_ok());
-    if ok {
-        Ok(())
-    } else {
-        Err(anyhow!("the embedded font did not load"))
-    }
-}
-
 /// Writes the picture of `rows` to `svg` and `png`.
 pub fn write(rows: &[ScaleRow], svg: &Path, png: &Path) -> Result<()> {
-    register_font()?;
+    crate::font::register()?;
     draw(SVGBackend::new(svg, SIZE).into_drawing_area(), rows).map_err(|e| anyhow!("{}: {e}", svg.display()))?;
     draw(BitMapBackend::new(png, SIZE).into_drawing_area(), rows).map_err(|e| anyhow!("{}: {e}", png.display()))?;
     Ok(())
