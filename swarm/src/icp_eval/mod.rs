@@ -62,6 +62,10 @@ pub struct IcpEvalArgs {
     /// Print one JSON line instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// After the table, one line per case: shared trees, outcome, FRMSD and pairs of the best
+    /// alignment, runner-up FRMSD over the best's, error from the truth.
+    #[arg(long)]
+    pub details: bool,
 }
 
 /// What the decision made of one case.
@@ -154,9 +158,38 @@ pub struct Report {
     pub shared_3_4: Group,
     /// ... fewer than 3.
     pub shared_0_2: Group,
-    /// Per case, in order: shared trees and outcome.
+    /// Per case, in order.
     #[serde(skip)]
-    pub outcomes: Vec<(usize, Outcome)>,
+    pub details: Vec<Detail>,
+}
+
+/// One case as `--details` prints it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Detail {
+    /// Trees both views share.
+    pub shared: usize,
+    /// What the decision made of it.
+    pub outcome: Outcome,
+    /// FRMSD of the best alignment (NaN: none).
+    pub frmsd: f64,
+    /// Pairs it kept (0: none).
+    pub pairs: usize,
+    /// Runner-up FRMSD over the best's (NaN: no runner-up, or not known).
+    pub runner_up_ratio: f64,
+    /// Distance of the best alignment's position from the truth [m] (NaN: none).
+    pub error_m: f64,
+}
+
+impl Detail {
+    fn new(case: &Case, shared: usize, outcome: Outcome, placement: &Placement) -> Detail {
+        let (best, ratio) = match placement {
+            Placement::Placed(m) => (Some(*m), f64::NAN),
+            Placement::NoFit(m) => (*m, f64::NAN),
+            Placement::Ambiguous(r) => (Some(r.best), r.runner_up.map_or(f64::NAN, |u| u.frmsd / r.best.frmsd)),
+        };
+        let error_m = best.map_or(f64::NAN, |m| (m.agent_from_neighbour.translation_m.x - case.truth.x).hypot(m.agent_from_neighbour.translation_m.y - case.truth.y));
+        Detail { shared, outcome, frmsd: best.map_or(f64::NAN, |m| m.frmsd), pairs: best.map_or(0, |m| m.pairs), runner_up_ratio: ratio, error_m }
+    }
 }
 
 /// Runs every case through the database's decision with `params`.
@@ -176,7 +209,7 @@ pub fn evaluate(all: &[Case], params: &swarm_config::IcpParams) -> Report {
             3..=4 => r.shared_3_4.add(o, ms),
             _ => r.shared_0_2.add(o, ms),
         }
-        r.outcomes.push((shared, o));
+        r.details.push(Detail::new(case, shared, o, &placement));
     }
     r
 }
@@ -263,6 +296,12 @@ pub async fn icp_eval(a: IcpEvalArgs) -> Result<ExitCode> {
         println!("{}", serde_json::to_string(&report)?);
     } else {
         print!("{}", report.table());
+    }
+    if a.details {
+        println!("\ncase shared outcome frmsd pairs runner_up_ratio error_m");
+        for (i, d) in report.details.iter().enumerate() {
+            println!("{i} {} {:?} {:.3} {} {:.2} {:.2}", d.shared, d.outcome, d.frmsd, d.pairs, d.runner_up_ratio, d.error_m);
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

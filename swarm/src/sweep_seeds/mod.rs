@@ -27,6 +27,9 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use std::fmt::Write as _;
+use std::future::Future;
+use std::pin::Pin;
+use std::task::Poll;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use swarm_config::{LocalizationMode, Scenario};
@@ -302,35 +305,42 @@ async fn fly(
     pb: &ProgressBar,
     runs: &mut Vec<(u64, Summary)>,
 ) -> Vec<(u64, anyhow::Error)> {
-    // A run's future is not `Send` (the recorder's tick callback), so the runs share this
-    // thread as local tasks; what they wait on is their child processes, which fly in parallel.
-    let local = tokio::task::LocalSet::new();
-    local
-        .run_until(async {
-            let mut queue = todo.into_iter();
-            let mut set = tokio::task::JoinSet::new();
-            let mut failed = Vec::new();
-            loop {
-                while set.len() < jobs {
-                    let Some(seed) = queue.next() else { break };
-                    let (mut sc, out) = (base.clone(), out.to_path_buf());
-                    sc.seed = seed;
-                    set.spawn_local(async move { (seed, run_variant(&sc, &out, &tag(seed), VariantRun::default()).await) });
-                }
-                let Some(joined) = set.join_next().await else { break };
-                match joined {
-                    Ok((seed, Ok(s))) => {
-                        pb.set_message(format!("seed {seed}: {}", if succeeded(&s) { "success" } else { "no success" }));
-                        runs.push((seed, s));
-                    }
-                    Ok((seed, Err(e))) => failed.push((seed, e)),
-                    Err(e) => failed.push((0, anyhow::anyhow!("a run task panicked: {e}"))),
-                }
-                pb.inc(1);
-            }
-            failed
+    // A run's future is not `Send` (the recorder's tick callback) and blocks in place now and
+    // then, so the runs are not spawned: this task polls up to `jobs` of them together. What they
+    // wait on is their child processes, which fly in parallel.
+    type RunFuture<'a> = Pin<Box<dyn Future<Output = (u64, Result<Summary>)> + 'a>>;
+    let mut queue = todo.into_iter();
+    let mut running: Vec<RunFuture<'_>> = Vec::new();
+    let mut failed = Vec::new();
+    loop {
+        while running.len() < jobs {
+            let Some(seed) = queue.next() else { break };
+            let mut sc = base.clone();
+            sc.seed = seed;
+            running.push(Box::pin(async move { (seed, run_variant(&sc, out, &tag(seed), VariantRun::default()).await) }));
+        }
+        if running.is_empty() {
+            break;
+        }
+        let (i, (seed, result)) = std::future::poll_fn(|cx| {
+            running.iter_mut().enumerate().find_map(|(i, f)| match f.as_mut().poll(cx) {
+                Poll::Ready(v) => Some(Poll::Ready((i, v))),
+                Poll::Pending => None,
+            })
+            .unwrap_or(Poll::Pending)
         })
-        .await
+        .await;
+        drop(running.swap_remove(i));
+        match result {
+            Ok(s) => {
+                pb.set_message(format!("seed {seed}: {}", if succeeded(&s) { "success" } else { "no success" }));
+                runs.push((seed, s));
+            }
+            Err(e) => failed.push((seed, e)),
+        }
+        pb.inc(1);
+    }
+    failed
 }
 
 #[cfg(test)]
