@@ -10,8 +10,8 @@
 //! The peer is Open3D's point-to-point ICP from the same grid of starts, as issue 14 measured it
 //! (82.5 % right, 44.7 ms a pair): quoted, not run here. Targets from the issue: right on ≥ 99 %
 //! of the pairs sharing ≥ 5 trees, wrong-but-accepted on ≤ 1 % of all pairs, ≤ 1 ms a pair.
-//! Times are wall clock on whatever else the machine is doing; `cargo bench -p uav-agent --bench
-//! icp` measures the ICP alone.
+//! Each case is timed on the wall clock and in CPU time of this thread (Linux schedstat), which
+//! is what the target is judged on: the wall clock counts whatever else the machine is doing.
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -119,13 +119,19 @@ pub struct Group {
     pub total_ms: f64,
     /// Its mean per case [ms].
     pub ms_per_case: f64,
+    /// CPU time of the decision, summed [ms] (NaN where the OS does not say, see [`thread_cpu_ms`]).
+    pub cpu_total_ms: f64,
+    /// Its mean per case [ms]: what the decision costs whatever else the machine is doing.
+    pub cpu_ms_per_case: f64,
 }
 
 impl Group {
-    fn add(&mut self, o: Outcome, ms: f64) {
+    fn add(&mut self, o: Outcome, ms: f64, cpu_ms: f64) {
         self.cases += 1;
         self.total_ms += ms;
         self.ms_per_case = self.total_ms / self.cases as f64;
+        self.cpu_total_ms += cpu_ms;
+        self.cpu_ms_per_case = self.cpu_total_ms / self.cases as f64;
         match o {
             Outcome::Right => self.right += 1,
             Outcome::Ambiguous => self.ambiguous += 1,
@@ -198,20 +204,30 @@ pub fn evaluate(all: &[Case], params: &swarm_config::IcpParams) -> Report {
     for case in all {
         let pts = |v: &[[f64; 2]]| v.iter().map(|p| nalgebra::Point2::new(p[0], p[1])).collect::<Vec<_>>();
         let (reference, source) = (pts(&case.reference), pts(&case.source));
-        let started = Instant::now();
+        let (started, cpu_before) = (Instant::now(), thread_cpu_ms());
         let placement = place_unknown(&reference, &source, params);
         let ms = started.elapsed().as_secs_f64() * 1e3;
+        let cpu_ms = thread_cpu_ms() - cpu_before;
         let o = outcome(case, &placement);
         let shared = case.shared();
-        r.all.add(o, ms);
+        r.all.add(o, ms, cpu_ms);
         match shared {
-            5.. => r.shared_5_plus.add(o, ms),
-            3..=4 => r.shared_3_4.add(o, ms),
-            _ => r.shared_0_2.add(o, ms),
+            5.. => r.shared_5_plus.add(o, ms, cpu_ms),
+            3..=4 => r.shared_3_4.add(o, ms, cpu_ms),
+            _ => r.shared_0_2.add(o, ms, cpu_ms),
         }
         r.details.push(Detail::new(case, shared, o, &placement));
     }
     r
+}
+
+/// CPU time this thread has run so far [ms]: the first field of Linux's
+/// `/proc/thread-self/schedstat` (ns on the CPU); NaN where it cannot be read.
+fn thread_cpu_ms() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(f64::NAN, |ns| ns / 1e6)
 }
 
 fn pct(v: f64) -> String {
@@ -227,35 +243,36 @@ impl Report {
     pub fn table(&self) -> String {
         let mut t = String::new();
         let _ = writeln!(t, "# swarm icp-eval: {}\n", self.source);
-        let _ = writeln!(t, "| cases | n | right | no estimate (ambiguous + no fit) | wrong but accepted | ms per case |");
-        let _ = writeln!(t, "|---|---|---|---|---|---|");
+        let _ = writeln!(t, "| cases | n | right | no estimate (ambiguous + no fit) | wrong but accepted | CPU ms per case | wall ms per case |");
+        let _ = writeln!(t, "|---|---|---|---|---|---|---|");
         for (name, g) in [("all", &self.all), ("sharing >= 5 trees", &self.shared_5_plus), ("sharing 3-4 trees", &self.shared_3_4), ("sharing < 3 trees", &self.shared_0_2)] {
             let _ = writeln!(
                 t,
-                "| {name} | {} | {} | {} ({} + {}) | {} | {:.2} |",
+                "| {name} | {} | {} | {} ({} + {}) | {} | {:.2} | {:.2} |",
                 g.cases,
                 pct(g.share(g.right)),
                 pct(g.share(g.ambiguous + g.no_fit)),
                 g.ambiguous,
                 g.no_fit,
                 pct(g.share(g.wrong_accepted)),
+                g.cpu_ms_per_case,
                 g.ms_per_case
             );
         }
         let (right, ms) = OPEN3D_PEER;
-        let _ = writeln!(t, "| peer: Open3D point-to-point ICP, same grid of starts (issue 14, quoted, not measured) | 300 | {} | | | {ms:.1} |", pct(right));
+        let _ = writeln!(t, "| peer: Open3D point-to-point ICP, same grid of starts (issue 14, quoted, not measured) | 300 | {} | | | | {ms:.1} |", pct(right));
         let ok = |b: bool| if b { "met" } else { "NOT met" };
         let r5 = self.shared_5_plus.share(self.shared_5_plus.right);
         let wa = self.all.share(self.all.wrong_accepted);
         let _ = writeln!(
             t,
-            "\ntargets: right >= 99 % sharing >= 5 trees: {} ({}); wrong but accepted <= 1 % of all: {} ({}); <= 1 ms a case: {} ({:.2} ms, wall clock).",
+            "\ntargets: right >= 99 % sharing >= 5 trees: {} ({}); wrong but accepted <= 1 % of all: {} ({}); <= 1 ms a case: {} ({:.2} ms of CPU).",
             ok(r5 >= 0.99),
             pct(r5),
             ok(wa <= 0.01),
             pct(wa),
-            ok(self.all.ms_per_case <= 1.0),
-            self.all.ms_per_case
+            ok(self.all.cpu_ms_per_case <= 1.0),
+            self.all.cpu_ms_per_case
         );
         let _ = writeln!(t, "right: placed within {RIGHT_M} m and {RIGHT_DEG} deg of the truth; every other placement is wrong but accepted.");
         t
