@@ -64,7 +64,9 @@
 //! neighbour elsewhere (more than [`super::icp::DISTINCT_M`] away or turned more than
 //! [`super::icp::DISTINCT_RAD`]) has an FRMSD within [`super::icp::AMBIGUITY_RATIO`] of the best (the
 //! decision is [`super::icp::judge_initial`], shared with `swarm icp-eval`), the entry is
-//! suspended as if out of range (5.3), and retried after `suspend_s`. A tracked entry's lICP is
+//! suspended as if out of range (5.3), and retried after `suspend_s`; a first placement also
+//! needs FRMSD ≤ [`super::icp::INITIAL_FRMSD_MAX_M`] (0.3 m; tracking keeps seed 000's
+//! `match_frmsd`). A tracked entry's lICP is
 //! taken as seed 000 takes it (its check against a short ICP locked onto a wrong place). Keeping
 //! the tracked estimate against an lICP that jumps it was tried: no gain in the crowd lab, and
 //! forest-7-failed flew closer to the trees (0.40 m against 0.77 m without it).
