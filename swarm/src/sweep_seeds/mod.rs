@@ -272,7 +272,8 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
     let mut runs: Vec<(u64, Summary)> = runs.drain(..).filter_map(|(seed, s)| s.map(|s| (seed, s))).collect();
     pb.inc(runs.len() as u64);
     if !runs.is_empty() {
-        pb.println(format!("{} seeds already flown in {}: read back", runs.len(), out.display()));
+        // Not `pb.println`: a hidden bar (stderr not a terminal) prints nothing.
+        pb.suspend(|| eprintln!("{} seeds already flown in {}: read back", runs.len(), out.display()));
     }
     let failed = fly(&base, &out, todo.into_iter().map(|(s, _)| s).collect(), jobs, &pb, &mut runs).await;
     pb.finish_and_clear();
