@@ -45,6 +45,12 @@ pub enum Cmd {
     Formations(crate::study::FormationsArgs),
     /// Sweep the broadcast-position error δa (seed 001 section 6): print and plot min distances.
     SweepError(crate::study::SweepArgs),
+    /// Fly one scenario over many seeds, in parallel and resumably: every headline metric as a
+    /// mean with its 95 % confidence interval, success rate with its Wilson interval, a plot.
+    SweepSeeds(crate::sweep_seeds::SweepSeedsArgs),
+    /// Measure the initial ICP decision on generated or given pairs of views: right, no
+    /// estimate, wrong but accepted.
+    IcpEval(crate::icp_eval::IcpEvalArgs),
     /// Fly swarms of growing size and print (and plot) speed, tick and step times and memory.
     Scale(crate::scale::ScaleArgs),
     /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
@@ -112,7 +118,9 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Netem(a) => crate::netem_cli::netem(a).await,
         Cmd::Compare(a) => crate::study::compare(a).await,
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
+        Cmd::SweepSeeds(a) => crate::sweep_seeds::sweep_seeds(a).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
+        Cmd::IcpEval(a) => crate::icp_eval::icp_eval(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
         Cmd::Plot(a) => crate::plot::plot(a),
         Cmd::Credentials(a) => crate::auth::credentials(a),

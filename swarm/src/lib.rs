@@ -1,8 +1,8 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   router | view | replay | tap | put | netem | compare | formations | sweep-error | scale |
-//!   plot | credentials | fuzz | scenarios | check`).
+//!   router | view | replay | tap | put | netem | compare | formations | sweep-error |
+//!   sweep-seeds | icp-eval | scale | plot | credentials | fuzz | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
 //! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
@@ -27,6 +27,12 @@
 //! - [`study`]: `swarm compare` (one scenario, each controller), `swarm formations` (seed 004's
 //!   topologies) and `swarm sweep-error` (seed 001's broadcast error study), each a series of
 //!   full runs with a table and a plot.
+//! - [`sweep_seeds`]: `swarm sweep-seeds`: one scenario over many seeds, several runs at once and
+//!   resumable, every headline metric as a mean with its 95 % interval (Student t) and the success
+//!   rate with its Wilson interval, a table and a plot of the distributions.
+//! - [`icp_eval`]: `swarm icp-eval`: pairs of views (generated from a seed, or a JSON file) run
+//!   through the neighbour database's own initial-placement decision; right / no estimate /
+//!   wrong-but-accepted rates by shared trees, ms per case.
 //! - [`scale`]: `swarm scale`: a series of growing swarms (5 to 1000 UAVs) flown in turn, with
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
 //! - [`fuzz`]: `swarm fuzz`: generated scenarios with nemesis schedules flown through the
@@ -58,6 +64,7 @@ mod auth;
 mod checks;
 pub mod cli;
 mod fuzz;
+mod icp_eval;
 mod launch;
 mod netem_cli;
 mod pieces;
@@ -69,6 +76,7 @@ mod scale;
 mod scene;
 mod scenarios;
 mod study;
+mod sweep_seeds;
 pub mod summary;
 mod tap;
 mod view;

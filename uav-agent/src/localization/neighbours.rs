@@ -62,8 +62,11 @@
 //! 6 % of estimates more than 1 m off on the full stack, 18 % in the crowd lab). So an unplaced
 //! entry is placed only by an unambiguous full-grid ICP: if the best alignment that puts the
 //! neighbour elsewhere (more than [`super::icp::DISTINCT_M`] away or turned more than
-//! [`super::icp::DISTINCT_RAD`]) has an FRMSD within [`AMBIGUITY_RATIO`] of the best, the entry is
-//! suspended as if out of range (5.3), and retried after `suspend_s`. A tracked entry's lICP is
+//! [`super::icp::DISTINCT_RAD`]) has an FRMSD within [`super::icp::AMBIGUITY_RATIO`] of the best (the
+//! decision is [`super::icp::judge_initial`], shared with `swarm icp-eval`), the entry is
+//! suspended as if out of range (5.3), and retried after `suspend_s`; a first placement also
+//! needs FRMSD ≤ [`super::icp::INITIAL_FRMSD_MAX_M`] (0.3 m; tracking keeps seed 000's
+//! `match_frmsd`). A tracked entry's lICP is
 //! taken as seed 000 takes it (its check against a short ICP locked onto a wrong place). Keeping
 //! the tracked estimate against an lICP that jumps it was tried: no gain in the crowd lab, and
 //! forest-7-failed flew closer to the trees (0.40 m against 0.77 m without it).
@@ -73,7 +76,7 @@
 //! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
 //! suspended.
 
-use super::icp::{AgentFromNeighbour, Match, Ranked};
+use super::icp::{judge_initial, AgentFromNeighbour, Match, Placement, Ranked};
 use super::Share;
 use crate::geometry::wrap_angle;
 use crate::perception::Circle;
@@ -163,14 +166,9 @@ pub struct StepCounts {
     /// Received sets ignored (too old, too few points, or superseded by a newer one).
     pub ignored: u32,
     /// Full-grid ICPs on an unplaced entry whose best alignment was ambiguous (a different one
-    /// fit within [`AMBIGUITY_RATIO`]): the entry is suspended instead of placed.
+    /// fit within [`super::icp::AMBIGUITY_RATIO`]): the entry is suspended instead of placed.
     pub ambiguous: u32,
 }
-
-/// An initial placement is ambiguous, and not made, when the best different alignment's FRMSD is
-/// within this factor of the best one's (measured in the crowd lab, `benches/crowd_lab.rs`:
-/// 40 UAVs, 10 s, false estimates 17.9 % without the test, 2.6 % at 1.5).
-pub const AMBIGUITY_RATIO: f64 = 1.5;
 
 /// One neighbour: seed 000 Algorithm 5, plus what the scheduling and metrics need.
 #[derive(Debug, Clone)]
@@ -532,14 +530,20 @@ impl Database {
             counts.initial += 1;
         }
         let ranked = m.long_ranked(own, &set.points);
-        let tracked = self.entries[idx].agent_from_neighbour.filter(|_| !self.entries[idx].suspended);
-        let found = ranked.map(|r| r.best);
-        let ambiguous = ranked.is_some_and(|r| r.runner_up.is_some_and(|u| u.frmsd <= r.best.frmsd * AMBIGUITY_RATIO));
-        if ambiguous && tracked.is_none() {
-            counts.ambiguous += 1;
-            self.apply(now, idx, set, None, true, counts);
-            return;
-        }
+        let tracked = self.entries[idx].agent_from_neighbour.is_some() && !self.entries[idx].suspended;
+        let found = if tracked {
+            // An lICP of a tracked neighbour is taken as seed 000 takes it (module doc).
+            ranked.map(|r| r.best)
+        } else {
+            match judge_initial(ranked, self.params.match_frmsd) {
+                Placement::Placed(m) => Some(m),
+                Placement::Ambiguous(_) => {
+                    counts.ambiguous += 1;
+                    None
+                }
+                Placement::NoFit(m) => m,
+            }
+        };
         self.apply(now, idx, set, found, true, counts);
     }
 

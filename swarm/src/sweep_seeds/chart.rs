@@ -1,0 +1,81 @@
+//! The `swarm sweep-seeds` picture: one panel per headline metric, each run a dot (spread along
+//! x in seed order so none hides another), the mean as a line and its 95 % interval as a band;
+//! the success rate's Wilson interval in the title. SVG and PNG, drawn with plotters and the
+//! embedded font, like every figure of [`crate::plot`] (no system font needed).
+
+use super::{mean_pm, Report, METRICS};
+use crate::plot::{write_pair, DrawResult, Figure, FAMILY};
+use anyhow::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// Picture size [px]: five panels a row.
+const SIZE: (u32, u32) = (1500, 700);
+
+/// Panels per row.
+const COLUMNS: usize = 5;
+
+/// Writes the picture of `report` to `svg` and `png`.
+pub fn write(report: &Report, svg: &Path, png: &Path) -> Result<()> {
+    write_pair(&SweepChart(report), svg, png)
+}
+
+struct SweepChart<'a>(&'a Report);
+
+impl Figure for SweepChart<'_> {
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        draw(root, self.0)
+    }
+}
+
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, report: &Report) -> DrawResult<DB> {
+    let s = &report.success;
+    let title = format!(
+        "{} ({}), {} seeds: success {}/{} (95 % Wilson {:.0}–{:.0} %); mean and 95 % CI per metric",
+        report.scenario,
+        report.localization,
+        report.runs.len(),
+        s.k,
+        s.n,
+        100.0 * s.lo,
+        100.0 * s.hi
+    );
+    let root = root.titled(&title, (FAMILY, 20))?;
+    let rows = METRICS.len().div_ceil(COLUMNS);
+    for (i, area) in root.split_evenly((rows, COLUMNS)).iter().enumerate().take(METRICS.len()) {
+        panel(area, report, i)?;
+    }
+    Ok(())
+}
+
+/// The panel of metric `i`.
+fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, report: &Report, i: usize) -> DrawResult<DB> {
+    let stats = &report.metrics[i].stats;
+    let values: Vec<(usize, f64)> = report.runs.iter().enumerate().map(|(k, r)| (k, r.values[i])).filter(|(_, v)| v.is_finite()).collect();
+    let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, v)| (lo.min(v), hi.max(v)));
+    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
+    let pad = ((hi - lo) * 0.1).max(1e-3 * hi.abs().max(1.0));
+    let n = report.runs.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(area)
+        .caption(METRICS[i].label, (FAMILY, 14))
+        .margin(8)
+        .x_label_area_size(24)
+        .y_label_area_size(52)
+        .build_cartesian_2d(0.0..1.0, (lo - pad)..(hi + pad))?;
+    chart.configure_mesh().disable_x_mesh().x_labels(0).x_desc(mean_pm(stats)).label_style((FAMILY, 12)).draw()?;
+    if stats.half_width.is_finite() {
+        let band = [(0.05, stats.mean - stats.half_width), (0.95, stats.mean + stats.half_width)];
+        chart.draw_series(std::iter::once(Rectangle::new(band, RGBColor(31, 119, 180).mix(0.2).filled())))?;
+    }
+    if stats.mean.is_finite() {
+        chart.draw_series(std::iter::once(PathElement::new(vec![(0.05, stats.mean), (0.95, stats.mean)], RGBColor(31, 119, 180).stroke_width(2))))?;
+    }
+    let x = |k: usize| 0.1 + 0.8 * (k as f64 + 0.5) / n;
+    chart.draw_series(values.iter().map(|&(k, v)| Circle::new((x(k), v), 3, BLACK.filled())))?;
+    Ok(())
+}
