@@ -61,7 +61,7 @@ impl Impairment {
         delay_s: 0.0,
         jitter_s: 0.0,
         distribution: JitterDistribution::Uniform,
-        loss: LossModel::None,
+        loss: LossModel::None {},
         duplicate: 0.0,
         reorder: None,
         rate_bytes_per_s: None,
@@ -83,7 +83,7 @@ impl Impairment {
             && self.delay_s == 0.0
             && self.jitter_s == 0.0
             && self.duplicate == 0.0
-            && matches!(self.loss, LossModel::None)
+            && matches!(self.loss, LossModel::None {})
             && self.reorder.is_none()
             && self.rate_bytes_per_s.is_none()
     }
@@ -96,7 +96,7 @@ impl Impairment {
         non_negative("jitter_s", self.jitter_s)?;
         probability("duplicate", self.duplicate)?;
         match self.loss {
-            LossModel::None => {}
+            LossModel::None {} => {}
             LossModel::Random { p } => probability("loss.p", p)?,
             LossModel::GilbertElliott { p, r, one_minus_h, one_minus_k } => {
                 probability("loss.p", p)?;
@@ -185,12 +185,15 @@ pub enum JitterDistribution {
 }
 
 /// How messages are lost (netem `loss`). The exact draws are described in `netem::impair`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+///
+/// Variants without parameters are empty struct variants (`None {}`), not unit variants: serde
+/// ignores extra keys in a unit variant's table of an internally tagged enum, so
+/// `loss = { model = "none", p = 0.3 }` would pass silently; a struct variant refuses it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LossModel {
     /// No loss.
-    #[default]
-    None,
+    None {},
     /// Independent loss with probability `p` (netem `loss random P`).
     Random {
         /// Loss probability of each message.
@@ -232,6 +235,12 @@ pub enum LossModel {
     },
 }
 
+impl Default for LossModel {
+    fn default() -> Self {
+        LossModel::None {}
+    }
+}
+
 fn one() -> f64 {
     1.0
 }
@@ -257,8 +266,9 @@ fn one_u32() -> u32 {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "scheme", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Partition {
-    /// No partition: everyone hears everyone (Jepsen's heal).
-    Healed,
+    /// No partition: everyone hears everyone (Jepsen's heal). An empty struct variant, not a unit
+    /// one, so that extra keys in its table are refused (see [`LossModel`]).
+    Healed {},
     /// Explicit groups: two listed nodes hear each other iff some group holds both (Jepsen's
     /// `complete-grudge`; overlapping groups make bridges).
     Groups {
@@ -303,7 +313,7 @@ pub enum Partition {
 impl Partition {
     /// No partition.
     pub fn heal() -> Partition {
-        Partition::Healed
+        Partition::Healed {}
     }
 
     /// `node` deaf and mute.
@@ -314,7 +324,7 @@ impl Partition {
     /// Every node the scheme names.
     pub fn nodes(&self) -> Vec<u32> {
         match self {
-            Partition::Healed => Vec::new(),
+            Partition::Healed {} => Vec::new(),
             Partition::Groups { groups } => groups.iter().flatten().copied().collect(),
             Partition::Halves { nodes } | Partition::Bridge { nodes } => nodes.clone(),
             Partition::Isolate { node } => vec![*node],
@@ -361,5 +371,22 @@ mod tests {
         let reordered = Impairment { delay_s: 0.1, reorder: Some(Reorder { probability: 0.1, gap: 3 }), ..Impairment::IDENTITY };
         assert!(reordered.validate().is_ok());
         assert!(Impairment::IDENTITY.validate().is_ok());
+    }
+
+    #[test]
+    fn a_variant_without_parameters_refuses_extra_keys() {
+        #[derive(Debug, Deserialize)]
+        struct T {
+            p: Partition,
+            l: LossModel,
+        }
+        let ok: T = toml::from_str("p = { scheme = \"healed\" }\nl = { model = \"none\" }").unwrap();
+        assert_eq!((ok.p, ok.l), (Partition::Healed {}, LossModel::None {}));
+        let err = toml::from_str::<T>("p = { scheme = \"healed\", x = 1 }\nl = { model = \"none\" }").unwrap_err();
+        assert!(err.to_string().contains('x'), "{err}");
+        assert!(toml::from_str::<T>("p = { scheme = \"healed\" }\nl = { model = \"none\", p = 0.3 }").is_err());
+        // What `netem/rules` carries is unchanged: the tag alone.
+        assert_eq!(serde_json::to_string(&Partition::Healed {}).unwrap(), r#"{"scheme":"healed"}"#);
+        assert_eq!(serde_json::to_string(&LossModel::None {}).unwrap(), r#"{"model":"none"}"#);
     }
 }

@@ -228,7 +228,7 @@ fn inverse_normal_cdf(p: f64) -> f64 {
 /// Good, or state 1). Independent of duplication, which only adds messages.
 pub fn expected_loss_rate(model: &LossModel) -> f64 {
     match *model {
-        LossModel::None => 0.0,
+        LossModel::None {} => 0.0,
         LossModel::Random { p } => p,
         LossModel::GilbertElliott { p, r, one_minus_h, one_minus_k } => {
             if p + r == 0.0 {
@@ -488,7 +488,7 @@ impl LinkSim {
     /// netem `loss_event`: whether the loss model drops this copy (advancing its Markov chain).
     fn loss_event(&mut self, model: &LossModel) -> bool {
         match *model {
-            LossModel::None => false,
+            LossModel::None {} => false,
             LossModel::Random { p } => p > 0.0 && self.uniform() < p,
             LossModel::GilbertElliott { p, r, one_minus_h, one_minus_k } => {
                 // loss_gilb_ell: the case is the old state; first draw moves the chain, second
@@ -537,7 +537,7 @@ pub fn blocked(partition: &Partition, from: u32, to: u32) -> bool {
         return false;
     }
     match partition {
-        Partition::Healed => false,
+        Partition::Healed {} => false,
         Partition::Groups { groups } => {
             let listed = |n: u32| groups.iter().any(|g| g.contains(&n));
             listed(from) && listed(to) && !groups.iter().any(|g| g.contains(&from) && g.contains(&to))

@@ -251,7 +251,7 @@ impl Fault {
         let failure = |at_s, uav, kind| Failure { at_s, uav, kind };
         match &self.nemesis {
             Nemesis::Partition { partition } => (
-                vec![NetemRule::partition(start, partition.clone(), false), NetemRule::partition(stop, Partition::Healed, false)],
+                vec![NetemRule::partition(start, partition.clone(), false), NetemRule::partition(stop, Partition::Healed {}, false)],
                 vec![],
             ),
             Nemesis::Link { from, rule } => {

@@ -235,7 +235,7 @@ mod tests {
         assert_eq!(held[0].partition, Some(Partition::Bridge { nodes: vec![1, 2, 3, 4, 5] }));
         assert!(held[0].rule.hold);
         let heal = timeline_of(&NetemOp::Heal).expect("ok").netem;
-        assert!(heal[0].rule.is_identity() && heal[1].partition == Some(Partition::Healed));
+        assert!(heal[0].rule.is_identity() && heal[1].partition == Some(Partition::Healed {}));
         let f = timeline_of(&NetemOp::Freeze { uav: 3 }).expect("ok").failures;
         assert_eq!(f, vec![Failure { at_s: 0.0, uav: 3, kind: FailureKind::Freeze }]);
         assert!(timeline_of(&op("1,2", None, false)).is_err());

@@ -24,7 +24,7 @@ const RECENT_TICKS: usize = 64;
 pub(crate) fn heal_times(sc: &Scenario) -> Vec<f64> {
     let is_heal = |r: &&swarm_config::NetemRule| match &r.partition {
         None => r.rule.is_identity(),
-        Some(p) => *p == swarm_config::Partition::Healed,
+        Some(p) => *p == swarm_config::Partition::Healed {},
     };
     let mut t: Vec<f64> = sc.netem.iter().filter(is_heal).map(|r| r.at_s).collect();
     t.sort_by(f64::total_cmp);
