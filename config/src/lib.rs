@@ -70,6 +70,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-5-linkloss", include_str!("../../scenarios/forest-5-linkloss.toml")),
     ("forest-5-lossy", include_str!("../../scenarios/forest-5-lossy.toml")),
     ("forest-7-failed", include_str!("../../scenarios/forest-7-failed.toml")),
+    ("forest-9-dense", include_str!("../../scenarios/forest-9-dense.toml")),
     ("forest-9-stranded", include_str!("../../scenarios/forest-9-stranded.toml")),
     ("forest-40", include_str!("../../scenarios/forest-40.toml")),
     ("forest-100", include_str!("../../scenarios/forest-100.toml")),
