@@ -271,7 +271,7 @@ pub fn python() -> std::path::PathBuf {
     let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../.venv/bin/python");
     assert!(
         venv.exists(),
-        "no test Python at {}: run tools/test-env (or tools/test) first",
+        "no test Python at {}: run tools/test-env first",
         venv.display()
     );
     venv
