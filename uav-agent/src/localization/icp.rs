@@ -469,7 +469,10 @@ fn first_pass_score(
         }
         d2.push(best);
     }
-    d2.sort_unstable_by(f64::total_cmp);
+    // Squared distances are ≥ +0 (or NaN/+∞ from absurd input), and for such values the IEEE bit
+    // patterns as integers sort exactly as `f64::total_cmp` does: the same order, at a fraction
+    // of the cost (this sort was a third of `swarm icp-eval`'s CPU time, by `perf`).
+    d2.sort_unstable_by_key(|d| d.to_bits());
     best_prefix(d2.iter().copied(), weights, k_min).1
 }
 
@@ -899,6 +902,21 @@ mod tests {
         assert!(kept >= 3);
         // NaN gives no prefix.
         assert_eq!(best_prefix([f64::NAN; 6].into_iter(), &ws.weights, 3).0, 0);
+    }
+
+    /// The first pass sorts squared distances by their bits: for values ≥ +0 (and +∞, NaN) that
+    /// is `f64::total_cmp`'s order, so the scores, and every result, are unchanged.
+    #[test]
+    fn squared_distances_sort_by_bits_as_by_total_cmp() {
+        let mut rng = Rng(11);
+        for _ in 0..200 {
+            let mut v: Vec<f64> = (0..20).map(|_| rng.range(0.0, 50.0).powi(2)).collect();
+            v.extend([0.0, f64::INFINITY, f64::NAN, 1e-300, f64::MIN_POSITIVE / 2.0, 3.0, 3.0]);
+            let mut by_bits = v.clone();
+            by_bits.sort_unstable_by_key(|d| d.to_bits());
+            v.sort_unstable_by(f64::total_cmp);
+            assert_eq!(v.iter().map(|d| d.to_bits()).collect::<Vec<_>>(), by_bits.iter().map(|d| d.to_bits()).collect::<Vec<_>>());
+        }
     }
 
     #[test]
