@@ -77,12 +77,12 @@
 //! unambiguous, FRMSD ≤ 0.3 m). Otherwise the track stands: `last_long` is stamped (checked) and
 //! the step's update is the sICP from the track, as for a deferred lICP. Why: instrumenting every
 //! accepted ICP outcome of `forest-9-dense` (the TRACE events `icp_provenance`, joined with the
-//! truth offline) found its 450 false estimates (0.49 %) made by lICP jumps from a right track
-//! (22 jumps, 234 false estimates, all with FRMSD 0.4–1.0 m; the one jump that corrected a wrong
-//! track fit within 0.3 m) and by placements of FRMSD 0.3–1.0 m that `judge_initial` had refused
-//! but the database still accepted at `match_frmsd` (16 placements, 165 false estimates), none by
-//! identification (no set was ever given to an entry of another sender). With both rules: 96 of
-//! 135 868 (0.07 %). Keeping the track against every jumping lICP, confident or not, had been
+//! truth offline by `tools/icp_provenance.py`) found most of its 450 false estimates (0.49 %)
+//! made by lICP jumps from a right track (22 jumps, 234 false estimates, all with FRMSD
+//! 0.4–1.0 m; the one jump that corrected a wrong track fit within 0.3 m) and by placements of
+//! FRMSD 0.3–1.0 m that `judge_initial` had refused but the database still accepted at
+//! `match_frmsd` (7 runs of false estimates, 165 estimates), none by identification (no set was
+//! ever given to an entry of another sender). With both rules: 96 of 135 868 (0.07 %). Keeping the track against every jumping lICP, confident or not, had been
 //! tried before: no gain in the crowd lab, and forest-7-failed flew closer to the trees (0.40 m
 //! against 0.77 m without it).
 //!
