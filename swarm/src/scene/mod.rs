@@ -11,6 +11,12 @@
 //! one process, a test's say, must not mix). Sinks are attached to that context: an MCAP file
 //! ([`Scene::write_mcap`]) and/or a WebSocket server; with none, logging costs an `if`.
 //!
+//! The file is cut to what changes: its chunks are zstd-compressed (most of the bytes are scans,
+//! whose ranges are f32 widened to doubles, and estimates whose shapes repeat), and each trail
+//! message carries only the last second of path, as its own entity with a lifetime of
+//! [`TRAIL_S`], so a viewer shows the last [`TRAIL_S`] of path without it being sent again every
+//! second.
+//!
 //! Topics (frames: `world`, `uav{id}`):
 //!
 //! | topic | schema | when |
@@ -19,7 +25,7 @@
 //! | `/swarm/world` | JSON: the hub's `TruthWorld`, the tick length `dt_s`, the scenario's name (for `swarm replay`) | once |
 //! | `/tf` | FrameTransforms (`world` -> `uav{id}`) | every truth step |
 //! | `/uav/{id}/pose` | PoseInFrame (truth) | every truth step, per UAV |
-//! | `/trails` | SceneUpdate (the last [`TRAIL_S`] of each UAV's path) | every sim second |
+//! | `/trails` | SceneUpdate (the second of path since the last, kept on screen [`TRAIL_S`]) | every sim second |
 //! | `/uav/{id}/scan` | LaserScan (body frame) | every scan the hub sends |
 //! | `/uav/{id}/estimates` | SceneUpdate (estimate dots, lines to the truth) | every agent state |
 //! | `/radio` | SceneUpdate (links coloured clean/impaired/cut; metadata `links`: the ids at the ends) | every truth step |
@@ -35,7 +41,7 @@ use anyhow::{Context as _, Result};
 use foxglove::messages::log::Level;
 use foxglove::messages::{FrameTransforms, LaserScan, Log, PoseInFrame, SceneUpdate};
 use foxglove::{Channel, PartialMetadata, RawChannel, Schema};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
@@ -43,7 +49,7 @@ use std::sync::Arc;
 use swarm_config::Scenario;
 use swarm_wire::msg::{AgentState, RadioSet, Scan, TruthBody, TruthStep, TruthWorld};
 
-/// How much of each UAV's path `/trails` shows [sim s].
+/// How much of each UAV's path `/trails` shows [sim s]: each piece's lifetime.
 pub const TRAIL_S: f64 = 20.0;
 
 /// The JSON schema of `/uav/{id}/numbers`.
@@ -76,7 +82,8 @@ pub struct Scene {
     timeline: netem::Timeline,
     /// Latest truth of every UAV (the pose its next state's estimates are relative to).
     bodies: BTreeMap<u32, TruthBody>,
-    trails: BTreeMap<u32, VecDeque<(f64, [f64; 2])>>,
+    /// Each UAV's path since the last `/trails` piece, from that piece's last point on.
+    trails: BTreeMap<u32, Vec<[f64; 2]>>,
     radio: BTreeMap<u32, Vec<u32>>,
     last_t: Option<f64>,
     next_trail_t: f64,
@@ -141,7 +148,8 @@ impl Scene {
     /// Starts writing everything logged from now on to the MCAP file `path`.
     pub fn write_mcap(&mut self, path: &Path) -> Result<()> {
         let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-        let h = self.ctx.mcap_writer().create(BufWriter::new(file)).context("cannot start the MCAP writer")?;
+        let options = foxglove::McapWriteOptions::new().compression(Some(foxglove::McapCompression::Zstd));
+        let h = self.ctx.mcap_writer_with_options(options).create(BufWriter::new(file)).context("cannot start the MCAP writer")?;
         self.mcap = Some(h);
         Ok(())
     }
@@ -197,11 +205,7 @@ impl Scene {
             if let Some(u) = self.uavs.get(&b.id) {
                 u.pose.log_with_time(&shapes::pose(b, t), ns);
             }
-            let trail = self.trails.entry(b.id).or_default();
-            trail.push_back((t, [b.x, b.y]));
-            while trail.front().is_some_and(|(t0, _)| *t0 < t - TRAIL_S) {
-                trail.pop_front();
-            }
+            self.trails.entry(b.id).or_default().push([b.x, b.y]);
         }
         self.events_of(s);
         for b in &s.bodies {
@@ -278,10 +282,18 @@ impl Scene {
         self.radio_ch.log_with_time(&SceneUpdate { entities: vec![e], ..Default::default() }, shapes::log_time_ns(t));
     }
 
-    fn draw_trails(&self, t: f64) {
-        let mut e = shapes::entity("trails".into(), t);
-        e.lines = self.trails.values().map(|tr| shapes::strip(tr.iter().map(|(_, p)| *p), shapes::rgb(0.3, 0.3, 0.8), 0.05)).collect();
+    /// Logs the path since the last piece as a new entity that lives [`TRAIL_S`], and starts the
+    /// next piece at each path's last point (so the pieces join).
+    fn draw_trails(&mut self, t: f64) {
+        let mut e = shapes::entity(format!("trails{}", shapes::log_time_ns(t)), t);
+        e.lifetime = foxglove::messages::Duration::try_from_secs_f64(TRAIL_S).ok();
+        e.lines = self.trails.values().map(|tr| shapes::strip(tr.iter().copied(), shapes::rgb(0.3, 0.3, 0.8), 0.05)).collect();
         self.trails_ch.log_with_time(&SceneUpdate { entities: vec![e], ..Default::default() }, shapes::log_time_ns(t));
+        for tr in self.trails.values_mut() {
+            let last = tr.last().copied();
+            tr.clear();
+            tr.extend(last);
+        }
     }
 
     /// Logs the step's collisions, UAVs lost, and the netem rules and failures that came due
