@@ -364,4 +364,37 @@ mod tests {
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("/uav/1/pose") && text.contains("/tf"), "channels recorded");
     }
+
+    #[test]
+    fn trails_are_sent_once_as_joined_pieces_that_live_trail_s() {
+        use foxglove::Decode;
+        let sc = Scenario::from_arg("forest-5").expect("built-in").0;
+        let path = std::env::temp_dir().join(format!("scene-trails-{}.mcap", std::process::id()));
+        let mut scene = Scene::new(&sc).expect("scene");
+        scene.write_mcap(&path).expect("mcap");
+        let ticks = 25u64;
+        for tick in 0..=ticks {
+            let body = TruthBody { id: 1, x: tick as f64, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
+            scene.on_step(&TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() });
+        }
+        scene.finish().expect("close");
+        let bytes = std::fs::read(&path).expect("read");
+        let _ = std::fs::remove_file(&path);
+        let pieces: Vec<SceneUpdate> = mcap::MessageStream::new(&bytes)
+            .expect("mcap")
+            .map(|m| m.expect("record"))
+            .filter(|m| m.channel.topic == "/trails")
+            .map(|m| SceneUpdate::decode(&*m.data).expect("scene update"))
+            .collect();
+        // At 0, 1 and 2 s: three pieces, each its own entity living TRAIL_S.
+        assert_eq!(pieces.len(), 3);
+        let xs: Vec<Vec<f64>> = pieces.iter().map(|u| u.entities[0].lines[0].points.iter().map(|p| p.x).collect()).collect();
+        assert_eq!(xs[0], vec![0.0]);
+        assert_eq!(xs[1], (0..=10).map(f64::from).collect::<Vec<_>>(), "the second piece starts where the first ended");
+        assert_eq!(xs[2], (10..=20).map(f64::from).collect::<Vec<_>>());
+        for u in &pieces {
+            assert_eq!(u.entities[0].lifetime.map(|d| d.sec()), Some(TRAIL_S as i32));
+        }
+        assert_ne!(pieces[1].entities[0].id, pieces[2].entities[0].id, "pieces do not replace each other");
+    }
 }
