@@ -1,9 +1,10 @@
 """A small Foxglove WebSocket client (written from the protocol's spec, none of our code). It
-offers the protocol's old name, foxglove.websocket.v1, and its current one, foxglove.sdk.v1 (the
-only one the pinned SDK's server accepts): subscribes to one topic, decodes its messages with the
-protobuf schema the server advertises, and prints one JSON object with what it received.
+offers the subprotocol names given (default: the protocol's old name, foxglove.websocket.v1, and
+its current one, foxglove.sdk.v1; Lichtblick offers only the old one), subscribes to one topic,
+decodes its messages with the protobuf schema the server advertises, and prints one JSON object
+with what it received and the subprotocol the server chose.
 
-usage: foxglove_ws.py ws://HOST:PORT TOPIC COUNT TIMEOUT_S
+usage: foxglove_ws.py ws://HOST:PORT TOPIC COUNT TIMEOUT_S [NAME,NAME...]
 """
 import base64
 import json
@@ -25,10 +26,11 @@ def message_class(schema_name, schema_b64):
 
 def main():
     url, topic, want, timeout = sys.argv[1], sys.argv[2], int(sys.argv[3]), float(sys.argv[4])
+    offers = sys.argv[5].split(",") if len(sys.argv) > 5 else ["foxglove.websocket.v1", "foxglove.sdk.v1"]
     deadline = time.monotonic() + timeout
     out = {"server": None, "channel": None, "poses": []}
     cls = None
-    with connect(url, subprotocols=["foxglove.websocket.v1", "foxglove.sdk.v1"], open_timeout=timeout) as ws:
+    with connect(url, subprotocols=offers, open_timeout=timeout) as ws:
         out["subprotocol"] = ws.subprotocol
         while len(out["poses"]) < want and time.monotonic() < deadline:
             try:

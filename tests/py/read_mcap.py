@@ -1,6 +1,7 @@
 """Reads a run.mcap with Foxglove's own Python readers (mcap, mcap-protobuf-support) and prints
-one JSON object: per topic its schema and message count, and the LaserScan of one UAV whose
-stamp is a given sim time (ranges as floats, +inf as null, since JSON has no infinity).
+one JSON object: per topic its schema and message count, the compressions of the file's chunks,
+and the LaserScan of one UAV whose stamp is a given sim time (ranges as floats, +inf as null,
+since JSON has no infinity).
 
 usage: read_mcap.py RUN.mcap UAV_ID T_SECS
 """
@@ -19,6 +20,9 @@ def main():
     scan = None
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        compressions = sorted({c.compression for c in reader.get_summary().chunk_indexes})
+        f.seek(0)
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
         for schema, channel, message in reader.iter_messages():
             t = topics.setdefault(
                 channel.topic,
@@ -36,7 +40,7 @@ def main():
                     "end_angle": scan_msg.end_angle,
                     "ranges": [None if math.isinf(r) else r for r in scan_msg.ranges],
                 }
-    print(json.dumps({"topics": topics, "scan": scan}))
+    print(json.dumps({"topics": topics, "chunk_compressions": compressions, "scan": scan}))
 
 
 if __name__ == "__main__":

@@ -1,8 +1,9 @@
 //! End to end: `run.mcap` read by a reader no one here wrote. Forest-5 is flown piece by piece
 //! (hub, `swarm record`, agents) so a `swarm tap` can listen to UAV 1's scans before the first
 //! tick; Foxglove's Python `mcap` and `mcap-protobuf-support` then read the recording: every
-//! topic there with its schema, one message per tick (and per UAV) where that is the rule, and
-//! the LaserScan of one tick equal, range for range, to the scan the hub sent on the wire.
+//! topic there with its schema, one message per tick (and per UAV) where that is the rule, every
+//! chunk zstd-compressed (decompressed by the reader's own `zstandard`), and the LaserScan of one
+//! tick equal, range for range, to the scan the hub sent on the wire.
 
 mod common;
 
@@ -53,6 +54,7 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
     assert!(py.status.success(), "read_mcap.py: {}", String::from_utf8_lossy(&py.stderr));
     let read: Value = serde_json::from_slice(&py.stdout).expect("reader json");
     let topics = &read["topics"];
+    assert_eq!(read["chunk_compressions"], serde_json::json!(["zstd"]), "every chunk compressed");
 
     let ticks = summary(&out)["ticks"].as_u64().expect("ticks");
     assert_eq!(ticks, (FLY_S * 10.0) as u64, "the run flew to its time limit");

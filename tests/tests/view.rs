@@ -1,8 +1,11 @@
 //! End to end: watching a run. `swarm run --view` serves the live page and the Foxglove
-//! WebSocket: a Foxglove client (Python `websockets`, speaking the Foxglove WebSocket protocol, `foxglove.sdk.v1`) receives
-//! UAV poses during the run, and headless Chromium (Debian's, driven by playwright) sees the
-//! drawn UAVs move and sit where the run's truth puts them. `swarm replay` of a run folder seeks
-//! to a tick and draws that tick's positions. Screenshots are kept under the tests' target
+//! WebSocket: two Foxglove clients (Python `websockets`, speaking the Foxglove WebSocket
+//! protocol) receive UAV poses during the run, one offering the protocol's current name
+//! `foxglove.sdk.v1`, one offering only the old name `foxglove.websocket.v1` as Lichtblick does;
+//! headless Chromium (Debian's, driven by playwright) sees the drawn UAVs move and sit where the
+//! run's truth puts them, and, with the scan toggle on, UAV 1's scan drawn at UAV 1's true pose
+//! of the scan's tick with its returns on the trees. `swarm replay` of a run folder seeks to a
+//! tick and draws that tick's positions and scan. Screenshots are kept under the tests' target
 //! temporary folder (`target/tmp/view/`).
 
 mod common;
@@ -82,6 +85,46 @@ fn assert_drawn_at_truth(state: &Value, truth: &BTreeMap<(u64, u64), (f64, f64)>
     }
 }
 
+/// A Foxglove client's JSON (`foxglove_ws.py`): it negotiated `subprotocol` and received at
+/// least 20 `/uav/1/pose` messages in the world frame, in sim-time order.
+fn assert_poses(fox: &Value, subprotocol: &str) {
+    assert_eq!(fox["subprotocol"], subprotocol, "{fox}");
+    assert_eq!(fox["channel"]["schemaName"], "foxglove.PoseInFrame", "{fox}");
+    let poses = fox["poses"].as_array().expect("poses");
+    assert!(poses.len() >= 20, "20 poses during the run: {fox}");
+    assert!(poses.iter().all(|p| p["frame_id"] == "world"));
+    let times: Vec<u64> = poses.iter().map(|p| p["log_time_ns"].as_u64().expect("time")).collect();
+    assert!(times.windows(2).all(|w| w[0] < w[1]), "poses in sim-time order: {times:?}");
+}
+
+/// The scan drawn in `state` (a `window.viewState` with the toggle on) is UAV `id`'s, drawn at
+/// its truth pose of the scan's tick (within 1 cm), and most of its returns lie on a tree's
+/// surface or another UAV's body (within 0.1 m: the LIDAR's noise is 0.02 m).
+fn assert_scan_drawn(state: &Value, id: u64, run: &Path, truth: &BTreeMap<(u64, u64), (f64, f64)>) {
+    let scan = &state["scan"];
+    assert_eq!(scan["id"], id, "{scan}");
+    assert_eq!(scan["beams"], 750, "{scan}");
+    let tick = scan["tick"].as_u64().expect("scan tick");
+    let pose = scan["pose"].as_array().expect("pose");
+    let (x, y) = truth[&(tick, id)];
+    let at = |i: usize| pose[i].as_f64().expect("pose number");
+    assert!((at(0) - x).hypot(at(1) - y) < 0.01, "scan of tick {tick} drawn at {pose:?}, truth ({x}, {y})");
+    let world: Value = serde_json::from_str(&std::fs::read_to_string(run.join("world.json")).expect("world.json")).expect("world json");
+    let r_uav = world["body_radius_m"].as_f64().expect("body radius");
+    let mut surfaces: Vec<(f64, f64, f64)> = world["trees"].as_array().expect("trees").iter().map(|t| (t[0].as_f64().unwrap_or(0.0), t[1].as_f64().unwrap_or(0.0), t[2].as_f64().unwrap_or(0.0))).collect();
+    surfaces.extend(truth.iter().filter(|((t, u), _)| *t == tick && *u != id).map(|(_, &(ux, uy))| (ux, uy, r_uav)));
+    let hits = scan["hits"].as_array().expect("hits");
+    assert!(hits.len() >= 10, "the scan sees something: {} returns", hits.len());
+    let on_surface = hits
+        .iter()
+        .filter(|h| {
+            let (hx, hy) = (h[0].as_f64().unwrap_or(f64::NAN), h[1].as_f64().unwrap_or(f64::NAN));
+            surfaces.iter().any(|&(cx, cy, r)| ((hx - cx).hypot(hy - cy) - r).abs() < 0.1)
+        })
+        .count();
+    assert!(on_surface * 10 >= hits.len() * 9, "{on_surface} of {} returns on a surface", hits.len());
+}
+
 /// Waits (bounded) for a file to appear.
 fn wait_for_file(p: &Path, limit: Duration) {
     let t0 = Instant::now();
@@ -100,15 +143,10 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     let args = ["run", &sc, "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet", "--time-mode", "realtime", "--view", "0"];
     let (_run, page, ws) = start_serving(&args, "view: ", &dir.path().join("run.log"));
 
-    let fox = py("foxglove_ws.py", &[&ws, "/uav/1/pose", "20", "60"]);
-    // The pinned SDK (0.30.3) accepts only the protocol's current name.
-    assert_eq!(fox["subprotocol"], "foxglove.sdk.v1", "{fox}");
-    assert_eq!(fox["channel"]["schemaName"], "foxglove.PoseInFrame", "{fox}");
-    let poses = fox["poses"].as_array().expect("poses");
-    assert!(poses.len() >= 20, "20 poses during the run: {fox}");
-    assert!(poses.iter().all(|p| p["frame_id"] == "world"));
-    let times: Vec<u64> = poses.iter().map(|p| p["log_time_ns"].as_u64().expect("time")).collect();
-    assert!(times.windows(2).all(|w| w[0] < w[1]), "poses in sim-time order: {times:?}");
+    // Offered both names, the SDK's server chooses the current one.
+    assert_poses(&py("foxglove_ws.py", &[&ws, "/uav/1/pose", "20", "60"]), "foxglove.sdk.v1");
+    // Lichtblick offers only the old name: the front door answers with it.
+    assert_poses(&py("foxglove_ws.py", &[&ws, "/uav/1/pose", "20", "60", "foxglove.websocket.v1"]), "foxglove.websocket.v1");
 
     let shot = output_dir("live").join("live.png");
     let seen = py("page.py", &[&page, shot.to_str().expect("utf8"), "live", "3"]);
@@ -118,6 +156,9 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     assert!(second["tick"].as_u64() > first["tick"].as_u64(), "the clock moves: {seen}");
     let moved = |a: &Value, b: &Value| (a["x"].as_f64().unwrap_or(0.0) - b["x"].as_f64().unwrap_or(0.0)).hypot(a["y"].as_f64().unwrap_or(0.0) - b["y"].as_f64().unwrap_or(0.0)) > 0.05;
     assert!(first["uavs"].as_array().expect("uavs").iter().zip(second["uavs"].as_array().expect("uavs")).any(|(a, b)| moved(a, b)), "drawn UAVs move: {seen}");
+    let scan_shot = output_dir("live").join("live-scan.png");
+    let scanned = py("page.py", &[&page, scan_shot.to_str().expect("utf8"), "scan", "1"]);
+    assert!(scan_shot.exists(), "screenshot kept");
 
     // The run ends by its time limit; its truth is in the run folder.
     wait_for_file(&out.join("summary.json"), RUN_LIMIT);
@@ -125,6 +166,7 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     let truth = truth(&out);
     assert_drawn_at_truth(first, &truth);
     assert_drawn_at_truth(second, &truth);
+    assert_scan_drawn(&scanned["scan"], 1, &out, &truth);
 }
 
 #[test]
@@ -136,9 +178,12 @@ fn replay_seeks_to_a_tick_and_draws_its_positions() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let (_replay, page, _ws) = start_serving(&["replay", out.to_str().expect("utf8"), "--port", "0", "--paused"], "replay: ", &dir.path().join("replay.log"));
     let shot = output_dir("replay").join("replay.png");
-    let seen = py("page.py", &[&page, shot.to_str().expect("utf8"), "seek", "42"]);
+    let seen = py("page.py", &[&page, shot.to_str().expect("utf8"), "seek", "42", "2"]);
     assert!(shot.exists(), "screenshot kept");
     let state = &seen["seek"];
     assert_eq!(state["tick"], 42, "{seen}");
-    assert_drawn_at_truth(state, &truth(&out));
+    let truth = truth(&out);
+    assert_drawn_at_truth(state, &truth);
+    assert_eq!(seen["scan"]["scan"]["tick"], 42, "the scan of the sought tick: {}", seen["scan"]["scan"]);
+    assert_scan_drawn(&seen["scan"], 2, &out, &truth);
 }

@@ -11,6 +11,12 @@
 //! one process, a test's say, must not mix). Sinks are attached to that context: an MCAP file
 //! ([`Scene::write_mcap`]) and/or a WebSocket server; with none, logging costs an `if`.
 //!
+//! The file is cut to what changes: its chunks are zstd-compressed (most of the bytes are scans,
+//! whose ranges are f32 widened to doubles, and estimates whose shapes repeat), and each trail
+//! message carries only the last second of path, as its own entity with a lifetime of
+//! [`TRAIL_S`], so a viewer shows the last [`TRAIL_S`] of path without it being sent again every
+//! second.
+//!
 //! Topics (frames: `world`, `uav{id}`):
 //!
 //! | topic | schema | when |
@@ -19,7 +25,7 @@
 //! | `/swarm/world` | JSON: the hub's `TruthWorld`, the tick length `dt_s`, the scenario's name (for `swarm replay`) | once |
 //! | `/tf` | FrameTransforms (`world` -> `uav{id}`) | every truth step |
 //! | `/uav/{id}/pose` | PoseInFrame (truth) | every truth step, per UAV |
-//! | `/trails` | SceneUpdate (the last [`TRAIL_S`] of each UAV's path) | every sim second |
+//! | `/trails` | SceneUpdate (the second of path since the last, kept on screen [`TRAIL_S`]) | every sim second |
 //! | `/uav/{id}/scan` | LaserScan (body frame) | every scan the hub sends |
 //! | `/uav/{id}/estimates` | SceneUpdate (estimate dots, lines to the truth) | every agent state |
 //! | `/radio` | SceneUpdate (links coloured clean/impaired/cut; metadata `links`: the ids at the ends) | every truth step |
@@ -35,7 +41,7 @@ use anyhow::{Context as _, Result};
 use foxglove::messages::log::Level;
 use foxglove::messages::{FrameTransforms, LaserScan, Log, PoseInFrame, SceneUpdate};
 use foxglove::{Channel, PartialMetadata, RawChannel, Schema};
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
@@ -43,7 +49,7 @@ use std::sync::Arc;
 use swarm_config::Scenario;
 use swarm_wire::msg::{AgentState, RadioSet, Scan, TruthBody, TruthStep, TruthWorld};
 
-/// How much of each UAV's path `/trails` shows [sim s].
+/// How much of each UAV's path `/trails` shows [sim s]: each piece's lifetime.
 pub const TRAIL_S: f64 = 20.0;
 
 /// The JSON schema of `/uav/{id}/numbers`.
@@ -76,7 +82,8 @@ pub struct Scene {
     timeline: netem::Timeline,
     /// Latest truth of every UAV (the pose its next state's estimates are relative to).
     bodies: BTreeMap<u32, TruthBody>,
-    trails: BTreeMap<u32, VecDeque<(f64, [f64; 2])>>,
+    /// Each UAV's path since the last `/trails` piece, from that piece's last point on.
+    trails: BTreeMap<u32, Vec<[f64; 2]>>,
     radio: BTreeMap<u32, Vec<u32>>,
     last_t: Option<f64>,
     next_trail_t: f64,
@@ -141,7 +148,8 @@ impl Scene {
     /// Starts writing everything logged from now on to the MCAP file `path`.
     pub fn write_mcap(&mut self, path: &Path) -> Result<()> {
         let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-        let h = self.ctx.mcap_writer().create(BufWriter::new(file)).context("cannot start the MCAP writer")?;
+        let options = foxglove::McapWriteOptions::new().compression(Some(foxglove::McapCompression::Zstd));
+        let h = self.ctx.mcap_writer_with_options(options).create(BufWriter::new(file)).context("cannot start the MCAP writer")?;
         self.mcap = Some(h);
         Ok(())
     }
@@ -197,11 +205,7 @@ impl Scene {
             if let Some(u) = self.uavs.get(&b.id) {
                 u.pose.log_with_time(&shapes::pose(b, t), ns);
             }
-            let trail = self.trails.entry(b.id).or_default();
-            trail.push_back((t, [b.x, b.y]));
-            while trail.front().is_some_and(|(t0, _)| *t0 < t - TRAIL_S) {
-                trail.pop_front();
-            }
+            self.trails.entry(b.id).or_default().push([b.x, b.y]);
         }
         self.events_of(s);
         for b in &s.bodies {
@@ -278,10 +282,18 @@ impl Scene {
         self.radio_ch.log_with_time(&SceneUpdate { entities: vec![e], ..Default::default() }, shapes::log_time_ns(t));
     }
 
-    fn draw_trails(&self, t: f64) {
-        let mut e = shapes::entity("trails".into(), t);
-        e.lines = self.trails.values().map(|tr| shapes::strip(tr.iter().map(|(_, p)| *p), shapes::rgb(0.3, 0.3, 0.8), 0.05)).collect();
+    /// Logs the path since the last piece as a new entity that lives [`TRAIL_S`], and starts the
+    /// next piece at each path's last point (so the pieces join).
+    fn draw_trails(&mut self, t: f64) {
+        let mut e = shapes::entity(format!("trails{}", shapes::log_time_ns(t)), t);
+        e.lifetime = foxglove::messages::Duration::try_from_secs_f64(TRAIL_S).ok();
+        e.lines = self.trails.values().map(|tr| shapes::strip(tr.iter().copied(), shapes::rgb(0.3, 0.3, 0.8), 0.05)).collect();
         self.trails_ch.log_with_time(&SceneUpdate { entities: vec![e], ..Default::default() }, shapes::log_time_ns(t));
+        for tr in self.trails.values_mut() {
+            let last = tr.last().copied();
+            tr.clear();
+            tr.extend(last);
+        }
     }
 
     /// Logs the step's collisions, UAVs lost, and the netem rules and failures that came due
@@ -351,5 +363,38 @@ mod tests {
         assert!(bytes.starts_with(b"\x89MCAP0\r\n"), "MCAP magic");
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("/uav/1/pose") && text.contains("/tf"), "channels recorded");
+    }
+
+    #[test]
+    fn trails_are_sent_once_as_joined_pieces_that_live_trail_s() {
+        use foxglove::Decode;
+        let sc = Scenario::from_arg("forest-5").expect("built-in").0;
+        let path = std::env::temp_dir().join(format!("scene-trails-{}.mcap", std::process::id()));
+        let mut scene = Scene::new(&sc).expect("scene");
+        scene.write_mcap(&path).expect("mcap");
+        let ticks = 25u64;
+        for tick in 0..=ticks {
+            let body = TruthBody { id: 1, x: tick as f64, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
+            scene.on_step(&TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() });
+        }
+        scene.finish().expect("close");
+        let bytes = std::fs::read(&path).expect("read");
+        let _ = std::fs::remove_file(&path);
+        let pieces: Vec<SceneUpdate> = mcap::MessageStream::new(&bytes)
+            .expect("mcap")
+            .map(|m| m.expect("record"))
+            .filter(|m| m.channel.topic == "/trails")
+            .map(|m| SceneUpdate::decode(&*m.data).expect("scene update"))
+            .collect();
+        // At 0, 1 and 2 s: three pieces, each its own entity living TRAIL_S.
+        assert_eq!(pieces.len(), 3);
+        let xs: Vec<Vec<f64>> = pieces.iter().map(|u| u.entities[0].lines[0].points.iter().map(|p| p.x).collect()).collect();
+        assert_eq!(xs[0], vec![0.0]);
+        assert_eq!(xs[1], (0..=10).map(f64::from).collect::<Vec<_>>(), "the second piece starts where the first ended");
+        assert_eq!(xs[2], (10..=20).map(f64::from).collect::<Vec<_>>());
+        for u in &pieces {
+            assert_eq!(u.entities[0].lifetime.map(|d| d.sec()), Some(TRAIL_S as i32));
+        }
+        assert_ne!(pieces[1].entities[0].id, pieces[2].entities[0].id, "pieces do not replace each other");
     }
 }

@@ -1,22 +1,23 @@
-//! The page's HTTP side: a small HTTP/1.1 server on tokio, four routes and no framework, so the
+//! The page's HTTP side: a small HTTP/1.1 server on tokio, five routes and no framework, so the
 //! page needs no build step and the binary no web stack:
 //!
 //! - `/`: the page (HTML, JS and canvas, embedded in the binary);
 //! - `/events`: Server-Sent Events: the world (`event: world`), then the latest frame whenever it
 //!   changes (a slow browser skips frames; it never slows the producer);
 //! - `/state`: the world and the latest frame as one JSON object (scripts, tests);
+//! - `/scan?id=N`: UAV N's latest scan in the world (scans on demand, see `scans`; 404 before
+//!   the first);
 //! - `/control?cmd=...`: replay's play, pause, seek and speed (404 on a live view).
 
+use super::scans::ScanSource;
 use std::sync::Arc;
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{mpsc, watch};
 use tracing::debug;
 
 /// The page.
 const PAGE: &str = include_str!("page.html");
-/// The longest request head read [bytes].
-const MAX_HEAD: usize = 8192;
 
 /// What the page shows now: JSON texts of the world and of the latest frame.
 #[derive(Debug, Default, Clone)]
@@ -30,21 +31,32 @@ pub struct Snapshot {
 /// A replay command: the query pairs of `/control`.
 pub type Command = Vec<(String, String)>;
 
+/// What the page's server answers from: the snapshots, the replay's controls (none on a live
+/// view) and the scans.
+#[derive(Clone)]
+pub struct Sources {
+    /// The world and the latest frame.
+    pub snap: watch::Receiver<Snapshot>,
+    /// Where `/control` commands go.
+    pub control: Option<mpsc::UnboundedSender<Command>>,
+    /// Where `/scan` answers come from.
+    pub scans: Arc<dyn ScanSource>,
+}
+
 /// Serves the page on `listener` until the process ends.
-pub async fn serve(listener: TcpListener, snap: watch::Receiver<Snapshot>, control: Option<mpsc::UnboundedSender<Command>>) {
+pub async fn serve(listener: TcpListener, sources: Sources) {
     loop {
         let Ok((stream, _)) = listener.accept().await else { continue };
-        let snap = snap.clone();
-        let control = control.clone();
+        let sources = sources.clone();
         tokio::spawn(async move {
-            if let Err(e) = handle(stream, snap, control).await {
+            if let Err(e) = handle(stream, sources).await {
                 debug!("page connection: {e}");
             }
         });
     }
 }
 
-async fn handle(mut s: TcpStream, snap: watch::Receiver<Snapshot>, control: Option<mpsc::UnboundedSender<Command>>) -> std::io::Result<()> {
+async fn handle(mut s: TcpStream, Sources { snap, control, scans }: Sources) -> std::io::Result<()> {
     let Some(target) = read_target(&mut s).await? else { return Ok(()) };
     let (path, query) = target.split_once('?').unwrap_or((&target, ""));
     match path {
@@ -55,6 +67,13 @@ async fn handle(mut s: TcpStream, snap: watch::Receiver<Snapshot>, control: Opti
             respond(&mut s, "200 OK", "application/json", body.as_bytes()).await
         }
         "/events" => events(s, snap).await,
+        "/scan" => {
+            let id = parse_query(query).into_iter().find(|(k, _)| k == "id").and_then(|(_, v)| v.parse::<u32>().ok());
+            match id.and_then(|id| scans.scan(id)) {
+                Some(p) => respond(&mut s, "200 OK", "application/json", p.to_json().as_bytes()).await,
+                None => respond(&mut s, "404 Not Found", "text/plain", b"no scan of that UAV yet").await,
+            }
+        }
         "/control" => match control {
             Some(c) => {
                 let _ = c.send(parse_query(query));
@@ -68,15 +87,7 @@ async fn handle(mut s: TcpStream, snap: watch::Receiver<Snapshot>, control: Opti
 
 /// Reads the request head and returns its target (`/path?query`), `None` for a non-GET.
 async fn read_target(s: &mut TcpStream) -> std::io::Result<Option<String>> {
-    let mut head = Vec::new();
-    let mut buf = [0u8; 1024];
-    while !head.windows(4).any(|w| w == b"\r\n\r\n") && head.len() < MAX_HEAD {
-        let n = s.read(&mut buf).await?;
-        if n == 0 {
-            break;
-        }
-        head.extend_from_slice(&buf[..n]);
-    }
+    let (head, _) = super::front::read_head(s).await?;
     let text = String::from_utf8_lossy(&head);
     let mut words = text.lines().next().unwrap_or_default().split_whitespace();
     Ok(match (words.next(), words.next()) {

@@ -6,14 +6,19 @@
 //!   with heading and trail, radio links by netem state, estimates, collisions and failures,
 //!   the clock and x real time, and a panel per UAV, from the frames of a `board`;
 //! - the Foxglove WebSocket protocol (the SDK's server on the [`Scene`]'s context, the same
-//!   topics as `run.mcap`), for Foxglove or Lichtblick.
+//!   topics as `run.mcap`), for Foxglove or Lichtblick, behind `front`, which lets clients that
+//!   offer only the protocol's old name (`foxglove.websocket.v1`) in.
+//!
+//! The page asks for the selected UAV's scan only while its toggle is on (`scans`).
 //!
 //! `swarm run --view` starts the same [`Live`] view inside the run ([`Live::start`]);
 //! `replay` is `swarm replay`: the same page and WebSocket over a recorded `run.mcap`.
 
 mod board;
+mod front;
 mod http;
 mod replay;
+mod scans;
 
 pub use replay::{replay, ReplayArgs};
 
@@ -22,6 +27,8 @@ use crate::scene::{Extra, Scene};
 use anyhow::{Context as _, Result};
 use board::Board;
 use clap::Args;
+use front::Front;
+use scans::LiveScans;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
@@ -80,6 +87,14 @@ async fn ring(s: &zenoh::Session, key: String) -> Result<Ring> {
     Ok(s.declare_subscriber(key).with(RingChannel::new(RING)).await.map_err(WireError::zenoh)?)
 }
 
+/// The Foxglove WebSocket of `ctx`: the SDK's server on a free loopback port, behind the front
+/// door on 127.0.0.1:`port` (0: any free port), which clients connect to.
+async fn foxglove_server(ctx: &Arc<foxglove::Context>, name: String, port: u16) -> Result<(foxglove::WebSocketServerHandle, Front)> {
+    let sdk = ctx.websocket_server().name(name).bind("127.0.0.1", 0).start().await.context("cannot start the Foxglove WebSocket server")?;
+    let front = Front::start(port, ([127, 0, 0, 1], sdk.port()).into()).await.with_context(|| format!("cannot listen on port {port}"))?;
+    Ok((sdk, front))
+}
+
 /// A live view: the session, its ring-buffered subscriptions, and what they feed.
 pub struct Live {
     /// Held: the subscriptions live as long as their session.
@@ -87,7 +102,8 @@ pub struct Live {
     subs: [Ring; 5],
     shown: Shown,
     page_port: u16,
-    foxglove: foxglove::WebSocketServerHandle,
+    _foxglove: foxglove::WebSocketServerHandle,
+    front: Front,
 }
 
 /// What the samples feed: the Foxglove scene and the page's board.
@@ -96,6 +112,7 @@ struct Shown {
     run_id: String,
     scene: Scene,
     board: Board,
+    scans: Arc<LiveScans>,
     snap: watch::Sender<http::Snapshot>,
 }
 
@@ -116,29 +133,23 @@ impl Live {
         let sc = Scenario::from_toml_str(&text, "hub")?;
         let (page, fox) = ports(page_port);
         let scene = Scene::new(&sc)?;
-        let foxglove = scene
-            .context()
-            .websocket_server()
-            .name(format!("swarm view {run_id}"))
-            .bind("127.0.0.1", fox)
-            .start()
-            .await
-            .context("cannot start the Foxglove WebSocket server")?;
+        let (foxglove, front) = foxglove_server(scene.context(), format!("swarm view {run_id}"), fox).await?;
         let listener = tokio::net::TcpListener::bind(("127.0.0.1", page)).await.with_context(|| format!("cannot listen on port {page}"))?;
         let page_port = listener.local_addr()?.port();
         let (snap, rx) = watch::channel(http::Snapshot::default());
-        tokio::spawn(http::serve(listener, rx, None));
-        let mut shown = Shown { keys, run_id: run_id.to_string(), scene, board: Board::new(&sc), snap };
+        let scans = Arc::new(LiveScans::default());
+        tokio::spawn(http::serve(listener, http::Sources { snap: rx, control: None, scans: scans.clone() }));
+        let mut shown = Shown { keys, run_id: run_id.to_string(), scene, board: Board::new(&sc), scans, snap };
         match plumbing::fetch(&session, &shown.keys.truth_world(), ASK_WAIT).await {
             Ok(b) => shown.truth(&b),
             Err(e) => tracing::warn!("no world from the hub yet: {e}"),
         }
-        Ok(Live { _session: session, subs, shown, page_port, foxglove })
+        Ok(Live { _session: session, subs, shown, page_port, _foxglove: foxglove, front })
     }
 
     /// The page's and the Foxglove WebSocket's addresses, as printed.
     pub fn addresses(&self) -> String {
-        format!("view: http://127.0.0.1:{}/  foxglove: ws://127.0.0.1:{}", self.page_port, self.foxglove.port())
+        format!("view: http://127.0.0.1:{}/  foxglove: ws://127.0.0.1:{}", self.page_port, self.front.port())
     }
 
     /// Takes samples as they come, forever (the view outlives the run: Ctrl-C ends it).
@@ -159,7 +170,8 @@ impl Live {
                 Ok(s) = scans.recv_async() => {
                     let id = self.shown.keys.uav_id_of(s.key_expr().as_str());
                     if let (Some(id), Ok(Msg::Scan(scan))) = (id, Msg::decode(&plumbing::payload(&s))) {
-                        self.shown.scene.on_extra(Extra::Scan(id, scan));
+                        self.shown.scene.on_scan(id, &scan);
+                        self.shown.scans.on_scan(id, scan);
                     }
                 }
                 Ok(s) = radio.recv_async() => {
@@ -194,6 +206,7 @@ impl Shown {
         match Msg::decode(b) {
             Ok(Msg::TruthStep(s)) => {
                 self.scene.on_step(&s);
+                self.scans.on_step(&s);
                 self.board.on_step(s);
             }
             Ok(Msg::TruthWorld(w)) => {

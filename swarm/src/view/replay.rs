@@ -4,16 +4,20 @@
 //!
 //! The page's frames are read back from the recording's own topics: `/swarm/world` (the world,
 //! the tick length), `/tf` (every UAV's pose per tick), `/radio` (links, their class by colour),
-//! `/uav/{id}/estimates`, `/uav/{id}/numbers` and `/events` (collisions, lost UAVs).
+//! `/uav/{id}/estimates`, `/uav/{id}/numbers` and `/events` (collisions, lost UAVs). The
+//! selected UAV's scan, when the page asks, is `/uav/{id}/scan` at the shown frame's time, placed
+//! by that UAV's `/tf` of the same time.
 
 use super::http::{self, Command, Snapshot};
+use super::scans::{ScanPicture, ScanSource};
 use anyhow::{Context as _, Result};
-use foxglove::messages::{FrameTransforms, Log, SceneUpdate};
+use foxglove::messages::{FrameTransforms, LaserScan, Log, SceneUpdate};
 use foxglove::{Decode, PartialMetadata, RawChannel, Schema};
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use tokio::sync::{mpsc, watch};
 
@@ -45,12 +49,37 @@ struct Recording {
     world: Value,
     /// (tick, log time [ns], frame) per tick.
     frames: Vec<(u64, u64, Value)>,
+    /// Per UAV, the indices in `messages` of its `/uav/{id}/scan` messages, in time order.
+    scans: BTreeMap<u32, Vec<usize>>,
+}
+
+/// The replay's scans: each UAV's latest scan at the shown frame's time.
+struct ReplayScans {
+    rec: Arc<Recording>,
+    /// The shown frame's log time [ns].
+    shown_ns: AtomicU64,
+}
+
+impl ScanSource for ReplayScans {
+    fn scan(&self, id: u32) -> Option<ScanPicture> {
+        let rec = &self.rec;
+        let t_ns = self.shown_ns.load(Ordering::Relaxed);
+        let idx = rec.scans.get(&id)?;
+        let m = &rec.messages[*idx.get(idx.partition_point(|&i| rec.messages[i].log_time_ns <= t_ns).checked_sub(1)?)?];
+        let l = LaserScan::decode(m.data.as_slice()).ok()?;
+        let (tick, _, frame) = &rec.frames[rec.frames.binary_search_by_key(&m.log_time_ns, |f| f.1).ok()?];
+        let u = frame["uavs"].as_array()?.iter().find(|u| u["id"] == id)?;
+        let pose = [u["x"].as_f64()?, u["y"].as_f64()?, u["yaw"].as_f64()?];
+        let n = l.ranges.len().max(2) as f64;
+        let angle_increment = (l.end_angle - l.start_angle) / (n - 1.0);
+        Some(ScanPicture { id, tick: *tick, t_s: m.log_time_ns as f64 * 1e-9, pose, angle_min: l.start_angle, angle_increment, ranges: l.ranges })
+    }
 }
 
 /// Runs `swarm replay` until Ctrl-C.
 pub async fn replay(a: ReplayArgs) -> Result<ExitCode> {
     let path = if a.run.is_dir() { a.run.join("run.mcap") } else { a.run.clone() };
-    let rec = load(&path)?;
+    let rec = Arc::new(load(&path)?);
     anyhow::ensure!(!rec.frames.is_empty(), "{} holds no /tf messages: nothing to replay", path.display());
     let ctx = foxglove::Context::new();
     let raw: Vec<Arc<RawChannel>> = rec
@@ -60,23 +89,24 @@ pub async fn replay(a: ReplayArgs) -> Result<ExitCode> {
         .collect::<Result<_, _>>()
         .context("cannot make the replay's channels")?;
     let (page, fox) = super::ports(a.port);
-    let server = ctx.websocket_server().name(format!("swarm replay {}", path.display())).bind("127.0.0.1", fox).start().await.context("cannot start the Foxglove WebSocket server")?;
+    let (_server, front) = super::foxglove_server(&ctx, format!("swarm replay {}", path.display()), fox).await?;
     let listener = tokio::net::TcpListener::bind(("127.0.0.1", page)).await.with_context(|| format!("cannot listen on port {page}"))?;
-    println!("replay: http://127.0.0.1:{}/  foxglove: ws://127.0.0.1:{}", listener.local_addr()?.port(), server.port());
+    println!("replay: http://127.0.0.1:{}/  foxglove: ws://127.0.0.1:{}", listener.local_addr()?.port(), front.port());
     use std::io::Write as _;
     let _ = std::io::stdout().flush();
     let (snap, snap_rx) = watch::channel(Snapshot::default());
     let (ctl_tx, ctl) = mpsc::unbounded_channel();
-    tokio::spawn(http::serve(listener, snap_rx, Some(ctl_tx)));
+    let scans = Arc::new(ReplayScans { rec: rec.clone(), shown_ns: AtomicU64::new(rec.frames[0].1) });
+    tokio::spawn(http::serve(listener, http::Sources { snap: snap_rx, control: Some(ctl_tx), scans: scans.clone() }));
     tokio::select! {
-        () = play(&rec, &raw, &snap, ctl, !a.paused) => {}
+        () = play(&rec, &raw, &snap, &scans.shown_ns, ctl, !a.paused) => {}
         _ = tokio::signal::ctrl_c() => {}
     }
     Ok(ExitCode::SUCCESS)
 }
 
 /// The playback clock: plays, pauses, seeks and changes speed on the page's commands.
-async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Snapshot>, mut ctl: mpsc::UnboundedReceiver<Command>, playing: bool) {
+async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Snapshot>, shown_ns: &AtomicU64, mut ctl: mpsc::UnboundedReceiver<Command>, playing: bool) {
     let world: Arc<str> = Arc::from(rec.world.to_string());
     let mut playing = playing;
     let mut speed = 1.0f64;
@@ -114,6 +144,7 @@ async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Sna
                 let i = rec.frames.partition_point(|f| f.1 <= t_ns).saturating_sub(1);
                 if i != shown {
                     shown = i;
+                    shown_ns.store(rec.frames[i].1, Ordering::Relaxed);
                     let frame: Arc<str> = Arc::from(rec.frames[i].2.to_string());
                     snap.send_modify(|s| { s.world = Some(world.clone()); s.frame = Some(frame); });
                 }
@@ -161,7 +192,14 @@ fn load(path: &Path) -> Result<Recording> {
     world["run"] = json!(path.display().to_string());
     let frames = frames(&messages, &|m| topic(m), dt);
     world["replay"] = json!({ "last_tick": frames.last().map_or(0, |f| f.0) });
-    Ok(Recording { channels, messages, world, frames })
+    let mut scans: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+    for (i, m) in messages.iter().enumerate() {
+        let id = topic(m).strip_prefix("/uav/").and_then(|r| r.strip_suffix("/scan")).and_then(|id| id.parse().ok());
+        if let Some(id) = id {
+            scans.entry(id).or_default().push(i);
+        }
+    }
+    Ok(Recording { channels, messages, world, frames, scans })
 }
 
 /// Builds the page's frame for every `/tf` message, from it and the topics logged at or before

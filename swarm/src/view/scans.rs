@@ -1,0 +1,148 @@
+//! Scans on demand: the page asks `/scan?id=N` for UAV N's latest scan only while its "scan"
+//! toggle is on and N is selected, so the frames stay small (a scan is 750 ranges per UAV per
+//! tick) and nothing is converted that nobody looks at. A [`ScanSource`] answers: [`LiveScans`]
+//! from the scan topic of a live run, paired with the truth pose of the scan's own tick;
+//! `replay` from the recording's `/uav/{id}/scan` and `/tf` at the playback time.
+
+use serde_json::json;
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::Mutex;
+use swarm_wire::msg::{Scan, TruthStep};
+
+/// How many ticks of truth poses a live view keeps to pair scans with.
+const POSE_TICKS: usize = 32;
+
+/// One UAV's scan placed in the world.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanPicture {
+    /// The UAV.
+    pub id: u32,
+    /// The scan's tick.
+    pub tick: u64,
+    /// Its sim time [s].
+    pub t_s: f64,
+    /// The UAV's true pose at that tick: x, y [m], yaw [rad] in the world frame.
+    pub pose: [f64; 3],
+    /// Beam 0's angle in the body frame [rad].
+    pub angle_min: f64,
+    /// The angle between beams [rad].
+    pub angle_increment: f64,
+    /// Ranges [m]; +inf: no return.
+    pub ranges: Vec<f64>,
+}
+
+impl ScanPicture {
+    /// UAV `id`'s wire scan at `pose`.
+    pub fn of_wire(id: u32, s: &Scan, pose: [f64; 3]) -> ScanPicture {
+        ScanPicture {
+            id,
+            tick: s.tick,
+            t_s: s.t_secs,
+            pose,
+            angle_min: f64::from(s.angle_min),
+            angle_increment: f64::from(s.angle_increment),
+            ranges: s.ranges_m.iter().map(|&r| f64::from(r)).collect(),
+        }
+    }
+
+    /// The returns in the world frame [m]: beam i at body angle a_i = angle_min + i * increment
+    /// hits p = (x + r cos(yaw + a_i), y + r sin(yaw + a_i)).
+    pub fn hits(&self) -> Vec<[f64; 2]> {
+        let [x, y, yaw] = self.pose;
+        self.ranges
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.is_finite())
+            .map(|(i, &r)| {
+                let a = yaw + self.angle_min + self.angle_increment * i as f64;
+                [x + r * a.cos(), y + r * a.sin()]
+            })
+            .collect()
+    }
+
+    /// What `/scan` answers: the pose and the returns in the world, to the millimetre.
+    pub fn to_json(&self) -> String {
+        let mm = |v: f64| (v * 1000.0).round() / 1000.0;
+        let hits: Vec<[f64; 2]> = self.hits().into_iter().map(|[x, y]| [mm(x), mm(y)]).collect();
+        json!({"id": self.id, "tick": self.tick, "t": self.t_s, "pose": self.pose, "beams": self.ranges.len(), "hits": hits}).to_string()
+    }
+}
+
+/// Where `/scan?id=N` gets UAV N's latest scan.
+pub trait ScanSource: Send + Sync {
+    /// UAV `id`'s latest scan whose pose is known, if any.
+    fn scan(&self, id: u32) -> Option<ScanPicture>;
+}
+
+/// A live view's latest scan per UAV and the truth poses of the last ticks, shared between the
+/// view's loop (writer) and the page's server (reader).
+#[derive(Default)]
+pub struct LiveScans {
+    book: Mutex<Book>,
+}
+
+#[derive(Default)]
+struct Book {
+    poses: VecDeque<(u64, BTreeMap<u32, [f64; 3]>)>,
+    scans: BTreeMap<u32, Scan>,
+}
+
+impl LiveScans {
+    fn book(&self) -> std::sync::MutexGuard<'_, Book> {
+        self.book.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// One truth step: its poses, for the scans of its tick.
+    pub fn on_step(&self, s: &TruthStep) {
+        let poses = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
+        let mut book = self.book();
+        book.poses.push_back((s.tick, poses));
+        while book.poses.len() > POSE_TICKS {
+            book.poses.pop_front();
+        }
+    }
+
+    /// A scan the hub sent UAV `id`.
+    pub fn on_scan(&self, id: u32, s: Scan) {
+        self.book().scans.insert(id, s);
+    }
+}
+
+impl ScanSource for LiveScans {
+    fn scan(&self, id: u32) -> Option<ScanPicture> {
+        let book = self.book();
+        let s = book.scans.get(&id)?;
+        let pose = book.poses.iter().rev().find(|(tick, _)| *tick == s.tick)?.1.get(&id)?;
+        Some(ScanPicture::of_wire(id, s, *pose))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use swarm_wire::msg::TruthBody;
+
+    #[test]
+    fn a_live_scan_is_placed_at_the_pose_of_its_own_tick() {
+        let scans = LiveScans::default();
+        let body = |tick: u64| TruthBody { id: 2, x: tick as f64, y: 1.0, yaw: std::f64::consts::FRAC_PI_2, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
+        let step = |tick| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(tick)], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() };
+        let scan = Scan { tick: 5, t_secs: 0.5, angle_min: 0.0, angle_increment: std::f32::consts::FRAC_PI_2, max_range_m: 9.0, ranges_m: vec![2.0, f32::INFINITY, 3.0] };
+        scans.on_scan(2, scan.clone());
+        assert!(scans.scan(2).is_none(), "no pose of tick 5 yet");
+        scans.on_step(&step(5));
+        scans.on_step(&step(6));
+        let p = scans.scan(2).expect("scan of tick 5");
+        assert_eq!(p.pose, [5.0, 1.0, std::f64::consts::FRAC_PI_2]);
+        // Beam 0 points along the heading (+y), beam 2 at +pi from it (-y); beam 1 has no return.
+        let hits = p.hits();
+        assert_eq!(hits.len(), 2);
+        assert!((hits[0][0] - 5.0).abs() < 1e-6 && (hits[0][1] - 3.0).abs() < 1e-6, "{hits:?}");
+        assert!((hits[1][0] - 5.0).abs() < 1e-6 && (hits[1][1] + 2.0).abs() < 1e-6, "{hits:?}");
+        let json: serde_json::Value = serde_json::from_str(&p.to_json()).expect("json");
+        assert_eq!(json["tick"], 5);
+        assert_eq!(json["beams"], 3);
+        assert_eq!(json["hits"][0], json!([5.0, 3.0]));
+        assert!(scans.scan(1).is_none(), "no scan of UAV 1");
+    }
+}
