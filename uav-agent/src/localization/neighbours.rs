@@ -71,6 +71,30 @@
 //! the tracked estimate against an lICP that jumps it was tried: no gain in the crowd lab, and
 //! forest-7-failed flew closer to the trees (0.40 m against 0.77 m without it).
 //!
+//! # Fewer ICPs in a crowd (issue 11; seed 000 stops at 40 UAVs on the controller alone)
+//!
+//! In a crowd every neighbour costs about 100 µs of CPU per step (40 UAVs: about 4 ms per agent
+//! step, 1.2× real time on 2 cores), and two thirds of it are full-grid ICPs: each tracked
+//! neighbour's lICP every `long_every_s` and each unplaced one's retry every `suspend_s` come to
+//! 0.6–0.8 full grids of 3–4 ms per step at 30–40 neighbours; most of the rest is findBestMatch.
+//! So from [`CROWD_FROM_SETS`] usable sets in a step (never in the shipped swarms of 5 to 9 UAVs,
+//! whose steps stay seed 000's) two rules do fewer ICPs:
+//!
+//! - A set whose link has exactly one entry, placed and not suspended, goes to that entry without
+//!   findBestMatch ([`StepCounts::trusted`]). The link (the sender's key) already told the gate
+//!   where to look, and the entry's sICP still checks the set against our own (a failure suspends
+//!   the entry as before); scans still identify a neighbour whose link is new or whose entry is
+//!   unplaced or suspended. In a crowd findBestMatch is also where look-alike sets get confused.
+//! - Re-checks (lICP) and retries share a budget of [`CROWD_FULL_GRIDS_PER_S`] full-grid ICPs per
+//!   second of sim time (saved up to [`CROWD_FULL_GRID_BURST`]), on top of seed 000 6.2's
+//!   `max_long_per_step`. They go most overdue first (a re-check by `now − last_long −
+//!   long_every_s`, a retry by `now − suspension_time − suspend_s`), so each waits its turn instead
+//!   of the oldest entries taking every slot. A new entry's iICP is outside the budget: a new
+//!   neighbour is placed as soon as seed 000 would. A deferred re-check falls back to an sICP as
+//!   in 6.2. With 39 neighbours a tracked one is then re-checked about every 20 s instead of 5 s.
+//!
+//! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
+//!
 //! Contract with the caller: pass, every step, the newest set held from each neighbour (a set
 //! may be passed again in later steps; it is ignored once older than `stale_after_s`).
 //! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
