@@ -91,7 +91,10 @@
 //!   long_every_s`, a retry by `now − suspension_time − suspend_s`), so each waits its turn instead
 //!   of the oldest entries taking every slot. A new entry's iICP is outside the budget: a new
 //!   neighbour is placed as soon as seed 000 would. A deferred re-check falls back to an sICP as
-//!   in 6.2. With 39 neighbours a tracked one is then re-checked about every 20 s instead of 5 s.
+//!   in 6.2. With 39 neighbours a tracked one is then re-checked about every 40 s instead of 5 s.
+//!   In a crowd that is also more accurate: an lICP there often jumps a right estimate to a
+//!   look-alike place (crowd lab, 40 UAVs, 30 s: 4.73 % false estimates with seed 000's re-checks,
+//!   2.08 % with the budget; see [`CROWD_FULL_GRIDS_PER_S`]).
 //!
 //! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -254,8 +257,11 @@ pub struct Database {
 const CROWD_FROM_SETS: usize = 10;
 
 /// Crowd rules: re-checks (lICP) and retries of unplaced entries share this many full-grid ICPs
-/// per second on average [1/s] (at 3–4 ms each, about 0.7 ms of CPU per 10 Hz step) ...
-const CROWD_FULL_GRIDS_PER_S: f64 = 2.0;
+/// per second on average [1/s] (at 3–4 ms each, about 0.35 ms of CPU per 10 Hz step). Crowd lab
+/// (40 UAVs, 30 s): 2/s gave 2.43 % false estimates at 1.50 ms per agent step, 1/s 2.08 % at
+/// 1.07 ms, 0.5/s 1.84 % at 0.89 ms; 1/s keeps lost neighbours' retries coming (20 s apart with
+/// 20 waiting) ...
+const CROWD_FULL_GRIDS_PER_S: f64 = 1.0;
 
 /// ... saved up to this many (so a few due together still go at seed 000 6.2's two per step).
 const CROWD_FULL_GRID_BURST: f64 = 4.0;
@@ -1253,12 +1259,12 @@ mod tests {
         let counts = run(&mut d, &mut m, &ks, 0.0, 0.5);
         assert_eq!(counts.iter().map(|c| c.initial).collect::<Vec<_>>(), vec![2; 6]);
         let counts = run(&mut d, &mut m, &ks, 0.6, 20.5);
-        // Re-checks from 5 s on (12 due every 5 s, 2.4 per s wanted): at most 4 saved + 2 per s.
+        // Re-checks from 5 s on (12 due every 5 s, 2.4 per s wanted): at most 4 saved + 1 per s.
         let long: u32 = counts.iter().map(|c| c.long).sum();
-        assert!((30..=4 + 40).contains(&long), "{long} lICPs in 20 s");
+        assert!((15..=4 + 21).contains(&long), "{long} lICPs in 20 s");
         assert!(counts.iter().all(|c| c.long <= 2));
         let per_entry = |k: u32| m.calls.iter().filter(|c| c.kind == Kind::Long && c.neighbour == k).count();
-        assert!(ks.iter().all(|&k| per_entry(k) >= 3), "none starved: {:?}", ks.iter().map(|&k| per_entry(k)).collect::<Vec<_>>());
+        assert!(ks.iter().all(|&k| per_entry(k) >= 1), "none starved: {:?}", ks.iter().map(|&k| per_entry(k)).collect::<Vec<_>>());
         assert_eq!(d.estimates(20.5).len(), 12, "deferred re-checks fall back to sICP");
     }
 
