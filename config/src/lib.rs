@@ -75,6 +75,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-40", include_str!("../../scenarios/forest-40.toml")),
     ("forest-100", include_str!("../../scenarios/forest-100.toml")),
     ("forest-40-icp", include_str!("../../scenarios/forest-40-icp.toml")),
+    ("forest-100-icp", include_str!("../../scenarios/forest-100-icp.toml")),
     ("m23-indoor-lf", include_str!("../../scenarios/m23-indoor-lf.toml")),
     ("m23-indoor-none", include_str!("../../scenarios/m23-indoor-none.toml")),
     ("m23-indoor-pf", include_str!("../../scenarios/m23-indoor-pf.toml")),
