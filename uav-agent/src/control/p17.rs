@@ -1029,12 +1029,24 @@ mod tests {
     /// past `trees`, its speed
     /// clamped to 1 m/s as the scenarios' bodies are: (reached within 1 m of the goal by
     /// `limit_s`, closest approach to a trunk's surface [m], final position).
-    fn fly_alone(p: &P17Values, trees: &[Cylinder], goal: Vector2<f64>, limit_s: f64) -> (bool, f64, Vector2<f64>) {
+    fn fly_past_trunks(
+        p: &P17Values,
+        trees: &[Cylinder],
+        goal: Vector2<f64>,
+        limit_s: f64,
+    ) -> (bool, f64, Vector2<f64>) {
         let dt = 1.0 / p.loop_rate_hz;
         let (mut pos, mut prev) = (v(-0.78, -0.09), v(0.0, 0.0));
         let mut closest = f64::INFINITY;
         for _ in 0..(limit_s / dt) as usize {
-            let input = Input { pos, prev_vel_mps: prev, neighbours: &[], cylinders: trees, walls: &[], goal: Some(Goal::Static { pos: goal }) };
+            let input = Input {
+                pos,
+                prev_vel_mps: prev,
+                neighbours: &[],
+                cylinders: trees,
+                walls: &[],
+                goal: Some(Goal::Static { pos: goal }),
+            };
             prev = step(p, &input).velocity_mps;
             let body_vel = if prev.norm() > 1.0 { prev / prev.norm() } else { prev };
             pos += body_vel * dt;
@@ -1084,9 +1096,10 @@ mod tests {
             .map(|(x, y, r)| Cylinder { centre: v(x, y), radius_m: r });
         let p = P17Preset::LocalizationError.values();
         let goal = v(31.0, 0.0);
-        let (arrived, closest, at) = fly_alone(&P17Values { obstacle_barrier: false, ..p }, &trees, goal, 155.0);
+        let typeset = P17Values { obstacle_barrier: false, ..p };
+        let (arrived, closest, at) = fly_past_trunks(&typeset, &trees, goal, 155.0);
         assert!(!arrived && closest > 6.0 && (at - goal).norm() > 15.0, "typeset: {arrived} {closest} {at:?}");
-        let (arrived, closest, at) = fly_alone(&p, &trees, goal, 155.0);
+        let (arrived, closest, at) = fly_past_trunks(&p, &trees, goal, 155.0);
         assert!(arrived && closest > 0.3, "barrier: {arrived} {closest} {at:?}");
     }
 
