@@ -18,6 +18,16 @@
 //!   d = 8 m > r = 7.5 m, so only d, w > 0 is enforced. It asks c1, c2 > 0 (eq. 38–39), but
 //!   Table 2 has c2 = 0, so c1, c2 ≥ 0; b1, b2 ≥ 0 as well (0 switches the tangential β-agent
 //!   velocity off, useful for comparison). k1, k2, r, loop rate and loop distance must be > 0.
+//! - `obstacle_barrier` (default `true`, every preset) is not a table value but a reading of
+//!   eq. 28–29: σ_j is the magnitude of the push away from a β-agent (Fig. 22 plots it rising
+//!   without bound at contact), so the push is σ_j times the unit vector from the β-agent. `false`
+//!   keeps eq. 28 as typeset, σ_j (p0 − p_qj), whose magnitude k2(√x − x/√w) falls to zero at
+//!   contact (issue 14: that is how P17 flew into trees and stalled far from single trees; see the
+//!   controller's module doc).
+//! - `obstacle_margin_m` (default 0.8 m, every preset) is ours, a safety layer the seed does not
+//!   have: a velocity that would bring the UAV's centre nearer than this to an obstacle's border
+//!   loses its component towards it (0 turns it off; see the controller's module doc). 0.8 m is
+//!   the bodies' 0.3 m radius plus the 0.25 m a body at 1 m/s needs to stop at 2 m/s², plus slack.
 
 use serde::{Deserialize, Serialize};
 
@@ -109,6 +119,8 @@ impl P17Preset {
             b2: 4.0,
             loop_rate_hz: 5.0,
             loop_distance_m: 0.75,
+            obstacle_barrier: true,
+            obstacle_margin_m: 0.8,
         };
         let x = forest_9;
         match self {
@@ -187,6 +199,12 @@ pub struct P17Values {
     pub loop_rate_hz: f64,
     /// Loop distance: the longest move of one loop [m] (section 3.5, Algorithm 1).
     pub loop_distance_m: f64,
+    /// Obstacle separation as a barrier: σ_j along the unit vector from the β-agent (Fig. 22);
+    /// `false`: eq. 28 as typeset, σ_j (p0 − p_qj). See the module doc.
+    pub obstacle_barrier: bool,
+    /// Within this distance of an obstacle's border [m], the velocity loses its component towards
+    /// it (ours, not the seed's; 0: off). See the module doc.
+    pub obstacle_margin_m: f64,
 }
 
 /// P17 parameters as a scenario writes them: a preset and optional overrides of single values.
@@ -230,6 +248,13 @@ pub struct P17Params {
     /// Override of the loop distance [m] (seed 001 section 3.5; 0.75 m in section 4.4).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub loop_distance_m: Option<f64>,
+    /// Obstacle separation as a barrier (default `true`; `false`: eq. 28 as typeset). See the
+    /// module doc.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obstacle_barrier: Option<bool>,
+    /// Override of the obstacle margin [m] (default 0.8; 0: off). See the module doc.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub obstacle_margin_m: Option<f64>,
 }
 
 fn d_preset() -> String {
@@ -251,6 +276,8 @@ impl Default for P17Params {
             b2: None,
             loop_rate_hz: None,
             loop_distance_m: None,
+            obstacle_barrier: None,
+            obstacle_margin_m: None,
         }
     }
 }
@@ -277,6 +304,8 @@ impl P17Params {
             b2: self.b2.unwrap_or(p.b2),
             loop_rate_hz: self.loop_rate_hz.unwrap_or(p.loop_rate_hz),
             loop_distance_m: self.loop_distance_m.unwrap_or(p.loop_distance_m),
+            obstacle_barrier: self.obstacle_barrier.unwrap_or(p.obstacle_barrier),
+            obstacle_margin_m: self.obstacle_margin_m.unwrap_or(p.obstacle_margin_m),
         }
     }
 
@@ -301,7 +330,9 @@ impl P17Params {
         ] {
             crate::positive(&format!("{at}.{name}"), x)?;
         }
-        for (name, x) in [("c1", v.c1), ("c2", v.c2), ("b1", v.b1), ("b2", v.b2)] {
+        for (name, x) in
+            [("c1", v.c1), ("c2", v.c2), ("b1", v.b1), ("b2", v.b2), ("obstacle_margin_m", v.obstacle_margin_m)]
+        {
             crate::non_negative(&format!("{at}.{name}"), x)?;
         }
         Ok(())
@@ -333,6 +364,8 @@ mod tests {
             b2: 4.0,
             loop_rate_hz: 5.0,
             loop_distance_m: 0.75,
+            obstacle_barrier: true,
+            obstacle_margin_m: 0.8,
         };
         assert_eq!(P17Params::default().values(), want);
         assert_eq!(parse("").values(), want);
@@ -395,6 +428,9 @@ mod tests {
         // An override without a preset applies to the default.
         let v = parse("w = 5.5").values();
         assert_eq!((v.w, v.k2, v.r), (5.5, 25.0, 7.5));
+        // The barrier reading is on in every preset and can be turned off.
+        assert!(P17Preset::ALL.iter().all(|p| p.values().obstacle_barrier));
+        assert!(!parse("preset = \"forest\"\nobstacle_barrier = false\n").values().obstacle_barrier);
     }
 
     #[test]

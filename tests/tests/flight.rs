@@ -287,6 +287,37 @@ fn p17_passes_a_wall_and_a_gap() {
     }
 }
 
+/// Issue 14 item 3, P17 through a forest: `swarm compare --controllers p17` flies compare-4 (seed
+/// 000 section 6.5: 4 UAVs, one informed, 5 trees/100 m²) with P17, which used to stall in front
+/// of the trees or, with a stronger navigation, fly into one. Now the whole group reaches the
+/// goal with no collision, and the table says so.
+#[test]
+fn p17_crosses_compare4_forest() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = common::output_within(
+        std::process::Command::new(common::SWARM).args(["compare", "--controllers", "p17", "--out"]).arg(dir.path()),
+        common::RUN_LIMIT,
+    );
+    assert!(out.status.success(), "swarm compare: {}", String::from_utf8_lossy(&out.stderr));
+    let s = summary(&dir.path().join("p17"));
+    assert_eq!(s["scenario"], "compare-4");
+    assert_safe_arrival(&s);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("| p17 | yes |"), "{table}");
+}
+
+/// Issue 14 item 3, the `swarm fuzz` finding it also fixes: one P17 UAV and four trunks
+/// (`scenarios/found/found-2026-8.toml`) used to stop 7 m short of a trunk for good; its checks
+/// (goal among them) now pass.
+#[test]
+fn p17_found_2026_8_reaches_the_goal() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/found/found-2026-8.toml");
+    let (_dir, s) = fly(&[file, "--check"], "found8");
+    assert_safe_arrival(&s);
+    let checks = s["checks"].as_array().expect("checks");
+    assert!(!checks.is_empty() && checks.iter().all(|c| c["passed"] == true), "{checks:#?}");
+}
+
 /// Issue 5, A21 with no communication (seed 003 section V): four UAVs through forest-5's forest,
 /// only UAV 1 informed, localized by UVDAR. No message is sent between agents, no collision, and
 /// the whole group reaches the goal with the informed UAV.

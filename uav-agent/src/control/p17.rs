@@ -42,9 +42,30 @@
 //! - l_j of a wall is the line through the wall's end points a, b (the seed's "line passing
 //!   through the whole length of the wall"; its "directional vector equal to n_w" is read as the
 //!   line's normal, since a line along n_w cannot pass through the whole wall).
-//! - A neighbour or β-agent exactly at p0 contributes no separation: the seed's force magnitude
+//! - A neighbour exactly at p0 contributes no separation: the seed's force magnitude
 //!   ε|x| = k1(√|x| − |x|/√d) tends to 0 there. (Note: that magnitude peaks at |x| = d/4 and falls
-//!   to zero at contact; that is the seed's eq. 6–7 and 28–29, kept as written.)
+//!   to zero at contact; that is the seed's eq. 6–7, kept as written for neighbours.)
+//! - Obstacles: the push away from a β-agent is σ_j along the unit vector from it,
+//!   σ_j (p0 − p_qj)/|p0 − p_qj| (`obstacle_barrier`, the default), not σ_j (p0 − p_qj) as eq. 28
+//!   is typeset. Seed 001 calls σ_j the weight of the avoidance and plots it (Fig. 22) rising
+//!   without bound as the distance falls; typeset, the magnitude k2(√x − x/√w) peaks at x = w/4
+//!   and falls to zero at contact. Issue 14 found what that does in a forest (`swarm compare`,
+//!   compare-4): once the informed UAV's navigation outweighs the averaged pushes (n counts every
+//!   localized obstacle), it is pushed through a trunk (presets `forest`, `navigation`, `boids_7`
+//!   reached the goal with a collision); with w = 8 m and k2 = 25 one trunk 7 m away pushes
+//!   harder (k2(√7 − 7/√8) = 4.3 m per loop) than the goal 19 m away pulls (c1 · 19 = 2.9), and a
+//!   lone UAV stops there for good (`scenarios/found/found-2026-8.toml`). As a barrier the push
+//!   is weak far away (σ_j(7 m) = 0.6) and unbounded at contact. `obstacle_barrier = false` flies
+//!   the typeset form. A β-agent exactly at p0 contributes nothing either way.
+//! - A safety margin, ours (`obstacle_margin_m`, default 0.8 m; 0 turns it off): after the
+//!   loop-distance limit, for every obstacle whose β-agent is nearer than the margin, the part of
+//!   v0[t] pointing at the β-agent is removed (v ← v − min(0, v·n̂) n̂, n̂ from the β-agent to p0),
+//!   so the UAV slides along the trunk or wall instead of into it. The seed's forces are a
+//!   balance: in a forest the UAV–UAV separation (k1, d = 8 m) of followers behind the informed
+//!   UAV, plus its navigation, can outweigh the obstacle push averaged over every localized
+//!   obstacle (n of eq. 27 is often 10–15 there), and compare-4 saw the informed UAV pushed into
+//!   a trunk on its line to the goal. The margin takes nothing from a velocity leading away or
+//!   along, and never lengthens it, so the loop-distance limit still holds.
 //! - Non-finite inputs: a neighbour with a non-finite position, an obstacle with non-finite data
 //!   or a negative radius/thickness, a non-finite goal are ignored; a non-finite neighbour
 //!   velocity or previous velocity counts as zero; a non-finite own position (or a non-positive
@@ -404,7 +425,8 @@ pub fn tau_wall(w: &Wall, p0: Vector2<f64>, goal: Option<Vector2<f64>>) -> f64 {
 /// Obstacle avoidance (seed 001 eq. 27–29): (f_oa^s, f_oa^a) [m per loop].
 ///
 /// For every obstacle whose β-agent q_j is within r (n of them):
-/// f_oa^s = (1/n) Σ σ_j (p0 − p_qj), f_oa^a = (1/n) Σ τ_j v_qj. `prev_vel_mps` is v0[t−1].
+/// f_oa^s = (1/n) Σ σ_j (p0 − p_qj)/|p0 − p_qj| (with `obstacle_barrier`; without it
+/// (1/n) Σ σ_j (p0 − p_qj), eq. 28 as typeset), f_oa^a = (1/n) Σ τ_j v_qj. `prev_vel_mps` is v0[t−1].
 pub fn obstacle_avoidance(
     v: &P17Values,
     p0: Vector2<f64>,
@@ -421,8 +443,13 @@ pub fn obstacle_avoidance(
         walls.iter().filter_map(|w| beta_wall(v, p0, v0, w).map(|q| (q, tau_wall(w, p0, goal))));
     let (mut sep, mut align, mut n) = (Vector2::zeros(), Vector2::zeros(), 0usize);
     for (q, tau) in cyl.chain(wall).filter(|(q, _)| (q.pos - p0).norm() <= v.r) {
-        // seed 001 eq. 28–29: σ_j (p0 − p_qj) and τ_j v_qj.
-        sep += push(|x| sigma(v, x), p0 - q.pos);
+        // seed 001 eq. 28–29 and Fig. 22: σ_j (p0 − p_qj)/|p0 − p_qj| as a barrier (the module
+        // doc), σ_j (p0 − p_qj) as typeset; and τ_j v_qj.
+        sep += if v.obstacle_barrier {
+            push(|x| sigma(v, x) / x, p0 - q.pos)
+        } else {
+            push(|x| sigma(v, x), p0 - q.pos)
+        };
         align += tau * q.vel;
         n += 1;
     }
@@ -431,6 +458,30 @@ pub fn obstacle_avoidance(
     }
     // seed 001 eq. 27: both sums over the n localized obstacles, divided by n.
     (sep / n as f64, align / n as f64)
+}
+
+/// The safety margin (ours, see the module doc): `vel` [any unit] without its components towards
+/// the β-agents nearer than `obstacle_margin_m` to p0.
+pub fn keep_off_obstacles(
+    v: &P17Values,
+    p0: Vector2<f64>,
+    vel: Vector2<f64>,
+    cylinders: &[Cylinder],
+    walls: &[Wall],
+) -> Vector2<f64> {
+    let zero = Vector2::zeros();
+    let cyl = cylinders.iter().filter_map(|c| beta_cylinder(v, p0, zero, c));
+    let wall = walls.iter().filter_map(|w| beta_wall(v, p0, zero, w));
+    cyl.chain(wall).fold(vel, |vel, q| {
+        let away = p0 - q.pos;
+        let dist = away.norm();
+        if dist <= EPS || dist >= v.obstacle_margin_m {
+            return vel;
+        }
+        let n = away / dist;
+        // v − min(0, v·n̂) n̂: the part towards the obstacle is removed, the rest kept.
+        vel - vel.dot(&n).min(0.0) * n
+    })
 }
 
 /// Navigation f_n0 [m per loop] (seed 001 eq. 38–39); zero without a (finite) goal.
@@ -505,6 +556,7 @@ pub fn step(v: &P17Values, input: &Input) -> Output {
         - v0;
     // seed 001 eq. 40: v0[t] = f_steer + v0[t−1].
     let (velocity_per_loop, limited) = limit_loop_distance(v, forces.steer + v0);
+    let velocity_per_loop = keep_off_obstacles(v, p0, velocity_per_loop, input.cylinders, input.walls);
     let velocity_mps = velocity_per_loop * v.loop_rate_hz;
     if !is_finite(&velocity_mps) {
         return Output::zero();
@@ -729,7 +781,8 @@ mod tests {
     fn obstacle_avoidance_hand_computed() {
         let p = boids();
         // Cylinder c = (0,0), R = 1; p0 = (3.25,0): μ = 1/3.25, p_q = (1,0), |p0 − p_q| = 2.25,
-        // σ = 25/6, σ(p0 − p_q) = (25/6)(2.25,0) = (9.375,0). v0 = (5,5) m/s = (1,1) per loop,
+        // σ = 25/6; as a barrier σ(1,0) = (4.1666667,0) (typeset: σ(p0 − p_q) = (25/6)(2.25,0)
+        // = (9.375,0), checked at the end). v0 = (5,5) m/s = (1,1) per loop,
         // n = (1,0): P v0 = (0,1), v_q = 10 · (1/3.25) · (0,1) = (0,3.0769231).
         let cyl = [Cylinder { centre: v(0.0, 0.0), radius_m: 1.0 }];
         // Wall y = 5 from x = −5 to 10, thin: foot (3.25,5), distance 5 > w = 4 → σ = 0, but
@@ -737,14 +790,15 @@ mod tests {
         let walls = [Wall { a: v(-5.0, 5.0), b: v(10.0, 5.0), thickness_m: 0.0 }];
         let (p0, v0) = (v(3.25, 0.0), v(5.0, 5.0));
         let vq_cyl = v(0.0, 10.0 / 3.25);
-        // No goal: τ = 1 for both. f_oa^s = (9.375,0)/2, f_oa^a = ((0,3.0769) + (4,0))/2.
+        // No goal: τ = 1 for both. f_oa^s = (25/6,0)/2, f_oa^a = ((0,3.0769) + (4,0))/2.
+        let push = 25.0 / 6.0;
         let (s, a) = obstacle_avoidance(&p, p0, v0, &cyl, &walls, None);
-        close(s, v(9.375 / 2.0, 0.0), 1e-12);
+        close(s, v(push / 2.0, 0.0), 1e-12);
         close(a, (vq_cyl + v(4.0, 0.0)) / 2.0, 1e-12);
         // Goal (−10,0): the cylinder is between p0 and the goal (l_j: x = −1, p0 on the other
         // side) → τ = 1; the wall's line y = 5 has p0 and the goal on one side → τ = 0.
         let (s, a) = obstacle_avoidance(&p, p0, v0, &cyl, &walls, Some(v(-10.0, 0.0)));
-        close(s, v(9.375 / 2.0, 0.0), 1e-12);
+        close(s, v(push / 2.0, 0.0), 1e-12);
         close(a, vq_cyl / 2.0, 1e-12);
         // Goal (10,0): the cylinder is passed too (l_j: x = 1, p0 and goal beyond) → τ = 0.
         let (_, a) = obstacle_avoidance(&p, p0, v0, &cyl, &walls, Some(v(10.0, 0.0)));
@@ -752,6 +806,11 @@ mod tests {
         // r = 4.5: the wall's β-agent (5 m away) is not localized, n = 1.
         let near = P17Values { r: 4.5, ..p };
         let (s, a) = obstacle_avoidance(&near, p0, v0, &cyl, &walls, None);
+        close(s, v(push, 0.0), 1e-12);
+        close(a, vq_cyl, 1e-12);
+        // Eq. 28 as typeset: σ(p0 − p_q) = (9.375,0), the alignment unchanged.
+        let typeset = P17Values { obstacle_barrier: false, ..near };
+        let (s, a) = obstacle_avoidance(&typeset, p0, v0, &cyl, &walls, None);
         close(s, v(9.375, 0.0), 1e-12);
         close(a, vq_cyl, 1e-12);
         // Nothing → zero.
@@ -881,9 +940,9 @@ mod tests {
         // Wall x = 5 from y = −10 to 10, thickness 0.2: near face x = 4.9. p0 = (3,0), flying
         // (2,0) m/s = (0.4,0) per loop at it, goal (10,0) behind it.
         // β-agent (4.9,0), distance 1.9 ≤ w = 4: σ = 25(1/√1.9 − 0.5) = 5.6369062,
-        // f_oa^s = 5.6369062(−1.9,0) = (−10.7101218,0). τ = 1 (p0 and goal on both sides of
+        // f_oa^s = 5.6369062(−1,0) (the barrier). τ = 1 (p0 and goal on both sides of
         // x = 5), but P v0 = 0 (v0 ⟂ wall): f_oa^a = 0. f_n = 0.15(7,0) − 0.9(0.4,0) = (0.69,0).
-        // v[t] = (−10.7101218 + 0.69, 0) = (−10.0201218,0) → limited to (−0.75,0) per loop,
+        // v[t] = (−5.6369062 + 0.69, 0) = (−4.9469062,0) → limited to (−0.75,0) per loop,
         // (−3.75,0) m/s: away from the wall although the goal is behind it.
         let walls = [Wall { a: v(5.0, -10.0), b: v(5.0, 10.0), thickness_m: 0.2 }];
         let mut input = Input {
@@ -896,7 +955,7 @@ mod tests {
         };
         let out = step(&p, &input);
         let sigma_19 = 25.0 * (1.0 / 1.9f64.sqrt() - 0.5);
-        close(out.forces.avoidance_separation, v(-1.9 * sigma_19, 0.0), 1e-12);
+        close(out.forces.avoidance_separation, v(-sigma_19, 0.0), 1e-12);
         close(out.forces.avoidance_alignment, v(0.0, 0.0), 1e-12);
         close(out.forces.navigation, v(0.69, 0.0), 1e-12);
         close(out.velocity_mps, v(-3.75, 0.0), 1e-12);
@@ -964,6 +1023,84 @@ mod tests {
         close(out.velocity_mps, v(0.0, 0.0), 1e-15);
         // A zero loop rate → hover.
         assert_eq!(step(&P17Values { loop_rate_hz: 0.0, ..p }, &input), Output::zero());
+    }
+
+    /// One UAV from found-2026-8's start flying `step` at the preset's loop rate towards `goal`
+    /// past `trees`, its speed
+    /// clamped to 1 m/s as the scenarios' bodies are: (reached within 1 m of the goal by
+    /// `limit_s`, closest approach to a trunk's surface [m], final position).
+    fn fly_past_trunks(
+        p: &P17Values,
+        trees: &[Cylinder],
+        goal: Vector2<f64>,
+        limit_s: f64,
+    ) -> (bool, f64, Vector2<f64>) {
+        let dt = 1.0 / p.loop_rate_hz;
+        let (mut pos, mut prev) = (v(-0.78, -0.09), v(0.0, 0.0));
+        let mut closest = f64::INFINITY;
+        for _ in 0..(limit_s / dt) as usize {
+            let input = Input {
+                pos,
+                prev_vel_mps: prev,
+                neighbours: &[],
+                cylinders: trees,
+                walls: &[],
+                goal: Some(Goal::Static { pos: goal }),
+            };
+            prev = step(p, &input).velocity_mps;
+            let body_vel = if prev.norm() > 1.0 { prev / prev.norm() } else { prev };
+            pos += body_vel * dt;
+            closest = trees.iter().map(|c| (pos - c.centre).norm() - c.radius_m).fold(closest, f64::min);
+            if (pos - goal).norm() < 1.0 {
+                return (true, closest, pos);
+            }
+        }
+        (false, closest, pos)
+    }
+
+    #[test]
+    fn margin_removes_only_the_part_towards_a_near_obstacle() {
+        let p = forest();
+        // Cylinder c = (1,0), R = 0.3: from p0 = (0,0) the β-agent is (0.7,0), 0.7 m < 0.8 m,
+        // n̂ = (−1,0). (1,1) → (0,1); (−1,1) (away) and (0,1) (along) unchanged.
+        let cyl = [Cylinder { centre: v(1.0, 0.0), radius_m: 0.3 }];
+        let p0 = v(0.0, 0.0);
+        close(keep_off_obstacles(&p, p0, v(1.0, 1.0), &cyl, &[]), v(0.0, 1.0), 1e-12);
+        close(keep_off_obstacles(&p, p0, v(-1.0, 1.0), &cyl, &[]), v(-1.0, 1.0), 1e-12);
+        close(keep_off_obstacles(&p, p0, v(0.0, 1.0), &cyl, &[]), v(0.0, 1.0), 1e-12);
+        // Beyond the margin (p0 = (−0.2,0): 0.9 m) or with it off, nothing changes.
+        close(keep_off_obstacles(&p, v(-0.2, 0.0), v(1.0, 1.0), &cyl, &[]), v(1.0, 1.0), 1e-12);
+        let off = P17Values { obstacle_margin_m: 0.0, ..p };
+        close(keep_off_obstacles(&off, p0, v(1.0, 1.0), &cyl, &[]), v(1.0, 1.0), 1e-12);
+        // In step: flying at the trunk with the goal behind it, the command has no +x part.
+        let input = Input {
+            pos: p0,
+            prev_vel_mps: v(1.0, 0.0),
+            neighbours: &[nb(-2.0, 0.0)],
+            cylinders: &cyl,
+            walls: &[],
+            goal: Some(Goal::Static { pos: v(20.0, 0.1) }),
+        };
+        assert!(step(&p, &input).velocity_mps.x <= 1e-12, "{:?}", step(&p, &input));
+    }
+
+    #[test]
+    fn issue_14_a_lone_uav_is_not_held_off_by_a_far_trunk() {
+        // scenarios/found/found-2026-8.toml (shrunk by `swarm fuzz`): one UAV, four trunks, the
+        // section 6.1 preset (w = 8 m, k2 = 25, 30 Hz). Typeset, eq. 28 pushes k2(√x − x/√w)
+        // = 25(√7 − 7/√8) = 4.3 m per loop away from the trunk at (18.82,−3.5) 7 m ahead, more
+        // than the goal 19 m away pulls (c1 · 19 = 2.9): the UAV stops about 7 m short of the
+        // trunk for good. As a barrier the push there is σ(7) = 25(1/√7 − 1/√8) = 0.6 and the
+        // UAV flies on, never nearer a trunk than the 0.3 m of its body.
+        let trees = [(18.82, -3.5, 0.26), (21.15, -0.27, 0.3), (24.86, -5.33, 0.33), (11.74, 3.28, 0.28)]
+            .map(|(x, y, r)| Cylinder { centre: v(x, y), radius_m: r });
+        let p = P17Preset::LocalizationError.values();
+        let goal = v(31.0, 0.0);
+        let typeset = P17Values { obstacle_barrier: false, ..p };
+        let (arrived, closest, at) = fly_past_trunks(&typeset, &trees, goal, 155.0);
+        assert!(!arrived && closest > 6.0 && (at - goal).norm() > 15.0, "typeset: {arrived} {closest} {at:?}");
+        let (arrived, closest, at) = fly_past_trunks(&p, &trees, goal, 155.0);
+        assert!(arrived && closest > 0.3, "barrier: {arrived} {closest} {at:?}");
     }
 
     /// Nearest-neighbour spacing of one moment [m]: mean, min and max over the agents.
