@@ -209,6 +209,42 @@ fn components(known: &BTreeMap<u32, Vec<u32>>) -> usize {
 }
 
 /// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
+/// UAV `id`'s body in a truth step's `bodies` (listed in id order, so found by index; searched
+/// only if that ever changes).
+fn body_of(bodies: &[TruthBody], id: u32) -> Option<&TruthBody> {
+    let at = (id as usize).checked_sub(1).and_then(|i| bodies.get(i)).filter(|b| b.id == id);
+    at.or_else(|| bodies.iter().find(|b| b.id == id))
+}
+
+/// The distance from `me` to the nearest other live UAV of `bodies`, centre to centre [m].
+/// Scanning every body for every agent state cost O(n²) per tick (most of the recorder's time
+/// at 1000 UAVs); the hub's `agent_distance_m` (nearest UAV of any kind, computed with a
+/// different rounding) answers "farther than a bound?" when every UAV is alive and it is not
+/// within 1e-9 m of the bound, and the exact scan is made only otherwise, so every answer is
+/// the scan's, bit for bit.
+struct NearestLive<'a> {
+    bodies: &'a [TruthBody],
+    me: &'a TruthBody,
+}
+
+impl NearestLive<'_> {
+    /// The exact distance: min over the other live bodies of `hypot(dx, dy)`.
+    fn exact(&self) -> f64 {
+        let me = self.me;
+        self.bodies.iter().filter(|b| b.id != me.id && b.alive).map(|b| (b.x - me.x).hypot(b.y - me.y)).fold(f64::INFINITY, f64::min)
+    }
+
+    /// Whether [`NearestLive::exact`] is greater than `bound_m`.
+    fn beyond(&self, bound_m: f64) -> bool {
+        let hub_m = self.me.agent_distance_m;
+        if hub_m.is_finite() && (hub_m - bound_m).abs() > 1e-9 && self.bodies.iter().all(|b| b.alive) {
+            hub_m > bound_m
+        } else {
+            self.exact() > bound_m
+        }
+    }
+}
+
 fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
     let (sum, n) = v.filter(|x| x.is_finite()).fold((0.0, 0u32), |(s, n), x| (s + x, n + 1));
     if n == 0 {
@@ -302,12 +338,12 @@ impl Metrics {
     /// sender id cannot be scored). Tick 0 has no truth step: its states are not scored.
     fn score(&mut self, st: &AgentState) {
         let Some(bodies) = self.truth.get(&st.tick) else { return };
-        let Some(me) = bodies.iter().find(|b| b.id == st.id) else { return };
+        let Some(me) = body_of(bodies, st.id) else { return };
         let errors: Vec<f64> = st
             .neighbours
             .iter()
             .filter_map(|e| {
-                let other = bodies.iter().find(|b| Some(b.id) == e.id)?;
+                let other = body_of(bodies, e.id?)?;
                 let (x, y) = true_relative(me, other);
                 Some((f64::from(e.x) - x).hypot(f64::from(e.y) - y))
             })
@@ -316,13 +352,10 @@ impl Metrics {
         // nearest other live UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at
         // ~6.3 m). A failed UAV shares nothing, so it is no company.
         let count = st.neighbours.len();
-        let nearest = bodies
-            .iter()
-            .filter(|b| b.id != me.id && b.alive)
-            .map(|b| (b.x - me.x).hypot(b.y - me.y))
-            .fold(f64::INFINITY, f64::min);
+        let nearest = NearestLive { bodies, me };
+        let alone = nearest.beyond(ALONE_M);
         let a = self.agents.entry(st.id).or_default();
-        if nearest > ALONE_M {
+        if alone {
             a.steps_alone += 1;
             a.reported_while_alone += count as u64;
         }
@@ -332,7 +365,7 @@ impl Metrics {
             let lost = prev > 0 && count == 0;
             let regained = prev == 0 && count > 0 && lost_before;
             if lost || regained {
-                a.contacts.push(ContactEvent { t_s: st.t_secs, regained, nearest_uav_m: nearest });
+                a.contacts.push(ContactEvent { t_s: st.t_secs, regained, nearest_uav_m: nearest.exact() });
             }
         }
         a.last_count = Some(count);
