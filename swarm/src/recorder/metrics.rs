@@ -438,6 +438,18 @@ impl Metrics {
     }
 
     /// The last step seen.
+    /// Whether an agent whose command closed the last step has not yet reported the state of
+    /// that command's tick (it sends it right after the command, so it is on its way). The
+    /// run's last states are waited for on this, so the summary never depends on how fast they
+    /// came.
+    pub fn awaiting_last_states(&self) -> bool {
+        let Some(last) = self.last_step.as_ref() else { return false };
+        let tick = last.tick.saturating_sub(1);
+        last.bodies.iter().filter(|b| b.cmd_on_time).any(|b| {
+            self.agents.get(&b.id).and_then(|a| a.last_state.as_ref()).is_none_or(|st| st.tick < tick)
+        })
+    }
+
     pub fn last_step(&self) -> Option<&TruthStep> {
         self.last_step.as_ref()
     }
@@ -723,6 +735,56 @@ mod tests {
             agent_distance_m: ad,
             colliding: false,
         }
+    }
+
+    #[test]
+    fn the_nearest_live_uav_answers_as_the_full_scan_does() {
+        // UAVs on the x axis at 0, 8 and 20 m; the hub's nearest distances are exact here.
+        let mk = |x: f64, ad: f64| {
+            let mut b = body(1, x, 5.0, ad, true);
+            b.id = (x as u32) + 1;
+            b
+        };
+        let bodies = vec![mk(0.0, 8.0), mk(8.0, 8.0), mk(20.0, 12.0)];
+        for me in &bodies {
+            let n = NearestLive { bodies: &bodies, me };
+            for bound in [7.0, 8.0, 8.0 + 1e-12, 11.0, 12.5] {
+                assert_eq!(n.beyond(bound), n.exact() > bound, "UAV {} bound {bound}", me.id);
+            }
+        }
+        // A dead neighbour is no company: the hub's distance (any UAV) would say 8 m.
+        let mut with_dead = bodies.clone();
+        with_dead[1].alive = false;
+        let n = NearestLive { bodies: &with_dead, me: &with_dead[0] };
+        assert_eq!(n.exact(), 20.0);
+        assert!(n.beyond(10.0), "the scan decides when some UAV is not alive");
+        assert_eq!(body_of(&bodies, 9).map(|b| b.x), Some(8.0), "ids need not be 1..=n in order");
+        assert!(body_of(&bodies, 4).is_none());
+    }
+
+    #[test]
+    fn the_last_states_are_awaited_for_agents_whose_command_closed_the_last_step() {
+        let mut m = Metrics::default();
+        assert!(!m.awaiting_last_states(), "no step yet");
+        let last = TruthStep {
+            tick: 7,
+            t_secs: 0.7,
+            bodies: vec![body(1, 0.0, 5.0, 2.0, true), body(2, 2.0, 5.0, 2.0, false)],
+            collisions: vec![],
+            goal_reached_at: None,
+            ended: Some(EndReason::TimeLimit),
+            wall_secs: 0.0,
+            timing: Default::default(),
+        };
+        m.on_step(&last);
+        assert!(m.awaiting_last_states(), "UAV 1 sent its command of tick 6: its state is due");
+        let mut st = AgentState { id: 1, tick: 6, t_secs: 0.6, step_time_us: 1, obstacles: 0, neighbours: vec![], in_radio_range: 0, vectors: Default::default(), link: Default::default(), icp: Default::default(), delays: Vec::new() };
+        st.tick = 5;
+        m.on_state(st.clone());
+        assert!(m.awaiting_last_states(), "an older state is not the last");
+        st.tick = 6;
+        m.on_state(st);
+        assert!(!m.awaiting_last_states(), "UAV 2's command was late: nothing more is promised");
     }
 
     #[test]
