@@ -901,6 +901,8 @@ mod tests {
         assert_eq!(s.agents[0].steps_alone, 0);
         // Neighbour 2 flies 10 m away: UAV 1 is alone, and a neighbour it reports then is false.
         b2.y = 10.0;
+        // As the hub would report it: each one's nearest UAV is now 10 m away.
+        (b1.agent_distance_m, b2.agent_distance_m) = (10.0, 10.0);
         let far = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Default::default() };
         m.on_step(&far(6));
         m.on_state(state(6, 10.0, 1));
