@@ -163,9 +163,9 @@ mod tests {
         let feed = ShareFeed { listeners: Arc::default(), active: true, _sub: None };
         let got = Arc::new(Mutex::new(Vec::new()));
         let g = got.clone();
-        let listening = feed.listen(3, 1, move |from, b| g.lock().unwrap().push((from, b)));
+        let listening = feed.listen(3, 1, move |from, b| g.lock().expect("lock").push((from, b)));
         let deliver = |from: u32| {
-            let l = feed.listeners.lock().unwrap();
+            let l = feed.listeners.lock().expect("lock");
             for (_, d) in l.by_sender.get(&from).into_iter().flatten() {
                 d(from, vec![from as u8]);
             }
@@ -174,8 +174,8 @@ mod tests {
         deliver(4);
         drop(listening);
         deliver(3);
-        assert_eq!(*got.lock().unwrap(), vec![(3, vec![3])], "only sender 3's share, and only while listening");
-        assert!(feed.listeners.lock().unwrap().by_sender.is_empty(), "the listener is gone");
+        assert_eq!(*got.lock().expect("lock"), vec![(3, vec![3])], "only sender 3's share, and only while listening");
+        assert!(feed.listeners.lock().expect("lock").by_sender.is_empty(), "the listener is gone");
         let off = ShareFeed { listeners: Arc::default(), active: false, _sub: None };
         assert!(off.listen(3, 1, |_, _| {}).is_none(), "a mode without shares has no one to listen to");
     }
