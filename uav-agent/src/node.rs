@@ -204,8 +204,9 @@ struct Node {
 /// expression's id, and the session hands it to the subscribers cached on that resource; a
 /// sample on an undeclared key is instead tested against every subscriber of the session, which
 /// on an agent host of hundreds of agents (thousands of share subscriptions) was most of the
-/// host's time. A session declares a key once, however many of its agents subscribe to it. Only
-/// for keys subscribed before the token is declared (see the module doc on shares).
+/// host's time. Only for this agent's own keys: a key several agents of a session declare
+/// concurrently can reach the router out of order (see [`crate::shared`], which declares the
+/// keys they share once for the whole session).
 async fn subscribe_declared<T: Send + 'static>(
     s: &zenoh::Session,
     key: String,
