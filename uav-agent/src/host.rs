@@ -1,17 +1,21 @@
 //! An agent host: many agents in one process, so a large swarm does not pay one process (and
 //! one Zenoh session, about 15 MB resident) per UAV.
 //!
-//! Each agent keeps everything it has alone: its [`Node`](crate::node) state, subscriptions,
-//! netem link, publishers and `alive/uav/{id}` token, so the hub, netem, the recorder and tools
-//! see exactly the keys of one process per UAV. The agents of a host share one Zenoh session:
-//! a share published by one is delivered to a subscriber of another in the same session by
+//! Each agent keeps everything it has alone: its [`Node`](crate::node) state, sensor
+//! subscriptions, netem link, publishers and `alive/uav/{id}` token, so the hub, netem, the
+//! recorder and tools see exactly the keys of one process per UAV. The agents of a host share
+//! one Zenoh session and what [`crate::shared`] makes once per session: every UAV's share key,
+//! declared, and one subscription to all of them that hands each share to the agents listening
+//! to its sender. A share published by one agent reaches another of the same host through
 //! Zenoh's local routing (never through memory of this crate), after the neighbour window
 //! checks as for any share, so lockstep results do not depend on how agents are spread over
 //! processes. Each agent is its own task; one that fails is reported with its id and the others
 //! fly on.
 
 use crate::node::{self, AgentError, AgentExit};
+use crate::shared::SessionShared;
 use std::future::Future;
+use std::sync::Arc;
 use swarm_config::Scenario;
 use swarm_wire::session::{self, Role};
 use swarm_wire::Keys;
@@ -44,14 +48,16 @@ pub async fn run_host(
 ) -> Result<Vec<(u32, Result<AgentExit, AgentError>)>, AgentError> {
     let keys = Keys::new(&opts.run)?;
     let s = session::open(Role::Client, &[], &opts.connect, &opts.zenoh_cfg).await?;
-    let sc = match opts.scenario.clone() {
-        Some(sc) => Ok(sc),
-        None => node::fetch_scenario(&s, &keys, &opts.run).await,
-    };
-    let result = match sc {
-        Ok(sc) => Ok(fly_all(&s, &keys, &opts, sc, shutdown).await),
-        Err(e) => Err(e),
-    };
+    let result = async {
+        let sc = match opts.scenario.clone() {
+            Some(sc) => sc,
+            None => node::fetch_scenario(&s, &keys, &opts.run).await?,
+        };
+        // Declared once, before any agent runs (see `shared`).
+        let shared = SessionShared::open(&s, &keys, &sc).await?;
+        Ok(fly_all(&s, &keys, shared, &opts, sc, shutdown).await)
+    }
+    .await;
     let _ = s.close().await;
     result
 }
@@ -60,6 +66,7 @@ pub async fn run_host(
 async fn fly_all(
     s: &zenoh::Session,
     keys: &Keys,
+    shared: Arc<SessionShared>,
     opts: &HostOptions,
     sc: Scenario,
     shutdown: impl Future<Output = ()>,
@@ -72,7 +79,7 @@ async fn fly_all(
             let _ = stop.wait_for(|v| *v).await;
         };
         let span = info_span!("agent", uav_id = id, run = %opts.run);
-        let fly = node::fly(s.clone(), keys.clone(), id, sc.clone(), opts.hub_grace_s, stopped);
+        let fly = node::fly(s.clone(), keys.clone(), shared.clone(), id, sc.clone(), opts.hub_grace_s, stopped);
         let reported = async move {
             let r = fly.await;
             if let Err(e) = &r {

@@ -18,10 +18,12 @@
 //! - `geometry`: what every stage shares: the odometry pose, the one angle-wrap convention,
 //!   small vector helpers.
 //! - `agent`: [`Agent::step`], the pipeline of one tick with no IO.
-//! - `node`: the Zenoh side: sensor and radio subscriptions, neighbour subscriptions that follow
-//!   the radio set, the netem link seam, liveliness. Entry point: [`run`].
+//! - `node`: the Zenoh side: sensor and radio subscriptions, listening to the neighbours' shares
+//!   as the radio set changes, the netem link seam, liveliness. Entry point: [`run`].
 //! - `host`: many agents in one process on one shared Zenoh session, each with its own node
 //!   ([`run_host`]).
+//! - `shared`: what the agents of one session share: every UAV's share key declared once, and
+//!   one subscription to them all that hands each share to the agents listening to its sender.
 //!
 //! Dependencies run one way: agent → control → planning → geometry, agent → localization →
 //! geometry; nothing below points back up to the agent or the node. Architecture invariant: an
@@ -36,6 +38,7 @@ mod geometry;
 mod host;
 mod localization;
 mod node;
+mod shared;
 #[cfg_attr(not(test), allow(dead_code))]
 mod perception;
 #[cfg_attr(not(test), allow(dead_code))]

@@ -3,13 +3,14 @@
 //!
 //! - It fetches the scenario from the hub (`swarm/{run}/scenario`) unless given one, so an agent
 //!   on another machine needs only the hub's endpoint, the run id and its UAV id.
-//! - It subscribes to its own `sense/{scan,odom,gnss,uvdar}` and `radio/{id}` keys, and to the
-//!   share key of its localization mode (`share/pose` or `share/obstacles`) of exactly the UAVs in
-//!   its radio set, declaring and undeclaring as the set changes. Its own keys are subscribed
+//! - It subscribes to its own `sense/{scan,odom,gnss,uvdar}` and `radio/{id}` keys, and listens
+//!   to the shares (`share/pose` or `share/obstacles`, by localization mode) of exactly the UAVs
+//!   in its radio set, starting and stopping as the set changes. Its own keys are subscribed
 //!   through declared key expressions ([`subscribe_declared`]), so an agent host's session hands
 //!   each sensor message to its subscriber without testing every subscriber of the session. The
-//!   share subscriptions stay plain: declared ones made lockstep runs of 200 UAVs on two hosts
-//!   differ from run to run (cause not found yet), so they wait for that to be understood.
+//!   shares come from the session's one subscription to every UAV's share key
+//!   ([`crate::shared`]), which hands each to the agents of the session listening to its
+//!   sender.
 //! - Determinism in lockstep: all subscriptions feed one channel, so messages are handled in
 //!   wire order; and a neighbour's share counts only if it was sent inside the neighbour's
 //!   window: from the tick after its subscription was declared (every later share is sure to be
@@ -27,8 +28,10 @@
 use crate::agent::{Agent, LinkReport, StepOutput};
 use crate::localization::Share;
 use crate::sensing::FrameCollector;
+use crate::shared::{Listening, SessionShared};
 use std::collections::BTreeMap;
 use std::future::Future;
+use std::sync::Arc;
 use std::time::Duration;
 use swarm_config::{Scenario, ScenarioError, TimeMode};
 use swarm_wire::plumbing::{self, Subscription as Subscriber};
@@ -98,7 +101,8 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
             Some(sc) => sc,
             None => fetch_scenario(&s, &keys, &opts.run).await?,
         };
-        fly(s.clone(), keys, opts.id, sc, opts.hub_grace_s, shutdown).await
+        let shared = SessionShared::open(&s, &keys, &sc).await?;
+        fly(s.clone(), keys, shared, opts.id, sc, opts.hub_grace_s, shutdown).await
     }
     .instrument(span)
     .await;
@@ -106,11 +110,12 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
     result
 }
 
-/// Flies UAV `id` of `sc` on session `s` (its own or shared with other agents of a host) until
-/// the hub goes away or `shutdown` resolves.
+/// Flies UAV `id` of `sc` on session `s` (its own or shared with other agents of a host, with
+/// what the session's agents share) until the hub goes away or `shutdown` resolves.
 pub(crate) async fn fly(
     s: zenoh::Session,
     keys: Keys,
+    shared: Arc<SessionShared>,
     id: u32,
     sc: Scenario,
     hub_grace_s: f64,
@@ -119,7 +124,7 @@ pub(crate) async fn fly(
     if id == 0 || id > sc.swarm.count {
         return Err(AgentError::BadId(id, sc.swarm.count));
     }
-    let mut node = Node::start(s, keys, id, sc).await?;
+    let mut node = Node::start(s, keys, shared, id, sc).await?;
     node.hub_grace_s = hub_grace_s;
     node.run_loop(shutdown).await
 }
@@ -184,7 +189,9 @@ struct Node {
     /// The radio's distance-dependent loss probability per neighbour in range.
     radio_loss: BTreeMap<u32, f64>,
     hub_alive: watch::Receiver<bool>,
-    neighbour_subs: BTreeMap<u32, Subscriber>,
+    /// What the agents of this session share (the share feed, declared keys).
+    shared: Arc<SessionShared>,
+    neighbour_subs: BTreeMap<u32, Listening>,
     publish: Outputs,
     /// Last tick stepped, `None` before the first.
     last_tick: Option<u64>,
@@ -197,8 +204,9 @@ struct Node {
 /// expression's id, and the session hands it to the subscribers cached on that resource; a
 /// sample on an undeclared key is instead tested against every subscriber of the session, which
 /// on an agent host of hundreds of agents (thousands of share subscriptions) was most of the
-/// host's time. A session declares a key once, however many of its agents subscribe to it. Only
-/// for keys subscribed before the token is declared (see the module doc on shares).
+/// host's time. Only for this agent's own keys: a key several agents of a session declare
+/// concurrently can reach the router out of order (see [`crate::shared`], which declares the
+/// keys they share once for the whole session).
 async fn subscribe_declared<T: Send + 'static>(
     s: &zenoh::Session,
     key: String,
@@ -214,6 +222,7 @@ async fn subscribe_declared<T: Send + 'static>(
 async fn declare_inputs(
     s: &zenoh::Session,
     keys: &Keys,
+    shared: &SessionShared,
     id: u32,
     tx: &mpsc::UnboundedSender<Incoming>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
@@ -223,8 +232,9 @@ async fn declare_inputs(
         sense_subs.push(subscribe_declared(s, key, tx.clone(), decode).await?);
     }
     let radio_sub = subscribe_declared(s, keys.radio(id), tx.clone(), decode).await?;
-    // The rules in force, republished by the hub whenever `swarm netem` changes them.
-    let rules_sub = subscribe_declared(s, keys.netem_rules(), tx.clone(), decode).await?;
+    // The rules in force, republished by the hub whenever `swarm netem` changes them; on the key
+    // the session declared once for all its agents.
+    let rules_sub = plumbing::subscribe(s, shared.netem_rules.clone(), tx.clone(), decode).await?;
     let (hub_alive, hub_watch) = plumbing::watch_token(s, keys.alive_hub()).await?;
     Ok((Inputs { _sense: sense_subs, _radio: radio_sub, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
 }
@@ -245,9 +255,9 @@ async fn declare_outputs(s: &zenoh::Session, keys: &Keys, id: u32, agent: &Agent
 }
 
 impl Node {
-    async fn start(s: zenoh::Session, keys: Keys, id: u32, sc: Scenario) -> Result<Node, AgentError> {
+    async fn start(s: zenoh::Session, keys: Keys, shared: Arc<SessionShared>, id: u32, sc: Scenario) -> Result<Node, AgentError> {
         let (tx, rx) = mpsc::unbounded_channel();
-        let (inputs, hub_alive) = declare_inputs(&s, &keys, id, &tx).await?;
+        let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx).await?;
         let agent = Agent::new(id, sc.clone());
         let publish = declare_outputs(&s, &keys, id, &agent, &sc).await?;
         Ok(Node {
@@ -265,6 +275,7 @@ impl Node {
             radio_loss: BTreeMap::new(),
             hub_grace_s: 0.0,
             hub_alive,
+            shared,
             neighbour_subs: BTreeMap::new(),
             publish,
             last_tick: None,
@@ -417,7 +428,7 @@ impl Node {
             None => {}
             Some(Msg::Radio(r)) => {
                 self.radio_loss = r.in_range.iter().zip(&r.loss).map(|(&id, &p)| (id, f64::from(p))).collect();
-                self.update_neighbour_subscriptions(r.tick, &r.in_range).await?
+                self.update_neighbour_subscriptions(r.tick, &r.in_range)
             }
             Some(Msg::NetemRules(json)) => self.on_netem_rules(&json),
             Some(other) => trace!(kind = other.kind(), "ignored"),
@@ -499,29 +510,31 @@ impl Node {
         LinkReport { in_radio_range: self.neighbour_subs.len() as u32, counters, delays }
     }
 
-    /// Subscribes to the share keys of exactly the UAVs in radio range at `tick`, and moves their
+    /// Listens to the shares of exactly the UAVs in radio range at `tick`, and moves their
     /// acceptance windows (see the module doc).
-    async fn update_neighbour_subscriptions(&mut self, tick: u64, in_range: &[u32]) -> Result<(), AgentError> {
+    fn update_neighbour_subscriptions(&mut self, tick: u64, in_range: &[u32]) {
         let gone: Vec<u32> = self.neighbour_subs.keys().copied().filter(|id| !in_range.contains(id)).collect();
         for id in gone {
             self.neighbour_subs.remove(&id);
             self.windows.remove(&id);
             self.inbox.retain(|m| !(m.from() == id && m.tick() >= tick));
-            debug!(neighbour = id, "unsubscribed");
+            debug!(neighbour = id, "stopped listening");
         }
         for &id in in_range {
             if id == self.id || self.neighbour_subs.contains_key(&id) {
                 continue;
             }
             let tx = self.tx.clone();
-            // No key: the mode has no communication at all, nobody to subscribe to.
-            let Some(key) = self.agent.share_key(&self.keys, id) else { continue };
-            let sub = plumbing::subscribe(&self.s, key, tx, move |sample| Some(Incoming::Share(id, plumbing::payload(sample)))).await?;
-            debug!(neighbour = id, "subscribed");
-            self.neighbour_subs.insert(id, sub);
+            // None: the mode has no communication at all, nobody to listen to.
+            let Some(listening) = self.shared.feed.listen(id, self.id, move |from, bytes| {
+                let _ = tx.send(Incoming::Share(from, bytes));
+            }) else {
+                continue;
+            };
+            debug!(neighbour = id, "listening");
+            self.neighbour_subs.insert(id, listening);
             self.windows.insert(id, tick.saturating_add(1));
         }
-        Ok(())
     }
 }
 

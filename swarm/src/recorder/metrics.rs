@@ -209,6 +209,42 @@ fn components(known: &BTreeMap<u32, Vec<u32>>) -> usize {
 }
 
 /// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
+/// UAV `id`'s body in a truth step's `bodies` (listed in id order, so found by index; searched
+/// only if that ever changes).
+fn body_of(bodies: &[TruthBody], id: u32) -> Option<&TruthBody> {
+    let at = (id as usize).checked_sub(1).and_then(|i| bodies.get(i)).filter(|b| b.id == id);
+    at.or_else(|| bodies.iter().find(|b| b.id == id))
+}
+
+/// The distance from `me` to the nearest other live UAV of `bodies`, centre to centre [m].
+/// Scanning every body for every agent state cost O(n²) per tick (most of the recorder's time
+/// at 1000 UAVs); the hub's `agent_distance_m` (nearest UAV of any kind, computed with a
+/// different rounding) answers "farther than a bound?" when every UAV is alive and it is not
+/// within 1e-9 m of the bound, and the exact scan is made only otherwise, so every answer is
+/// the scan's, bit for bit.
+struct NearestLive<'a> {
+    bodies: &'a [TruthBody],
+    me: &'a TruthBody,
+}
+
+impl NearestLive<'_> {
+    /// The exact distance: min over the other live bodies of `hypot(dx, dy)`.
+    fn exact(&self) -> f64 {
+        let me = self.me;
+        self.bodies.iter().filter(|b| b.id != me.id && b.alive).map(|b| (b.x - me.x).hypot(b.y - me.y)).fold(f64::INFINITY, f64::min)
+    }
+
+    /// Whether [`NearestLive::exact`] is greater than `bound_m`.
+    fn beyond(&self, bound_m: f64) -> bool {
+        let hub_m = self.me.agent_distance_m;
+        if hub_m.is_finite() && (hub_m - bound_m).abs() > 1e-9 && self.bodies.iter().all(|b| b.alive) {
+            hub_m > bound_m
+        } else {
+            self.exact() > bound_m
+        }
+    }
+}
+
 fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
     let (sum, n) = v.filter(|x| x.is_finite()).fold((0.0, 0u32), |(s, n), x| (s + x, n + 1));
     if n == 0 {
@@ -302,12 +338,12 @@ impl Metrics {
     /// sender id cannot be scored). Tick 0 has no truth step: its states are not scored.
     fn score(&mut self, st: &AgentState) {
         let Some(bodies) = self.truth.get(&st.tick) else { return };
-        let Some(me) = bodies.iter().find(|b| b.id == st.id) else { return };
+        let Some(me) = body_of(bodies, st.id) else { return };
         let errors: Vec<f64> = st
             .neighbours
             .iter()
             .filter_map(|e| {
-                let other = bodies.iter().find(|b| Some(b.id) == e.id)?;
+                let other = body_of(bodies, e.id?)?;
                 let (x, y) = true_relative(me, other);
                 Some((f64::from(e.x) - x).hypot(f64::from(e.y) - y))
             })
@@ -316,13 +352,10 @@ impl Metrics {
         // nearest other live UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at
         // ~6.3 m). A failed UAV shares nothing, so it is no company.
         let count = st.neighbours.len();
-        let nearest = bodies
-            .iter()
-            .filter(|b| b.id != me.id && b.alive)
-            .map(|b| (b.x - me.x).hypot(b.y - me.y))
-            .fold(f64::INFINITY, f64::min);
+        let nearest = NearestLive { bodies, me };
+        let alone = nearest.beyond(ALONE_M);
         let a = self.agents.entry(st.id).or_default();
-        if nearest > ALONE_M {
+        if alone {
             a.steps_alone += 1;
             a.reported_while_alone += count as u64;
         }
@@ -332,7 +365,7 @@ impl Metrics {
             let lost = prev > 0 && count == 0;
             let regained = prev == 0 && count > 0 && lost_before;
             if lost || regained {
-                a.contacts.push(ContactEvent { t_s: st.t_secs, regained, nearest_uav_m: nearest });
+                a.contacts.push(ContactEvent { t_s: st.t_secs, regained, nearest_uav_m: nearest.exact() });
             }
         }
         a.last_count = Some(count);
@@ -405,6 +438,18 @@ impl Metrics {
     }
 
     /// The last step seen.
+    /// Whether an agent whose command closed the last step has not yet reported the state of
+    /// that command's tick (it sends it right after the command, so it is on its way). The
+    /// run's last states are waited for on this, so the summary never depends on how fast they
+    /// came.
+    pub fn awaiting_last_states(&self) -> bool {
+        let Some(last) = self.last_step.as_ref() else { return false };
+        let tick = last.tick.saturating_sub(1);
+        last.bodies.iter().filter(|b| b.cmd_on_time).any(|b| {
+            self.agents.get(&b.id).and_then(|a| a.last_state.as_ref()).is_none_or(|st| st.tick < tick)
+        })
+    }
+
     pub fn last_step(&self) -> Option<&TruthStep> {
         self.last_step.as_ref()
     }
@@ -693,6 +738,56 @@ mod tests {
     }
 
     #[test]
+    fn the_nearest_live_uav_answers_as_the_full_scan_does() {
+        // UAVs on the x axis at 0, 8 and 20 m; the hub's nearest distances are exact here.
+        let mk = |x: f64, ad: f64| {
+            let mut b = body(1, x, 5.0, ad, true);
+            b.id = (x as u32) + 1;
+            b
+        };
+        let bodies = vec![mk(0.0, 8.0), mk(8.0, 8.0), mk(20.0, 12.0)];
+        for me in &bodies {
+            let n = NearestLive { bodies: &bodies, me };
+            for bound in [7.0, 8.0, 8.0 + 1e-12, 11.0, 12.5] {
+                assert_eq!(n.beyond(bound), n.exact() > bound, "UAV {} bound {bound}", me.id);
+            }
+        }
+        // A dead neighbour is no company: the hub's distance (any UAV) would say 8 m.
+        let mut with_dead = bodies.clone();
+        with_dead[1].alive = false;
+        let n = NearestLive { bodies: &with_dead, me: &with_dead[0] };
+        assert_eq!(n.exact(), 20.0);
+        assert!(n.beyond(10.0), "the scan decides when some UAV is not alive");
+        assert_eq!(body_of(&bodies, 9).map(|b| b.x), Some(8.0), "ids need not be 1..=n in order");
+        assert!(body_of(&bodies, 4).is_none());
+    }
+
+    #[test]
+    fn the_last_states_are_awaited_for_agents_whose_command_closed_the_last_step() {
+        let mut m = Metrics::default();
+        assert!(!m.awaiting_last_states(), "no step yet");
+        let last = TruthStep {
+            tick: 7,
+            t_secs: 0.7,
+            bodies: vec![body(1, 0.0, 5.0, 2.0, true), body(2, 2.0, 5.0, 2.0, false)],
+            collisions: vec![],
+            goal_reached_at: None,
+            ended: Some(EndReason::TimeLimit),
+            wall_secs: 0.0,
+            timing: Default::default(),
+        };
+        m.on_step(&last);
+        assert!(m.awaiting_last_states(), "UAV 1 sent its command of tick 6: its state is due");
+        let mut st = AgentState { id: 1, tick: 6, t_secs: 0.6, step_time_us: 1, obstacles: 0, neighbours: vec![], in_radio_range: 0, vectors: Default::default(), link: Default::default(), icp: Default::default(), delays: Vec::new() };
+        st.tick = 5;
+        m.on_state(st.clone());
+        assert!(m.awaiting_last_states(), "an older state is not the last");
+        st.tick = 6;
+        m.on_state(st);
+        assert!(!m.awaiting_last_states(), "UAV 2's command was late: nothing more is promised");
+    }
+
+    #[test]
     fn components_of_the_estimate_graph() {
         let g = |edges: &[(u32, &[u32])]| components(&edges.iter().map(|(i, js)| (*i, js.to_vec())).collect());
         assert_eq!(g(&[(1, &[2]), (2, &[]), (3, &[4]), (4, &[3])]), 2);
@@ -806,6 +901,8 @@ mod tests {
         assert_eq!(s.agents[0].steps_alone, 0);
         // Neighbour 2 flies 10 m away: UAV 1 is alone, and a neighbour it reports then is false.
         b2.y = 10.0;
+        // As the hub would report it: each one's nearest UAV is now 10 m away.
+        (b1.agent_distance_m, b2.agent_distance_m) = (10.0, 10.0);
         let far = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Default::default() };
         m.on_step(&far(6));
         m.on_state(state(6, 10.0, 1));

@@ -21,6 +21,8 @@ use tracing::warn;
 
 /// How long a stopping run may take to deliver the hub's last step.
 const STOP_GRACE: Duration = Duration::from_secs(5);
+/// How long the recorder waits, once the run has ended, for the states of its last tick.
+const LAST_STATES_WAIT: Duration = Duration::from_secs(10);
 /// How long the recorder asks the hub for the scenario and the world.
 const ASK_WAIT: Duration = Duration::from_secs(5);
 
@@ -214,14 +216,19 @@ impl Recording {
                     None => std::future::pending().await,
                 }
             };
-            // Biased: every queued truth step is taken before the hub's exit is noticed.
+            // Biased: queued states before truth steps, and both before the hub's exit. States
+            // first keeps scoring repeatable: a state of tick k is in its queue before the truth
+            // step of tick k + 2 (the agent sends it before its next command), so it is folded
+            // while its tick's truth is still kept, however far the recorder lags behind a fast
+            // run (truth first let a lagging recorder drop the truth of states still queued, and
+            // forest-100's summary scored a different number of estimates on every run).
             tokio::select! {
                 biased;
+                Some(b) = self.states.recv() => sink.state(&b)?,
                 Some(b) = self.truth.recv() => {
                     if sink.truth(&b)? { break }
                     if let Some(t) = sink.m.last_step().map(|s| s.t_secs) { on_tick(t)?; }
                 },
-                Some(b) = self.states.recv() => sink.state(&b)?,
                 Some(e) = extra => if let Some(scene) = sink.scene.as_mut() { scene.on_extra(e) },
                 changed = self.hub_alive.changed() => {
                     let up = changed.is_ok() && *self.hub_alive.borrow();
@@ -239,6 +246,7 @@ impl Recording {
     }
 
     /// Takes the truth steps already queued, and the states of the last tick still in flight.
+    /// (A truth step after the last is never expected: the hub ends with it.)
     async fn drain(&mut self, sink: &mut Sink<'_>, feed: Option<&mut Feed>) -> Result<()> {
         while let Ok(b) = self.truth.try_recv() {
             sink.truth(&b)?;
@@ -248,8 +256,21 @@ impl Recording {
                 scene.on_extra(e);
             }
         }
-        let drain_until = tokio::time::Instant::now() + Duration::from_millis(200);
-        while let Ok(Some(b)) = tokio::time::timeout_at(drain_until, self.states.recv()).await {
+        // The states of the last tick are on their way: wait for every one the last step
+        // promises (bounded, for an agent that dies between its command and its state), then
+        // take whatever else is already queued.
+        let drain_until = tokio::time::Instant::now() + LAST_STATES_WAIT;
+        while sink.m.awaiting_last_states() {
+            match tokio::time::timeout_at(drain_until, self.states.recv()).await {
+                Ok(Some(b)) => sink.state(&b)?,
+                Ok(None) => break,
+                Err(_) => {
+                    warn!("some agents' last states did not come within {LAST_STATES_WAIT:?}");
+                    break;
+                }
+            }
+        }
+        while let Ok(b) = self.states.try_recv() {
             sink.state(&b)?;
         }
         Ok(())
