@@ -72,34 +72,30 @@ impl Drop for Listening {
     }
 }
 
-/// The sender's id in a share key `{prefix}/uav/{id}/share/...` (`uav_prefix` is `{prefix}/uav/`).
-fn sender_of(uav_prefix: &str, key: &str) -> Option<u32> {
-    key.strip_prefix(uav_prefix)?.split('/').next()?.parse().ok()
+impl Listeners {
+    /// Hands sender `from`'s share to every agent listening to it.
+    fn deliver(&self, from: u32, bytes: &[u8]) {
+        for (_, deliver) in self.by_sender.get(&from).into_iter().flatten() {
+            deliver(from, bytes.to_vec());
+        }
+    }
 }
 
 impl ShareFeed {
-    /// Subscribes `s` once to every UAV's share key of the mode whose key for UAV 1 is `one_key`
-    /// (`None`: the mode does not share, nothing is subscribed).
-    async fn open(s: &zenoh::Session, keys: &Keys, one_key: Option<String>) -> Result<ShareFeed, WireError> {
+    /// Subscribes `s` once to `any_key`, every UAV's share key of the mode (`None`: the mode does
+    /// not share, nothing is subscribed).
+    async fn open(s: &zenoh::Session, keys: &Keys, any_key: Option<String>) -> Result<ShareFeed, WireError> {
         let listeners = Arc::new(Mutex::new(Listeners::default()));
-        let uav_prefix = format!("{}/uav/", keys.prefix());
-        // `{prefix}/uav/1/share/pose` -> `{prefix}/uav/*/share/pose`.
-        let Some(leaf) = one_key.as_deref().and_then(|k| k.strip_prefix(uav_prefix.as_str())?.split_once('/').map(|(_, leaf)| leaf.to_string()))
-        else {
+        let Some(any_key) = any_key else {
             return Ok(ShareFeed { listeners, active: false, _sub: None });
         };
-        let l = listeners.clone();
+        let (l, keys) = (listeners.clone(), keys.clone());
         let sub = s
-            .declare_subscriber(format!("{uav_prefix}*/{leaf}"))
+            .declare_subscriber(any_key)
             .callback(move |sample| {
-                let Some(from) = sender_of(&uav_prefix, sample.key_expr().as_str()) else { return };
-                let l = l.lock().unwrap_or_else(PoisonError::into_inner);
-                if let Some(v) = l.by_sender.get(&from) {
-                    let bytes = plumbing::payload(&sample);
-                    for (_, deliver) in v {
-                        deliver(from, bytes.clone());
-                    }
-                }
+                let Some(from) = keys.uav_id_of(sample.key_expr().as_str()) else { return };
+                let bytes = plumbing::payload(&sample);
+                l.lock().unwrap_or_else(PoisonError::into_inner).deliver(from, &bytes);
             })
             .await
             .map_err(WireError::zenoh)?;
@@ -131,9 +127,7 @@ pub(crate) struct SessionShared {
 impl SessionShared {
     /// Declares the keys and the share subscription of scenario `sc` on `s`.
     pub(crate) async fn open(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Arc<SessionShared>, AgentError> {
-        // The mode's share key, as every agent of this scenario would name it.
-        let probe = crate::agent::Agent::new(1, sc.clone());
-        let key_of = |id: u32| probe.share_key(keys, id);
+        let key_of = |id: u32| crate::localization::share_key(sc.localization.mode, keys, id);
         let mut share_keys = Vec::with_capacity(sc.swarm.count as usize);
         for id in 1..=sc.swarm.count {
             if let Some(key) = key_of(id) {
@@ -141,7 +135,7 @@ impl SessionShared {
             }
         }
         let netem_rules = s.declare_keyexpr(keys.netem_rules()).await.map_err(WireError::zenoh)?;
-        let feed = ShareFeed::open(s, keys, key_of(1)).await?;
+        let feed = ShareFeed::open(s, keys, crate::localization::share_key_any(sc.localization.mode, keys)).await?;
         Ok(Arc::new(SessionShared { feed, netem_rules, _share_keys: share_keys }))
     }
 }
@@ -151,25 +145,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_sender_is_read_from_the_share_key() {
-        let p = "swarm/r1/uav/";
-        assert_eq!(sender_of(p, "swarm/r1/uav/17/share/pose"), Some(17));
-        assert_eq!(sender_of(p, "swarm/r1/uav/x/share/pose"), None);
-        assert_eq!(sender_of(p, "swarm/r2/uav/17/share/pose"), None);
-    }
-
-    #[test]
     fn a_listener_gets_its_senders_shares_until_it_stops() {
         let feed = ShareFeed { listeners: Arc::default(), active: true, _sub: None };
         let got = Arc::new(Mutex::new(Vec::new()));
         let g = got.clone();
         let listening = feed.listen(3, 1, move |from, b| g.lock().expect("lock").push((from, b)));
-        let deliver = |from: u32| {
-            let l = feed.listeners.lock().expect("lock");
-            for (_, d) in l.by_sender.get(&from).into_iter().flatten() {
-                d(from, vec![from as u8]);
-            }
-        };
+        let deliver = |from: u32| feed.listeners.lock().expect("lock").deliver(from, &[from as u8]);
         deliver(3);
         deliver(4);
         drop(listening);

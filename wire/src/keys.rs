@@ -108,6 +108,14 @@ impl Keys {
     pub fn scan_any(&self) -> String {
         format!("{}/uav/*/sense/scan", self.prefix)
     }
+    /// `swarm/{run}/uav/*/share/pose`: every UAV's broadcast pose.
+    pub fn share_pose_any(&self) -> String {
+        format!("{}/uav/*/share/pose", self.prefix)
+    }
+    /// `swarm/{run}/uav/*/share/obstacles`: every UAV's obstacle set.
+    pub fn share_obstacles_any(&self) -> String {
+        format!("{}/uav/*/share/obstacles", self.prefix)
+    }
     /// `swarm/{run}/netem/rules`
     pub fn netem_rules(&self) -> String {
         format!("{}/netem/rules", self.prefix)

@@ -105,6 +105,24 @@ pub(crate) enum Localizer {
     Uvdar,
 }
 
+/// The key UAV `id` shares on in localization `mode`; `None` in `uvdar` mode, which never shares.
+pub(crate) fn share_key(mode: LocalizationMode, keys: &Keys, id: u32) -> Option<String> {
+    match mode {
+        LocalizationMode::Broadcast => Some(keys.share_pose(id)),
+        LocalizationMode::Icp => Some(keys.share_obstacles(id)),
+        LocalizationMode::Uvdar => None,
+    }
+}
+
+/// Every UAV's share key in localization `mode` (a wildcard over ids); `None` in `uvdar` mode.
+pub(crate) fn share_key_any(mode: LocalizationMode, keys: &Keys) -> Option<String> {
+    match mode {
+        LocalizationMode::Broadcast => Some(keys.share_pose_any()),
+        LocalizationMode::Icp => Some(keys.share_obstacles_any()),
+        LocalizationMode::Uvdar => None,
+    }
+}
+
 impl Localizer {
     /// The localizer of UAV `id` for the scenario's mode.
     pub(crate) fn new(id: u32, sc: &Scenario) -> Localizer {
@@ -131,11 +149,12 @@ impl Localizer {
 
     /// The key UAV `id` shares on in this mode; `None` in `uvdar` mode, which never shares.
     pub(crate) fn share_key(&self, keys: &Keys, id: u32) -> Option<String> {
-        match self {
-            Localizer::Broadcast(_) => Some(keys.share_pose(id)),
-            Localizer::Icp(_) => Some(keys.share_obstacles(id)),
-            Localizer::Uvdar => None,
-        }
+        let mode = match self {
+            Localizer::Broadcast(_) => LocalizationMode::Broadcast,
+            Localizer::Icp(_) => LocalizationMode::Icp,
+            Localizer::Uvdar => LocalizationMode::Uvdar,
+        };
+        share_key(mode, keys, id)
     }
 
     /// Takes a neighbour's share that the link has delivered.
