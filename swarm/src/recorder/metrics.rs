@@ -208,7 +208,6 @@ fn components(known: &BTreeMap<u32, Vec<u32>>) -> usize {
     count
 }
 
-/// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
 /// UAV `id`'s body in a truth step's `bodies` (listed in id order, so found by index; searched
 /// only if that ever changes).
 fn body_of(bodies: &[TruthBody], id: u32) -> Option<&TruthBody> {
@@ -245,6 +244,7 @@ impl NearestLive<'_> {
     }
 }
 
+/// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
 fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
     let (sum, n) = v.filter(|x| x.is_finite()).fold((0.0, 0u32), |(s, n), x| (s + x, n + 1));
     if n == 0 {
@@ -437,7 +437,6 @@ impl Metrics {
         self.collisions.len()
     }
 
-    /// The last step seen.
     /// Whether an agent whose command closed the last step has not yet reported the state of
     /// that command's tick (it sends it right after the command, so it is on its way). The
     /// run's last states are waited for on this, so the summary never depends on how fast they
@@ -450,6 +449,7 @@ impl Metrics {
         })
     }
 
+    /// The last step seen.
     pub fn last_step(&self) -> Option<&TruthStep> {
         self.last_step.as_ref()
     }

@@ -469,6 +469,9 @@ pub fn keep_off_obstacles(
     cylinders: &[Cylinder],
     walls: &[Wall],
 ) -> Vector2<f64> {
+    if v.obstacle_margin_m <= 0.0 {
+        return vel; // no margin: nothing is nearer than it
+    }
     let zero = Vector2::zeros();
     let cyl = cylinders.iter().filter_map(|c| beta_cylinder(v, p0, zero, c));
     let wall = walls.iter().filter_map(|w| beta_wall(v, p0, zero, w));
