@@ -153,7 +153,8 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     assert!(shot.exists(), "screenshot kept");
     assert_eq!(seen["panels"], 5, "a panel per UAV: {seen}");
     let (first, second) = (&seen["first"], &seen["second"]);
-    assert!(second["tick"].as_u64() > first["tick"].as_u64(), "the clock moves: {seen}");
+    let tick = |v: &Value| v["tick"].as_u64().unwrap_or_else(|| panic!("a tick: {seen}"));
+    assert!(tick(second) > tick(first), "the clock moves: {seen}");
     let moved = |a: &Value, b: &Value| (a["x"].as_f64().unwrap_or(0.0) - b["x"].as_f64().unwrap_or(0.0)).hypot(a["y"].as_f64().unwrap_or(0.0) - b["y"].as_f64().unwrap_or(0.0)) > 0.05;
     assert!(first["uavs"].as_array().expect("uavs").iter().zip(second["uavs"].as_array().expect("uavs")).any(|(a, b)| moved(a, b)), "drawn UAVs move: {seen}");
     let scan_shot = output_dir("live").join("live-scan.png");

@@ -1604,8 +1604,10 @@ mod tests {
         assert_eq!((c.created, c.initial, c.suspended), (1, 1, 1));
         assert!(d.estimates(0.0).is_empty());
         m.frmsd_own.insert(1, 1.0); // exactly the threshold is accepted, but only for tracking
-        run(&mut d, &mut m, &[1], 0.1, 0.2);
-        assert_eq!(d.estimates(0.2).len(), 0);
+        run(&mut d, &mut m, &[1], 0.1, 4.9);
+        let c = step(&mut d, &mut m, 5.0, &[recv(1, 1, 5.0)]);
+        assert_eq!(c.initial, 1, "retried at suspend_s");
+        assert_eq!(d.estimates(5.0).len(), 0, "a retry at match_frmsd does not place it");
     }
 
     /// Issue 14: a first placement needs FRMSD ≤ `INITIAL_FRMSD_MAX_M` (0.3 m), the retry of an
