@@ -200,6 +200,8 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("cmd_any", Wildcard(|k: &Keys, _| k.cmd_any())),
         ("share_pose", Key(|k: &Keys, id| k.share_pose(id))),
         ("share_obstacles", Key(|k: &Keys, id| k.share_obstacles(id))),
+        ("share_pose_any", Wildcard(|k: &Keys, _| k.share_pose_any())),
+        ("share_obstacles_any", Wildcard(|k: &Keys, _| k.share_obstacles_any())),
         ("state", Key(|k: &Keys, id| k.state(id))),
         ("state_any", Wildcard(|k: &Keys, _| k.state_any())),
         ("radio", Key(|k: &Keys, id| k.radio(id))),
