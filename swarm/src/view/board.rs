@@ -2,6 +2,7 @@
 //! the radio graph, the estimates, the collisions and failures so far, and each agent's numbers.
 //! Pure: fed message by message like the recorder, tested without a network.
 
+use crate::scene;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use swarm_wire::msg::{AgentState, CollisionEvent, RadioSet, TruthStep, TruthWorld};
@@ -75,33 +76,16 @@ impl Board {
             .map(|b| json!({"id": b.id, "x": b.x, "y": b.y, "yaw": b.yaw, "alive": b.alive, "colliding": b.colliding}))
             .collect();
         let pos: BTreeMap<u32, [f64; 3]> = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
-        let mut links = Vec::new();
-        for (&i, ids) in &self.radio {
-            for &j in ids.iter().filter(|&&j| j > i && pos.contains_key(&j)) {
-                if pos.contains_key(&i) {
-                    links.push(json!([i, j, crate::scene::link_class(&self.timeline, s.t_secs, i, j).name()]));
-                }
-            }
-        }
+        let links: Vec<Value> = scene::radio_links(&self.radio, &self.timeline, s.t_secs, |id| pos.get(&id).map(|p| [p[0], p[1]]))
+            .into_iter()
+            .map(|l| json!([l.ids[0], l.ids[1], l.class.name()]))
+            .collect();
         let mut estimates = BTreeMap::new();
         let mut numbers = BTreeMap::new();
         for (id, st) in &self.states {
-            let Some(&[x, y, yaw]) = pos.get(id) else { continue };
-            let (sin, cos) = yaw.sin_cos();
-            // Body to world: p_w = p_me + R(yaw) p_b.
-            let est: Vec<[f64; 2]> = st
-                .neighbours
-                .iter()
-                .map(|n| [x + cos * f64::from(n.x) - sin * f64::from(n.y), y + sin * f64::from(n.x) + cos * f64::from(n.y)])
-                .collect();
-            estimates.insert(id.to_string(), est);
-            let v = &st.vectors;
-            numbers.insert(
-                id.to_string(),
-                json!({"step_time_ms": f64::from(st.step_time_us) / 1000.0, "neighbours": st.neighbours.len(),
-                       "in_radio_range": st.in_radio_range, "cohesion": v.cohesion, "separation": v.separation,
-                       "avoidance": v.avoidance, "navigation": v.navigation, "output": v.output}),
-            );
+            let Some(&pose) = pos.get(id) else { continue };
+            estimates.insert(id.to_string(), scene::estimates_in_world(pose, st));
+            numbers.insert(id.to_string(), scene::numbers(st));
         }
         let speed = if s.wall_secs > 0.0 { Some(s.t_secs / s.wall_secs) } else { None };
         Some(json!({
