@@ -5,13 +5,14 @@
 use crate::scene;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use swarm_wire::msg::{AgentState, CollisionEvent, RadioSet, TruthStep, TruthWorld};
 
 /// The page's view of the run.
 #[derive(Default)]
 pub struct Board {
     world: Option<Value>,
-    step: Option<TruthStep>,
+    step: Option<Arc<TruthStep>>,
     radio: BTreeMap<u32, Vec<u32>>,
     timeline: netem::Timeline,
     states: BTreeMap<u32, AgentState>,
@@ -48,13 +49,13 @@ impl Board {
         self.radio.insert(r.id, r.in_range.clone());
     }
 
-    /// One agent state.
-    pub fn on_state(&mut self, st: &AgentState) {
-        self.states.insert(st.id, st.clone());
+    /// One agent state (kept as the UAV's latest).
+    pub fn on_state(&mut self, st: AgentState) {
+        self.states.insert(st.id, st);
     }
 
-    /// One truth step.
-    pub fn on_step(&mut self, s: TruthStep) {
+    /// One truth step (shared with the scan store).
+    pub fn on_step(&mut self, s: Arc<TruthStep>) {
         self.collisions.extend(s.collisions.iter().copied());
         for b in s.bodies.iter().filter(|b| !b.alive) {
             self.lost.entry(b.id).or_insert(s.t_secs);
@@ -113,8 +114,8 @@ mod tests {
         assert!(b.frame().is_none());
         b.on_radio(&RadioSet { tick: 1, id: 1, in_range: vec![2], loss: vec![] });
         let step = |tick, alive| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(1, 1.0, true), body(2, 2.0, alive)], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.01, timing: Box::default() };
-        b.on_step(step(1, true));
-        b.on_step(step(2, false));
+        b.on_step(Arc::new(step(1, true)));
+        b.on_step(Arc::new(step(2, false)));
         let f = b.frame().expect("frame");
         assert_eq!(f["tick"], 2);
         assert_eq!(f["uavs"][1]["x"], 2.0);
