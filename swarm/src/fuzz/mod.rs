@@ -14,7 +14,7 @@ mod case;
 mod shrink;
 
 use crate::args::unix_secs;
-use crate::study::{run_variant, VariantRun};
+use crate::study::{run_bounded, run_variant, VariantRun};
 use crate::summary::Summary;
 use anyhow::{Context, Result};
 use case::{Case, Space, Weaken};
@@ -23,10 +23,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use netem::nemesis::NemesisKind;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
-use std::future::Future;
 use std::path::{Path, PathBuf};
-use std::pin::Pin;
-use std::task::Poll;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use swarm_config::ControllerKind;
@@ -121,50 +118,22 @@ async fn fly(case: &Case, out: &Path, tag: &str) -> Result<Summary> {
     run_variant(&case.render()?, out, tag, VariantRun { per_process: None, progress: false }).await
 }
 
-/// A future borrowed for `'a`, boxed so futures of different bodies share one list.
-type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + 'a>>;
-
-/// Polls every future of `futs` until all are done, in this one task (the runner holds state
-/// that is not `Send`, and Zenoh needs the multi-threaded runtime's own task); results in order.
-async fn join_all<T>(futs: Vec<BoxFuture<'_, T>>) -> Vec<T> {
-    let mut futs: Vec<_> = futs.into_iter().map(Some).collect();
-    let mut out: Vec<Option<T>> = futs.iter().map(|_| None).collect();
-    std::future::poll_fn(|cx| {
-        let mut pending = false;
-        for (slot, done) in futs.iter_mut().zip(out.iter_mut()) {
-            if let Some(fut) = slot {
-                match fut.as_mut().poll(cx) {
-                    Poll::Ready(v) => {
-                        *done = Some(v);
-                        *slot = None;
-                    }
-                    Poll::Pending => pending = true,
-                }
-            }
-        }
-        if pending {
-            Poll::Pending
-        } else {
-            Poll::Ready(())
-        }
+/// Flies a batch of cases at once (the study runner, as many at a time as the batch holds);
+/// results come back in case order.
+async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
+    let jobs = cases.len();
+    let mut flown = Vec::with_capacity(jobs);
+    let start = |case: Case| async move {
+        let r = fly(&case, out, &format!("case-{}", case.index)).await;
+        (case, r)
+    };
+    run_bounded(cases, jobs, start, |done| {
+        pb.inc(1);
+        flown.push(done);
     })
     .await;
-    out.into_iter().flatten().collect()
-}
-
-/// Flies a batch of cases at once; results come back in case order.
-async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
-    let futs: Vec<BoxFuture<'_, (Case, Result<Summary>)>> = cases
-        .into_iter()
-        .map(|case| {
-            Box::pin(async move {
-                let r = fly(&case, out, &format!("case-{}", case.index)).await;
-                pb.inc(1);
-                (case, r)
-            }) as BoxFuture<'_, _>
-        })
-        .collect();
-    join_all(futs).await
+    flown.sort_by_key(|(case, _)| case.index);
+    flown
 }
 
 /// Shrinks `case`, which fails `check` first at `t_s`, while the same check still fails.
