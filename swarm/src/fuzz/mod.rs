@@ -89,15 +89,26 @@ struct Finding {
     shrink_runs: usize,
 }
 
+/// A failed check a case is shrunk on: its first failing moment and what went wrong there.
+#[derive(Debug, Clone, PartialEq)]
+struct Failure {
+    check: String,
+    /// Sim time [s] (the run's end when the check says no moment).
+    t_s: f64,
+    what: String,
+}
+
 /// The check to shrink: the failed check whose first failure came first (checks judged as
-/// they happen before those judged at the end), with that moment [s].
-fn first_failed(s: &Summary) -> Option<(String, f64, String)> {
+/// they happen before those judged at the end).
+fn first_failed(s: &Summary) -> Option<Failure> {
     s.failed_checks()
         .map(|c| {
-            let (t, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
-            (c.name.clone(), t, what)
+            let (t_s, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
+            Failure { check: c.name.clone(), t_s, what }
         })
-        .min_by(|a, b| (shrink::judged_at_end(&a.0), a.1).partial_cmp(&(shrink::judged_at_end(&b.0), b.1)).unwrap_or(std::cmp::Ordering::Equal))
+        .min_by(|a, b| {
+            (shrink::judged_at_end(&a.check), a.t_s).partial_cmp(&(shrink::judged_at_end(&b.check), b.t_s)).unwrap_or(std::cmp::Ordering::Equal)
+        })
 }
 
 fn space(a: &FuzzArgs) -> Result<Space> {
@@ -136,11 +147,12 @@ async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, R
     flown
 }
 
-/// Shrinks `case`, which fails `check` first at `t_s`, while the same check still fails.
-async fn shrink(case: Case, check: &str, t_s: f64, out: &Path, budget: usize, pb: &ProgressBar) -> (Case, f64, String, usize) {
-    let (mut best, mut at, mut what, mut spent) = (case, t_s, String::new(), 0);
+/// Shrinks `case`, which fails as `first` says, while the same check still fails; returns the
+/// smallest case, its failure (`first` itself when no candidate still fails) and the runs spent.
+async fn shrink(case: Case, first: Failure, out: &Path, budget: usize, pb: &ProgressBar) -> (Case, Failure, usize) {
+    let (mut best, mut failure, mut spent) = (case, first, 0);
     'outer: while spent < budget {
-        for cand in shrink::candidates(&best, check, at) {
+        for cand in shrink::candidates(&best, &failure.check, failure.t_s) {
             if spent >= budget {
                 break 'outer;
             }
@@ -148,21 +160,22 @@ async fn shrink(case: Case, check: &str, t_s: f64, out: &Path, budget: usize, pb
             pb.set_message(format!("shrinking case {}: {}", best.index, cand.label()));
             let tag = format!("shrink-{}-{spent}", best.index);
             let Ok(s) = fly(&cand, out, &tag).await else { continue };
-            let hit = s.failed_checks().find(|c| c.name == check).map(|c| c.first_failure.clone());
+            let hit = s.failed_checks().find(|c| c.name == failure.check).map(|c| c.first_failure.clone());
             if let Some(first) = hit {
-                at = first.as_ref().map_or(s.sim_time_s, |f| f.t_s);
-                what = first.map_or_else(String::new, |f| f.what);
+                failure.t_s = first.as_ref().map_or(s.sim_time_s, |f| f.t_s);
+                failure.what = first.map_or_else(String::new, |f| f.what);
                 best = cand;
                 continue 'outer;
             }
         }
         break;
     }
-    (best, at, what, spent)
+    (best, failure, spent)
 }
 
 /// Writes the shrunk case as a scenario file with a header saying what it shows; returns its text.
-fn write_found(case: &Case, seed: u64, check: &str, at: f64, what: &str, path: &Path) -> Result<String> {
+fn write_found(case: &Case, seed: u64, failure: &Failure, path: &Path) -> Result<String> {
+    let Failure { check, t_s: at, what } = failure;
     let mut sc = case.render()?;
     sc.name = format!("found-{seed}-{}", case.index);
     let header = format!(
@@ -207,11 +220,12 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
             };
             let failed: Vec<String> = s.failed_checks().map(|c| c.name.clone()).collect();
             flown.push(Flown { case: case.index, label: case.label(), failed, end_reason: s.end_reason.clone() });
-            if let Some((check, t, _)) = first_failed(&s) {
+            if let Some(first) = first_failed(&s) {
                 let original = case.label();
-                let (small, at, what, spent) = shrink(case, &check, t, &out, a.shrink_runs, &pb).await;
+                let (small, failure, spent) = shrink(case, first, &out, a.shrink_runs, &pb).await;
                 let file = out.join(format!("found-{}-{}.toml", a.seed, small.index));
-                let text = write_found(&small, a.seed, &check, at, &what, &file)?;
+                let text = write_found(&small, a.seed, &failure, &file)?;
+                let Failure { check, what, .. } = failure;
                 pb.suspend(|| println!("case {}: `{check}` failed; shrunk from {original} to {}:\n{text}", small.index, small.label()));
                 findings.push(Finding { case: small.index, check, original, shrunk: small.label(), first_failure: what, file, shrink_runs: spent });
             }
@@ -238,4 +252,35 @@ fn report(out: &Path, seed: u64, flown: &[Flown], findings: &[Finding]) -> Resul
     std::fs::write(out.join("fuzz.json"), serde_json::to_string_pretty(&json)?)?;
     println!("fuzz folder: {}", out.display());
     Ok(if failed > 0 { ExitCode::from(2) } else { ExitCode::SUCCESS })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn a_case() -> Case {
+        let space = Space { controllers: vec![ControllerKind::K21], max_uavs: 4, nemesis: NemesisKind::DETERMINISTIC.to_vec(), max_faults: 2, weaken: None };
+        Case::generate(&space, 0, 7).expect("generates")
+    }
+
+    /// A shrink that makes no progress (here: no run to spend) keeps the failure it started from,
+    /// text included: the finding's first-failure line is never left empty by the shrink.
+    #[test]
+    fn a_shrink_without_progress_keeps_the_first_failure_text() {
+        let first = Failure { check: "min_separation".into(), t_s: 12.5, what: "UAV 1 and 2 at 0.4 m < 0.8 m".into() };
+        let rt = tokio::runtime::Builder::new_current_thread().build().expect("runtime");
+        let out = std::env::temp_dir().join(format!("fuzz-shrink-test-{}", std::process::id()));
+        let (small, failure, spent) = rt.block_on(shrink(a_case(), first.clone(), &out, 0, &ProgressBar::hidden()));
+        assert_eq!((small.index, spent), (0, 0));
+        assert_eq!(failure, first);
+    }
+
+    #[test]
+    fn a_found_file_says_the_first_failure() {
+        let failure = Failure { check: "collision".into(), t_s: 3.5, what: "UAV 2 hit a tree".into() };
+        let path = std::env::temp_dir().join(format!("fuzz-found-test-{}.toml", std::process::id()));
+        let text = write_found(&a_case(), 9, &failure, &path).expect("written");
+        let _ = std::fs::remove_file(&path);
+        assert!(text.contains("# `collision` first at t = 3.5 s: UAV 2 hit a tree\n"), "{text}");
+    }
 }
