@@ -66,6 +66,11 @@ impl Role {
     }
 }
 
+/// The user name of UAV `id`'s own agent: `uav7`.
+pub fn uav_user(id: u32) -> String {
+    format!("uav{id}")
+}
+
 /// The user name of an agent host serving `ids` (ascending): `uavs1-4,7`.
 pub fn host_user(ids: &[u32]) -> String {
     format!("uavs{}", ids_text(ids))
@@ -273,7 +278,7 @@ pub struct CredentialsArgs {
 
 /// Runs `swarm credentials`: prints each user and its password file.
 pub fn credentials(a: CredentialsArgs) -> Result<ExitCode> {
-    let mut users: Vec<String> = (1..=a.uavs).map(|i| format!("uav{i}")).collect();
+    let mut users: Vec<String> = (1..=a.uavs).map(uav_user).collect();
     users.extend(a.hosts.iter().map(|h| host_user(&h.0)));
     users.extend(["observer".to_string(), "operator".to_string()]);
     users.extend(a.users);
