@@ -127,7 +127,7 @@ impl crate::Scenario {
     }
 
     /// Validates `[expect]`: every bound given is a finite number > 0.
-    pub(crate) fn validate_expect(&self) -> Result<(), (String, String)> {
+    pub(crate) fn validate_expect(&self) -> crate::Check {
         let e = &self.expect;
         for (name, v) in [
             ("min_separation_m", e.min_separation_m),
@@ -137,9 +137,7 @@ impl crate::Scenario {
             ("end_range_m", e.end_range_m),
         ] {
             if let Some(v) = v {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err((format!("expect.{name}"), format!("must be a finite number > 0, got {v}")));
-                }
+                crate::positive(&format!("expect.{name}"), v)?;
             }
         }
         Ok(())

@@ -13,6 +13,7 @@
 //! - COSTMAP_THRES is not printed: 50, the seed's "area with the cost less than 50 is considered
 //!   as safe area" (text under Fig. 33).
 
+use crate::Check;
 use serde::{Deserialize, Serialize};
 
 /// Which formation rule generates the followers' goals (seed 004 section 3.4, Fig. 37 and 41).
@@ -189,16 +190,6 @@ impl Default for M23Params {
     }
 }
 
-type Check = Result<(), (String, String)>;
-
-fn positive(field: String, v: f64) -> Check {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err((field, format!("must be a finite number > 0, got {v}")))
-    }
-}
-
 fn all_finite(field: String, points: &[[f64; 2]]) -> Check {
     match points.iter().position(|p| !(p[0].is_finite() && p[1].is_finite())) {
         Some(i) => Err((format!("{field}[{i}]"), format!("must be finite, got {:?}", points[i]))),
@@ -227,7 +218,7 @@ impl M23Params {
             ("lookahead_m", self.lookahead_m),
             ("goal_tolerance_m", self.goal_tolerance_m),
         ] {
-            positive(format!("{at}.{name}"), v)?;
+            crate::positive(&format!("{at}.{name}"), v)?;
         }
         if !(1..=254).contains(&self.costmap_thres) {
             return Err((

@@ -66,6 +66,11 @@ impl Role {
     }
 }
 
+/// The user name of UAV `id`'s own agent: `uav7`.
+pub fn uav_user(id: u32) -> String {
+    format!("uav{id}")
+}
+
 /// The user name of an agent host serving `ids` (ascending): `uavs1-4,7`.
 pub fn host_user(ids: &[u32]) -> String {
     format!("uavs{}", ids_text(ids))
@@ -100,15 +105,21 @@ impl Credentials {
         use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
         std::fs::DirBuilder::new().recursive(true).mode(0o700).create(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
+        let creds = Credentials { dir: dir.to_path_buf() };
         let mut dictionary = String::new();
         for user in users {
             Role::of(user)?;
             let password = random_password()?;
             dictionary.push_str(&format!("{user}:{password}\n"));
-            write_private(&dir.join(format!("{user}.password")), &format!("{password}\n"))?;
+            write_private(&creds.password_file(user), &format!("{password}\n"))?;
         }
-        write_private(&dir.join(DICTIONARY), &dictionary)?;
-        Ok(Credentials { dir: dir.to_path_buf() })
+        write_private(&creds.dictionary(), &dictionary)?;
+        Ok(creds)
+    }
+
+    /// The password file of `user` (`<dir>/<user>.password`): the one place its name is made.
+    pub fn password_file(&self, user: &str) -> PathBuf {
+        self.dir.join(format!("{user}.password"))
     }
 
     /// The dictionary file (`user:password` lines) the hub reads.
@@ -118,13 +129,13 @@ impl Credentials {
 
     /// `--user USER --password-file FILE`, for a child of the launcher.
     pub fn client_args(&self, user: &str) -> [String; 4] {
-        let file = self.dir.join(format!("{user}.password"));
+        let file = self.password_file(user);
         ["--user".into(), user.into(), "--password-file".into(), file.to_string_lossy().into_owned()]
     }
 
     /// The `--cfg` overrides of a client session logged in as `user`.
     pub fn client_cfg(&self, user: &str) -> Result<Vec<String>> {
-        let password = crate::args::read_password(&self.dir.join(format!("{user}.password")))?;
+        let password = crate::args::read_password(&self.password_file(user))?;
         Ok(crate::args::usrpwd_cfg(user, &password))
     }
 }
@@ -267,14 +278,14 @@ pub struct CredentialsArgs {
 
 /// Runs `swarm credentials`: prints each user and its password file.
 pub fn credentials(a: CredentialsArgs) -> Result<ExitCode> {
-    let mut users: Vec<String> = (1..=a.uavs).map(|i| format!("uav{i}")).collect();
+    let mut users: Vec<String> = (1..=a.uavs).map(uav_user).collect();
     users.extend(a.hosts.iter().map(|h| host_user(&h.0)));
     users.extend(["observer".to_string(), "operator".to_string()]);
     users.extend(a.users);
     let creds = Credentials::create(&a.out, &users)?;
     println!("dictionary (swarm hub --users): {}", creds.dictionary().display());
     for u in &users {
-        println!("{u}: --user {u} --password-file {}", a.out.join(format!("{u}.password")).display());
+        println!("{u}: --user {u} --password-file {}", creds.password_file(u).display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -11,7 +11,7 @@
 //! skips all that.
 
 use crate::args::{default_run_id, scenario_value};
-use crate::auth::{host_user, ids_text, Credentials};
+use crate::auth::{host_user, ids_text, uav_user, Credentials};
 use crate::pieces::LISTENING_PREFIX;
 use crate::proxy::{LinkProxy, LinkState};
 use crate::recorder::{progress_bar, Recording};
@@ -189,7 +189,8 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     std::fs::write(&scenario_path, text).with_context(|| format!("cannot write {}", scenario_path.display()))?;
     eprintln!("run {run_id}: scenario {} ({} UAVs), folder {}", sc.name, sc.count(), out.display());
 
-    let creds = if insecure { None } else { Some(run_credentials(sc, out, per_process)?) };
+    let groups = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id));
+    let creds = if insecure { None } else { Some(run_credentials(sc, out, &groups.hosts)?) };
     let launcher = Launcher {
         exe: std::env::current_exe().context("cannot find my own executable")?,
         logs,
@@ -217,7 +218,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         let _ = std::io::stdout().flush();
         tokio::spawn(live.run());
     }
-    let mut agents = Agents::start(&launcher, sc, locators, proxies, per_process)?;
+    let mut agents = Agents::start(&launcher, sc, locators, proxies, groups)?;
     let progress = progress_bar(sc, show.quiet);
     let summary = rec.record(out, sc, &progress, Some(&mut hub.child), &mut |t| agents.on_tick(t)).await?;
     progress.finish_and_clear();
@@ -229,11 +230,10 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
 const OBSERVER: &str = "observer";
 
 /// Fresh credentials for one run in `<out>/credentials/`: a user per UAV (restarts reuse it),
-/// one per agent host as [`spread`] will group them, the recorder's `observer`, and an
-/// `operator` for `swarm netem` on the running swarm.
-fn run_credentials(sc: &Scenario, out: &Path, per_process: u32) -> Result<Credentials> {
-    let mut users: Vec<String> = sc.agent_ids().map(|id| format!("uav{id}")).collect();
-    let (_, hosts) = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id));
+/// one per agent host of `hosts` (as [`spread`] grouped them), the recorder's `observer`, and
+/// an `operator` for `swarm netem` on the running swarm.
+fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>]) -> Result<Credentials> {
+    let mut users: Vec<String> = sc.agent_ids().map(uav_user).collect();
     users.extend(hosts.iter().map(|g| host_user(g)));
     users.extend([OBSERVER.to_string(), "operator".to_string()]);
     Credentials::create(&out.join("credentials"), &users)
@@ -333,22 +333,20 @@ impl Launcher {
     /// Starts `swarm agent` for UAV `id`, connected through its link proxy (with a hub grace
     /// long enough for the scenario's outages) or straight to the hub's `locators`.
     fn agent(&self, id: u32, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
-        self.agents(&id.to_string(), "--id", log, proxy, locators)
+        self.agents(AgentProcess::Uav(id), log, proxy, locators)
     }
 
     /// Starts `swarm agent --ids ids` (an agent host) straight on the hub's `locators`.
     fn host(&self, ids: &[u32], locators: &[String]) -> Result<Piece> {
-        let list = ids_text(ids);
         let log = format!("agents-{}-{}.log", ids[0], ids[ids.len() - 1]);
-        self.agents(&list, "--ids", &log, None, locators)
+        self.agents(AgentProcess::Host(ids), &log, None, locators)
     }
 
-    fn agents(&self, ids: &str, flag: &str, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
+    fn agents(&self, who: AgentProcess<'_>, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
         self.spawn(log, false, |c| {
-            c.arg("agent").args(["--run", &self.run_id, flag, ids, "--exit-with-stdin"]);
+            c.arg("agent").args(["--run", &self.run_id]).args(who.args()).arg("--exit-with-stdin");
             if let Some(creds) = &self.creds {
-                let user = if flag == "--id" { format!("uav{ids}") } else { format!("uavs{ids}") };
-                c.args(creds.client_args(&user));
+                c.args(creds.client_args(&who.user()));
             }
             match proxy {
                 Some((p, grace_s)) => {
@@ -379,6 +377,32 @@ impl Launcher {
     }
 }
 
+/// One agent process to start: a UAV's own, or an agent host's.
+#[derive(Debug, Clone, Copy)]
+enum AgentProcess<'a> {
+    Uav(u32),
+    /// The UAVs it serves, ascending.
+    Host(&'a [u32]),
+}
+
+impl AgentProcess<'_> {
+    /// `--id ID` or `--ids IDS`.
+    fn args(self) -> [String; 2] {
+        match self {
+            AgentProcess::Uav(id) => ["--id".into(), id.to_string()],
+            AgentProcess::Host(ids) => ["--ids".into(), ids_text(ids)],
+        }
+    }
+
+    /// The user it logs in as.
+    fn user(self) -> String {
+        match self {
+            AgentProcess::Uav(id) => uav_user(id),
+            AgentProcess::Host(ids) => host_user(ids),
+        }
+    }
+}
+
 /// The agent processes of a run, their link proxies, and the kills, restarts and link faults of
 /// `[[failures]]` still to come, in time order. A UAV that `[[failures]]` kills, restarts or
 /// cuts off has a process of its own (in `running`), so those act on it alone; the others may
@@ -395,13 +419,13 @@ struct Agents<'a> {
 }
 
 impl<'a> Agents<'a> {
-    /// Starts the agents of every UAV of the scenario, `per_process` to a process.
+    /// Starts the agents of every UAV of the scenario, as `spread` grouped them.
     fn start(
         launcher: &'a Launcher,
         sc: &'a Scenario,
         locators: Vec<String>,
         proxies: BTreeMap<u32, LinkProxy>,
-        per_process: u32,
+        spread: Spread,
     ) -> Result<Agents<'a>> {
         let mut schedule: Vec<(f64, u32, FailureKind)> = sc
             .failures
@@ -412,11 +436,10 @@ impl<'a> Agents<'a> {
         schedule.sort_by(|x, y| x.0.total_cmp(&y.0));
         let mut agents =
             Agents { launcher, sc, locators, proxies, running: BTreeMap::new(), hosts: Vec::new(), schedule, restarts: 0 };
-        let (solo, hosts) = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id));
-        for group in hosts {
-            agents.hosts.push(launcher.host(&group, &agents.locators)?);
+        for group in &spread.hosts {
+            agents.hosts.push(launcher.host(group, &agents.locators)?);
         }
-        for id in solo {
+        for id in spread.solo {
             agents.start_solo(id)?;
         }
         Ok(agents)
@@ -495,9 +518,19 @@ impl<'a> Agents<'a> {
     }
 }
 
-/// Spreads UAVs `ids` over processes, `per_process` to a host in id order: returns the UAVs
-/// that get a process of their own (those `alone` picks, and a last group of one) and the hosts.
-fn spread(ids: impl Iterator<Item = u32>, per_process: u32, alone: impl Fn(u32) -> bool) -> (Vec<u32>, Vec<Vec<u32>>) {
+/// How a run's UAVs are spread over agent processes.
+#[derive(Debug, Clone, PartialEq)]
+struct Spread {
+    /// The UAVs with a process of their own, ascending.
+    solo: Vec<u32>,
+    /// The agent hosts, each its UAVs ascending.
+    hosts: Vec<Vec<u32>>,
+}
+
+/// Spreads UAVs `ids` over processes, `per_process` to a host in id order: the UAVs that get a
+/// process of their own (those `alone` picks, and a last group of one) and the hosts. Computed
+/// once per run: the credentials and the launch must agree on it.
+fn spread(ids: impl Iterator<Item = u32>, per_process: u32, alone: impl Fn(u32) -> bool) -> Spread {
     let (mut solo, shared): (Vec<u32>, Vec<u32>) = ids.partition(|&id| per_process <= 1 || alone(id));
     let mut hosts = Vec::new();
     for group in shared.chunks(per_process.max(1) as usize) {
@@ -507,7 +540,7 @@ fn spread(ids: impl Iterator<Item = u32>, per_process: u32, alone: impl Fn(u32) 
         }
     }
     solo.sort_unstable();
-    (solo, hosts)
+    Spread { solo, hosts }
 }
 
 async fn read_locators(hub: &mut Child, logs: &Path) -> Result<Vec<String>> {
@@ -547,14 +580,25 @@ mod tests {
 
     #[test]
     fn uavs_with_failures_keep_a_process_of_their_own() {
-        let (solo, hosts) = spread(1..=7, 3, |id| id == 2);
+        let Spread { solo, hosts } = spread(1..=7, 3, |id| id == 2);
         assert_eq!(hosts, vec![vec![1, 3, 4], vec![5, 6, 7]]);
         assert_eq!(solo, vec![2]);
-        let (solo, hosts) = spread(1..=5, 2, |_| false);
+        let Spread { solo, hosts } = spread(1..=5, 2, |_| false);
         assert_eq!(hosts, vec![vec![1, 2], vec![3, 4]]);
         assert_eq!(solo, vec![5], "a group of one is a plain agent");
-        let (solo, hosts) = spread(1..=3, 1, |_| false);
+        let Spread { solo, hosts } = spread(1..=3, 1, |_| false);
         assert!(hosts.is_empty());
         assert_eq!(solo, vec![1, 2, 3]);
+    }
+
+    #[test]
+    fn an_agent_process_logs_in_as_the_user_of_what_it_serves() {
+        let host = AgentProcess::Host(&[1, 2, 3, 7]);
+        assert_eq!(host.args(), ["--ids".to_string(), "1-3,7".to_string()]);
+        assert_eq!(host.user(), "uavs1-3,7");
+        assert_eq!(crate::auth::Role::of(&host.user()).expect("a role"), crate::auth::Role::Agents(vec![1, 2, 3, 7]));
+        let uav = AgentProcess::Uav(4);
+        assert_eq!(uav.args(), ["--id".to_string(), "4".to_string()]);
+        assert_eq!(uav.user(), "uav4");
     }
 }

@@ -20,8 +20,11 @@ use crate::summary::{f, Summary};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::fmt::Write as _;
+use std::future::Future;
 use std::path::{Path, PathBuf};
+use std::pin::Pin;
 use std::process::ExitCode;
+use std::task::Poll;
 use swarm_config::{BroadcastError, ControllerKind, LocalizationMode, Scenario, UavSet};
 
 /// `swarm compare`.
@@ -93,6 +96,38 @@ pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: Varia
     let run = How { zenoh_cfg: &[], show, per_process, insecure: false };
     let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &run).await?;
     Ok(summary)
+}
+
+/// Drives the futures `start` makes of `items` (runs, as a rule), at most `jobs` at a time, and
+/// hands each output to `done` as it finishes (in finishing order). `swarm sweep-seeds` and
+/// `swarm fuzz` share it. The futures are polled together in this one task, not spawned: a run's
+/// future is not `Send` (the recorder's tick callback) and blocks in place now and then; what
+/// the runs wait on is their child processes, which fly in parallel.
+pub(crate) async fn run_bounded<I, F: Future>(items: impl IntoIterator<Item = I>, jobs: usize, mut start: impl FnMut(I) -> F, mut done: impl FnMut(F::Output)) {
+    let mut queue = items.into_iter();
+    let mut running: Vec<Pin<Box<F>>> = Vec::new();
+    loop {
+        while running.len() < jobs.max(1) {
+            let Some(item) = queue.next() else { break };
+            running.push(Box::pin(start(item)));
+        }
+        if running.is_empty() {
+            return;
+        }
+        let (i, output) = std::future::poll_fn(|cx| {
+            running
+                .iter_mut()
+                .enumerate()
+                .find_map(|(i, f)| match f.as_mut().poll(cx) {
+                    Poll::Ready(v) => Some(Poll::Ready((i, v))),
+                    Poll::Pending => None,
+                })
+                .unwrap_or(Poll::Pending)
+        })
+        .await;
+        drop(running.swap_remove(i));
+        done(output);
+    }
 }
 
 fn opt(v: Option<f64>) -> String {

@@ -14,7 +14,7 @@ mod case;
 mod shrink;
 
 use crate::args::unix_secs;
-use crate::study::{run_variant, VariantRun};
+use crate::study::{run_bounded, run_variant, VariantRun};
 use crate::summary::Summary;
 use anyhow::{Context, Result};
 use case::{Case, Space, Weaken};
@@ -23,10 +23,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use netem::nemesis::NemesisKind;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
-use std::future::Future;
 use std::path::{Path, PathBuf};
-use std::pin::Pin;
-use std::task::Poll;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use swarm_config::ControllerKind;
@@ -92,15 +89,26 @@ struct Finding {
     shrink_runs: usize,
 }
 
+/// A failed check a case is shrunk on: its first failing moment and what went wrong there.
+#[derive(Debug, Clone, PartialEq)]
+struct Failure {
+    check: String,
+    /// Sim time [s] (the run's end when the check says no moment).
+    t_s: f64,
+    what: String,
+}
+
 /// The check to shrink: the failed check whose first failure came first (checks judged as
-/// they happen before those judged at the end), with that moment [s].
-fn first_failed(s: &Summary) -> Option<(String, f64, String)> {
+/// they happen before those judged at the end).
+fn first_failed(s: &Summary) -> Option<Failure> {
     s.failed_checks()
         .map(|c| {
-            let (t, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
-            (c.name.clone(), t, what)
+            let (t_s, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
+            Failure { check: c.name.clone(), t_s, what }
         })
-        .min_by(|a, b| (shrink::judged_at_end(&a.0), a.1).partial_cmp(&(shrink::judged_at_end(&b.0), b.1)).unwrap_or(std::cmp::Ordering::Equal))
+        .min_by(|a, b| {
+            (shrink::judged_at_end(&a.check), a.t_s).partial_cmp(&(shrink::judged_at_end(&b.check), b.t_s)).unwrap_or(std::cmp::Ordering::Equal)
+        })
 }
 
 fn space(a: &FuzzArgs) -> Result<Space> {
@@ -121,57 +129,30 @@ async fn fly(case: &Case, out: &Path, tag: &str) -> Result<Summary> {
     run_variant(&case.render()?, out, tag, VariantRun { per_process: None, progress: false }).await
 }
 
-/// A future borrowed for `'a`, boxed so futures of different bodies share one list.
-type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + 'a>>;
-
-/// Polls every future of `futs` until all are done, in this one task (the runner holds state
-/// that is not `Send`, and Zenoh needs the multi-threaded runtime's own task); results in order.
-async fn join_all<T>(futs: Vec<BoxFuture<'_, T>>) -> Vec<T> {
-    let mut futs: Vec<_> = futs.into_iter().map(Some).collect();
-    let mut out: Vec<Option<T>> = futs.iter().map(|_| None).collect();
-    std::future::poll_fn(|cx| {
-        let mut pending = false;
-        for (slot, done) in futs.iter_mut().zip(out.iter_mut()) {
-            if let Some(fut) = slot {
-                match fut.as_mut().poll(cx) {
-                    Poll::Ready(v) => {
-                        *done = Some(v);
-                        *slot = None;
-                    }
-                    Poll::Pending => pending = true,
-                }
-            }
-        }
-        if pending {
-            Poll::Pending
-        } else {
-            Poll::Ready(())
-        }
+/// Flies a batch of cases at once (the study runner, as many at a time as the batch holds);
+/// results come back in case order.
+async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
+    let jobs = cases.len();
+    let mut flown = Vec::with_capacity(jobs);
+    let start = |case: Case| async move {
+        let r = fly(&case, out, &format!("case-{}", case.index)).await;
+        (case, r)
+    };
+    run_bounded(cases, jobs, start, |done| {
+        pb.inc(1);
+        flown.push(done);
     })
     .await;
-    out.into_iter().flatten().collect()
+    flown.sort_by_key(|(case, _)| case.index);
+    flown
 }
 
-/// Flies a batch of cases at once; results come back in case order.
-async fn fly_all(cases: Vec<Case>, out: &Path, pb: &ProgressBar) -> Vec<(Case, Result<Summary>)> {
-    let futs: Vec<BoxFuture<'_, (Case, Result<Summary>)>> = cases
-        .into_iter()
-        .map(|case| {
-            Box::pin(async move {
-                let r = fly(&case, out, &format!("case-{}", case.index)).await;
-                pb.inc(1);
-                (case, r)
-            }) as BoxFuture<'_, _>
-        })
-        .collect();
-    join_all(futs).await
-}
-
-/// Shrinks `case`, which fails `check` first at `t_s`, while the same check still fails.
-async fn shrink(case: Case, check: &str, t_s: f64, out: &Path, budget: usize, pb: &ProgressBar) -> (Case, f64, String, usize) {
-    let (mut best, mut at, mut what, mut spent) = (case, t_s, String::new(), 0);
+/// Shrinks `case`, which fails as `first` says, while the same check still fails; returns the
+/// smallest case, its failure (`first` itself when no candidate still fails) and the runs spent.
+async fn shrink(case: Case, first: Failure, out: &Path, budget: usize, pb: &ProgressBar) -> (Case, Failure, usize) {
+    let (mut best, mut failure, mut spent) = (case, first, 0);
     'outer: while spent < budget {
-        for cand in shrink::candidates(&best, check, at) {
+        for cand in shrink::candidates(&best, &failure.check, failure.t_s) {
             if spent >= budget {
                 break 'outer;
             }
@@ -179,21 +160,22 @@ async fn shrink(case: Case, check: &str, t_s: f64, out: &Path, budget: usize, pb
             pb.set_message(format!("shrinking case {}: {}", best.index, cand.label()));
             let tag = format!("shrink-{}-{spent}", best.index);
             let Ok(s) = fly(&cand, out, &tag).await else { continue };
-            let hit = s.failed_checks().find(|c| c.name == check).map(|c| c.first_failure.clone());
+            let hit = s.failed_checks().find(|c| c.name == failure.check).map(|c| c.first_failure.clone());
             if let Some(first) = hit {
-                at = first.as_ref().map_or(s.sim_time_s, |f| f.t_s);
-                what = first.map_or_else(String::new, |f| f.what);
+                failure.t_s = first.as_ref().map_or(s.sim_time_s, |f| f.t_s);
+                failure.what = first.map_or_else(String::new, |f| f.what);
                 best = cand;
                 continue 'outer;
             }
         }
         break;
     }
-    (best, at, what, spent)
+    (best, failure, spent)
 }
 
 /// Writes the shrunk case as a scenario file with a header saying what it shows; returns its text.
-fn write_found(case: &Case, seed: u64, check: &str, at: f64, what: &str, path: &Path) -> Result<String> {
+fn write_found(case: &Case, seed: u64, failure: &Failure, path: &Path) -> Result<String> {
+    let Failure { check, t_s: at, what } = failure;
     let mut sc = case.render()?;
     sc.name = format!("found-{seed}-{}", case.index);
     let header = format!(
@@ -238,11 +220,12 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
             };
             let failed: Vec<String> = s.failed_checks().map(|c| c.name.clone()).collect();
             flown.push(Flown { case: case.index, label: case.label(), failed, end_reason: s.end_reason.clone() });
-            if let Some((check, t, _)) = first_failed(&s) {
+            if let Some(first) = first_failed(&s) {
                 let original = case.label();
-                let (small, at, what, spent) = shrink(case, &check, t, &out, a.shrink_runs, &pb).await;
+                let (small, failure, spent) = shrink(case, first, &out, a.shrink_runs, &pb).await;
                 let file = out.join(format!("found-{}-{}.toml", a.seed, small.index));
-                let text = write_found(&small, a.seed, &check, at, &what, &file)?;
+                let text = write_found(&small, a.seed, &failure, &file)?;
+                let Failure { check, what, .. } = failure;
                 pb.suspend(|| println!("case {}: `{check}` failed; shrunk from {original} to {}:\n{text}", small.index, small.label()));
                 findings.push(Finding { case: small.index, check, original, shrunk: small.label(), first_failure: what, file, shrink_runs: spent });
             }
@@ -269,4 +252,35 @@ fn report(out: &Path, seed: u64, flown: &[Flown], findings: &[Finding]) -> Resul
     std::fs::write(out.join("fuzz.json"), serde_json::to_string_pretty(&json)?)?;
     println!("fuzz folder: {}", out.display());
     Ok(if failed > 0 { ExitCode::from(2) } else { ExitCode::SUCCESS })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn a_case() -> Case {
+        let space = Space { controllers: vec![ControllerKind::K21], max_uavs: 4, nemesis: NemesisKind::DETERMINISTIC.to_vec(), max_faults: 2, weaken: None };
+        Case::generate(&space, 0, 7).expect("generates")
+    }
+
+    /// A shrink that makes no progress (here: no run to spend) keeps the failure it started from,
+    /// text included: the finding's first-failure line is never left empty by the shrink.
+    #[test]
+    fn a_shrink_without_progress_keeps_the_first_failure_text() {
+        let first = Failure { check: "min_separation".into(), t_s: 12.5, what: "UAV 1 and 2 at 0.4 m < 0.8 m".into() };
+        let rt = tokio::runtime::Builder::new_current_thread().build().expect("runtime");
+        let out = std::env::temp_dir().join(format!("fuzz-shrink-test-{}", std::process::id()));
+        let (small, failure, spent) = rt.block_on(shrink(a_case(), first.clone(), &out, 0, &ProgressBar::hidden()));
+        assert_eq!((small.index, spent), (0, 0));
+        assert_eq!(failure, first);
+    }
+
+    #[test]
+    fn a_found_file_says_the_first_failure() {
+        let failure = Failure { check: "collision".into(), t_s: 3.5, what: "UAV 2 hit a tree".into() };
+        let path = std::env::temp_dir().join(format!("fuzz-found-test-{}.toml", std::process::id()));
+        let text = write_found(&a_case(), 9, &failure, &path).expect("written");
+        let _ = std::fs::remove_file(&path);
+        assert!(text.contains("# `collision` first at t = 3.5 s: UAV 2 hit a tree\n"), "{text}");
+    }
 }

@@ -6,6 +6,7 @@
 
 use super::data::Run;
 use super::style::{legend, time_chart, DrawResult, Figure, FAMILY};
+use netem::LinkClass;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -15,41 +16,30 @@ const SIZE: (u32, u32) = (1000, 460);
 const CUT: RGBColor = RGBColor(214, 39, 40);
 const IMPAIRED: RGBColor = RGBColor(255, 127, 14);
 
-/// The state of the network over a span of the timeline.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Links {
-    /// Every link as the radio gives it.
-    Clean,
-    /// Some link lossy, delayed, rate-limited, ...
-    Impaired,
-    /// Some link blocked or held (a partition, a frozen sender, a blocked rule).
-    Cut,
-}
-
-/// The network's state in force at `t_s` over every ordered pair of `ids`.
-fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[u32]) -> Links {
-    let mut state = Links::Clean;
+/// The worst class of any ordered link between `ids` at `t_s` (cut beats impaired beats clean).
+fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[u32]) -> LinkClass {
+    let mut worst = LinkClass::Clean;
     for &from in ids {
         for &to in ids.iter().filter(|&&to| to != from) {
-            match tl.rule_at(t_s, from, to) {
-                Some(r) if r.blocked || r.hold => return Links::Cut,
-                Some(r) if !r.is_identity() => state = Links::Impaired,
-                _ => {}
+            match LinkClass::of(tl.rule_at(t_s, from, to)) {
+                LinkClass::Cut => return LinkClass::Cut,
+                LinkClass::Impaired => worst = LinkClass::Impaired,
+                LinkClass::Clean => {}
             }
         }
     }
-    state
+    worst
 }
 
 /// The spans `(from_s, to_s, state)` of the timeline over `[0, t_end]` whose links are not
 /// clean; the state can change only at a rule's or a failure's time.
-pub fn spans(tl: &netem::Timeline, ids: &[u32], t_end: f64) -> Vec<(f64, f64, Links)> {
+pub fn spans(tl: &netem::Timeline, ids: &[u32], t_end: f64) -> Vec<(f64, f64, LinkClass)> {
     let mut times: Vec<f64> = tl.rules().iter().map(|r| r.at_s).chain(tl.failures().iter().map(|f| f.at_s)).filter(|t| *t < t_end).collect();
     times.push(0.0);
     times.sort_by(f64::total_cmp);
     times.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
     let ends = times.iter().skip(1).copied().chain([t_end]);
-    times.iter().zip(ends).map(|(&a, b)| (a, b, links_at(tl, a.max(0.0), ids))).filter(|s| s.2 != Links::Clean).collect()
+    times.iter().zip(ends).map(|(&a, b)| (a, b, links_at(tl, a.max(0.0), ids))).filter(|s| s.2 != LinkClass::Clean).collect()
 }
 
 /// A series as steps: each value holds until the next sample.
@@ -80,7 +70,7 @@ impl Figure for ConnectivityFigure<'_> {
         let mut chart = time_chart(&area, "connected components of the estimate graph", "count", t_end, y_hi)?;
         let ids: Vec<u32> = if run.uavs > 0 { (1..=run.uavs).collect() } else { run.tracks.keys().copied().collect() };
         let spans = spans(&run.timeline, &ids, t_end);
-        for (kind, c, label) in [(Links::Cut, CUT, "links cut"), (Links::Impaired, IMPAIRED, "links impaired")] {
+        for (kind, c, label) in [(LinkClass::Cut, CUT, "links cut"), (LinkClass::Impaired, IMPAIRED, "links impaired")] {
             let boxes = spans.iter().filter(|s| s.2 == kind).map(|s| Rectangle::new([(s.0, 0.0), (s.1, y_hi)], c.mix(0.18).filled()));
             let drawn = chart.draw_series(boxes.collect::<Vec<_>>())?;
             if spans.iter().any(|s| s.2 == kind) {
@@ -120,7 +110,7 @@ mod tests {
             "[[netem]]\nat_s = 1.0\nfrom = [2]\nrule = { delay_s = 0.1 }\n\n[[netem]]\nat_s = 2.0\npartition = { scheme = \"halves\", nodes = [1, 2] }\n\n[[netem]]\nat_s = 3.0\npartition = { scheme = \"healed\" }\n\n[[failures]]\nat_s = 5.0\nuav = 1\nkind = \"freeze\"\n",
         );
         let s = spans(&tl, &[1, 2], 6.0);
-        assert_eq!(s, vec![(1.0, 2.0, Links::Impaired), (2.0, 3.0, Links::Cut), (3.0, 5.0, Links::Impaired), (5.0, 6.0, Links::Cut)]);
+        assert_eq!(s, vec![(1.0, 2.0, LinkClass::Impaired), (2.0, 3.0, LinkClass::Cut), (3.0, 5.0, LinkClass::Impaired), (5.0, 6.0, LinkClass::Cut)]);
         assert!(spans(&netem::Timeline::default(), &[1, 2], 6.0).is_empty(), "no timeline, nothing shaded");
         assert_eq!(spans(&tl, &[1], 6.0), vec![], "one UAV has no links");
     }

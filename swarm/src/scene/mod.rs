@@ -225,16 +225,10 @@ impl Scene {
         let ns = shapes::log_time_ns(st.t_secs);
         let (update, error) = self.estimates(st);
         u.estimates.log_with_time(&update, ns);
-        let v = &st.vectors;
-        let numbers = serde_json::json!({
-            "t_s": st.t_secs,
-            "step_time_ms": f64::from(st.step_time_us) / 1000.0,
-            "neighbours": st.neighbours.len(),
-            "in_radio_range": st.in_radio_range,
-            "cohesion": v.cohesion, "separation": v.separation, "avoidance": v.avoidance,
-            "navigation": v.navigation, "output": v.output,
-            "localization_error_m": error,
-        });
+        let mut fields = numbers(st);
+        fields.insert("t_s".into(), st.t_secs.into());
+        fields.insert("localization_error_m".into(), error.into());
+        let numbers = serde_json::Value::Object(fields);
         u.numbers.log_with_meta(numbers.to_string().as_bytes(), PartialMetadata::with_log_time(ns));
     }
 
@@ -243,10 +237,7 @@ impl Scene {
     fn estimates(&self, st: &AgentState) -> (SceneUpdate, Option<f64>) {
         let mut e = shapes::entity(format!("estimates{}", st.id), st.t_secs);
         let Some(me) = self.bodies.get(&st.id) else { return (SceneUpdate { entities: vec![e], ..Default::default() }, None) };
-        let (sin, cos) = me.yaw.sin_cos();
-        // Body to world: p_w = p_me + R(yaw) p_b.
-        let world = |x: f32, y: f32| [me.x + cos * f64::from(x) - sin * f64::from(y), me.y + sin * f64::from(x) + cos * f64::from(y)];
-        let points: Vec<[f64; 2]> = st.neighbours.iter().map(|n| world(n.x, n.y)).collect();
+        let points = estimates_in_world([me.x, me.y, me.yaw], st);
         let grey = shapes::rgb(0.5, 0.5, 0.5);
         let mut segs = Vec::new();
         let mut errors = Vec::new();
@@ -265,16 +256,9 @@ impl Scene {
     /// The radio links of the latest radio sets, each coloured by the worse netem class of its
     /// two directions at `t`.
     fn radio_graph(&self, t: f64) {
-        let mut segs = Vec::new();
-        let mut ends = Vec::new();
-        for (&i, ids) in &self.radio {
-            for &j in ids.iter().filter(|&&j| j > i) {
-                let (Some(a), Some(b)) = (self.bodies.get(&i), self.bodies.get(&j)) else { continue };
-                let class = link_class(&self.timeline, t, i, j);
-                segs.push(([a.x, a.y], [b.x, b.y], class_color(class)));
-                ends.extend([i.to_string(), j.to_string()]);
-            }
-        }
+        let links = radio_links(&self.radio, &self.timeline, t, |id| self.bodies.get(&id).map(|b| [b.x, b.y]));
+        let segs: Vec<_> = links.iter().map(|l| (l.ends[0], l.ends[1], class_color(l.class))).collect();
+        let ends: Vec<String> = links.iter().flat_map(|l| l.ids).map(|id| id.to_string()).collect();
         let mut e = shapes::entity("radio".into(), t);
         e.lines = vec![shapes::segments(&segs, 0.04)];
         // The UAV ids at the segments' ends, in order (for `swarm replay`'s page).
@@ -317,6 +301,53 @@ impl Scene {
             log(Level::Warning, format!("failure at {:.2} s: {}", f.at_s, serde_json::to_string(f).unwrap_or_default()));
         }
     }
+}
+
+/// The estimates of `st` in the world, placed by the agent's pose `[x, y, yaw]` (truth): what the
+/// scene and the page's board both draw.
+pub(crate) fn estimates_in_world(pose: [f64; 3], st: &AgentState) -> Vec<[f64; 2]> {
+    let [x, y, yaw] = pose;
+    let (sin, cos) = yaw.sin_cos();
+    // Body to world: p_w = p_me + R(yaw) p_b.
+    st.neighbours.iter().map(|n| [x + cos * f64::from(n.x) - sin * f64::from(n.y), y + sin * f64::from(n.x) + cos * f64::from(n.y)]).collect()
+}
+
+/// One radio link to draw: its ends' ids (`ids[0] < ids[1]`), their positions [m, world] and the
+/// worse netem class of its two directions.
+pub(crate) struct RadioLink {
+    pub ids: [u32; 2],
+    pub ends: [[f64; 2]; 2],
+    pub class: netem::LinkClass,
+}
+
+/// The links of the latest radio sets (`radio`: each UAV's ids in range) between UAVs whose
+/// position `at` knows, each once, classed by `timeline` at `t`.
+pub(crate) fn radio_links(radio: &BTreeMap<u32, Vec<u32>>, timeline: &netem::Timeline, t: f64, at: impl Fn(u32) -> Option<[f64; 2]>) -> Vec<RadioLink> {
+    let mut links = Vec::new();
+    for (&i, ids) in radio {
+        for &j in ids.iter().filter(|&&j| j > i) {
+            let (Some(a), Some(b)) = (at(i), at(j)) else { continue };
+            links.push(RadioLink { ids: [i, j], ends: [a, b], class: link_class(timeline, t, i, j) });
+        }
+    }
+    links
+}
+
+/// An agent's numbers (step time, neighbours, K21 vectors) as JSON fields: `/uav/{id}/numbers`
+/// adds its time and localization error, the page's board shows them as they are.
+pub(crate) fn numbers(st: &AgentState) -> serde_json::Map<String, serde_json::Value> {
+    let v = &st.vectors;
+    let fields: [(&str, serde_json::Value); 8] = [
+        ("step_time_ms", (f64::from(st.step_time_us) / 1000.0).into()),
+        ("neighbours", st.neighbours.len().into()),
+        ("in_radio_range", st.in_radio_range.into()),
+        ("cohesion", v.cohesion.into()),
+        ("separation", v.separation.into()),
+        ("avoidance", v.avoidance.into()),
+        ("navigation", v.navigation.into()),
+        ("output", v.output.into()),
+    ];
+    fields.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
 }
 
 /// The worse netem class of the link between `i` and `j` at `t` (both directions).

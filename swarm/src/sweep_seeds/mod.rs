@@ -11,8 +11,8 @@
 //! `swarm scale` fly theirs): a full `swarm run` in `<out>/seed-NNN`, whose `summary.json` stays
 //! there. The sweep is resumable: a seed whose `summary.json` already exists is read back, not
 //! flown again, so an interrupted sweep is finished by running the same command. Runs go
-//! `--jobs` at a time (default: one per core) on this process's runtime, under an indicatif
-//! progress bar.
+//! `--jobs` at a time (default: one per core) on this process's runtime (`study::run_bounded`,
+//! which `swarm fuzz` shares), under an indicatif progress bar.
 //!
 //! Writes `sweep.md` (the table), `sweep.json` (per-seed values and the statistics) and
 //! `sweep.svg` / `sweep.png` (each metric's distribution over seeds: [`chart`]). In lockstep the
@@ -20,16 +20,13 @@
 //! runs share the machine.
 
 use crate::args::scenario_value;
-use crate::study::{run_variant, VariantRun};
+use crate::study::{run_bounded, run_variant, VariantRun};
 use crate::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::future::Future;
-use std::pin::Pin;
-use std::task::Poll;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use swarm_config::{LocalizationMode, Scenario};
@@ -306,32 +303,13 @@ async fn fly(
     pb: &ProgressBar,
     runs: &mut Vec<(u64, Summary)>,
 ) -> Vec<(u64, anyhow::Error)> {
-    // A run's future is not `Send` (the recorder's tick callback) and blocks in place now and
-    // then, so the runs are not spawned: this task polls up to `jobs` of them together. What they
-    // wait on is their child processes, which fly in parallel.
-    type RunFuture<'a> = Pin<Box<dyn Future<Output = (u64, Result<Summary>)> + 'a>>;
-    let mut queue = todo.into_iter();
-    let mut running: Vec<RunFuture<'_>> = Vec::new();
     let mut failed = Vec::new();
-    loop {
-        while running.len() < jobs {
-            let Some(seed) = queue.next() else { break };
-            let mut sc = base.clone();
-            sc.seed = seed;
-            running.push(Box::pin(async move { (seed, run_variant(&sc, out, &tag(seed), VariantRun::default()).await) }));
-        }
-        if running.is_empty() {
-            break;
-        }
-        let (i, (seed, result)) = std::future::poll_fn(|cx| {
-            running.iter_mut().enumerate().find_map(|(i, f)| match f.as_mut().poll(cx) {
-                Poll::Ready(v) => Some(Poll::Ready((i, v))),
-                Poll::Pending => None,
-            })
-            .unwrap_or(Poll::Pending)
-        })
-        .await;
-        drop(running.swap_remove(i));
+    let start = |seed: u64| {
+        let mut sc = base.clone();
+        sc.seed = seed;
+        async move { (seed, run_variant(&sc, out, &tag(seed), VariantRun::default()).await) }
+    };
+    run_bounded(todo, jobs, start, |(seed, result)| {
         match result {
             Ok(s) => {
                 pb.set_message(format!("seed {seed}: {}", if succeeded(&s) { "success" } else { "no success" }));
@@ -340,7 +318,8 @@ async fn fly(
             Err(e) => failed.push((seed, e)),
         }
         pb.inc(1);
-    }
+    })
+    .await;
     failed
 }
 

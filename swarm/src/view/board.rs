@@ -2,15 +2,17 @@
 //! the radio graph, the estimates, the collisions and failures so far, and each agent's numbers.
 //! Pure: fed message by message like the recorder, tested without a network.
 
+use crate::scene;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use swarm_wire::msg::{AgentState, CollisionEvent, RadioSet, TruthStep, TruthWorld};
 
 /// The page's view of the run.
 #[derive(Default)]
 pub struct Board {
     world: Option<Value>,
-    step: Option<TruthStep>,
+    step: Option<Arc<TruthStep>>,
     radio: BTreeMap<u32, Vec<u32>>,
     timeline: netem::Timeline,
     states: BTreeMap<u32, AgentState>,
@@ -47,13 +49,13 @@ impl Board {
         self.radio.insert(r.id, r.in_range.clone());
     }
 
-    /// One agent state.
-    pub fn on_state(&mut self, st: &AgentState) {
-        self.states.insert(st.id, st.clone());
+    /// One agent state (kept as the UAV's latest).
+    pub fn on_state(&mut self, st: AgentState) {
+        self.states.insert(st.id, st);
     }
 
-    /// One truth step.
-    pub fn on_step(&mut self, s: TruthStep) {
+    /// One truth step (shared with the scan store).
+    pub fn on_step(&mut self, s: Arc<TruthStep>) {
         self.collisions.extend(s.collisions.iter().copied());
         for b in s.bodies.iter().filter(|b| !b.alive) {
             self.lost.entry(b.id).or_insert(s.t_secs);
@@ -75,33 +77,16 @@ impl Board {
             .map(|b| json!({"id": b.id, "x": b.x, "y": b.y, "yaw": b.yaw, "alive": b.alive, "colliding": b.colliding}))
             .collect();
         let pos: BTreeMap<u32, [f64; 3]> = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
-        let mut links = Vec::new();
-        for (&i, ids) in &self.radio {
-            for &j in ids.iter().filter(|&&j| j > i && pos.contains_key(&j)) {
-                if pos.contains_key(&i) {
-                    links.push(json!([i, j, crate::scene::link_class(&self.timeline, s.t_secs, i, j).name()]));
-                }
-            }
-        }
+        let links: Vec<Value> = scene::radio_links(&self.radio, &self.timeline, s.t_secs, |id| pos.get(&id).map(|p| [p[0], p[1]]))
+            .into_iter()
+            .map(|l| json!([l.ids[0], l.ids[1], l.class.name()]))
+            .collect();
         let mut estimates = BTreeMap::new();
         let mut numbers = BTreeMap::new();
         for (id, st) in &self.states {
-            let Some(&[x, y, yaw]) = pos.get(id) else { continue };
-            let (sin, cos) = yaw.sin_cos();
-            // Body to world: p_w = p_me + R(yaw) p_b.
-            let est: Vec<[f64; 2]> = st
-                .neighbours
-                .iter()
-                .map(|n| [x + cos * f64::from(n.x) - sin * f64::from(n.y), y + sin * f64::from(n.x) + cos * f64::from(n.y)])
-                .collect();
-            estimates.insert(id.to_string(), est);
-            let v = &st.vectors;
-            numbers.insert(
-                id.to_string(),
-                json!({"step_time_ms": f64::from(st.step_time_us) / 1000.0, "neighbours": st.neighbours.len(),
-                       "in_radio_range": st.in_radio_range, "cohesion": v.cohesion, "separation": v.separation,
-                       "avoidance": v.avoidance, "navigation": v.navigation, "output": v.output}),
-            );
+            let Some(&pose) = pos.get(id) else { continue };
+            estimates.insert(id.to_string(), scene::estimates_in_world(pose, st));
+            numbers.insert(id.to_string(), scene::numbers(st));
         }
         let speed = if s.wall_secs > 0.0 { Some(s.t_secs / s.wall_secs) } else { None };
         Some(json!({
@@ -129,8 +114,8 @@ mod tests {
         assert!(b.frame().is_none());
         b.on_radio(&RadioSet { tick: 1, id: 1, in_range: vec![2], loss: vec![] });
         let step = |tick, alive| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(1, 1.0, true), body(2, 2.0, alive)], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.01, timing: Box::default() };
-        b.on_step(step(1, true));
-        b.on_step(step(2, false));
+        b.on_step(Arc::new(step(1, true)));
+        b.on_step(Arc::new(step(2, false)));
         let f = b.frame().expect("frame");
         assert_eq!(f["tick"], 2);
         assert_eq!(f["uavs"][1]["x"], 2.0);

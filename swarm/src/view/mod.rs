@@ -164,7 +164,7 @@ impl Live {
                 Ok(s) = states.recv_async() => {
                     if let Ok(Msg::State(st)) = Msg::decode(&plumbing::payload(&s)) {
                         self.shown.scene.on_state(&st);
-                        self.shown.board.on_state(&st);
+                        self.shown.board.on_state(*st);
                     }
                 }
                 Ok(s) = scans.recv_async() => {
@@ -205,8 +205,9 @@ impl Shown {
     fn truth(&mut self, b: &[u8]) {
         match Msg::decode(b) {
             Ok(Msg::TruthStep(s)) => {
+                let s = Arc::new(s);
                 self.scene.on_step(&s);
-                self.scans.on_step(&s);
+                self.scans.on_step(s.clone());
                 self.board.on_step(s);
             }
             Ok(Msg::TruthWorld(w)) => {

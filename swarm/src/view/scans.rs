@@ -6,10 +6,10 @@
 
 use serde_json::json;
 use std::collections::{BTreeMap, VecDeque};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use swarm_wire::msg::{Scan, TruthStep};
 
-/// How many ticks of truth poses a live view keeps to pair scans with.
+/// How many ticks of truth steps a live view keeps to pair scans with.
 const POSE_TICKS: usize = 32;
 
 /// One UAV's scan placed in the world.
@@ -74,8 +74,9 @@ pub trait ScanSource: Send + Sync {
     fn scan(&self, id: u32) -> Option<ScanPicture>;
 }
 
-/// A live view's latest scan per UAV and the truth poses of the last ticks, shared between the
-/// view's loop (writer) and the page's server (reader).
+/// A live view's latest scan per UAV and the truth steps of the last ticks, shared between the
+/// view's loop (writer) and the page's server (reader). The steps are kept as they came (shared,
+/// not copied): a pose is looked up only when the page asks for a scan.
 #[derive(Default)]
 pub struct LiveScans {
     book: Mutex<Book>,
@@ -83,7 +84,7 @@ pub struct LiveScans {
 
 #[derive(Default)]
 struct Book {
-    poses: VecDeque<(u64, BTreeMap<u32, [f64; 3]>)>,
+    steps: VecDeque<Arc<TruthStep>>,
     scans: BTreeMap<u32, Scan>,
 }
 
@@ -93,12 +94,11 @@ impl LiveScans {
     }
 
     /// One truth step: its poses, for the scans of its tick.
-    pub fn on_step(&self, s: &TruthStep) {
-        let poses = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
+    pub fn on_step(&self, s: Arc<TruthStep>) {
         let mut book = self.book();
-        book.poses.push_back((s.tick, poses));
-        while book.poses.len() > POSE_TICKS {
-            book.poses.pop_front();
+        book.steps.push_back(s);
+        while book.steps.len() > POSE_TICKS {
+            book.steps.pop_front();
         }
     }
 
@@ -112,8 +112,9 @@ impl ScanSource for LiveScans {
     fn scan(&self, id: u32) -> Option<ScanPicture> {
         let book = self.book();
         let s = book.scans.get(&id)?;
-        let pose = book.poses.iter().rev().find(|(tick, _)| *tick == s.tick)?.1.get(&id)?;
-        Some(ScanPicture::of_wire(id, s, *pose))
+        let step = book.steps.iter().rev().find(|step| step.tick == s.tick)?;
+        let b = step.bodies.iter().find(|b| b.id == id)?;
+        Some(ScanPicture::of_wire(id, s, [b.x, b.y, b.yaw]))
     }
 }
 
@@ -130,8 +131,8 @@ mod tests {
         let scan = Scan { tick: 5, t_secs: 0.5, angle_min: 0.0, angle_increment: std::f32::consts::FRAC_PI_2, max_range_m: 9.0, ranges_m: vec![2.0, f32::INFINITY, 3.0] };
         scans.on_scan(2, scan.clone());
         assert!(scans.scan(2).is_none(), "no pose of tick 5 yet");
-        scans.on_step(&step(5));
-        scans.on_step(&step(6));
+        scans.on_step(Arc::new(step(5)));
+        scans.on_step(Arc::new(step(6)));
         let p = scans.scan(2).expect("scan of tick 5");
         assert_eq!(p.pose, [5.0, 1.0, std::f64::consts::FRAC_PI_2]);
         // Beam 0 points along the heading (+y), beam 2 at +pi from it (-y); beam 1 has no return.
