@@ -28,7 +28,7 @@
 use crate::agent::{Agent, LinkReport, StepOutput};
 use crate::localization::Share;
 use crate::sensing::FrameCollector;
-use crate::shared::{Listening, SessionShared};
+use crate::shared::{Arrived, Listening, SessionShared};
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
@@ -145,8 +145,8 @@ type Publisher = zenoh::pubsub::Publisher<'static>;
 enum Incoming {
     /// A sensor or radio message (`None`: malformed).
     Sense(Option<Msg>),
-    /// A neighbour's share: sender id and raw payload.
-    Share(u32, Vec<u8>),
+    /// A neighbour's share, decoded once by the session's feed.
+    Share(Arrived),
 }
 
 /// The subscriptions a node holds for its whole life (dropping one undeclares it).
@@ -175,9 +175,11 @@ struct Node {
     /// Assembles each tick's sensor frame from the sensor messages.
     sensors: FrameCollector,
     link: netem::Link,
-    inbox: netem::Inbox<Share>,
+    /// Shares are shared with the other listeners of the session (decoded once, see
+    /// [`crate::shared`]) until one is delivered to the agent.
+    inbox: netem::Inbox<Arc<Share>>,
     /// Shares sent at a tick this agent has not stepped yet, in arrival order, with their size.
-    early: Vec<(Share, usize)>,
+    early: Vec<(Arc<Share>, usize)>,
     /// The netem timeline in force (the scenario's, then the hub's), applied to every share this
     /// agent receives.
     netem_rules: netem::Timeline,
@@ -226,7 +228,8 @@ async fn declare_inputs(
     id: u32,
     tx: &mpsc::UnboundedSender<Incoming>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
-    let decode = |sample: &zenoh::sample::Sample| Some(Incoming::Sense(Msg::decode(&plumbing::payload(sample)).ok()));
+    // Decoded from the payload in place when it is contiguous (no copy of each scan).
+    let decode = |sample: &zenoh::sample::Sample| Some(Incoming::Sense(Msg::decode(&sample.payload().to_bytes()).ok()));
     let mut sense_subs = Vec::with_capacity(4);
     for key in [keys.scan(id), keys.odom(id), keys.gnss(id), keys.uvdar(id)] {
         sense_subs.push(subscribe_declared(s, key, tx.clone(), decode).await?);
@@ -305,7 +308,7 @@ impl Node {
                 m = self.rx.recv() => match m {
                     Some(Incoming::Sense(Some(msg))) => self.on_sense(msg).await?,
                     Some(Incoming::Sense(None)) => { self.malformed += 1; debug!("dropped malformed sensor message"); }
-                    Some(Incoming::Share(from, bytes)) => self.on_share(from, &bytes),
+                    Some(Incoming::Share(arrived)) => self.on_share(arrived),
                     None => return Ok(AgentExit::Stopped),
                 },
                 changed = self.hub_alive.changed() => {
@@ -344,19 +347,17 @@ impl Node {
     /// A share message arrived from `from`. One sent at a tick this agent has not stepped yet
     /// waits in `early` for the hub's next message (see [`Node::admit_early`]); the others are
     /// admitted now.
-    fn on_share(&mut self, from: u32, bytes: &[u8]) {
-        let share = match Msg::decode(bytes).map(|m| Share::from_msg(m, from)) {
-            Ok(Ok(share)) => share,
-            other => {
-                self.malformed += 1;
-                debug!(from, ?other, "dropped malformed share");
-                return;
-            }
+    fn on_share(&mut self, arrived: Arrived) {
+        let Arrived { from, share, len } = arrived;
+        let Some(share) = share else {
+            self.malformed += 1;
+            debug!(from, len, "dropped malformed share");
+            return;
         };
         if self.last_tick.is_none_or(|last| share.tick() > last) {
-            self.early.push((share, bytes.len()));
+            self.early.push((share, len));
         } else {
-            self.admit(share, bytes.len());
+            self.admit(share, len);
         }
     }
 
@@ -380,7 +381,7 @@ impl Node {
 
     /// Counts a share, keeps it only inside the neighbour's window, lets the link decide, holds
     /// it in the inbox.
-    fn admit(&mut self, share: Share, len: usize) {
+    fn admit(&mut self, share: Arc<Share>, len: usize) {
         let from = share.from();
         if self.windows.get(&from).is_none_or(|&first| share.tick() < first) {
             trace!(from, tick = share.tick(), "share outside the neighbour's window");
@@ -407,7 +408,7 @@ impl Node {
         }
         // One rule lookup per sender that has held messages.
         let (rules, me) = (&self.netem_rules, self.id);
-        let senders: std::collections::BTreeSet<u32> = self.inbox.held().map(Share::from).collect();
+        let senders: std::collections::BTreeSet<u32> = self.inbox.held().map(|m| m.from()).collect();
         let open: Vec<u32> = senders.into_iter().filter(|&from| !rules.rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
         let mut released = Vec::new();
         self.inbox.release(now, |m| {
@@ -471,7 +472,8 @@ impl Node {
         let due = self.inbox.take_due(now);
         self.link.on_delivered(due.len());
         for share in due {
-            self.agent.on_share(share);
+            // The last holder takes it; the others copy it (the localizer keeps what it needs).
+            self.agent.on_share(Arc::unwrap_or_clone(share));
         }
     }
 
@@ -526,8 +528,8 @@ impl Node {
             }
             let tx = self.tx.clone();
             // None: the mode has no communication at all, nobody to listen to.
-            let Some(listening) = self.shared.feed.listen(id, self.id, move |from, bytes| {
-                let _ = tx.send(Incoming::Share(from, bytes));
+            let Some(listening) = self.shared.feed.listen(id, self.id, move |arrived| {
+                let _ = tx.send(Incoming::Share(arrived));
             }) else {
                 continue;
             };
