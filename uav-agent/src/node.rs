@@ -9,10 +9,11 @@
 //!   through declared key expressions ([`subscribe_declared`]), so an agent host's session hands
 //!   each sensor message to its subscriber without testing every subscriber of the session. The
 //!   shares come from the session's one subscription to every UAV's share key
-//!   ([`crate::shared`]), which hands each to the agents of the session listening to its
-//!   sender.
-//! - Determinism in lockstep: all subscriptions feed one channel, so messages are handled in
-//!   wire order; and a neighbour's share counts only if it was sent inside the neighbour's
+//!   ([`crate::shared`]), which decodes each once and posts it to the mailboxes of the agents
+//!   of the session listening to its sender, without waking them.
+//! - Determinism in lockstep: the node's own subscriptions feed one channel, so hub messages are
+//!   handled in wire order, and the shares posted meanwhile are taken, in arrival order, when the
+//!   next hub message is handled ([`Node::take_shares`]); and a neighbour's share counts only if it was sent inside the neighbour's
 //!   window: from the tick after its subscription was declared (every later share is sure to be
 //!   routed to us, since the declaration reached the router before our command did) to the tick
 //!   before it left radio range. Which shares arrive no longer depends on timing. A share sent at
@@ -28,7 +29,7 @@
 use crate::agent::{Agent, LinkReport, StepOutput};
 use crate::localization::Share;
 use crate::sensing::FrameCollector;
-use crate::shared::{Arrived, Listening, SessionShared};
+use crate::shared::{Arrived, Listening, Mailbox, SessionShared};
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
@@ -141,13 +142,9 @@ pub(crate) async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -
 
 type Publisher = zenoh::pubsub::Publisher<'static>;
 
-/// Everything the subscriptions deliver, in one channel so wire order is kept.
-enum Incoming {
-    /// A sensor or radio message (`None`: malformed).
-    Sense(Option<Msg>),
-    /// A neighbour's share, decoded once by the session's feed.
-    Share(Arrived),
-}
+/// What the node's own subscriptions deliver, in one channel so wire order is kept: a sensor,
+/// radio or netem-rules message (`None`: malformed). Shares come through the [`Mailbox`].
+type Incoming = Option<Msg>;
 
 /// The subscriptions a node holds for its whole life (dropping one undeclares it).
 struct Inputs {
@@ -184,8 +181,13 @@ struct Node {
     /// agent receives.
     netem_rules: netem::Timeline,
     malformed: u64,
-    tx: mpsc::UnboundedSender<Incoming>,
+    /// Kept so the channel stays open for the node's life.
+    _tx: mpsc::UnboundedSender<Incoming>,
     rx: mpsc::UnboundedReceiver<Incoming>,
+    /// Where the session's share feed leaves the shares of the neighbours listened to.
+    mailbox: Mailbox,
+    /// The mailbox's last contents, drained (kept to reuse the buffer).
+    posted: Vec<Arrived>,
     /// First tick whose share is accepted, per neighbour in radio range.
     windows: BTreeMap<u32, u64>,
     /// The radio's distance-dependent loss probability per neighbour in range.
@@ -229,7 +231,7 @@ async fn declare_inputs(
     tx: &mpsc::UnboundedSender<Incoming>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
     // Decoded from the payload in place when it is contiguous (no copy of each scan).
-    let decode = |sample: &zenoh::sample::Sample| Some(Incoming::Sense(Msg::decode(&sample.payload().to_bytes()).ok()));
+    let decode = |sample: &zenoh::sample::Sample| Some(Msg::decode(&sample.payload().to_bytes()).ok());
     let mut sense_subs = Vec::with_capacity(4);
     for key in [keys.scan(id), keys.odom(id), keys.gnss(id), keys.uvdar(id)] {
         sense_subs.push(subscribe_declared(s, key, tx.clone(), decode).await?);
@@ -272,8 +274,10 @@ impl Node {
             inbox: netem::Inbox::new(),
             early: Vec::new(),
             malformed: 0,
-            tx,
+            _tx: tx,
             rx,
+            mailbox: Mailbox::default(),
+            posted: Vec::new(),
             windows: BTreeMap::new(),
             radio_loss: BTreeMap::new(),
             hub_grace_s: 0.0,
@@ -306,9 +310,8 @@ impl Node {
         loop {
             tokio::select! {
                 m = self.rx.recv() => match m {
-                    Some(Incoming::Sense(Some(msg))) => self.on_sense(msg).await?,
-                    Some(Incoming::Sense(None)) => { self.malformed += 1; debug!("dropped malformed sensor message"); }
-                    Some(Incoming::Share(arrived)) => self.on_share(arrived),
+                    Some(Some(msg)) => self.on_sense(msg).await?,
+                    Some(None) => { self.malformed += 1; debug!("dropped malformed sensor message"); }
                     None => return Ok(AgentExit::Stopped),
                 },
                 changed = self.hub_alive.changed() => {
@@ -342,6 +345,23 @@ impl Node {
         if let Ok(b) = Msg::Cmd(cmd).encode() {
             let _ = self.publish.cmd.put(b).await;
         }
+    }
+
+    /// Handles the shares posted since the last look, in arrival order, as each had been handled
+    /// when it arrived. Taking them only when a hub message comes changes nothing the agent
+    /// sees: every share of tick k arrives before any hub message of tick k+1 (the sender's
+    /// share goes out before its command, which the hub awaits), so each is handled before the
+    /// radio set of tick k+1 moves the windows and before step k+1 takes what is due, as it was;
+    /// one taken before a message of tick k that it followed goes to `early` instead of being
+    /// admitted after step k, and is admitted at the first message of tick k+1, with the same
+    /// windows, radio loss and instant (see [`Node::admit_early`]).
+    fn take_shares(&mut self) {
+        let mut posted = std::mem::take(&mut self.posted);
+        self.mailbox.take_into(&mut posted);
+        for arrived in posted.drain(..) {
+            self.on_share(arrived);
+        }
+        self.posted = posted;
     }
 
     /// A share message arrived from `from`. One sent at a tick this agent has not stepped yet
@@ -424,6 +444,7 @@ impl Node {
     }
 
     async fn on_sense(&mut self, msg: Msg) -> Result<(), AgentError> {
+        self.take_shares();
         self.admit_early();
         match self.sensors.offer(msg) {
             None => {}
@@ -526,11 +547,8 @@ impl Node {
             if id == self.id || self.neighbour_subs.contains_key(&id) {
                 continue;
             }
-            let tx = self.tx.clone();
             // None: the mode has no communication at all, nobody to listen to.
-            let Some(listening) = self.shared.feed.listen(id, self.id, move |arrived| {
-                let _ = tx.send(Incoming::Share(arrived));
-            }) else {
+            let Some(listening) = self.shared.feed.listen(id, self.id, &self.mailbox) else {
                 continue;
             };
             debug!(neighbour = id, "listening");

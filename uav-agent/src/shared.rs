@@ -61,13 +61,30 @@ impl Arrived {
     }
 }
 
-/// Where a listening agent wants a share.
-type Deliver = Box<dyn Fn(Arrived) + Send + Sync>;
+/// Where the feed leaves an agent's shares, in arrival order, until the agent takes them.
+///
+/// Posting does not wake the agent: it needs its shares only when the hub's next message comes
+/// (see [`crate::node`]), and waking an agent task for each of its about 40 shares per tick
+/// cost a context switch each on a loaded host.
+#[derive(Clone, Default)]
+pub(crate) struct Mailbox(Arc<Mutex<Vec<Arrived>>>);
 
-/// Who listens to whom: per sender, the listening agents' ids and their delivery.
+impl Mailbox {
+    fn post(&self, arrived: Arrived) {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).push(arrived);
+    }
+
+    /// Moves what was posted into `out` (empty, its buffer is reused), in arrival order.
+    pub(crate) fn take_into(&self, out: &mut Vec<Arrived>) {
+        debug_assert!(out.is_empty(), "the last take was not drained");
+        std::mem::swap(&mut *self.0.lock().unwrap_or_else(PoisonError::into_inner), out);
+    }
+}
+
+/// Who listens to whom: per sender, the listening agents' ids and their mailboxes.
 #[derive(Default)]
 struct Listeners {
-    by_sender: HashMap<u32, Vec<(u32, Deliver)>>,
+    by_sender: HashMap<u32, Vec<(u32, Mailbox)>>,
 }
 
 /// The shares of every UAV, received once per session and handed to the agents that listen.
@@ -103,8 +120,8 @@ impl Listeners {
     fn deliver(&self, from: u32, bytes: &[u8]) {
         let Some(listening) = self.by_sender.get(&from).filter(|v| !v.is_empty()) else { return };
         let arrived = Arrived::decode(from, bytes);
-        for (_, deliver) in listening {
-            deliver(arrived.clone());
+        for (_, mailbox) in listening {
+            mailbox.post(arrived.clone());
         }
     }
 }
@@ -131,14 +148,14 @@ impl ShareFeed {
         Ok(ShareFeed { listeners, active: true, _sub: Some(sub) })
     }
 
-    /// Agent `me` listens to `from`'s shares from now on, until the returned guard is dropped;
-    /// `None` when the mode has no shares.
-    pub(crate) fn listen(&self, from: u32, me: u32, deliver: impl Fn(Arrived) + Send + Sync + 'static) -> Option<Listening> {
+    /// Agent `me` listens to `from`'s shares from now on, posted to `mailbox`, until the returned
+    /// guard is dropped; `None` when the mode has no shares.
+    pub(crate) fn listen(&self, from: u32, me: u32, mailbox: &Mailbox) -> Option<Listening> {
         if !self.active {
             return None;
         }
         let mut l = self.listeners.lock().unwrap_or_else(PoisonError::into_inner);
-        l.by_sender.entry(from).or_default().push((me, Box::new(deliver)));
+        l.by_sender.entry(from).or_default().push((me, mailbox.clone()));
         Some(Listening { listeners: self.listeners.clone(), from, me })
     }
 }
@@ -173,12 +190,18 @@ impl SessionShared {
 mod tests {
     use super::*;
 
+    /// What `mailbox` holds now, taken.
+    fn taken(mailbox: &Mailbox) -> Vec<Arrived> {
+        let mut out = Vec::new();
+        mailbox.take_into(&mut out);
+        out
+    }
+
     #[test]
     fn a_listener_gets_its_senders_shares_until_it_stops() {
         let feed = ShareFeed { listeners: Arc::default(), active: true, _sub: None };
-        let got = Arc::new(Mutex::new(Vec::new()));
-        let g = got.clone();
-        let listening = feed.listen(3, 1, move |a| g.lock().expect("lock").push(a));
+        let mailbox = Mailbox::default();
+        let listening = feed.listen(3, 1, &mailbox);
         let deliver = |from: u32| {
             let bytes = Msg::Pose(pose(from)).encode().expect("encode");
             feed.listeners.lock().expect("lock").deliver(from, &bytes);
@@ -187,35 +210,30 @@ mod tests {
         deliver(4);
         drop(listening);
         deliver(3);
-        let got = got.lock().expect("lock");
+        let got = taken(&mailbox);
         assert_eq!(got.len(), 1, "only sender 3's share, and only while listening");
         assert!(matches!(got[0].share.as_deref(), Some(Share::Pose(p)) if *p == pose(3)), "decoded: {:?}", got[0]);
+        assert!(taken(&mailbox).is_empty(), "taking empties the mailbox");
         assert!(feed.listeners.lock().expect("lock").by_sender.is_empty(), "the listener is gone");
         let off = ShareFeed { listeners: Arc::default(), active: false, _sub: None };
-        assert!(off.listen(3, 1, |_| {}).is_none(), "a mode without shares has no one to listen to");
+        assert!(off.listen(3, 1, &mailbox).is_none(), "a mode without shares has no one to listen to");
     }
 
     #[test]
     fn every_listener_gets_the_same_decoded_share_and_a_bad_one_as_malformed() {
         let feed = ShareFeed { listeners: Arc::default(), active: true, _sub: None };
-        let got = Arc::new(Mutex::new(Vec::new()));
-        let _l: Vec<Listening> = (1..=3)
-            .map(|me| {
-                let g = got.clone();
-                feed.listen(7, me, move |a| g.lock().expect("lock").push((me, a))).expect("listening")
-            })
-            .collect();
+        let mailboxes: Vec<Mailbox> = (0..3).map(|_| Mailbox::default()).collect();
+        let _l: Vec<Listening> = (1..=3).zip(&mailboxes).map(|(me, m)| feed.listen(7, me, m).expect("listening")).collect();
         let bytes = Msg::Pose(pose(7)).encode().expect("encode");
         feed.listeners.lock().expect("lock").deliver(7, &bytes);
         let lying = Msg::Pose(pose(8)).encode().expect("encode");
         feed.listeners.lock().expect("lock").deliver(7, &lying);
         feed.listeners.lock().expect("lock").deliver(7, &[0xff, 0xff]);
-        let got = got.lock().expect("lock");
-        let ids: Vec<u32> = got.iter().map(|(me, _)| *me).collect();
-        assert_eq!(ids, [1, 2, 3, 1, 2, 3, 1, 2, 3], "each listener, in the order they listened");
-        let first = got[0].1.share.clone().expect("a good share");
-        assert!(got[..3].iter().all(|(_, a)| a.share.as_ref().is_some_and(|s| Arc::ptr_eq(s, &first)) && a.len == bytes.len()), "one decode, shared");
-        assert!(got[3..].iter().all(|(_, a)| a.share.is_none() && a.from == 7), "a share whose sender is not its key's, or garbage, is malformed for each");
+        let got: Vec<Vec<Arrived>> = mailboxes.iter().map(taken).collect();
+        assert!(got.iter().all(|g| g.len() == 3), "each listener gets all three: {got:?}");
+        let first = got[0][0].share.clone().expect("a good share");
+        assert!(got.iter().all(|g| g[0].share.as_ref().is_some_and(|s| Arc::ptr_eq(s, &first)) && g[0].len == bytes.len()), "one decode, shared");
+        assert!(got.iter().all(|g| g[1..].iter().all(|a| a.share.is_none() && a.from == 7)), "a share whose sender is not its key's, or garbage, is malformed for each");
     }
 
     fn pose(from: u32) -> swarm_wire::PoseShare {
