@@ -9,10 +9,11 @@
 //!   through declared key expressions ([`subscribe_declared`]), so an agent host's session hands
 //!   each sensor message to its subscriber without testing every subscriber of the session. The
 //!   shares come from the session's one subscription to every UAV's share key
-//!   ([`crate::shared`]), which hands each to the agents of the session listening to its
-//!   sender.
-//! - Determinism in lockstep: all subscriptions feed one channel, so messages are handled in
-//!   wire order; and a neighbour's share counts only if it was sent inside the neighbour's
+//!   ([`crate::shared`]), which decodes each once and posts it to the mailboxes of the agents
+//!   of the session listening to its sender, without waking them.
+//! - Determinism in lockstep: the node's own subscriptions feed one channel, so hub messages are
+//!   handled in wire order, and the shares posted meanwhile are taken, in arrival order, when the
+//!   next hub message is handled ([`Node::take_shares`]); and a neighbour's share counts only if it was sent inside the neighbour's
 //!   window: from the tick after its subscription was declared (every later share is sure to be
 //!   routed to us, since the declaration reached the router before our command did) to the tick
 //!   before it left radio range. Which shares arrive no longer depends on timing. A share sent at
@@ -28,7 +29,7 @@
 use crate::agent::{Agent, LinkReport, StepOutput};
 use crate::localization::Share;
 use crate::sensing::FrameCollector;
-use crate::shared::{Listening, SessionShared};
+use crate::shared::{Arrived, Listening, Mailbox, SessionShared};
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
@@ -141,13 +142,9 @@ pub(crate) async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -
 
 type Publisher = zenoh::pubsub::Publisher<'static>;
 
-/// Everything the subscriptions deliver, in one channel so wire order is kept.
-enum Incoming {
-    /// A sensor or radio message (`None`: malformed).
-    Sense(Option<Msg>),
-    /// A neighbour's share: sender id and raw payload.
-    Share(u32, Vec<u8>),
-}
+/// What the node's own subscriptions deliver, in one channel so wire order is kept: a sensor,
+/// radio or netem-rules message (`None`: malformed). Shares come through the [`Mailbox`].
+type Incoming = Option<Msg>;
 
 /// The subscriptions a node holds for its whole life (dropping one undeclares it).
 struct Inputs {
@@ -175,15 +172,22 @@ struct Node {
     /// Assembles each tick's sensor frame from the sensor messages.
     sensors: FrameCollector,
     link: netem::Link,
-    inbox: netem::Inbox<Share>,
+    /// Shares are shared with the other listeners of the session (decoded once, see
+    /// [`crate::shared`]) until one is delivered to the agent.
+    inbox: netem::Inbox<Arc<Share>>,
     /// Shares sent at a tick this agent has not stepped yet, in arrival order, with their size.
-    early: Vec<(Share, usize)>,
+    early: Vec<(Arc<Share>, usize)>,
     /// The netem timeline in force (the scenario's, then the hub's), applied to every share this
     /// agent receives.
     netem_rules: netem::Timeline,
     malformed: u64,
-    tx: mpsc::UnboundedSender<Incoming>,
+    /// Kept so the channel stays open for the node's life.
+    _tx: mpsc::UnboundedSender<Incoming>,
     rx: mpsc::UnboundedReceiver<Incoming>,
+    /// Where the session's share feed leaves the shares of the neighbours listened to.
+    mailbox: Mailbox,
+    /// The mailbox's last contents, drained (kept to reuse the buffer).
+    posted: Vec<Arrived>,
     /// First tick whose share is accepted, per neighbour in radio range.
     windows: BTreeMap<u32, u64>,
     /// The radio's distance-dependent loss probability per neighbour in range.
@@ -226,7 +230,8 @@ async fn declare_inputs(
     id: u32,
     tx: &mpsc::UnboundedSender<Incoming>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
-    let decode = |sample: &zenoh::sample::Sample| Some(Incoming::Sense(Msg::decode(&plumbing::payload(sample)).ok()));
+    // Decoded from the payload in place when it is contiguous (no copy of each scan).
+    let decode = |sample: &zenoh::sample::Sample| Some(Msg::decode(&sample.payload().to_bytes()).ok());
     let mut sense_subs = Vec::with_capacity(4);
     for key in [keys.scan(id), keys.odom(id), keys.gnss(id), keys.uvdar(id)] {
         sense_subs.push(subscribe_declared(s, key, tx.clone(), decode).await?);
@@ -269,8 +274,10 @@ impl Node {
             inbox: netem::Inbox::new(),
             early: Vec::new(),
             malformed: 0,
-            tx,
+            _tx: tx,
             rx,
+            mailbox: Mailbox::default(),
+            posted: Vec::new(),
             windows: BTreeMap::new(),
             radio_loss: BTreeMap::new(),
             hub_grace_s: 0.0,
@@ -303,9 +310,8 @@ impl Node {
         loop {
             tokio::select! {
                 m = self.rx.recv() => match m {
-                    Some(Incoming::Sense(Some(msg))) => self.on_sense(msg).await?,
-                    Some(Incoming::Sense(None)) => { self.malformed += 1; debug!("dropped malformed sensor message"); }
-                    Some(Incoming::Share(from, bytes)) => self.on_share(from, &bytes),
+                    Some(Some(msg)) => self.on_sense(msg).await?,
+                    Some(None) => { self.malformed += 1; debug!("dropped malformed sensor message"); }
                     None => return Ok(AgentExit::Stopped),
                 },
                 changed = self.hub_alive.changed() => {
@@ -341,22 +347,37 @@ impl Node {
         }
     }
 
+    /// Handles the shares posted since the last look, in arrival order, as each had been handled
+    /// when it arrived. Taking them only when a hub message comes changes nothing the agent
+    /// sees: every share of tick k arrives before any hub message of tick k+1 (the sender's
+    /// share goes out before its command, which the hub awaits), so each is handled before the
+    /// radio set of tick k+1 moves the windows and before step k+1 takes what is due, as it was;
+    /// one taken before a message of tick k that it followed goes to `early` instead of being
+    /// admitted after step k, and is admitted at the first message of tick k+1, with the same
+    /// windows, radio loss and instant (see [`Node::admit_early`]).
+    fn take_shares(&mut self) {
+        let mut posted = std::mem::take(&mut self.posted);
+        self.mailbox.take_into(&mut posted);
+        for arrived in posted.drain(..) {
+            self.on_share(arrived);
+        }
+        self.posted = posted;
+    }
+
     /// A share message arrived from `from`. One sent at a tick this agent has not stepped yet
     /// waits in `early` for the hub's next message (see [`Node::admit_early`]); the others are
     /// admitted now.
-    fn on_share(&mut self, from: u32, bytes: &[u8]) {
-        let share = match Msg::decode(bytes).map(|m| Share::from_msg(m, from)) {
-            Ok(Ok(share)) => share,
-            other => {
-                self.malformed += 1;
-                debug!(from, ?other, "dropped malformed share");
-                return;
-            }
+    fn on_share(&mut self, arrived: Arrived) {
+        let Arrived { from, share, len } = arrived;
+        let Some(share) = share else {
+            self.malformed += 1;
+            debug!(from, len, "dropped malformed share");
+            return;
         };
         if self.last_tick.is_none_or(|last| share.tick() > last) {
-            self.early.push((share, bytes.len()));
+            self.early.push((share, len));
         } else {
-            self.admit(share, bytes.len());
+            self.admit(share, len);
         }
     }
 
@@ -380,7 +401,7 @@ impl Node {
 
     /// Counts a share, keeps it only inside the neighbour's window, lets the link decide, holds
     /// it in the inbox.
-    fn admit(&mut self, share: Share, len: usize) {
+    fn admit(&mut self, share: Arc<Share>, len: usize) {
         let from = share.from();
         if self.windows.get(&from).is_none_or(|&first| share.tick() < first) {
             trace!(from, tick = share.tick(), "share outside the neighbour's window");
@@ -407,7 +428,7 @@ impl Node {
         }
         // One rule lookup per sender that has held messages.
         let (rules, me) = (&self.netem_rules, self.id);
-        let senders: std::collections::BTreeSet<u32> = self.inbox.held().map(Share::from).collect();
+        let senders: std::collections::BTreeSet<u32> = self.inbox.held().map(|m| m.from()).collect();
         let open: Vec<u32> = senders.into_iter().filter(|&from| !rules.rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
         let mut released = Vec::new();
         self.inbox.release(now, |m| {
@@ -423,6 +444,7 @@ impl Node {
     }
 
     async fn on_sense(&mut self, msg: Msg) -> Result<(), AgentError> {
+        self.take_shares();
         self.admit_early();
         match self.sensors.offer(msg) {
             None => {}
@@ -471,7 +493,8 @@ impl Node {
         let due = self.inbox.take_due(now);
         self.link.on_delivered(due.len());
         for share in due {
-            self.agent.on_share(share);
+            // The last holder takes it; the others copy it (the localizer keeps what it needs).
+            self.agent.on_share(Arc::unwrap_or_clone(share));
         }
     }
 
@@ -524,11 +547,8 @@ impl Node {
             if id == self.id || self.neighbour_subs.contains_key(&id) {
                 continue;
             }
-            let tx = self.tx.clone();
             // None: the mode has no communication at all, nobody to listen to.
-            let Some(listening) = self.shared.feed.listen(id, self.id, move |from, bytes| {
-                let _ = tx.send(Incoming::Share(from, bytes));
-            }) else {
+            let Some(listening) = self.shared.feed.listen(id, self.id, &self.mailbox) else {
                 continue;
             };
             debug!(neighbour = id, "listening");

@@ -9,7 +9,11 @@
 //! agents. Here the session subscribes once to `uav/*/share/{pose|obstacles}` and declares every
 //! UAV's share key once, before any agent starts: the router then sends each share under the id
 //! the session declared, the session finds this one subscriber on that key's resource, and
-//! [`ShareFeed`] hands the payload to the agents that listen to its sender (a map lookup).
+//! [`ShareFeed`] hands the share to the agents that listen to its sender (a map lookup).
+//! It decodes each share once, and only when some agent of the session listens to its sender,
+//! and hands every listener the same [`Arc`]: no copy of the payload and no decode per listener
+//! (at 40 ICP UAVs a session took about 800 shares per tick, each once per listener). What the
+//! listener does with it is unchanged: its own netem link decides, with its own seeded draws.
 //! Shares still cross Zenoh: a share of an agent of the same host goes through the session's
 //! own routing, never through memory of this crate, and each agent keeps its own netem link and
 //! neighbour windows (see [`crate::node`]).
@@ -28,21 +32,59 @@
 //! neighbour can only send it after the hub had this agent's command of tick k), which is all
 //! the node's window accepts.
 
+use crate::localization::Share;
 use crate::node::AgentError;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
 use swarm_config::Scenario;
-use swarm_wire::plumbing::{self, Subscription};
-use swarm_wire::{Keys, WireError};
+use swarm_wire::plumbing::Subscription;
+use swarm_wire::{Keys, Msg, WireError};
 use zenoh::key_expr::KeyExpr;
 
-/// Where a listening agent wants a share: called with the sender's id and the raw payload.
-type Deliver = Box<dyn Fn(u32, Vec<u8>) + Send + Sync>;
+/// A share as the session received it, decoded once and handed to every agent listening to its
+/// sender.
+#[derive(Debug, Clone)]
+pub(crate) struct Arrived {
+    /// The sender's id (from the key).
+    pub(crate) from: u32,
+    /// The share, `None` when the payload was malformed (every listener counts it so).
+    pub(crate) share: Option<Arc<Share>>,
+    /// The payload's size on the wire [bytes], for the listener's link.
+    pub(crate) len: usize,
+}
 
-/// Who listens to whom: per sender, the listening agents' ids and their delivery.
+impl Arrived {
+    /// Decodes `bytes`, received on sender `from`'s share key.
+    fn decode(from: u32, bytes: &[u8]) -> Arrived {
+        let share = Msg::decode(bytes).ok().and_then(|m| Share::from_msg(m, from).ok()).map(Arc::new);
+        Arrived { from, share, len: bytes.len() }
+    }
+}
+
+/// Where the feed leaves an agent's shares, in arrival order, until the agent takes them.
+///
+/// Posting does not wake the agent: it needs its shares only when the hub's next message comes
+/// (see [`crate::node`]), and waking an agent task for each of its about 40 shares per tick
+/// cost a context switch each on a loaded host.
+#[derive(Clone, Default)]
+pub(crate) struct Mailbox(Arc<Mutex<Vec<Arrived>>>);
+
+impl Mailbox {
+    fn post(&self, arrived: Arrived) {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).push(arrived);
+    }
+
+    /// Moves what was posted into `out` (empty, its buffer is reused), in arrival order.
+    pub(crate) fn take_into(&self, out: &mut Vec<Arrived>) {
+        debug_assert!(out.is_empty(), "the last take was not drained");
+        std::mem::swap(&mut *self.0.lock().unwrap_or_else(PoisonError::into_inner), out);
+    }
+}
+
+/// Who listens to whom: per sender, the listening agents' ids and their mailboxes.
 #[derive(Default)]
 struct Listeners {
-    by_sender: HashMap<u32, Vec<(u32, Deliver)>>,
+    by_sender: HashMap<u32, Vec<(u32, Mailbox)>>,
 }
 
 /// The shares of every UAV, received once per session and handed to the agents that listen.
@@ -73,10 +115,13 @@ impl Drop for Listening {
 }
 
 impl Listeners {
-    /// Hands sender `from`'s share to every agent listening to it.
+    /// Hands sender `from`'s share to every agent listening to it, decoded once (not at all when
+    /// no one listens).
     fn deliver(&self, from: u32, bytes: &[u8]) {
-        for (_, deliver) in self.by_sender.get(&from).into_iter().flatten() {
-            deliver(from, bytes.to_vec());
+        let Some(listening) = self.by_sender.get(&from).filter(|v| !v.is_empty()) else { return };
+        let arrived = Arrived::decode(from, bytes);
+        for (_, mailbox) in listening {
+            mailbox.post(arrived.clone());
         }
     }
 }
@@ -94,7 +139,8 @@ impl ShareFeed {
             .declare_subscriber(any_key)
             .callback(move |sample| {
                 let Some(from) = keys.uav_id_of(sample.key_expr().as_str()) else { return };
-                let bytes = plumbing::payload(&sample);
+                // Borrowed when the payload is contiguous (one share is): no copy.
+                let bytes = sample.payload().to_bytes();
                 l.lock().unwrap_or_else(PoisonError::into_inner).deliver(from, &bytes);
             })
             .await
@@ -102,14 +148,14 @@ impl ShareFeed {
         Ok(ShareFeed { listeners, active: true, _sub: Some(sub) })
     }
 
-    /// Agent `me` listens to `from`'s shares from now on, until the returned guard is dropped;
-    /// `None` when the mode has no shares.
-    pub(crate) fn listen(&self, from: u32, me: u32, deliver: impl Fn(u32, Vec<u8>) + Send + Sync + 'static) -> Option<Listening> {
+    /// Agent `me` listens to `from`'s shares from now on, posted to `mailbox`, until the returned
+    /// guard is dropped; `None` when the mode has no shares.
+    pub(crate) fn listen(&self, from: u32, me: u32, mailbox: &Mailbox) -> Option<Listening> {
         if !self.active {
             return None;
         }
         let mut l = self.listeners.lock().unwrap_or_else(PoisonError::into_inner);
-        l.by_sender.entry(from).or_default().push((me, Box::new(deliver)));
+        l.by_sender.entry(from).or_default().push((me, mailbox.clone()));
         Some(Listening { listeners: self.listeners.clone(), from, me })
     }
 }
@@ -144,20 +190,53 @@ impl SessionShared {
 mod tests {
     use super::*;
 
+    /// What `mailbox` holds now, taken.
+    fn taken(mailbox: &Mailbox) -> Vec<Arrived> {
+        let mut out = Vec::new();
+        mailbox.take_into(&mut out);
+        out
+    }
+
     #[test]
     fn a_listener_gets_its_senders_shares_until_it_stops() {
         let feed = ShareFeed { listeners: Arc::default(), active: true, _sub: None };
-        let got = Arc::new(Mutex::new(Vec::new()));
-        let g = got.clone();
-        let listening = feed.listen(3, 1, move |from, b| g.lock().expect("lock").push((from, b)));
-        let deliver = |from: u32| feed.listeners.lock().expect("lock").deliver(from, &[from as u8]);
+        let mailbox = Mailbox::default();
+        let listening = feed.listen(3, 1, &mailbox);
+        let deliver = |from: u32| {
+            let bytes = Msg::Pose(pose(from)).encode().expect("encode");
+            feed.listeners.lock().expect("lock").deliver(from, &bytes);
+        };
         deliver(3);
         deliver(4);
         drop(listening);
         deliver(3);
-        assert_eq!(*got.lock().expect("lock"), vec![(3, vec![3])], "only sender 3's share, and only while listening");
+        let got = taken(&mailbox);
+        assert_eq!(got.len(), 1, "only sender 3's share, and only while listening");
+        assert!(matches!(got[0].share.as_deref(), Some(Share::Pose(p)) if *p == pose(3)), "decoded: {:?}", got[0]);
+        assert!(taken(&mailbox).is_empty(), "taking empties the mailbox");
         assert!(feed.listeners.lock().expect("lock").by_sender.is_empty(), "the listener is gone");
         let off = ShareFeed { listeners: Arc::default(), active: false, _sub: None };
-        assert!(off.listen(3, 1, |_, _| {}).is_none(), "a mode without shares has no one to listen to");
+        assert!(off.listen(3, 1, &mailbox).is_none(), "a mode without shares has no one to listen to");
+    }
+
+    #[test]
+    fn every_listener_gets_the_same_decoded_share_and_a_bad_one_as_malformed() {
+        let feed = ShareFeed { listeners: Arc::default(), active: true, _sub: None };
+        let mailboxes: Vec<Mailbox> = (0..3).map(|_| Mailbox::default()).collect();
+        let _l: Vec<Listening> = (1..=3).zip(&mailboxes).map(|(me, m)| feed.listen(7, me, m).expect("listening")).collect();
+        let bytes = Msg::Pose(pose(7)).encode().expect("encode");
+        feed.listeners.lock().expect("lock").deliver(7, &bytes);
+        let lying = Msg::Pose(pose(8)).encode().expect("encode");
+        feed.listeners.lock().expect("lock").deliver(7, &lying);
+        feed.listeners.lock().expect("lock").deliver(7, &[0xff, 0xff]);
+        let got: Vec<Vec<Arrived>> = mailboxes.iter().map(taken).collect();
+        assert!(got.iter().all(|g| g.len() == 3), "each listener gets all three: {got:?}");
+        let first = got[0][0].share.clone().expect("a good share");
+        assert!(got.iter().all(|g| g[0].share.as_ref().is_some_and(|s| Arc::ptr_eq(s, &first)) && g[0].len == bytes.len()), "one decode, shared");
+        assert!(got.iter().all(|g| g[1..].iter().all(|a| a.share.is_none() && a.from == 7)), "a share whose sender is not its key's, or garbage, is malformed for each");
+    }
+
+    fn pose(from: u32) -> swarm_wire::PoseShare {
+        swarm_wire::PoseShare { from, tick: 4, t_secs: 0.4, x: 1.0, y: 2.0, yaw: 0.3, vx: 0.1, vy: 0.0 }
     }
 }
