@@ -514,6 +514,72 @@ time_limit_s = 1.0
         Some(Cmd { tick: 0, kind: CmdKind::Velocity, x, y: 0.0, yaw_rate: 0.0 })
     }
 
+    /// A crowd large enough for the pipelined path (100 UAVs, chunks of [`CHUNK_UAVS`]).
+    fn crowd() -> Scenario {
+        Scenario::from_toml_str(
+            r#"
+name = "crowd"
+seed = 7
+[world]
+trees = [{ x = 5.0, y = 0.0, r = 0.5 }, { x = -4.0, y = 6.0, r = 0.4 }]
+[swarm]
+count = 100
+start_area = { center = [0.0, 0.0], radius_m = 24.0, min_spacing_m = 3.0 }
+goal = [60.0, 0.0]
+informed = "all"
+[localization]
+mode = "broadcast"
+[end]
+time_limit_s = 100.0
+"#,
+            "crowd.toml",
+        )
+        .expect("valid")
+    }
+
+    #[test]
+    fn pipelined_sensors_equal_one_uav_at_a_time_in_the_order_asked() {
+        let sc = crowd();
+        let mut ids: Vec<u32> = sc.uav_ids().collect();
+        ids.reverse();
+        ids.retain(|&id| id != 50);
+        assert!(ids.len() >= PARALLEL_FROM_UAVS, "large enough for the workers");
+        let (mut pipelined, mut alone) = (Sim::new(&sc), Sim::new(&sc));
+        for _ in 0..3 {
+            let mut order = Vec::new();
+            let got = pipelined.sensors_each(&ids, |id, s| (id, format!("{s:?}")), |id, (prepared_for, text)| {
+                order.push(id);
+                assert_eq!(prepared_for, id, "prepared and sunk for the same UAV");
+                assert_eq!(text, format!("{:?}", alone.sensors(id)), "UAV {id}");
+                Ok::<(), ()>(())
+            });
+            assert_eq!(got, Ok(()));
+            assert_eq!(order, ids, "sunk in the order asked, UAV 50 left out");
+            let cmds = vec![vel(0.4); 100];
+            pipelined.step(&cmds, &[true; 100], 0.0);
+            alone.step(&cmds, &[true; 100], 0.0);
+        }
+    }
+
+    #[test]
+    fn the_first_sink_error_stops_the_sinking() {
+        let sc = crowd();
+        let ids: Vec<u32> = sc.uav_ids().collect();
+        let mut sim = Sim::new(&sc);
+        let mut sunk = 0;
+        let got = sim.sensors_each(&ids, |_, s| s.scan.ranges_m.len(), |id, _| {
+            sunk += 1;
+            if id == 40 {
+                Err(id)
+            } else {
+                Ok(())
+            }
+        });
+        assert_eq!(got, Err(40));
+        assert_eq!(sunk, 40, "nothing after the error");
+        assert_eq!(sim.sensors_all(&ids).len(), 100, "the streams are back for the next tick");
+    }
+
     #[test]
     fn odometry_is_in_the_start_frame_and_goal_only_for_informed() {
         let mut sim = Sim::new(&scenario());

@@ -137,8 +137,13 @@ pub struct Metrics {
     tracks: BTreeMap<u32, Track>,
     /// Recent ground truth by tick, to score agents' estimates against.
     truth: BTreeMap<u64, TickTruth>,
-    /// States whose tick's truth has not arrived yet.
-    pending: Vec<AgentState>,
+    /// States whose tick's truth has not arrived yet, by tick, each with its arrival number: a
+    /// truth step takes the states of its tick and before without touching the later ones (a
+    /// recorder lagging behind the agents holds thousands; re-sorting them all at every step
+    /// made its catching up quadratic), and scores them in arrival order, as they came.
+    pending: BTreeMap<u64, Vec<(u64, AgentState)>>,
+    /// States held in `pending` so far (the next arrival number).
+    pending_arrivals: u64,
     /// Per tick: (sim time, for each agent that reported, the ids it has an estimate of).
     known: BTreeMap<u64, (f64, BTreeMap<u32, Vec<u32>>)>,
     /// Delay applied to each delivered copy, per link class [s].
@@ -344,9 +349,10 @@ impl Metrics {
         while self.truth.len() as u64 > TRUTH_KEPT {
             self.truth.pop_first();
         }
-        let (ready, waiting): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending).into_iter().partition(|st| st.tick <= s.tick);
-        self.pending = waiting;
-        for st in ready {
+        let later = self.pending.split_off(&s.tick.saturating_add(1));
+        let mut ready: Vec<(u64, AgentState)> = std::mem::replace(&mut self.pending, later).into_values().flatten().collect();
+        ready.sort_unstable_by_key(|&(arrival, _)| arrival);
+        for (_, st) in ready {
             self.score(&st);
         }
         self.last_step = Some(s.clone());
@@ -420,7 +426,8 @@ impl Metrics {
         if self.truth.contains_key(&st.tick) {
             self.score(&st);
         } else if self.last_step.as_ref().is_none_or(|s| st.tick > s.tick) {
-            self.pending.push(st.clone());
+            self.pending.entry(st.tick).or_default().push((self.pending_arrivals, st.clone()));
+            self.pending_arrivals += 1;
         }
         if let Some(a) = self.agents.get_mut(&st.id) {
             a.last_state = Some(st);
