@@ -55,6 +55,9 @@ const PARALLEL_FROM_UAVS: usize = 32;
 /// its scans.
 const CHUNK_UAVS: usize = 25;
 
+/// A chunk of a pipelined tick: its number, and its UAVs with their streams.
+type Chunk<'s, 'r> = (usize, &'s mut [(u32, &'r mut UavRngs)]);
+
 /// The whole simulated world.
 pub struct Sim {
     sc: Scenario,
@@ -221,7 +224,7 @@ impl Sim {
         prepare: &(impl Fn(u32, Sensors) -> T + Sync),
         sink: &mut impl FnMut(u32, T) -> Result<(), E>,
     ) -> Result<(), E> {
-        let mut per_worker: Vec<Vec<(usize, &mut [(u32, &mut UavRngs)])>> = (0..workers).map(|_| Vec::new()).collect();
+        let mut per_worker: Vec<Vec<Chunk<'_, '_>>> = (0..workers).map(|_| Vec::new()).collect();
         let chunks = jobs.len().div_ceil(CHUNK_UAVS);
         for (k, part) in jobs.chunks_mut(CHUNK_UAVS).enumerate() {
             per_worker[k % workers].push((k, part));
