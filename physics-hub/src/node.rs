@@ -13,7 +13,7 @@
 //! and answers `swarm/{run}/scenario` with the scenario text so agents elsewhere need no file.
 
 use crate::lateness::Lateness;
-use crate::sim::Sim;
+use crate::sim::{Sensors, Sim};
 use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -116,6 +116,27 @@ struct Net {
     ignored: Arc<AtomicU64>,
     netem_rules: Publisher,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
+}
+
+/// One UAV's sensor messages of a tick, encoded (on the worker thread that computed them).
+struct EncodedSensors {
+    radio: Vec<u8>,
+    odom: Vec<u8>,
+    gnss: Option<Vec<u8>>,
+    uvdar: Option<Vec<u8>>,
+    scan: Vec<u8>,
+}
+
+impl EncodedSensors {
+    fn of(s: Sensors) -> Result<EncodedSensors, WireError> {
+        Ok(EncodedSensors {
+            radio: Msg::Radio(s.radio).encode()?,
+            odom: Msg::Odom(s.odom).encode()?,
+            gnss: s.gnss.map(|g| Msg::Gnss(g).encode()).transpose()?,
+            uvdar: s.uvdar.map(|u| Msg::Uvdar(u).encode()).transpose()?,
+            scan: Msg::Scan(s.scan).encode()?,
+        })
+    }
 }
 
 async fn put(p: &Publisher, msg: &Msg) -> Result<(), WireError> {
@@ -377,8 +398,9 @@ impl Net {
             self.lateness.close(sim.tick(), integrate_from);
             let mut step = self.integrate(sc, sim, &got, started);
             *step.timing = self.lateness.take(sensors + integrate_from.elapsed());
-            self.publish_step(&step).await?;
-            if let Some(end) = step.ended {
+            let ended = step.ended;
+            self.publish_step(step).await?;
+            if let Some(end) = ended {
                 return self.report(sim, end);
             }
         }
@@ -446,22 +468,30 @@ impl Net {
         put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 
+    /// Step 1 of a tick: the clock, then every live UAV's sensors in id order. The sensors are
+    /// computed and encoded on worker threads while this thread publishes the UAVs already done
+    /// ([`Sim::sensors_each`]); the puts are synchronous, inside `block_in_place`, so the
+    /// runtime's other worker keeps taking commands meanwhile.
     async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>) -> Result<(), WireError> {
         put(&self.clock, &Msg::Clock(sim.clock())).await?;
         let ids: Vec<u32> = alive.iter().copied().filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.uavs.len())).collect();
-        for (id, s) in ids.iter().zip(sim.sensors_all(&ids)) {
-            let p = &self.uavs[(id - 1) as usize];
-            put(&p.radio, &Msg::Radio(s.radio)).await?;
-            put(&p.odom, &Msg::Odom(s.odom)).await?;
-            if let Some(g) = s.gnss {
-                put(&p.gnss, &Msg::Gnss(g)).await?;
-            }
-            if let Some(u) = s.uvdar {
-                put(&p.uvdar, &Msg::Uvdar(u)).await?;
-            }
-            put(&p.scan, &Msg::Scan(s.scan)).await?;
+        tokio::task::block_in_place(|| sim.sensors_each(&ids, |_, s| EncodedSensors::of(s), |id, e| self.put_sensors(id, e?)))
+    }
+
+    /// Publishes UAV `id`'s encoded sensors: radio set, odometry, GNSS, UVDAR, then the scan, so
+    /// an agent that has the scan has the rest.
+    fn put_sensors(&self, id: u32, e: EncodedSensors) -> Result<(), WireError> {
+        let p = &self.uavs[(id - 1) as usize];
+        let put = |publisher: &Publisher, bytes: Vec<u8>| publisher.put(bytes).wait().map_err(WireError::zenoh);
+        put(&p.radio, e.radio)?;
+        put(&p.odom, e.odom)?;
+        if let Some(g) = e.gnss {
+            put(&p.gnss, g)?;
         }
-        Ok(())
+        if let Some(u) = e.uvdar {
+            put(&p.uvdar, u)?;
+        }
+        put(&p.scan, e.scan)
     }
 
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors
@@ -530,8 +560,9 @@ impl Net {
         got
     }
 
-    async fn publish_step(&self, step: &TruthStep) -> Result<(), WireError> {
-        put(&self.truth_step, &Msg::TruthStep(step.clone())).await
+    /// Publishes a truth step (moved into the message: at 1000 UAVs a copy is a thousand bodies).
+    async fn publish_step(&self, step: TruthStep) -> Result<(), WireError> {
+        put(&self.truth_step, &Msg::TruthStep(step)).await
     }
 
     /// Ends the run where it stands: the last truth step is the current state, not integrated.
@@ -540,7 +571,7 @@ impl Net {
         let alive_flags: Vec<bool> = (1..=sim.bodies().len() as u32).map(|id| alive.contains(&id)).collect();
         let mut step = sim.observe(&[], &alive_flags, Vec::new(), started.elapsed().as_secs_f64());
         step.ended = Some(end);
-        self.publish_step(&step).await?;
+        self.publish_step(step).await?;
         self.report(sim, end)
     }
 

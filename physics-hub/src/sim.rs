@@ -4,8 +4,10 @@
 //!
 //! Scale: every pairwise question (radio links, contacts, the UAVs a scan can hit, the nearest
 //! other UAV) goes through one [`Grid`] of the positions rebuilt each tick, and the sensors of a
-//! large swarm are computed on every core. Each UAV draws only from its own seeded streams and
-//! the results are collected in id order, so nothing depends on the number of threads.
+//! large swarm are computed on every core, in chunks handed over in id order as they are done, so
+//! the hub publishes the first chunks while the next are computed ([`Sim::sensors_each`]). Each
+//! UAV draws only from its own seeded streams and the results are taken in id order, so nothing
+//! depends on the number of threads.
 
 use crate::body::{wrap_angle, Body, Limits};
 use crate::forest::{rng, scenario_trees, start_positions, stream};
@@ -47,6 +49,14 @@ struct UavRngs {
 /// Below this many UAVs the sensors of a tick are computed on the calling thread: spawning
 /// workers costs more than it saves.
 const PARALLEL_FROM_UAVS: usize = 32;
+
+/// UAVs per chunk of a pipelined tick ([`Sim::sensors_each`]): small enough that publication
+/// starts after a few milliseconds, large enough that a chunk's hand-over costs nothing next to
+/// its scans.
+const CHUNK_UAVS: usize = 25;
+
+/// A chunk of a pipelined tick: its number, and its UAVs with their streams.
+type Chunk<'s, 'r> = (usize, &'s mut [(u32, &'r mut UavRngs)]);
 
 /// The whole simulated world.
 pub struct Sim {
@@ -154,9 +164,35 @@ impl Sim {
     }
 
     /// Sensor messages of the UAVs `ids` (1-based, each at most once) for the current tick, in
-    /// the order given. Large swarms are spread over the cores in contiguous chunks; each UAV
-    /// draws only from its own streams, so the result does not depend on the split.
+    /// the order given. Large swarms are spread over the cores (see [`Sim::sensors_each`]); each
+    /// UAV draws only from its own streams, so the result does not depend on the split.
     pub fn sensors_all(&mut self, ids: &[u32]) -> Vec<Sensors> {
+        let mut out = Vec::with_capacity(ids.len());
+        let done: Result<(), std::convert::Infallible> = self.sensors_each(ids, |_, s| s, |_, s| {
+            out.push(s);
+            Ok(())
+        });
+        match done {
+            Ok(()) => out,
+            Err(never) => match never {},
+        }
+    }
+
+    /// The sensor messages of the UAVs `ids` (1-based, each at most once) for the current tick,
+    /// each turned into a `T` by `prepare` on the thread that computed it (the hub encodes them
+    /// there), then handed to `sink` on the calling thread, one UAV at a time in the order of
+    /// `ids`. From [`PARALLEL_FROM_UAVS`] UAVs on, worker threads (one per core) compute chunks
+    /// of [`CHUNK_UAVS`] while the calling thread sinks the chunks already done, so the sink's
+    /// work (the hub's publication) overlaps the computation instead of waiting for all of it,
+    /// and the first agents get their sensors early. Each UAV draws only from its own streams
+    /// and the sink sees id order whatever the threads do, so nothing depends on the split. The
+    /// first error of `sink` stops the sinking and is returned (the workers finish their chunks).
+    pub fn sensors_each<T: Send, E>(
+        &mut self,
+        ids: &[u32],
+        prepare: impl Fn(u32, Sensors) -> T + Sync,
+        mut sink: impl FnMut(u32, T) -> Result<(), E>,
+    ) -> Result<(), E> {
         let mut rngs = std::mem::take(&mut self.rngs);
         let mut jobs: Vec<(u32, &mut UavRngs)> = Vec::with_capacity(ids.len());
         {
@@ -169,20 +205,61 @@ impl Sim {
         }
         let this = &*self;
         let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let out = if jobs.len() < PARALLEL_FROM_UAVS || workers < 2 {
-            jobs.into_iter().map(|(id, r)| this.sensors_of(id, r)).collect()
+        let result = if jobs.len() < PARALLEL_FROM_UAVS || workers < 2 {
+            jobs.into_iter().try_for_each(|(id, r)| sink(id, prepare(id, this.sensors_of(id, r))))
         } else {
-            let chunk = jobs.len().div_ceil(workers);
-            std::thread::scope(|scope| {
-                let handles: Vec<_> = jobs
-                    .chunks_mut(chunk)
-                    .map(|part| scope.spawn(move || part.iter_mut().map(|(id, r)| this.sensors_of(*id, r)).collect::<Vec<_>>()))
-                    .collect();
-                handles.into_iter().flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
-            })
+            this.sensors_pipelined(&mut jobs, workers, &prepare, &mut sink)
         };
         self.rngs = rngs;
-        out
+        result
+    }
+
+    /// [`Sim::sensors_each`] on `workers` threads: worker w computes chunks w, w + workers, …
+    /// in that order and sends each whole; the calling thread sinks them in chunk order, holding
+    /// any that arrive early.
+    fn sensors_pipelined<T: Send, E>(
+        &self,
+        jobs: &mut [(u32, &mut UavRngs)],
+        workers: usize,
+        prepare: &(impl Fn(u32, Sensors) -> T + Sync),
+        sink: &mut impl FnMut(u32, T) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let mut per_worker: Vec<Vec<Chunk<'_, '_>>> = (0..workers).map(|_| Vec::new()).collect();
+        let chunks = jobs.len().div_ceil(CHUNK_UAVS);
+        for (k, part) in jobs.chunks_mut(CHUNK_UAVS).enumerate() {
+            per_worker[k % workers].push((k, part));
+        }
+        std::thread::scope(|scope| {
+            let (tx, rx) = std::sync::mpsc::channel::<(usize, Vec<(u32, T)>)>();
+            for mine in per_worker {
+                let tx = tx.clone();
+                scope.spawn(move || {
+                    for (k, part) in mine {
+                        let done = part.iter_mut().map(|(id, r)| (*id, prepare(*id, self.sensors_of(*id, r)))).collect();
+                        if tx.send((k, done)).is_err() {
+                            return;
+                        }
+                    }
+                });
+            }
+            drop(tx);
+            let mut early = std::collections::BTreeMap::new();
+            let mut result = Ok(());
+            for next in 0..chunks {
+                let done = loop {
+                    if let Some(d) = early.remove(&next) {
+                        break d;
+                    }
+                    // A worker that panicked drops its sender; the scope re-raises the panic.
+                    let Ok((k, d)) = rx.recv() else { return result };
+                    early.insert(k, d);
+                };
+                if result.is_ok() {
+                    result = done.into_iter().try_for_each(|(id, t)| sink(id, t));
+                }
+            }
+            result
+        })
     }
 
     /// Sensor messages of UAV `id`, drawing from its streams `r`.
@@ -438,6 +515,72 @@ time_limit_s = 1.0
 
     fn vel(x: f32) -> Option<Cmd> {
         Some(Cmd { tick: 0, kind: CmdKind::Velocity, x, y: 0.0, yaw_rate: 0.0 })
+    }
+
+    /// A crowd large enough for the pipelined path (100 UAVs, chunks of [`CHUNK_UAVS`]).
+    fn crowd() -> Scenario {
+        Scenario::from_toml_str(
+            r#"
+name = "crowd"
+seed = 7
+[world]
+trees = [{ x = 5.0, y = 0.0, r = 0.5 }, { x = -4.0, y = 6.0, r = 0.4 }]
+[swarm]
+count = 100
+start_area = { center = [0.0, 0.0], radius_m = 24.0, min_spacing_m = 3.0 }
+goal = [60.0, 0.0]
+informed = "all"
+[localization]
+mode = "broadcast"
+[end]
+time_limit_s = 100.0
+"#,
+            "crowd.toml",
+        )
+        .expect("valid")
+    }
+
+    #[test]
+    fn pipelined_sensors_equal_one_uav_at_a_time_in_the_order_asked() {
+        let sc = crowd();
+        let mut ids: Vec<u32> = sc.uav_ids().collect();
+        ids.reverse();
+        ids.retain(|&id| id != 50);
+        assert!(ids.len() >= PARALLEL_FROM_UAVS, "large enough for the workers");
+        let (mut pipelined, mut alone) = (Sim::new(&sc), Sim::new(&sc));
+        for _ in 0..3 {
+            let mut order = Vec::new();
+            let got = pipelined.sensors_each(&ids, |id, s| (id, format!("{s:?}")), |id, (prepared_for, text)| {
+                order.push(id);
+                assert_eq!(prepared_for, id, "prepared and sunk for the same UAV");
+                assert_eq!(text, format!("{:?}", alone.sensors(id)), "UAV {id}");
+                Ok::<(), ()>(())
+            });
+            assert_eq!(got, Ok(()));
+            assert_eq!(order, ids, "sunk in the order asked, UAV 50 left out");
+            let cmds = vec![vel(0.4); 100];
+            pipelined.step(&cmds, &[true; 100], 0.0);
+            alone.step(&cmds, &[true; 100], 0.0);
+        }
+    }
+
+    #[test]
+    fn the_first_sink_error_stops_the_sinking() {
+        let sc = crowd();
+        let ids: Vec<u32> = sc.uav_ids().collect();
+        let mut sim = Sim::new(&sc);
+        let mut sunk = 0;
+        let got = sim.sensors_each(&ids, |_, s| s.scan.ranges_m.len(), |id, _| {
+            sunk += 1;
+            if id == 40 {
+                Err(id)
+            } else {
+                Ok(())
+            }
+        });
+        assert_eq!(got, Err(40));
+        assert_eq!(sunk, 40, "nothing after the error");
+        assert_eq!(sim.sensors_all(&ids).len(), 100, "the streams are back for the next tick");
     }
 
     #[test]

@@ -68,7 +68,9 @@ pub struct Checker {
     alone_spans: BTreeMap<u32, Vec<(f64, f64)>>,
     pending: Vec<Reported>,
     recent: BTreeMap<u64, Vec<UavAt>>,
-    last: Option<TruthStep>,
+    /// The last step's tick and its live UAVs (agent alive, not frozen): all the checks need of
+    /// it, kept instead of a copy of the whole step every tick.
+    last: Option<(u64, Vec<UavAt>)>,
     deadlines: Vec<Deadline>,
 }
 
@@ -131,7 +133,8 @@ impl Checker {
         for d in self.deadlines.iter_mut().filter(|d| d.positions.is_none() && s.t_secs >= d.due_s - 1e-9) {
             d.positions = Some(s.bodies.iter().map(at).collect());
         }
-        self.last = Some(s.clone());
+        let live = s.bodies.iter().filter(|b| b.alive && !self.timeline.frozen_at(b.id, s.t_secs)).map(at).collect();
+        self.last = Some((s.tick, live));
         let pending = std::mem::take(&mut self.pending);
         let (ready, waiting): (Vec<_>, Vec<_>) = pending.into_iter().partition(|r| r.tick <= s.tick);
         self.pending = waiting;
@@ -228,7 +231,7 @@ impl Checker {
         }
         if !st.neighbours.is_empty() && self.alone.is_none() {
             let r = Reported { id: st.id, tick: st.tick, t_s: st.t_secs, count: st.neighbours.len() };
-            if self.last.as_ref().is_some_and(|s| s.tick >= st.tick) {
+            if self.last.as_ref().is_some_and(|&(tick, _)| tick >= st.tick) {
                 self.judge_alone(r);
             } else {
                 self.pending.push(r);

@@ -2,7 +2,7 @@
 //! moment; the checks judged only at the end (connected at the end, the goal, reconnection after
 //! each heal) are found here from the last step and the summary.
 
-use super::{at, failure, Checker};
+use super::{failure, Checker};
 use crate::summary::{CheckFailure, CheckResult, Summary, UavAt};
 use std::collections::{BTreeMap, BTreeSet};
 use swarm_config::{CheckName, GoalRule, Scenario};
@@ -99,9 +99,7 @@ impl Checker {
 
     /// The live UAVs at the end (agent alive, not frozen), with their positions.
     fn live_at_end(&self) -> Vec<UavAt> {
-        self.last.as_ref().map_or_else(Vec::new, |l| {
-            l.bodies.iter().filter(|b| b.alive && !self.timeline.frozen_at(b.id, l.t_secs)).map(at).collect()
-        })
+        self.last.as_ref().map_or_else(Vec::new, |(_, live)| live.clone())
     }
 
     fn connected_at_end(&self, _sc: &Scenario, s: &Summary) -> CheckResult {

@@ -136,9 +136,14 @@ pub struct Metrics {
     ticks: u64,
     tracks: BTreeMap<u32, Track>,
     /// Recent ground truth by tick, to score agents' estimates against.
-    truth: BTreeMap<u64, Vec<TruthBody>>,
-    /// States whose tick's truth has not arrived yet.
-    pending: Vec<AgentState>,
+    truth: BTreeMap<u64, TickTruth>,
+    /// States whose tick's truth has not arrived yet, by tick, each with its arrival number: a
+    /// truth step takes the states of its tick and before without touching the later ones (a
+    /// recorder lagging behind the agents holds thousands; re-sorting them all at every step
+    /// made its catching up quadratic), and scores them in arrival order, as they came.
+    pending: BTreeMap<u64, Vec<(u64, AgentState)>>,
+    /// States held in `pending` so far (the next arrival number).
+    pending_arrivals: u64,
     /// Per tick: (sim time, for each agent that reported, the ids it has an estimate of).
     known: BTreeMap<u64, (f64, BTreeMap<u32, Vec<u32>>)>,
     /// Delay applied to each delivered copy, per link class [s].
@@ -215,6 +220,22 @@ fn body_of(bodies: &[TruthBody], id: u32) -> Option<&TruthBody> {
     at.or_else(|| bodies.iter().find(|b| b.id == id))
 }
 
+/// One tick's ground truth, kept for scoring the states of that tick.
+#[derive(Debug)]
+struct TickTruth {
+    bodies: Vec<TruthBody>,
+    /// Whether every body's agent is alive: found once per tick, not once per state (at 1000
+    /// UAVs that test per state was O(n²) a tick).
+    all_alive: bool,
+}
+
+impl TickTruth {
+    fn of(bodies: Vec<TruthBody>) -> TickTruth {
+        let all_alive = bodies.iter().all(|b| b.alive);
+        TickTruth { bodies, all_alive }
+    }
+}
+
 /// The distance from `me` to the nearest other live UAV of `bodies`, centre to centre [m].
 /// Scanning every body for every agent state cost O(n²) per tick (most of the recorder's time
 /// at 1000 UAVs); the hub's `agent_distance_m` (nearest UAV of any kind, computed with a
@@ -224,6 +245,8 @@ fn body_of(bodies: &[TruthBody], id: u32) -> Option<&TruthBody> {
 struct NearestLive<'a> {
     bodies: &'a [TruthBody],
     me: &'a TruthBody,
+    /// Whether every body of `bodies` is alive ([`TickTruth::all_alive`]).
+    all_alive: bool,
 }
 
 impl NearestLive<'_> {
@@ -236,7 +259,7 @@ impl NearestLive<'_> {
     /// Whether [`NearestLive::exact`] is greater than `bound_m`.
     fn beyond(&self, bound_m: f64) -> bool {
         let hub_m = self.me.agent_distance_m;
-        if hub_m.is_finite() && (hub_m - bound_m).abs() > 1e-9 && self.bodies.iter().all(|b| b.alive) {
+        if hub_m.is_finite() && (hub_m - bound_m).abs() > 1e-9 && self.all_alive {
             hub_m > bound_m
         } else {
             self.exact() > bound_m
@@ -322,13 +345,14 @@ impl Metrics {
         for c in &s.collisions {
             self.collisions.push(CollisionRecord { t_s: s.t_secs, id: c.id, other_uav: c.other_uav, x_m: c.x, y_m: c.y });
         }
-        self.truth.insert(s.tick, s.bodies.clone());
+        self.truth.insert(s.tick, TickTruth::of(s.bodies.clone()));
         while self.truth.len() as u64 > TRUTH_KEPT {
             self.truth.pop_first();
         }
-        let (ready, waiting): (Vec<_>, Vec<_>) = std::mem::take(&mut self.pending).into_iter().partition(|st| st.tick <= s.tick);
-        self.pending = waiting;
-        for st in ready {
+        let later = self.pending.split_off(&s.tick.saturating_add(1));
+        let mut ready: Vec<(u64, AgentState)> = std::mem::replace(&mut self.pending, later).into_values().flatten().collect();
+        ready.sort_unstable_by_key(|&(arrival, _)| arrival);
+        for (_, st) in ready {
             self.score(&st);
         }
         self.last_step = Some(s.clone());
@@ -337,7 +361,7 @@ impl Metrics {
     /// Scores a state's neighbour estimates against the truth of its tick (estimates without a
     /// sender id cannot be scored). Tick 0 has no truth step: its states are not scored.
     fn score(&mut self, st: &AgentState) {
-        let Some(bodies) = self.truth.get(&st.tick) else { return };
+        let Some(TickTruth { bodies, all_alive }) = self.truth.get(&st.tick) else { return };
         let Some(me) = body_of(bodies, st.id) else { return };
         let errors: Vec<f64> = st
             .neighbours
@@ -352,7 +376,7 @@ impl Metrics {
         // nearest other live UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at
         // ~6.3 m). A failed UAV shares nothing, so it is no company.
         let count = st.neighbours.len();
-        let nearest = NearestLive { bodies, me };
+        let nearest = NearestLive { bodies, me, all_alive: *all_alive };
         let alone = nearest.beyond(ALONE_M);
         let a = self.agents.entry(st.id).or_default();
         if alone {
@@ -402,7 +426,8 @@ impl Metrics {
         if self.truth.contains_key(&st.tick) {
             self.score(&st);
         } else if self.last_step.as_ref().is_none_or(|s| st.tick > s.tick) {
-            self.pending.push(st.clone());
+            self.pending.entry(st.tick).or_default().push((self.pending_arrivals, st.clone()));
+            self.pending_arrivals += 1;
         }
         if let Some(a) = self.agents.get_mut(&st.id) {
             a.last_state = Some(st);
@@ -746,8 +771,10 @@ mod tests {
             b
         };
         let bodies = vec![mk(0.0, 8.0), mk(8.0, 8.0), mk(20.0, 12.0)];
+        let all_alive = TickTruth::of(bodies.clone()).all_alive;
+        assert!(all_alive);
         for me in &bodies {
-            let n = NearestLive { bodies: &bodies, me };
+            let n = NearestLive { bodies: &bodies, me, all_alive };
             for bound in [7.0, 8.0, 8.0 + 1e-12, 11.0, 12.5] {
                 assert_eq!(n.beyond(bound), n.exact() > bound, "UAV {} bound {bound}", me.id);
             }
@@ -755,7 +782,9 @@ mod tests {
         // A dead neighbour is no company: the hub's distance (any UAV) would say 8 m.
         let mut with_dead = bodies.clone();
         with_dead[1].alive = false;
-        let n = NearestLive { bodies: &with_dead, me: &with_dead[0] };
+        let all_alive = TickTruth::of(with_dead.clone()).all_alive;
+        assert!(!all_alive, "one body's agent is dead");
+        let n = NearestLive { bodies: &with_dead, me: &with_dead[0], all_alive };
         assert_eq!(n.exact(), 20.0);
         assert!(n.beyond(10.0), "the scan decides when some UAV is not alive");
         assert_eq!(body_of(&bodies, 9).map(|b| b.x), Some(8.0), "ids need not be 1..=n in order");
