@@ -107,10 +107,6 @@
 //!   of the oldest entries taking every slot. A new entry's iICP is outside the budget: a new
 //!   neighbour is placed as soon as seed 000 would. A deferred re-check falls back to an sICP as
 //!   in 6.2. With 39 neighbours a tracked one is then re-checked about every 40 s instead of 5 s.
-//!   From [`CROWD_COST_FROM_SETS`] sets (40) the budget counts a grid by its cost, max(1,
-//!   |R|·|S| / [`CROWD_GRID_PAIRS`]): one of up to 20 × 20 points costs one, forest-100-icp's
-//!   50 × 50 about six (a full grid's CPU grows with |R|·|S|; counted per grid, these took 60 % of
-//!   a forest-100-icp agent host's CPU). Why not from 10 sets: see [`CROWD_COST_FROM_SETS`].
 //!   In a crowd that is also more accurate: an lICP there often jumps a right estimate to a
 //!   look-alike place (crowd lab, 40 UAVs, 30 s: 4.73 % false estimates with seed 000's re-checks,
 //!   2.08 % with the budget; see [`CROWD_FULL_GRIDS_PER_S`]).
@@ -284,8 +280,7 @@ pub struct Database {
 const CROWD_FROM_SETS: usize = 10;
 
 /// Crowd rules: re-checks (lICP) and retries of unplaced entries share this many full-grid ICPs
-/// of up to [`CROWD_GRID_PAIRS`] point pairs per second on average [1/s] (at 3–4 ms each, about
-/// 0.35 ms of CPU per 10 Hz step); a bigger grid costs more (see [`grid_cost`]). Crowd lab
+/// per second on average [1/s] (at 3–4 ms each, about 0.35 ms of CPU per 10 Hz step). Crowd lab
 /// (40 UAVs, 30 s): 2/s gave 2.43 % false estimates at 1.50 ms per agent step, 1/s 2.08 % at
 /// 1.07 ms, 0.5/s 1.84 % at 0.89 ms; 1/s keeps lost neighbours' retries coming (20 s apart with
 /// 20 waiting) ...
@@ -293,32 +288,6 @@ const CROWD_FULL_GRIDS_PER_S: f64 = 1.0;
 
 /// ... saved up to this many (so a few due together still go at seed 000 6.2's two per step).
 const CROWD_FULL_GRID_BURST: f64 = 4.0;
-
-/// Crowd rules: a full grid of up to this many point pairs |R|·|S| (20 points a side, forest-40's
-/// sets, about 3 ms) costs one of the budget's grids. Issue 11: forest-100-icp's sets have 40–50
-/// points, and a full grid costs in proportion to |R|·|S| (its first pass pairs every point of S
-/// with its nearest of R from 441 × 16 starts: 2.8 ms of CPU at 20 × 20 points, 11.5 ms at
-/// 50 × 50, `cargo bench -p uav-agent --bench icp -- initial`); counted per grid, the budget let
-/// the crowd's big sets take 60 % of an agent host's CPU (`perf record` of a forest-100-icp host).
-const CROWD_GRID_PAIRS: f64 = 400.0;
-
-/// Crowd rules: grids are counted by their cost ([`grid_cost`]) from this many usable sets in a
-/// step; below it each counts one. Not from [`CROWD_FROM_SETS`]: counted by cost from 10 sets,
-/// forest-40-icp's whole flight (`tests/tests/crowd.rs`) reached the goal at 170 s instead of
-/// 386 s, with 0.058 % false estimates instead of 0.074 %, but one UAV passed 0.876 m from a tree,
-/// under that test's 0.9 m (with 900 or 1600 pairs per grid: 0.852 m, 0.896 m). Every change to
-/// its full-grid schedule tried moved that distance below 0.9 m, so the controller's margin in
-/// that flight is thin and it is left as it was until that is understood; forest-40 has at most
-/// 39 sets, forest-100 up to 99.
-const CROWD_COST_FROM_SETS: usize = 40;
-
-/// Crowd rules: what one full grid of `own_points` × `set_points` costs of the budget, in grids of
-/// [`CROWD_GRID_PAIRS`]: max(1, |R|·|S| / 400) (not in seed 000; its cost model is "one full grid",
-/// 5.1, at its 5 to 9 UAVs' set sizes).
-fn grid_cost(own_points: usize, set_points: usize) -> f64 {
-    // max(1, |R|·|S| / CROWD_GRID_PAIRS): the first pass is O(|R|·|S|) per start.
-    ((own_points * set_points) as f64 / CROWD_GRID_PAIRS).max(1.0)
-}
 
 /// Slack on time comparisons, so that steps on a 0.1 s grid hit 5 s and 0.5 s thresholds.
 const EPS: f64 = 1e-9;
@@ -361,7 +330,6 @@ impl Database {
 
         let sets = self.usable_sets(now, received, &mut counts);
         let crowd = sets.len() >= self.crowd_from_sets;
-        let n_sets = sets.len();
         self.refill_full_grids(now);
 
         // Algorithm 6 findBestMatch / addNewEntry: which entry each set belongs to.
@@ -416,8 +384,7 @@ impl Database {
                 over_budget = true;
                 allowed = false;
             }
-            let cost = if n_sets >= CROWD_COST_FROM_SETS { grid_cost(own.len(), set.points.len()) } else { 1.0 };
-            allowed = allowed && (!crowd || self.take_full_grid(idx, cost));
+            allowed = allowed && (!crowd || self.take_full_grid(idx));
             if allowed {
                 ran += 1;
                 self.run_long(now, own, idx, set, m, &mut counts);
@@ -627,19 +594,17 @@ impl Database {
         self.full_grid_tokens = (self.full_grid_tokens + CROWD_FULL_GRIDS_PER_S * dt_s).min(CROWD_FULL_GRID_BURST);
     }
 
-    /// Crowd rules: whether the budget allows entry `idx` a full-grid ICP of `cost` grids now
-    /// (taking it if so). A new entry's iICP is always allowed (placing a new neighbour cannot
-    /// wait) and not counted. A grid dearer than the whole burst goes when the budget is full and
-    /// leaves it in debt, so over time the budget still pays out [`CROWD_FULL_GRIDS_PER_S`].
-    fn take_full_grid(&mut self, idx: usize, cost: f64) -> bool {
+    /// Crowd rules: whether the budget allows entry `idx` a full-grid ICP now (taking it if so).
+    /// A new entry's iICP is always allowed (placing a new neighbour cannot wait) and not counted.
+    fn take_full_grid(&mut self, idx: usize) -> bool {
         let e = &self.entries[idx];
         if e.agent_from_neighbour.is_none() && !e.suspended {
             return true;
         }
-        if self.full_grid_tokens < cost.min(CROWD_FULL_GRID_BURST) {
+        if self.full_grid_tokens < 1.0 {
             return false;
         }
-        self.full_grid_tokens -= cost;
+        self.full_grid_tokens -= 1.0;
         true
     }
 
@@ -1397,37 +1362,6 @@ mod tests {
         let per_entry = |k: u32| m.calls.iter().filter(|c| c.kind == Kind::Long && c.neighbour == k).count();
         assert!(ks.iter().all(|&k| per_entry(k) >= 1), "none starved: {:?}", ks.iter().map(|&k| per_entry(k)).collect::<Vec<_>>());
         assert_eq!(d.estimates(20.5).len(), 12, "deferred re-checks fall back to sICP");
-    }
-
-    #[test]
-    fn in_a_crowd_a_big_full_grid_costs_the_budget_by_its_point_pairs() {
-        assert_eq!((grid_cost(3, 3), grid_cost(20, 20), grid_cost(40, 40), grid_cost(50, 50)), (1.0, 1.0, 4.0, 6.25));
-        // 40-point sets against our 40: from CROWD_COST_FROM_SETS neighbours each re-check costs
-        // 4 of the budget's grids (1 per second), below it one.
-        let pad = |mut v: Vec<Point2<f64>>, x0: f64| {
-            v.extend((0..37).map(|i| Point2::new(x0 - f64::from(i), 50.0)));
-            v
-        };
-        let own = pad(own_set(), -10.0);
-        let fly = |n: u32| {
-            let (mut d, mut m) = (db(), Scripted::default());
-            let mut long = 0;
-            for i in 0..=205 {
-                let now = 0.1 * f64::from(i);
-                let sets: Vec<Received> = (1..=n)
-                    .map(|k| Received { from: k, t_secs: now, points: pad(set_of(k, now), 100.0 * f64::from(k) + 60.0) })
-                    .collect();
-                long += d.step(now, &own, &sets, &mut m, &mut || 0.0).long;
-            }
-            assert_eq!(d.estimates(20.5).len(), n as usize, "deferred re-checks fall back to sICP");
-            long
-        };
-        let many = fly(40);
-        // From 5 s on, 4 saved grids and 1 per s buy one 4-grid re-check at once and one every 4 s.
-        assert!((3..=1 + 16 / 4 + 1).contains(&many), "{many} lICPs in 20.5 s with 40 neighbours");
-        // 12 neighbours: one grid each, as in the test above.
-        let few = fly(12);
-        assert!((15..=4 + 21).contains(&few), "{few} lICPs in 20.5 s with 12 neighbours");
     }
 
     #[test]
