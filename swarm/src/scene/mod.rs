@@ -379,18 +379,34 @@ fn class_color(c: netem::LinkClass) -> foxglove::messages::Color {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_scene_writes_an_mcap_with_its_topics() {
+    /// A scene of forest-5 recording to a fresh file in the temp folder named after `tag`.
+    fn recording(tag: &str) -> (Scene, std::path::PathBuf) {
         let sc = Scenario::from_arg("forest-5").expect("built-in").0;
-        let path = std::env::temp_dir().join(format!("scene-test-{}.mcap", std::process::id()));
+        let path = std::env::temp_dir().join(format!("scene-{tag}-{}.mcap", std::process::id()));
         let mut scene = Scene::new(&sc).expect("scene");
         scene.write_mcap(&path).expect("mcap");
-        let body = TruthBody { id: 1, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
-        let step = TruthStep { tick: 1, t_secs: 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() };
-        scene.on_step(&step);
+        (scene, path)
+    }
+
+    /// Ends `scene` and returns its file's bytes, the file removed.
+    fn finished(mut scene: Scene, path: &std::path::Path) -> Vec<u8> {
         scene.finish().expect("close");
-        let bytes = std::fs::read(&path).expect("read");
-        let _ = std::fs::remove_file(&path);
+        let bytes = std::fs::read(path).expect("read");
+        let _ = std::fs::remove_file(path);
+        bytes
+    }
+
+    /// The truth step `tick` with UAV 1 alone, at (x, y) heading `yaw`.
+    fn one_uav_step(tick: u64, x: f64, y: f64, yaw: f64) -> TruthStep {
+        let body = TruthBody { id: 1, x, y, yaw, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
+        TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() }
+    }
+
+    #[test]
+    fn a_scene_writes_an_mcap_with_its_topics() {
+        let (mut scene, path) = recording("test");
+        scene.on_step(&one_uav_step(1, 1.0, 2.0, 0.5));
+        let bytes = finished(scene, &path);
         assert!(bytes.starts_with(b"\x89MCAP0\r\n"), "MCAP magic");
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("/uav/1/pose") && text.contains("/tf"), "channels recorded");
@@ -399,18 +415,11 @@ mod tests {
     #[test]
     fn trails_are_sent_once_as_joined_pieces_that_live_trail_s() {
         use foxglove::Decode;
-        let sc = Scenario::from_arg("forest-5").expect("built-in").0;
-        let path = std::env::temp_dir().join(format!("scene-trails-{}.mcap", std::process::id()));
-        let mut scene = Scene::new(&sc).expect("scene");
-        scene.write_mcap(&path).expect("mcap");
-        let ticks = 25u64;
-        for tick in 0..=ticks {
-            let body = TruthBody { id: 1, x: tick as f64, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
-            scene.on_step(&TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() });
+        let (mut scene, path) = recording("trails");
+        for tick in 0..=25u64 {
+            scene.on_step(&one_uav_step(tick, tick as f64, 0.0, 0.0));
         }
-        scene.finish().expect("close");
-        let bytes = std::fs::read(&path).expect("read");
-        let _ = std::fs::remove_file(&path);
+        let bytes = finished(scene, &path);
         let pieces: Vec<SceneUpdate> = mcap::MessageStream::new(&bytes)
             .expect("mcap")
             .map(|m| m.expect("record"))
