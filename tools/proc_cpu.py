@@ -10,6 +10,7 @@ Why: `/usr/bin/time` gives one total; an agent-host change is judged by the host
 """
 import collections
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -46,7 +47,10 @@ def role(pid):
     if len(a) < 2 or a[1] not in ('hub', 'agent', 'scale', 'run'):
         return None
     run = a[a.index('--run') + 1] if '--run' in a else ''
-    scenario = run.split('-17')[0].split('-0')[0]  # run ids: [NN-]<scenario>-<time>-<pid>
+    # run ids: <scenario>-<unix secs>-<pid>; in a `swarm scale` study <scenario> is <name>-NN-<name>.
+    scenario = re.sub(r'-\d+-\d+$', '', run)
+    study = re.fullmatch(r'(.+)-\d+-\1', scenario)
+    scenario = study.group(1) if study else scenario
     return f'{a[1]} {scenario}'.strip()
 
 

@@ -144,7 +144,8 @@ async fn put(p: &Publisher, msg: &Msg) -> Result<(), WireError> {
 }
 
 /// Runs the hub until the scenario's end condition or `shutdown`. `on_listening` receives the
-/// locators the router listens on (with real ports) as soon as they are known.
+/// locators the router listens on (with real ports) as soon as they are known. Needs a
+/// multi-thread Tokio runtime: a tick publishes its sensors inside `block_in_place`.
 pub async fn run(
     sc: Scenario,
     scenario_text: String,

@@ -22,8 +22,8 @@
 //! One exception keeps the router cheap at 1000 UAVs: the egress rule for sensor data is one
 //! wildcard for every agent (`uav/*/sense/**`, `radio/*`), not a list of each user's own keys.
 //! Zenoh admits a subscriber only if its key is *included* in a key its user may subscribe to
-//! (a broader subscription, `uav/*/sense/**` or `**`, is refused whole: tested in
-//! `tests/tests/security.rs`), and data reaches a client only through its subscribers, so a
+//! (a broader subscription, such as `uav/*/sense/scan` or `**`, is refused whole, and another
+//! UAV's `radio/{id}` too: tested in `tests/tests/security.rs`), and data reaches a client only through its subscribers, so a
 //! user's ingress list already bounds what it receives. The per-user egress list cost the
 //! router a walk of two keys per UAV of a host for every share it forwarded to that host (those
 //! decisions are not cached): 18–35 % of the hub's CPU on open-1000 (README, Performance).

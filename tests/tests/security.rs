@@ -124,6 +124,7 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
         0,
         "a subscription to every UAV's scan is refused"
     );
+    assert_eq!(f.tap_as("uav3", "radio/2", &["--duration", "3"]).lines().count(), 0, "UAV 2's radio set is not UAV 3's");
     assert_eq!(f.tap_as("uav3", "truth/**", &["--duration", "3"]).lines().count(), 0, "UAV 3 reads no truth");
     // Observer: everything, truth included.
     assert_eq!(f.tap_as("observer", "truth/step", &["--count", "3", "--duration", "30"]).lines().count(), 3, "truth was flowing");

@@ -22,7 +22,7 @@ use crate::sensing::{FrameCollector, SensorFrame};
 use nalgebra::Point2;
 use std::time::Instant;
 use swarm_config::Scenario;
-use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, Keys, LinkCounters, NeighbourEstimate, VectorMagnitudes};
+use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, LinkCounters, NeighbourEstimate, VectorMagnitudes};
 
 /// What one step produces.
 #[derive(Debug, Clone)]
@@ -109,11 +109,6 @@ impl Agent {
     /// A collector of the sensor frames this agent's localizer needs.
     pub fn frame_collector(&self) -> FrameCollector {
         FrameCollector::new(self.localizer.needs())
-    }
-
-    /// The key UAV `id` shares on in this agent's mode (`None`: the mode never shares).
-    pub fn share_key(&self, keys: &Keys, id: u32) -> Option<String> {
-        self.localizer.share_key(keys, id)
     }
 
     /// Takes a neighbour's share that the link has delivered (our own echo is ignored).

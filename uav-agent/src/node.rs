@@ -14,9 +14,8 @@
 //! - Determinism in lockstep: the node's own subscriptions feed one channel, so hub messages are
 //!   handled in wire order, and the shares posted meanwhile are taken, in arrival order, when the
 //!   next hub message is handled ([`Node::take_shares`]); and a neighbour's share counts only if it was sent inside the neighbour's
-//!   window: from the tick after its subscription was declared (every later share is sure to be
-//!   routed to us, since the declaration reached the router before our command did) to the tick
-//!   before it left radio range. Which shares arrive no longer depends on timing. A share sent at
+//!   window: from the tick after this agent started listening to it (see [`crate::shared`]: every
+//!   later share reaches the session's one subscription) to the tick before it left radio range. Which shares arrive no longer depends on timing. A share sent at
 //!   a tick this agent has not stepped yet waits for the hub's next message before it is counted
 //!   and passed to netem, so what each state message counts does not depend on timing either.
 //! - Every share message in or out passes the [`netem::Link`] seam, which applies the scenario's
@@ -245,13 +244,13 @@ async fn declare_inputs(
 }
 
 /// Declares the command, share and state publishers of UAV `id`.
-async fn declare_outputs(s: &zenoh::Session, keys: &Keys, id: u32, agent: &Agent, sc: &Scenario) -> Result<Outputs, AgentError> {
+async fn declare_outputs(s: &zenoh::Session, keys: &Keys, id: u32, sc: &Scenario) -> Result<Outputs, AgentError> {
     let cc = match sc.time.mode {
         TimeMode::Lockstep => CongestionControl::Block,
         TimeMode::Realtime => CongestionControl::Drop,
     };
     // `uvdar` never shares (no communication): its publisher is on the pose key, and stays silent.
-    let share_key = agent.share_key(keys, id).unwrap_or_else(|| keys.share_pose(id));
+    let share_key = crate::localization::share_key(sc.localization.mode, keys, id).unwrap_or_else(|| keys.share_pose(id));
     Ok(Outputs {
         cmd: publisher(s, keys.cmd(id), CongestionControl::Block).await?,
         share: publisher(s, share_key, cc).await?,
@@ -264,7 +263,7 @@ impl Node {
         let (tx, rx) = mpsc::unbounded_channel();
         let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx).await?;
         let agent = Agent::new(id, sc.clone());
-        let publish = declare_outputs(&s, &keys, id, &agent, &sc).await?;
+        let publish = declare_outputs(&s, &keys, id, &sc).await?;
         Ok(Node {
             sensors: agent.frame_collector(),
             link: netem::Link::with_seed(sc.seed, id),

@@ -147,16 +147,6 @@ impl Localizer {
         }
     }
 
-    /// The key UAV `id` shares on in this mode; `None` in `uvdar` mode, which never shares.
-    pub(crate) fn share_key(&self, keys: &Keys, id: u32) -> Option<String> {
-        let mode = match self {
-            Localizer::Broadcast(_) => LocalizationMode::Broadcast,
-            Localizer::Icp(_) => LocalizationMode::Icp,
-            Localizer::Uvdar => LocalizationMode::Uvdar,
-        };
-        share_key(mode, keys, id)
-    }
-
     /// Takes a neighbour's share that the link has delivered.
     pub(crate) fn receive(&mut self, share: Share) {
         match self {
