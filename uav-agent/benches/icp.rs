@@ -43,16 +43,16 @@ fn scatter(rng: &mut Rng, n: usize, c: Vector2<f64>, avoid: &[Point2<f64>]) -> V
     out
 }
 
-/// (reference, source, truth): 14 shared trees + 6 one-sided per side, σ = 0.03 m.
-fn scenario(seed: u64) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, AgentFromNeighbour) {
+/// (reference, source, truth): `shared` trees both see + `own` one-sided per side, σ = 0.03 m.
+fn scenario(seed: u64, shared: usize, own: usize) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, AgentFromNeighbour) {
     let mut rng = Rng(seed);
-    let reference = scatter(&mut rng, 20, Vector2::zeros(), &[]);
+    let reference = scatter(&mut rng, shared + own, Vector2::zeros(), &[]);
     let truth = AgentFromNeighbour {
         rotation_rad: rng.range(-std::f64::consts::PI, std::f64::consts::PI),
         translation_m: Vector2::new(rng.range(-5.0, 5.0), rng.range(-5.0, 5.0)),
     };
-    let mut seen = reference[..14].to_vec();
-    seen.extend(scatter(&mut rng, 6, truth.translation_m, &reference));
+    let mut seen = reference[..shared].to_vec();
+    seen.extend(scatter(&mut rng, own, truth.translation_m, &reference));
     let inv = Rotation2::new(-truth.rotation_rad);
     let source = seen
         .iter()
@@ -66,7 +66,7 @@ fn scenario(seed: u64) -> (Vec<Point2<f64>>, Vec<Point2<f64>>, AgentFromNeighbou
 
 fn bench_icp(c: &mut Criterion) {
     let p = IcpParams::default();
-    let (reference, source, truth) = scenario(7);
+    let (reference, source, truth) = scenario(7, 14, 6);
     // Sanity: the benchmarked case is a successful one.
     let solved =
         initial_icp(&reference, &source, &p).is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
@@ -77,6 +77,12 @@ fn bench_icp(c: &mut Criterion) {
         translation_m: truth.translation_m + Vector2::new(0.3, -0.2),
     };
     c.bench_function("icp/short_20pts", |b| b.iter(|| icp(black_box(&reference), black_box(&source), start, &p)));
+    // A crowd's set (forest-40-icp, forest-100-icp): 40–50 obstacle centres, most of them shared.
+    let (reference, source, truth) = scenario(11, 34, 11);
+    let solved =
+        initial_icp(&reference, &source, &p).is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
+    assert!(solved, "the crowd bench scenario must be solvable");
+    c.bench_function("icp/initial_45pts", |b| b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p)));
 }
 
 criterion_group!(benches, bench_icp);

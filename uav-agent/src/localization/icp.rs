@@ -39,8 +39,10 @@
 //!   nearest neighbour, squared FRMSD from a precomputed weight table, so no allocation, no
 //!   `sqrt` and no `powf` in the inner loop); the best few starts, at least one per heading and a
 //!   shortlist overall, are then run through the full ICP, and the lowest final FRMSD wins.
-//!   Nearest-neighbour search is brute force on squared distances: with ≈ 20–40 points this is
-//!   faster than any spatial index.
+//!   Nearest-neighbour search is brute force on squared distances, for one heading at a time and
+//!   eight grid cells at once (independent lanes the compiler packs into SIMD): with ≈ 20–50
+//!   points this is faster than any spatial index (a sorted-by-x candidate window tried on a
+//!   crowd's 45-point sets cost more to pick the candidates than it saved).
 
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
@@ -151,8 +153,6 @@ struct Workspace {
     k_min: usize,
     /// First-pass scratch: the source rotated by one grid heading.
     rotated: Vec<Vector2<f64>>,
-    /// First-pass scratch: nearest squared distances of one start.
-    d2: Vec<f64>,
 }
 
 impl Workspace {
@@ -172,7 +172,6 @@ impl Workspace {
             weights,
             k_min,
             rotated: Vec::with_capacity(n_source),
-            d2: Vec::with_capacity(n_source),
         }
     }
 }
@@ -447,28 +446,55 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
     list.insert(at, s);
 }
 
-/// First-pass score of one start: FRMSD² (seed 000 eq. 3.16 squared) of the initial pairing of the
-/// pre-rotated source shifted by `g`. Distances only, no indices, no allocation.
-fn first_pass_score(
-    reference: &[Point2<f64>],
-    rotated: &[Vector2<f64>],
-    g: Vector2<f64>,
-    d2: &mut Vec<f64>,
-    weights: &[f64],
-    k_min: usize,
-) -> f64 {
-    d2.clear();
-    for q in rotated {
-        let (qx, qy) = (q.x + g.x, q.y + g.y);
-        let mut best = f64::INFINITY;
-        for a in reference {
-            // seed 000, eq. 3.17 squared.
-            let (dx, dy) = (a.x - qx, a.y - qy);
-            let d = dx * dx + dy * dy;
-            best = if d < best { d } else { best };
+/// Grid cells scored together by [`nearest_by_cell`]: a block's running minima stay in registers
+/// while every reference point is visited once, and its lanes are independent, so the compiler
+/// turns the loop into packed SIMD (SSE2's two lanes on the baseline x86-64 target; 1.5× faster
+/// than a start-by-start loop on a crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`).
+const BLOCK: usize = 8;
+
+/// The shifts of the grid of seed 000 5.1 and Figure 5.1: cell (i, j) shifts by
+/// g = (i, j)·spacing, i, j ∈ [−h, h], centred on the agent, in cell order
+/// c = (i + h)·(2h + 1) + (j + h).
+fn grid_cells(h: i64, spacing: f64) -> Vec<Vector2<f64>> {
+    (-h..=h).flat_map(|i| (-h..=h).map(move |j| Vector2::new(i as f64, j as f64) * spacing)).collect()
+}
+
+/// First pass, one heading: for every source point `s` (pre-rotated) and every cell `c` (shift
+/// `(cx[c], cy[c])`), the squared distance from `rotated[s] + g_c` to the nearest reference point
+/// (seed 000 eq. 3.17 squared), into `out[c·|S| + s]`. Each distance is computed as a
+/// start-by-start loop would, operation for operation, so the scores are bit-identical; only
+/// the loops are turned around (cells in blocks of [`BLOCK`], innermost). `cx`/`cy` are padded
+/// to whole blocks; padded cells are computed and dropped.
+fn nearest_by_cell(reference: &[Point2<f64>], rotated: &[Vector2<f64>], cx: &[f64], cy: &[f64], out: &mut [f64]) {
+    let n = rotated.len();
+    for (b, (bx, by)) in cx.chunks_exact(BLOCK).zip(cy.chunks_exact(BLOCK)).enumerate() {
+        for (s, q) in rotated.iter().enumerate() {
+            let mut qx = [0.0; BLOCK];
+            let mut qy = [0.0; BLOCK];
+            for l in 0..BLOCK {
+                qx[l] = q.x + bx[l];
+                qy[l] = q.y + by[l];
+            }
+            let mut best = [f64::INFINITY; BLOCK];
+            for a in reference {
+                for l in 0..BLOCK {
+                    let (dx, dy) = (a.x - qx[l], a.y - qy[l]);
+                    let d = dx * dx + dy * dy;
+                    best[l] = if d < best[l] { d } else { best[l] };
+                }
+            }
+            for (l, d) in best.into_iter().enumerate() {
+                if let Some(slot) = out.get_mut((b * BLOCK + l) * n + s) {
+                    *slot = d;
+                }
+            }
         }
-        d2.push(best);
     }
+}
+
+/// First-pass score of one start from its nearest squared distances `d2` (any order; sorted in
+/// place): FRMSD² of the initial pairing (seed 000 eq. 3.16 squared).
+fn first_pass_score(d2: &mut [f64], weights: &[f64], k_min: usize) -> f64 {
     // Squared distances are ≥ +0 (or NaN/+∞ from absurd input), and for such values the IEEE bit
     // patterns as integers sort exactly as `f64::total_cmp` does: the same order, at a fraction
     // of the cost (this sort was a third of `swarm icp-eval`'s CPU time, by `perf`).
@@ -527,24 +553,27 @@ pub fn initial_icp_ranked(reference: &[Point2<f64>], source: &[Point2<f64>], p: 
     // First pass: score all starts, keep the best of each heading and a shortlist overall.
     let mut shortlist: Vec<Start> = Vec::with_capacity(SHORTLIST + 1);
     let mut per_heading: Vec<Start> = Vec::with_capacity(headings as usize);
+    let cells = grid_cells(h, p.grid_spacing_m);
+    let padded = cells.len().div_ceil(BLOCK) * BLOCK;
+    let cx: Vec<f64> = cells.iter().map(|g| g.x).chain(std::iter::repeat(0.0)).take(padded).collect();
+    let cy: Vec<f64> = cells.iter().map(|g| g.y).chain(std::iter::repeat(0.0)).take(padded).collect();
+    let n = source.len();
+    let mut by_cell = vec![0.0; cells.len() * n];
     for k in 0..headings {
         // seed 000, 5.1 ("all relative headings"): θ_k = 2π·k/H, evenly spaced.
         let heading = wrap_angle(std::f64::consts::TAU * f64::from(k) / f64::from(headings));
         let r = rot(heading);
         ws.rotated.clear();
         ws.rotated.extend(source.iter().map(|q| r * q.coords));
+        nearest_by_cell(reference, &ws.rotated, &cx, &cy, &mut by_cell);
         let mut best_here: Option<Start> = None;
-        for i in -h..=h {
-            for j in -h..=h {
-                // seed 000, 5.1 and Figure 5.1: grid point g = (i, j)·spacing, centred on the agent.
-                let g = Vector2::new(i as f64, j as f64) * p.grid_spacing_m;
-                let score = first_pass_score(reference, &ws.rotated, g, &mut ws.d2, &ws.weights, k_min);
-                let s = Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: g } };
-                if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
-                    best_here = Some(s);
-                }
-                offer(&mut shortlist, SHORTLIST, suppress2, s);
+        for (g, d2) in cells.iter().zip(by_cell.chunks_exact_mut(n)) {
+            let score = first_pass_score(d2, &ws.weights, k_min);
+            let s = Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: *g } };
+            if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
+                best_here = Some(s);
             }
+            offer(&mut shortlist, SHORTLIST, suppress2, s);
         }
         // The best start of this heading, unless the shortlist already has it.
         per_heading.extend(best_here.filter(|b| !shortlist.iter().any(|q| q.agent_from_neighbour == b.agent_from_neighbour)));
@@ -1135,6 +1164,32 @@ mod tests {
             let start = perturb(&mut rng, &truth, 0.3, 3f64.to_radians());
             let m = icp(&reference, &source, start, &IcpParams::default());
             prop_assert!(m.is_ok_and(|m| close(&m, &truth, 1e-9, 1e-9)), "{m:?} vs {truth:?}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(config(64))]
+
+        /// The first pass's distances, cells in SIMD blocks, equal bit for bit the ones of a
+        /// start-by-start loop (`q + g` first, then the difference to each reference point).
+        #[test]
+        fn prop_nearest_by_cell_is_the_start_by_start_loop(seed in any::<u64>(), n_ref in 3usize..50, n_src in 3usize..50, h in 0i64..6, spacing in 0.05..2.0f64) {
+            let mut rng = Rng(seed);
+            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
+            let rotated: Vec<Vector2<f64>> = (0..n_src).map(|_| Vector2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
+            let cells = grid_cells(h, spacing);
+            let padded = cells.len().div_ceil(BLOCK) * BLOCK;
+            let cx: Vec<f64> = cells.iter().map(|g| g.x).chain(std::iter::repeat(0.0)).take(padded).collect();
+            let cy: Vec<f64> = cells.iter().map(|g| g.y).chain(std::iter::repeat(0.0)).take(padded).collect();
+            let mut out = vec![f64::NAN; cells.len() * n_src];
+            nearest_by_cell(&reference, &rotated, &cx, &cy, &mut out);
+            for (c, g) in cells.iter().enumerate() {
+                for (s, q) in rotated.iter().enumerate() {
+                    let (qx, qy) = (q.x + g.x, q.y + g.y);
+                    let want = reference.iter().map(|a| (a.x - qx) * (a.x - qx) + (a.y - qy) * (a.y - qy)).fold(f64::INFINITY, f64::min);
+                    prop_assert_eq!(out[c * n_src + s].to_bits(), want.to_bits(), "cell {} source {}", c, s);
+                }
+            }
         }
     }
 
