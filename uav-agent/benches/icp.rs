@@ -83,6 +83,11 @@ fn bench_icp(c: &mut Criterion) {
         initial_icp(&reference, &source, &p).is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
     assert!(solved, "the crowd bench scenario must be solvable");
     c.bench_function("icp/initial_45pts", |b| b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p)));
+    let start = AgentFromNeighbour {
+        rotation_rad: truth.rotation_rad + 5f64.to_radians(),
+        translation_m: truth.translation_m + Vector2::new(0.3, -0.2),
+    };
+    c.bench_function("icp/short_45pts", |b| b.iter(|| icp(black_box(&reference), black_box(&source), start, &p)));
 }
 
 criterion_group!(benches, bench_icp);
