@@ -459,10 +459,11 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
     list.insert(at, s);
 }
 
-/// Grid cells scored together by [`nearest_by_cell`]: a block's running minima stay in registers
-/// while every reference point is visited once, and its lanes are independent, so the compiler
-/// turns the loop into packed SIMD (SSE2's two lanes on the baseline x86-64 target; 1.5× faster
-/// than a start-by-start loop on a crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`).
+/// Query points searched together by [`nearest_by_cell`] (grid cells) and [`pair_into`] (source
+/// points): a block's running minima stay in registers while every reference point is visited
+/// once, and its lanes are independent, so the compiler turns the loop into packed SIMD (SSE2's
+/// two lanes on the baseline x86-64 target; the first pass 1.5× faster than start by start on a
+/// crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`).
 const BLOCK: usize = 8;
 
 /// The shifts of the grid of seed 000 5.1 and Figure 5.1: cell (i, j) shifts by
@@ -470,6 +471,13 @@ const BLOCK: usize = 8;
 /// c = (i + h)·(2h + 1) + (j + h).
 fn grid_cells(h: i64, spacing: f64) -> Vec<Vector2<f64>> {
     (-h..=h).flat_map(|i| (-h..=h).map(move |j| Vector2::new(i as f64, j as f64) * spacing)).collect()
+}
+
+/// The x and y of `cells`' shifts, padded with zeros to whole blocks of [`BLOCK`].
+fn block_shifts(cells: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>) {
+    let padded = cells.len().div_ceil(BLOCK) * BLOCK;
+    let pad = |v: Vec<f64>| v.into_iter().chain(std::iter::repeat(0.0)).take(padded).collect();
+    (pad(cells.iter().map(|g| g.x).collect()), pad(cells.iter().map(|g| g.y).collect()))
 }
 
 /// First pass, one heading: for every source point `s` (pre-rotated) and every cell `c` (shift
@@ -567,9 +575,7 @@ pub fn initial_icp_ranked(reference: &[Point2<f64>], source: &[Point2<f64>], p: 
     let mut shortlist: Vec<Start> = Vec::with_capacity(SHORTLIST + 1);
     let mut per_heading: Vec<Start> = Vec::with_capacity(headings as usize);
     let cells = grid_cells(h, p.grid_spacing_m);
-    let padded = cells.len().div_ceil(BLOCK) * BLOCK;
-    let cx: Vec<f64> = cells.iter().map(|g| g.x).chain(std::iter::repeat(0.0)).take(padded).collect();
-    let cy: Vec<f64> = cells.iter().map(|g| g.y).chain(std::iter::repeat(0.0)).take(padded).collect();
+    let (cx, cy) = block_shifts(&cells);
     let n = source.len();
     let mut by_cell = vec![0.0; cells.len() * n];
     for k in 0..headings {
@@ -1222,9 +1228,7 @@ mod tests {
             let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
             let rotated: Vec<Vector2<f64>> = (0..n_src).map(|_| Vector2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
             let cells = grid_cells(h, spacing);
-            let padded = cells.len().div_ceil(BLOCK) * BLOCK;
-            let cx: Vec<f64> = cells.iter().map(|g| g.x).chain(std::iter::repeat(0.0)).take(padded).collect();
-            let cy: Vec<f64> = cells.iter().map(|g| g.y).chain(std::iter::repeat(0.0)).take(padded).collect();
+            let (cx, cy) = block_shifts(&cells);
             let mut out = vec![f64::NAN; cells.len() * n_src];
             nearest_by_cell(&reference, &rotated, &cx, &cy, &mut out);
             for (c, g) in cells.iter().enumerate() {
