@@ -64,30 +64,27 @@ fn scenario(seed: u64, shared: usize, own: usize) -> (Vec<Point2<f64>>, Vec<Poin
     (reference, source, truth)
 }
 
-fn bench_icp(c: &mut Criterion) {
+/// Benches the full-grid and a short ICP on `scenario(seed, shared, own)`, named by its size.
+fn bench_case(c: &mut Criterion, seed: u64, shared: usize, own: usize) {
     let p = IcpParams::default();
-    let (reference, source, truth) = scenario(7, 14, 6);
+    let (reference, source, truth) = scenario(seed, shared, own);
+    let pts = shared + own;
     // Sanity: the benchmarked case is a successful one.
     let solved =
         initial_icp(&reference, &source, &p).is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
-    assert!(solved, "the bench scenario must be solvable");
-    c.bench_function("icp/initial_20pts", |b| b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p)));
+    assert!(solved, "the {pts}-point bench scenario must be solvable");
+    c.bench_function(&format!("icp/initial_{pts}pts"), |b| b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p)));
     let start = AgentFromNeighbour {
         rotation_rad: truth.rotation_rad + 5f64.to_radians(),
         translation_m: truth.translation_m + Vector2::new(0.3, -0.2),
     };
-    c.bench_function("icp/short_20pts", |b| b.iter(|| icp(black_box(&reference), black_box(&source), start, &p)));
+    c.bench_function(&format!("icp/short_{pts}pts"), |b| b.iter(|| icp(black_box(&reference), black_box(&source), start, &p)));
+}
+
+fn bench_icp(c: &mut Criterion) {
+    bench_case(c, 7, 14, 6);
     // A crowd's set (forest-40-icp, forest-100-icp): 40–50 obstacle centres, most of them shared.
-    let (reference, source, truth) = scenario(11, 34, 11);
-    let solved =
-        initial_icp(&reference, &source, &p).is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
-    assert!(solved, "the crowd bench scenario must be solvable");
-    c.bench_function("icp/initial_45pts", |b| b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p)));
-    let start = AgentFromNeighbour {
-        rotation_rad: truth.rotation_rad + 5f64.to_radians(),
-        translation_m: truth.translation_m + Vector2::new(0.3, -0.2),
-    };
-    c.bench_function("icp/short_45pts", |b| b.iter(|| icp(black_box(&reference), black_box(&source), start, &p)));
+    bench_case(c, 11, 34, 11);
 }
 
 criterion_group!(benches, bench_icp);
