@@ -4,7 +4,9 @@
 //! side seen by one agent only.
 //!
 //! - `icp/initial_20pts`: one full-grid initial ICP (21×21 positions × 16 headings);
-//! - `icp/short_20pts`: one short ICP from a nearby estimate (0.3 m, 5° off).
+//! - `icp/short_20pts`: one short ICP from a nearby estimate (0.3 m, 5° off);
+//! - `icp/initial_45pts`, `icp/short_45pts`: the same on a crowd's set (forest-40-icp,
+//!   forest-100-icp: 40–50 obstacle centres per set), 34 shared + 11 one-sided per side.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Point2, Rotation2, Vector2};
