@@ -134,7 +134,7 @@ fn main() {
             for (j, s) in shares.iter().enumerate() {
                 let in_range = (poses[j].0 - poses[i].0).hypot(poses[j].1 - poses[i].1) <= radio_m;
                 if let Some(s) = s.as_ref().filter(|_| j != i && in_range) {
-                    agents[i].on_share(s.clone());
+                    agents[i].on_share(s);
                 }
             }
             outs.push(agents[i].step(frame));

@@ -74,7 +74,7 @@ fn bench_step(c: &mut Criterion) {
             b.iter(|| {
                 for j in 0..n {
                     let a = f64::from(j) * 0.8;
-                    agent.on_share(Share::Pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0 }));
+                    agent.on_share(&Share::Pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0 }));
                 }
                 black_box(agent.step(black_box(&frame)))
             })
@@ -109,7 +109,7 @@ fn bench_icp_step(c: &mut Criterion) {
         c.bench_function(&format!("agent/step_icp_750b_{n}_neighbours"), |b| {
             b.iter(|| {
                 for (j, &p) in poses.iter().enumerate() {
-                    agent.on_share(share_of(j as u32 + 2, p, tick - 1));
+                    agent.on_share(&share_of(j as u32 + 2, p, tick - 1));
                 }
                 let t = tick as f64 * 0.1;
                 let scan = Scan { tick, t_secs: t, ..scan.clone() };
@@ -126,7 +126,7 @@ fn bench_icp_step(c: &mut Criterion) {
         let t = tick as f64 * 0.1;
         let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None };
         for (j, &p) in poses.iter().enumerate() {
-            agent.on_share(share_of(j as u32 + 2, p, tick - 1));
+            agent.on_share(&share_of(j as u32 + 2, p, tick - 1));
         }
         let out = agent.step(&SensorFrame { scan: Scan { tick, t_secs: t, ..scan.clone() }, odom, gnss: None, uvdar: None });
         assert_eq!(out.report.neighbours.len(), n as usize, "all neighbours localized: {:?}", out.report.icp);
@@ -157,7 +157,7 @@ fn crowd(trees: &[(f64, f64, f64)], n: usize) -> Vec<(f64, f64, f64)> {
 /// previous tick arrived.
 fn crowd_step(agent: &mut Agent, trees: &[(f64, f64, f64)], poses: &[(f64, f64, f64)], scan: &Scan, tick: u64) -> uav_agent::StepOutput {
     for (j, &p) in poses.iter().enumerate() {
-        agent.on_share(share_in(trees, j as u32 + 2, p, tick - 1));
+        agent.on_share(&share_in(trees, j as u32 + 2, p, tick - 1));
     }
     let t = tick as f64 * 0.1;
     let scan = Scan { tick, t_secs: t, ..scan.clone() };

@@ -111,8 +111,10 @@ impl Agent {
         FrameCollector::new(self.localizer.needs())
     }
 
-    /// Takes a neighbour's share that the link has delivered (our own echo is ignored).
-    pub fn on_share(&mut self, share: Share) {
+    /// Takes a neighbour's share that the link has delivered (our own echo is ignored). By
+    /// reference: on an agent host every listener gets the same decoded share, and the localizer
+    /// keeps only what it needs of it.
+    pub fn on_share(&mut self, share: &Share) {
         self.localizer.receive(share);
     }
 
@@ -232,8 +234,8 @@ mod tests {
     #[test]
     fn own_pose_is_ignored() {
         let mut a = Agent::new(1, scenario());
-        a.on_share(Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
-        a.on_share(Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
+        a.on_share(&Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
+        a.on_share(&Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
         let out = a.step(&frame(None, Some(fix())));
         assert_eq!(out.report.neighbours.len(), 1, "own echo ignored");
         assert_eq!(out.report.neighbours[0].id, Some(2));

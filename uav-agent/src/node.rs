@@ -492,8 +492,7 @@ impl Node {
         let due = self.inbox.take_due(now);
         self.link.on_delivered(due.len());
         for share in due {
-            // The last holder takes it; the others copy it (the localizer keeps what it needs).
-            self.agent.on_share(Arc::unwrap_or_clone(share));
+            self.agent.on_share(&share);
         }
     }
 

@@ -56,7 +56,17 @@ pub(crate) struct Arrived {
 impl Arrived {
     /// Decodes `bytes`, received on sender `from`'s share key.
     fn decode(from: u32, bytes: &[u8]) -> Arrived {
-        let share = Msg::decode(bytes).ok().and_then(|m| Share::from_msg(m, from).ok()).map(Arc::new);
+        let share = match Msg::decode(bytes).map(|m| Share::from_msg(m, from)) {
+            Ok(Ok(share)) => Some(Arc::new(share)),
+            Ok(Err(other)) => {
+                tracing::debug!(from, ?other, "not a share of its sender");
+                None
+            }
+            Err(e) => {
+                tracing::debug!(from, error = %e, "undecodable share");
+                None
+            }
+        };
         Arrived { from, share, len: bytes.len() }
     }
 }
@@ -118,7 +128,8 @@ impl Listeners {
     /// Hands sender `from`'s share to every agent listening to it, decoded once (not at all when
     /// no one listens).
     fn deliver(&self, from: u32, bytes: &[u8]) {
-        let Some(listening) = self.by_sender.get(&from).filter(|v| !v.is_empty()) else { return };
+        // A sender's entry goes when its last listener does (see `Listening::drop`).
+        let Some(listening) = self.by_sender.get(&from) else { return };
         let arrived = Arrived::decode(from, bytes);
         for (_, mailbox) in listening {
             mailbox.post(arrived.clone());

@@ -26,9 +26,9 @@ impl Broadcast {
     }
 
     /// Keeps a neighbour's pose (our own echo and obstacle sets are ignored).
-    pub(crate) fn receive(&mut self, share: Share) {
+    pub(crate) fn receive(&mut self, share: &Share) {
         match share {
-            Share::Pose(p) if p.from != self.id => self.table.update(p),
+            Share::Pose(p) if p.from != self.id => self.table.update(*p),
             _ => {}
         }
     }

@@ -148,7 +148,7 @@ impl Localizer {
     }
 
     /// Takes a neighbour's share that the link has delivered.
-    pub(crate) fn receive(&mut self, share: Share) {
+    pub(crate) fn receive(&mut self, share: &Share) {
         match self {
             Localizer::Broadcast(b) => b.receive(share),
             Localizer::Icp(i) => i.receive(share),

@@ -883,7 +883,7 @@ impl IcpLocalizer {
 
     /// Keeps a neighbour's obstacle set if it is newer than the one held (our own echo and poses
     /// are ignored).
-    pub(crate) fn receive(&mut self, share: Share) {
+    pub(crate) fn receive(&mut self, share: &Share) {
         let Share::Obstacles(o) = share else { return };
         if o.from == self.id {
             return;
