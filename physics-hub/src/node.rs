@@ -257,7 +257,7 @@ async fn subscribe_cmds(
     let k = keys.clone();
     let sub = plumbing::subscribe(s, keys.cmd_any(), cmd_tx, move |sample| {
         let id = valid_id(&k, count, sample.key_expr().as_str());
-        match (id, Msg::decode(&sample.payload().to_bytes())) {
+        match (id, plumbing::decode(sample)) {
             (Some(id), Ok(Msg::Cmd(c))) => Some((id, c, Instant::now())),
             (None, _) => {
                 ignored.fetch_add(1, Ordering::Relaxed);

@@ -230,7 +230,7 @@ async fn declare_inputs(
     tx: &mpsc::UnboundedSender<Incoming>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
     // Decoded from the payload in place when it is contiguous (no copy of each scan).
-    let decode = |sample: &zenoh::sample::Sample| Some(Msg::decode(&sample.payload().to_bytes()).ok());
+    let decode = |sample: &zenoh::sample::Sample| Some(plumbing::decode(sample).ok());
     let mut sense_subs = Vec::with_capacity(4);
     for key in [keys.scan(id), keys.odom(id), keys.gnss(id), keys.uvdar(id)] {
         sense_subs.push(subscribe_declared(s, key, tx.clone(), decode).await?);

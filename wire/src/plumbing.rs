@@ -27,6 +27,12 @@ pub fn payload(sample: &Sample) -> Vec<u8> {
     sample.payload().to_bytes().into_owned()
 }
 
+/// The message a sample carries, decoded from its payload in place (borrowed when the payload is
+/// contiguous, as one message is: no copy).
+pub fn decode(sample: &Sample) -> Result<crate::Msg, WireError> {
+    crate::Msg::decode(&sample.payload().to_bytes())
+}
+
 /// Subscribes to `key` (a key, or a key expression declared on `s`) and sends `map(sample)`
 /// into `tx` for every sample; `None` sends nothing (the mapping may count or log what it drops).
 pub async fn subscribe<T: Send + 'static, K>(

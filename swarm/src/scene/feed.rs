@@ -33,18 +33,18 @@ impl Feed {
         let k = keys.clone();
         let scans = plumbing::subscribe(session, keys.scan_any(), tx.clone(), move |s| {
             let id = k.uav_id_of(s.key_expr().as_str())?;
-            match Msg::decode(&plumbing::payload(s)) {
+            match plumbing::decode(s) {
                 Ok(Msg::Scan(scan)) => Some(Extra::Scan(id, scan)),
                 _ => None,
             }
         })
         .await?;
-        let radio = plumbing::subscribe(session, keys.radio_any(), tx.clone(), |s| match Msg::decode(&plumbing::payload(s)) {
+        let radio = plumbing::subscribe(session, keys.radio_any(), tx.clone(), |s| match plumbing::decode(s) {
             Ok(Msg::Radio(r)) => Some(Extra::Radio(r)),
             _ => None,
         })
         .await?;
-        let rules = plumbing::subscribe(session, keys.netem_rules(), tx, |s| match Msg::decode(&plumbing::payload(s)) {
+        let rules = plumbing::subscribe(session, keys.netem_rules(), tx, |s| match plumbing::decode(s) {
             Ok(Msg::NetemRules(json)) => serde_json::from_str(&json).ok().map(Extra::Timeline),
             _ => None,
         })

@@ -162,26 +162,26 @@ impl Live {
             tokio::select! {
                 Ok(s) = truth.recv_async() => self.shown.truth(&plumbing::payload(&s)),
                 Ok(s) = states.recv_async() => {
-                    if let Ok(Msg::State(st)) = Msg::decode(&plumbing::payload(&s)) {
+                    if let Ok(Msg::State(st)) = plumbing::decode(&s) {
                         self.shown.scene.on_state(&st);
                         self.shown.board.on_state(*st);
                     }
                 }
                 Ok(s) = scans.recv_async() => {
                     let id = self.shown.keys.uav_id_of(s.key_expr().as_str());
-                    if let (Some(id), Ok(Msg::Scan(scan))) = (id, Msg::decode(&plumbing::payload(&s))) {
+                    if let (Some(id), Ok(Msg::Scan(scan))) = (id, plumbing::decode(&s)) {
                         self.shown.scene.on_scan(id, &scan);
                         self.shown.scans.on_scan(id, scan);
                     }
                 }
                 Ok(s) = radio.recv_async() => {
-                    if let Ok(Msg::Radio(r)) = Msg::decode(&plumbing::payload(&s)) {
+                    if let Ok(Msg::Radio(r)) = plumbing::decode(&s) {
                         self.shown.board.on_radio(&r);
                         self.shown.scene.on_extra(Extra::Radio(r));
                     }
                 }
                 Ok(s) = rules.recv_async() => {
-                    if let Ok(Msg::NetemRules(json)) = Msg::decode(&plumbing::payload(&s)) {
+                    if let Ok(Msg::NetemRules(json)) = plumbing::decode(&s) {
                         if let Ok(t) = serde_json::from_str::<swarm_config::Timeline>(&json) {
                             self.shown.board.on_timeline(t.clone());
                             self.shown.scene.on_timeline(t);
