@@ -483,16 +483,17 @@ impl Net {
     /// an agent that has the scan has the rest.
     fn put_sensors(&self, id: u32, e: EncodedSensors) -> Result<(), WireError> {
         let p = &self.uavs[(id - 1) as usize];
-        let put = |publisher: &Publisher, bytes: Vec<u8>| publisher.put(bytes).wait().map_err(WireError::zenoh);
-        put(&p.radio, e.radio)?;
-        put(&p.odom, e.odom)?;
+        // Blocking puts (the caller is inside `block_in_place`), unlike the async `put` above.
+        let put_now = |publisher: &Publisher, bytes: Vec<u8>| publisher.put(bytes).wait().map_err(WireError::zenoh);
+        put_now(&p.radio, e.radio)?;
+        put_now(&p.odom, e.odom)?;
         if let Some(g) = e.gnss {
-            put(&p.gnss, g)?;
+            put_now(&p.gnss, g)?;
         }
         if let Some(u) = e.uvdar {
-            put(&p.uvdar, u)?;
+            put_now(&p.uvdar, u)?;
         }
-        put(&p.scan, e.scan)
+        put_now(&p.scan, e.scan)
     }
 
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors

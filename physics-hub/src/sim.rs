@@ -1,5 +1,5 @@
 //! The simulation state and its step, free of any IO: the hub's Zenoh loop calls
-//! [`Sim::sensors_all`] for the live UAVs, collects commands, then [`Sim::step`]. Pure and
+//! [`Sim::sensors_each`] for the live UAVs, collects commands, then [`Sim::step`]. Pure and
 //! seeded, so a lockstep run with the same commands repeats exactly.
 //!
 //! Scale: every pairwise question (radio links, contacts, the UAVs a scan can hit, the nearest
@@ -191,6 +191,19 @@ impl Sim {
         &mut self,
         ids: &[u32],
         prepare: impl Fn(u32, Sensors) -> T + Sync,
+        sink: impl FnMut(u32, T) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+        self.sensors_each_on(ids, workers, prepare, sink)
+    }
+
+    /// [`Sim::sensors_each`] with `workers` worker threads at most (below 2: none, one UAV after
+    /// the other on the calling thread); the tests pick it so the pipeline runs on any machine.
+    fn sensors_each_on<T: Send, E>(
+        &mut self,
+        ids: &[u32],
+        workers: usize,
+        prepare: impl Fn(u32, Sensors) -> T + Sync,
         mut sink: impl FnMut(u32, T) -> Result<(), E>,
     ) -> Result<(), E> {
         let mut rngs = std::mem::take(&mut self.rngs);
@@ -204,7 +217,6 @@ impl Sim {
             }
         }
         let this = &*self;
-        let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
         let result = if jobs.len() < PARALLEL_FROM_UAVS || workers < 2 {
             jobs.into_iter().try_for_each(|(id, r)| sink(id, prepare(id, this.sensors_of(id, r))))
         } else {
@@ -550,7 +562,8 @@ time_limit_s = 100.0
         let (mut pipelined, mut alone) = (Sim::new(&sc), Sim::new(&sc));
         for _ in 0..3 {
             let mut order = Vec::new();
-            let got = pipelined.sensors_each(&ids, |id, s| (id, format!("{s:?}")), |id, (prepared_for, text)| {
+            // Three workers whatever this machine has, so the pipeline itself is what is tested.
+            let got = pipelined.sensors_each_on(&ids, 3, |id, s| (id, format!("{s:?}")), |id, (prepared_for, text)| {
                 order.push(id);
                 assert_eq!(prepared_for, id, "prepared and sunk for the same UAV");
                 assert_eq!(text, format!("{:?}", alone.sensors(id)), "UAV {id}");
@@ -570,7 +583,7 @@ time_limit_s = 100.0
         let ids: Vec<u32> = sc.uav_ids().collect();
         let mut sim = Sim::new(&sc);
         let mut sunk = 0;
-        let got = sim.sensors_each(&ids, |_, s| s.scan.ranges_m.len(), |id, _| {
+        let got = sim.sensors_each_on(&ids, 3, |_, s| s.scan.ranges_m.len(), |id, _| {
             sunk += 1;
             if id == 40 {
                 Err(id)
