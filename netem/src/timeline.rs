@@ -61,6 +61,17 @@ impl Timeline {
         self.failures().iter().any(|f| f.uav == id && f.kind == FailureKind::Freeze && f.at_s <= t_secs + DUE_SLACK_S)
     }
 
+    /// The worse class of the link between `i` and `j` at `t_secs`, over both directions (cut
+    /// beats impaired beats clean): what a picture of the link shows.
+    pub fn class_between(&self, t_secs: f64, i: u32, j: u32) -> crate::LinkClass {
+        let (a, b) = (crate::LinkClass::of(self.rule_at(t_secs, i, j)), crate::LinkClass::of(self.rule_at(t_secs, j, i)));
+        if (a as u8) >= (b as u8) {
+            a
+        } else {
+            b
+        }
+    }
+
     /// The netem rule in force at sim time `t_secs` for messages from `from` to `to`. A frozen
     /// sender says nothing: its links are blocked from its freeze on. Then the partition in force
     /// (the latest partition event at or before `t_secs`) blocks, or holds, the links it cuts.

@@ -16,12 +16,13 @@ const SIZE: (u32, u32) = (1000, 460);
 const CUT: RGBColor = RGBColor(214, 39, 40);
 const IMPAIRED: RGBColor = RGBColor(255, 127, 14);
 
-/// The worst class of any ordered link between `ids` at `t_s` (cut beats impaired beats clean).
+/// The worst class of any link between `ids` at `t_s`, either direction (cut beats impaired
+/// beats clean).
 fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[u32]) -> LinkClass {
     let mut worst = LinkClass::Clean;
-    for &from in ids {
-        for &to in ids.iter().filter(|&&to| to != from) {
-            match LinkClass::of(tl.rule_at(t_s, from, to)) {
+    for (k, &i) in ids.iter().enumerate() {
+        for &j in &ids[k + 1..] {
+            match tl.class_between(t_s, i, j) {
                 LinkClass::Cut => return LinkClass::Cut,
                 LinkClass::Impaired => worst = LinkClass::Impaired,
                 LinkClass::Clean => {}

@@ -327,7 +327,7 @@ pub(crate) fn radio_links(radio: &BTreeMap<u32, Vec<u32>>, timeline: &netem::Tim
     for (&i, ids) in radio {
         for &j in ids.iter().filter(|&&j| j > i) {
             let (Some(a), Some(b)) = (at(i), at(j)) else { continue };
-            links.push(RadioLink { ids: [i, j], ends: [a, b], class: link_class(timeline, t, i, j) });
+            links.push(RadioLink { ids: [i, j], ends: [a, b], class: timeline.class_between(t, i, j) });
         }
     }
     links
@@ -348,17 +348,6 @@ pub(crate) fn numbers(st: &AgentState) -> serde_json::Map<String, serde_json::Va
         ("output", v.output.into()),
     ];
     fields.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
-}
-
-/// The worse netem class of the link between `i` and `j` at `t` (both directions).
-pub(crate) fn link_class(timeline: &netem::Timeline, t: f64, i: u32, j: u32) -> netem::LinkClass {
-    let a = netem::LinkClass::of(timeline.rule_at(t, i, j));
-    let b = netem::LinkClass::of(timeline.rule_at(t, j, i));
-    if (a as u8) >= (b as u8) {
-        a
-    } else {
-        b
-    }
 }
 
 /// The class a link colour of [`class_color`] stands for (unknown colours: clean).
