@@ -15,7 +15,7 @@ mod shrink;
 
 use crate::args::unix_secs;
 use crate::study::{run_bounded, run_variant, VariantRun};
-use crate::summary::Summary;
+use crate::summary::{CheckResult, Summary};
 use anyhow::{Context, Result};
 use case::{Case, Space, Weaken};
 use clap::Args;
@@ -98,14 +98,20 @@ struct Failure {
     what: String,
 }
 
+impl Failure {
+    /// Check `c` of run `s` as failed: its first failure, or the run's end and no text when the
+    /// check names no moment.
+    fn of(c: &CheckResult, s: &Summary) -> Failure {
+        let (t_s, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
+        Failure { check: c.name.clone(), t_s, what }
+    }
+}
+
 /// The check to shrink: the failed check whose first failure came first (checks judged as
 /// they happen before those judged at the end).
 fn first_failed(s: &Summary) -> Option<Failure> {
     s.failed_checks()
-        .map(|c| {
-            let (t_s, what) = c.first_failure.as_ref().map_or((s.sim_time_s, String::new()), |f| (f.t_s, f.what.clone()));
-            Failure { check: c.name.clone(), t_s, what }
-        })
+        .map(|c| Failure::of(c, s))
         .min_by(|a, b| {
             (shrink::judged_at_end(&a.check), a.t_s).partial_cmp(&(shrink::judged_at_end(&b.check), b.t_s)).unwrap_or(std::cmp::Ordering::Equal)
         })
@@ -160,10 +166,9 @@ async fn shrink(case: Case, first: Failure, out: &Path, budget: usize, pb: &Prog
             pb.set_message(format!("shrinking case {}: {}", best.index, cand.label()));
             let tag = format!("shrink-{}-{spent}", best.index);
             let Ok(s) = fly(&cand, out, &tag).await else { continue };
-            let hit = s.failed_checks().find(|c| c.name == failure.check).map(|c| c.first_failure.clone());
-            if let Some(first) = hit {
-                failure.t_s = first.as_ref().map_or(s.sim_time_s, |f| f.t_s);
-                failure.what = first.map_or_else(String::new, |f| f.what);
+            let hit = s.failed_checks().find(|c| c.name == failure.check).map(|c| Failure::of(c, &s));
+            if let Some(f) = hit {
+                failure = f;
                 best = cand;
                 continue 'outer;
             }
