@@ -125,7 +125,8 @@ impl Credentials {
         Ok(creds)
     }
 
-    /// The password file of `user` (`<dir>/<user>.password`): the one place its name is made.
+    /// The password file of `user` (`<dir>/<user>.password`): the one place in this crate its
+    /// name is made (the end-to-end tests, outside it, write theirs themselves).
     pub fn password_file(&self, user: &str) -> PathBuf {
         self.dir.join(format!("{user}.password"))
     }
