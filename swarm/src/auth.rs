@@ -11,7 +11,8 @@
 //! - `uavs{ids}` (`uavs1-20`, `uavs1-4,7`, the `--ids` syntax): an agent host, one session for
 //!   several UAVs, allowed exactly what each of those UAVs is. The same user serves a second
 //!   router that relays a group of agents to the hub.
-//! - `observer` (or `observer-NAME`): reads every key of the run, publishes nothing; it may hold
+//! - `observer` (or `observer-NAME`): reads every key of the run and the routers' admin space
+//!   (`@/**`, read-only: who subscribes to what, for `swarm keys`), publishes nothing; it may hold
 //!   `alive/recorder` (the recorder is an observer).
 //! - `operator` (or `operator-NAME`): an observer that may also put on `netem/add`.
 //!
@@ -208,6 +209,9 @@ fn access_control(run: &str, users: &[String]) -> Result<Value> {
         // Observers and operators.
         rule("observe-in", "ingress", &read, vec![format!("{r}/**")]),
         rule("observe-out", "egress", &["put", "delete", "reply", "liveliness_token"], vec![format!("{r}/**")]),
+        // Observers and operators may read the routers' admin space (`swarm keys`).
+        rule("observe-admin-in", "ingress", &["query"], vec!["@/**".into()]),
+        rule("observe-admin-out", "egress", &["reply"], vec!["@/**".into()]),
         rule("recorder-token", "ingress", &["liveliness_token"], vec![format!("{r}/alive/recorder")]),
         rule("operate", "ingress", &["put"], vec![format!("{r}/netem/add")]),
         // Every agent: the run-wide keys, and its neighbours' shares.
@@ -229,10 +233,8 @@ fn access_control(run: &str, users: &[String]) -> Result<Value> {
         let subject = format!("user{n}");
         subjects.push(json!({ "id": subject, "usernames": [user] }));
         let granted: Vec<String> = match Role::of(user)? {
-            Role::Observer => vec!["decl-out".into(), "observe-in".into(), "observe-out".into(), "recorder-token".into()],
-            Role::Operator => {
-                vec!["decl-out".into(), "observe-in".into(), "observe-out".into(), "recorder-token".into(), "operate".into()]
-            }
+            Role::Observer => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token"].map(String::from).to_vec(),
+            Role::Operator => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token", "operate"].map(String::from).to_vec(),
             Role::Agents(ids) => {
                 rules.extend(own_rules(&r, &subject, &ids));
                 let own = ["own-sub", "own-pub", "own-token"].map(|k| format!("{subject}-{k}"));

@@ -37,6 +37,9 @@ pub enum Cmd {
     Tap(crate::tap::TapArgs),
     /// Publish one message (as JSON, or raw hex) on a key.
     Put(crate::tap::PutArgs),
+    /// The live key space of a run: each key family, who publishes and who subscribes (per
+    /// session, from the routers' admin space), message rate and bandwidth.
+    Keys(crate::keyspace::KeysArgs),
     /// Change the network faults of a running swarm (loss, delay, partition, isolate, heal).
     Netem(crate::netem_cli::NetemArgs),
     /// Fly one scenario with each controller and print the comparison (seed 000 section 6.5).
@@ -115,6 +118,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Replay(a) => crate::view::replay(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,
         Cmd::Put(a) => crate::tap::put(a).await,
+        Cmd::Keys(a) => crate::keyspace::keys(a).await,
         Cmd::Netem(a) => crate::netem_cli::netem(a).await,
         Cmd::Compare(a) => crate::study::compare(a).await,
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,

@@ -1,7 +1,7 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   router | view | replay | tap | put | netem | compare | formations | sweep-error |
+//!   router | view | replay | tap | put | keys | netem | compare | formations | sweep-error |
 //!   sweep-seeds | icp-eval | scale | plot | credentials | fuzz | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
@@ -24,6 +24,8 @@
 //! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
 //!   `swarm put` publishes one.
+//! - [`keyspace`]: `swarm keys`: the live key space of a run from the routers' admin space (who
+//!   publishes and subscribes to each key family, per session) with rates and bandwidth.
 //! - [`study`]: `swarm compare` (one scenario, each controller), `swarm formations` (seed 004's
 //!   topologies) and `swarm sweep-error` (seed 001's broadcast error study), each a series of
 //!   full runs with a table and a plot.
@@ -65,6 +67,7 @@ mod checks;
 pub mod cli;
 mod fuzz;
 mod icp_eval;
+mod keyspace;
 mod launch;
 mod netem_cli;
 mod pieces;

@@ -91,6 +91,52 @@ pub struct Summary {
     /// moment (issue 15). Appended; empty in older summaries.
     #[serde(default)]
     pub checks: Vec<CheckResult>,
+    /// What the agent sessions received: shares per tick that reached each session and those
+    /// that counted, and bytes per tick (issue 22). Measured: it depends on how the agents share
+    /// sessions and on when a subscription's undeclaration reached the router. Appended; absent
+    /// (zero) in older summaries.
+    #[serde(default)]
+    pub traffic: TrafficSummary,
+}
+
+/// What the agent sessions (one agent's process, or a host's) received, from the counts each
+/// agent's state carries. Per agent and tick: a session's counts divided by its agents and the
+/// ticks it flew, so one agent per process and hosts read alike.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrafficSummary {
+    /// Agent sessions that reported.
+    pub sessions: usize,
+    /// Shares that reached the agents' sessions, per agent and tick.
+    pub shares_arrived_per_agent_tick: f64,
+    /// Shares that counted (sent inside a neighbour's window), per agent and tick: what the
+    /// agents needed.
+    pub shares_counted_per_agent_tick: f64,
+    /// Payload bytes of the shares that reached the sessions, per agent and tick.
+    pub share_bytes_per_agent_tick: f64,
+    /// Payload bytes of everything the sessions received (sensors, radio sets, rules, shares),
+    /// per agent and tick.
+    pub bytes_per_agent_tick: f64,
+    /// Each session.
+    pub per_session: Vec<SessionTrafficSummary>,
+}
+
+/// What one agent session received.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SessionTrafficSummary {
+    /// The session's Zenoh id.
+    pub session: String,
+    /// Agents that flew on it.
+    pub agents: usize,
+    /// Ticks its agents reported, first to last.
+    pub ticks: u64,
+    /// Shares that reached it per tick.
+    pub shares_arrived_per_tick: f64,
+    /// Shares that counted per tick, summed over its agents.
+    pub shares_counted_per_tick: f64,
+    /// Payload bytes received per tick (everything).
+    pub bytes_per_tick: f64,
+    /// Share subscriptions it held, mean over its agents' states (the union of their radio sets).
+    pub subscriptions_mean: f64,
 }
 
 /// One invariant evaluated over a run.
@@ -496,6 +542,18 @@ impl Summary {
             f(100.0 * t.late_share),
             f(t.late_p99_ms)
         );
+        let w = &self.traffic;
+        if w.sessions > 0 {
+            let _ = writeln!(
+                s,
+                "traffic per agent and tick: {} shares arrived, {} counted; {} kB received ({} kB of shares); {} agent sessions",
+                f(w.shares_arrived_per_agent_tick),
+                f(w.shares_counted_per_agent_tick),
+                f(w.bytes_per_agent_tick / 1000.0),
+                f(w.share_bytes_per_agent_tick / 1000.0),
+                w.sessions
+            );
+        }
         let _ = write!(
             s,
             "min distance to obstacles {} m, to other UAVs {} m",

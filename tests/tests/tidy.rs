@@ -12,7 +12,8 @@
 //! - ARCHITECTURE.md's codemap has a section per crate, naming each of the crate's top-level
 //!   modules;
 //! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on;
-//! - no function in the agent's node, the hub's node or the launcher is over 60 lines.
+//! - no function in the agent's node, the hub's node or the launcher is over 60 lines;
+//! - in `uav-agent`, only the modules under `src/net/` name `zenoh`: the onboard stages stay pure.
 //!
 //! Pure file reading: no process is spawned and nothing is built.
 
@@ -364,7 +365,7 @@ fn crate_dependency_list_matches_the_manifests() {
 
 /// The files whose functions must stay short: the three places where Zenoh plumbing and control
 /// flow meet, which grow long loops unless held to it.
-const SHORT_FUNCTION_FILES: [&str; 3] = ["uav-agent/src/node.rs", "physics-hub/src/node.rs", "swarm/src/launch.rs"];
+const SHORT_FUNCTION_FILES: [&str; 3] = ["uav-agent/src/net/node.rs", "physics-hub/src/node.rs", "swarm/src/launch.rs"];
 
 /// Longest function allowed there, in lines from `fn` to its closing brace.
 const MAX_FUNCTION_LINES: usize = 60;
@@ -400,6 +401,30 @@ fn functions_in_the_nodes_and_the_launcher_stay_short() {
         }
     }
     assert!(long.is_empty(), "{}", long.join("\n"));
+}
+
+/// The lines of `text` that are code: comments and doc comments left out.
+fn code_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines().enumerate().filter(|(_, l)| !l.trim_start().starts_with("//")).map(|(i, l)| (i + 1, l))
+}
+
+#[test]
+fn only_the_agents_network_layer_touches_zenoh() {
+    let src = root().join("uav-agent/src");
+    let net = src.join("net");
+    let mut found = Vec::new();
+    for file in rust_files(&src).into_iter().filter(|f| !f.starts_with(&net)) {
+        for (n, line) in code_lines(&read(&file)).filter(|(_, l)| l.contains("zenoh")) {
+            found.push(format!("{}:{n}: `{}`", rel(&file), line.trim()));
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "uav-agent names zenoh outside src/net/ (move the Zenoh side into `net`, keep the stage pure):\n{}",
+        found.join("\n")
+    );
+    let net_files = rust_files(&net);
+    assert!(net_files.iter().any(|f| code_lines(&read(f)).any(|(_, l)| l.contains("zenoh::"))), "the check looks where Zenoh is used");
 }
 
 #[test]

@@ -22,7 +22,7 @@ use crate::sensing::{FrameCollector, SensorFrame};
 use nalgebra::Point2;
 use std::time::Instant;
 use swarm_config::Scenario;
-use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, LinkCounters, NeighbourEstimate, VectorMagnitudes};
+use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, LinkCounters, NeighbourEstimate, SessionTraffic, VectorMagnitudes};
 
 /// What one step produces.
 #[derive(Debug, Clone)]
@@ -65,6 +65,8 @@ pub struct LinkReport {
     pub counters: LinkCounters,
     /// Delays of the shares delivered since the last report.
     pub delays: Vec<DelaySample>,
+    /// What the agent's session received since it opened.
+    pub traffic: SessionTraffic,
 }
 
 impl StepReport {
@@ -82,6 +84,7 @@ impl StepReport {
             link: link.counters,
             icp: self.icp,
             delays: link.delays,
+            traffic: link.traffic,
         }
     }
 }
@@ -256,7 +259,7 @@ mod tests {
     fn the_state_message_joins_the_step_and_the_link() {
         let mut a = Agent::new(1, scenario());
         let out = a.step(&frame(None, Some(fix())));
-        let link = LinkReport { in_radio_range: 3, counters: LinkCounters { sent_msgs: 1, ..LinkCounters::default() }, delays: Vec::new() };
+        let link = LinkReport { in_radio_range: 3, counters: LinkCounters { sent_msgs: 1, ..LinkCounters::default() }, ..LinkReport::default() };
         let state = out.report.clone().into_state(link);
         assert_eq!((state.id, state.tick, state.in_radio_range, state.link.sent_msgs), (1, 1, 3, 1));
         assert_eq!(state.vectors, out.report.vectors);

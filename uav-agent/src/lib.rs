@@ -18,27 +18,26 @@
 //! - `geometry`: what every stage shares: the odometry pose, the one angle-wrap convention,
 //!   small vector helpers.
 //! - `agent`: [`Agent::step`], the pipeline of one tick with no IO.
-//! - `node`: the Zenoh side: sensor and radio subscriptions, listening to the neighbours' shares
-//!   as the radio set changes, the netem link seam, liveliness. Entry point: [`run`].
-//! - `host`: many agents in one process on one shared Zenoh session, each with its own node
-//!   ([`run_host`]).
-//! - `shared`: what the agents of one session share: every UAV's share key declared once, and
-//!   one subscription to them all that hands each share to the agents listening to its sender.
+//! - `admission`: which received shares count and when each is delivered: the neighbour windows,
+//!   early shares, the netem link seam and its inbox, with no IO.
+//! - `net`: everything that touches Zenoh, and only it: one agent's node (sensor and radio
+//!   subscriptions, listening to the shares of its radio set, liveliness; entry point [`run`]),
+//!   the agent host ([`run_host`]), and the session's share feed (one subscription per sender
+//!   its agents listen to).
 //!
-//! Dependencies run one way: agent → control → planning → geometry, agent → localization →
-//! geometry; nothing below points back up to the agent or the node. Architecture invariant: an
+//! Dependencies run one way: net → admission → agent → control → planning → geometry, agent →
+//! localization → geometry; nothing below points back up to the agent or the node. Architecture invariant: an
 //! agent sees the world only through its own sensor keys and its neighbours' shares; it never
 //! reads `truth/**`.
 
 // The algorithm modules keep the whole of their seed's method, tested beside it, though one
 // agent step uses only part of it: outside tests that part is dead code, on purpose.
+mod admission;
 mod agent;
 mod control;
 mod geometry;
-mod host;
 mod localization;
-mod node;
-mod shared;
+mod net;
 #[cfg_attr(not(test), allow(dead_code))]
 mod perception;
 #[cfg_attr(not(test), allow(dead_code))]
@@ -48,6 +47,5 @@ mod sensing;
 pub use agent::{Agent, LinkReport, StepOutput, StepReport};
 pub use localization::icp;
 pub use localization::Share;
-pub use host::{run_host, HostOptions};
-pub use node::{run, AgentError, AgentExit, AgentOptions};
+pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions};
 pub use sensing::{FrameCollector, Needs, SensorFrame};

@@ -399,6 +399,29 @@ pub struct AgentState {
     pub icp: IcpCounts,
     /// Delays applied to the copies scheduled for delivery since the previous state.
     pub delays: Vec<DelaySample>,
+    /// What the agent's Zenoh session received since it opened. Appended: the wire's measure of
+    /// whether traffic grows with the neighbours or with the swarm.
+    pub traffic: SessionTraffic,
+}
+
+/// What one agent session (one agent's process, or a host's) received since it opened, counted
+/// by the session's own subscriptions: every agent of a host reports the same session's counts,
+/// and readers group them by `session`.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SessionTraffic {
+    /// The session's Zenoh id, as the router's admin space names it.
+    pub session: String,
+    /// Agents flying on the session.
+    pub agents: u32,
+    /// Share messages the session received (every sample of its share subscriptions).
+    pub shares: u64,
+    /// Their payload bytes.
+    pub share_bytes: u64,
+    /// Payload bytes of every sample the session received: sensors, radio sets, netem rules and
+    /// shares (Zenoh's framing not included).
+    pub bytes: u64,
+    /// Senders whose shares the session subscribes to now (the union of its agents' radio sets).
+    pub subscriptions: u32,
 }
 
 /// The static world, published once by the hub for the recorder.
@@ -587,6 +610,7 @@ pub(crate) mod tests {
             },
             icp: IcpCounts { short: 1, long: 2, initial: 3, deferred: 4, entries: 5, suspended: 6 },
             delays: vec![DelaySample { class: 1, delay_s: 0.5 }],
+            traffic: SessionTraffic { session: "a1".into(), agents: 2, shares: 3, share_bytes: 300, bytes: 5, subscriptions: 6 },
         };
         let body = |id: u32, colliding: bool| TruthBody {
             id,
@@ -638,7 +662,7 @@ pub(crate) mod tests {
                 Msg::Pose(PoseShare { from: 3, tick: 5, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125 }),
                 "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf",
             ),
-            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f"),
+            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac020506"),
             (
                 Msg::TruthWorld(TruthWorld {
                     trees: vec![[1.0, 2.0, 0.25]],

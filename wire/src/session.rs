@@ -4,6 +4,15 @@
 //! the one place where access control can be enforced. Multicast scouting is off in every
 //! process (it is what makes parallel test runs cross-talk), and so is gossip autoconnect, so
 //! traffic cannot route around the hub.
+//!
+//! Every link carries one queue: QoS priorities are off on unicast transports. Zenoh sends
+//! declarations at its control priority and data at ours; with priorities on, each has its own
+//! queue on a link and a declaration may leave after data put later. The lockstep protocol needs
+//! a session's declarations and data in the order it made them: an agent declares its
+//! subscription to a new neighbour's shares while handling the radio set of tick k, and that
+//! declaration must reach the router before the agent's command of tick k (ARCHITECTURE.md,
+//! "Lockstep tick k"). With one queue per link and each router handling a link's messages in
+//! order, it does, on every hop.
 
 use crate::WireError;
 use zenoh::bytes::Encoding;
@@ -30,9 +39,15 @@ pub fn config(role: Role, listen: &[String], connect: &[String], extra: &[String
     set(&mut c, "scouting/multicast/enabled", "false")?;
     set(&mut c, "scouting/gossip/enabled", "false")?;
     set(&mut c, "scouting/delay", "0")?;
+    set(&mut c, "transport/unicast/qos/enabled", "false")?;
     let json = |v: &[String]| serde_json::to_string(v).map_err(|e| WireError::zenoh(e.to_string()));
     set(&mut c, "listen/endpoints", &json(listen)?)?;
     set(&mut c, "connect/endpoints", &json(connect)?)?;
+    if role == Role::Router {
+        // Zenoh's admin space, read-only: who subscribes to what, on every router (`swarm keys`);
+        // the hub's access control lets only observers query it.
+        set(&mut c, "adminspace", "{enabled: true, permissions: {read: true, write: false}}")?;
+    }
     if role == Role::Client {
         // Wait for a hub that is not up yet, retrying, rather than failing at once.
         set(&mut c, "connect/timeout_ms", "30000")?;
@@ -66,11 +81,13 @@ pub async fn locators(session: &zenoh::Session) -> Vec<String> {
 /// A publisher of our payloads on `key`. Every publisher of a run uses one priority, so the
 /// router forwards each session's messages in the order they were put (the lockstep protocol
 /// relies on that); `cc` chooses back-pressure (`Block`) or dropping (`Drop`) under congestion.
-pub async fn publisher(
-    s: &zenoh::Session,
-    key: String,
-    cc: CongestionControl,
-) -> Result<zenoh::pubsub::Publisher<'static>, WireError> {
+/// `key` is a key, or a key expression declared on `s` (the router then sends its id, not the
+/// string).
+pub async fn publisher<K>(s: &zenoh::Session, key: K, cc: CongestionControl) -> Result<zenoh::pubsub::Publisher<'static>, WireError>
+where
+    K: TryInto<zenoh::key_expr::KeyExpr<'static>> + Send,
+    K::Error: Into<zenoh::Error>,
+{
     s.declare_publisher(key)
         .encoding(encoding())
         .congestion_control(cc)

@@ -32,6 +32,7 @@ fn state(id: u32, tick: u64, of: &[u32]) -> AgentState {
         link: Default::default(),
         icp: Default::default(),
         delays: Vec::new(),
+        traffic: Default::default(),
     }
 }
 

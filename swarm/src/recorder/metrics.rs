@@ -6,10 +6,10 @@
 use super::solitude::solitude;
 use crate::summary::{
     AgentSummary, ClassSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, FormationMetrics,
-    LocalizationSummary, Reconnection, Summary, TimingSummary, SCHEMA,
+    LocalizationSummary, Reconnection, SessionTrafficSummary, Summary, TimingSummary, TrafficSummary, SCHEMA,
 };
 use std::collections::BTreeMap;
-use swarm_wire::{AgentState, ClassCounts, EndReason, TruthBody, TruthStep, TruthWorld};
+use swarm_wire::{AgentState, ClassCounts, EndReason, SessionTraffic, TruthBody, TruthStep, TruthWorld};
 
 /// One UAV's samples over the run.
 #[derive(Debug, Clone, Default)]
@@ -160,6 +160,52 @@ pub struct Metrics {
     late_ms: Vec<f64>,
     /// States scored since the last [`Metrics::take_scored`].
     scored: Vec<Scored>,
+    /// What each agent session received, by session id.
+    sessions: BTreeMap<String, SessionAcc>,
+}
+
+/// One agent session's traffic, folded from its agents' states.
+#[derive(Debug, Default)]
+struct SessionAcc {
+    /// Its counts as of the latest state (each field the largest seen: counts only grow, and
+    /// its agents' states arrive in any order).
+    last: SessionTraffic,
+    /// First and last tick its agents reported.
+    ticks: Option<(u64, u64)>,
+    /// Per agent: the shares its link counted, as of its latest state.
+    counted: BTreeMap<u32, u64>,
+    /// Subscriptions summed over the states, and the states.
+    subscriptions: (u64, u64),
+}
+
+impl SessionAcc {
+    fn fold(&mut self, st: &AgentState) {
+        let (t, l) = (&st.traffic, &mut self.last);
+        l.agents = l.agents.max(t.agents);
+        l.shares = l.shares.max(t.shares);
+        l.share_bytes = l.share_bytes.max(t.share_bytes);
+        l.bytes = l.bytes.max(t.bytes);
+        self.ticks = Some(self.ticks.map_or((st.tick, st.tick), |(a, b)| (a.min(st.tick), b.max(st.tick))));
+        let counted = self.counted.entry(st.id).or_default();
+        *counted = (*counted).max(st.link.recv_msgs);
+        self.subscriptions.0 += u64::from(t.subscriptions);
+        self.subscriptions.1 += 1;
+    }
+
+    /// Its summary, for session `session`.
+    fn summary(&self, session: &str) -> SessionTrafficSummary {
+        let ticks = self.ticks.map_or(0, |(a, b)| b - a + 1);
+        let per_tick = |v: u64| if ticks > 0 { v as f64 / ticks as f64 } else { 0.0 };
+        SessionTrafficSummary {
+            session: session.to_string(),
+            agents: self.counted.len(),
+            ticks,
+            shares_arrived_per_tick: per_tick(self.last.shares),
+            shares_counted_per_tick: per_tick(self.counted.values().sum()),
+            bytes_per_tick: per_tick(self.last.bytes),
+            subscriptions_mean: self.subscriptions.0 as f64 / self.subscriptions.1.max(1) as f64,
+        }
+    }
 }
 
 /// An estimate farther than this from the truth places a neighbour where none is.
@@ -429,6 +475,9 @@ impl Metrics {
             self.pending.entry(st.tick).or_default().push((self.pending_arrivals, st.clone()));
             self.pending_arrivals += 1;
         }
+        if !st.traffic.session.is_empty() {
+            self.sessions.entry(st.traffic.session.clone()).or_default().fold(&st);
+        }
         if let Some(a) = self.agents.get_mut(&st.id) {
             a.last_state = Some(st);
         }
@@ -550,6 +599,25 @@ impl Metrics {
             agents,
             timing: self.timing(),
             checks: Vec::new(),
+            traffic: self.traffic(),
+        }
+    }
+
+    /// What the agent sessions received, per session and per agent and tick over all of them.
+    fn traffic(&self) -> TrafficSummary {
+        let per_session: Vec<SessionTrafficSummary> = self.sessions.iter().map(|(id, s)| s.summary(id)).collect();
+        let agent_ticks: u64 = per_session.iter().map(|s| s.agents as u64 * s.ticks).sum();
+        let per_agent_tick = |f: &dyn Fn(&SessionAcc) -> u64| {
+            let total: u64 = self.sessions.values().map(f).sum();
+            if agent_ticks > 0 { total as f64 / agent_ticks as f64 } else { 0.0 }
+        };
+        TrafficSummary {
+            sessions: per_session.len(),
+            shares_arrived_per_agent_tick: per_agent_tick(&|s| s.last.shares),
+            shares_counted_per_agent_tick: per_agent_tick(&|s| s.counted.values().sum()),
+            share_bytes_per_agent_tick: per_agent_tick(&|s| s.last.share_bytes),
+            bytes_per_agent_tick: per_agent_tick(&|s| s.last.bytes),
+            per_session,
         }
     }
 
@@ -807,7 +875,7 @@ mod tests {
         };
         m.on_step(&last);
         assert!(m.awaiting_last_states(), "UAV 1 sent its command of tick 6: its state is due");
-        let mut st = AgentState { id: 1, tick: 6, t_secs: 0.6, step_time_us: 1, obstacles: 0, neighbours: vec![], in_radio_range: 0, vectors: Default::default(), link: Default::default(), icp: Default::default(), delays: Vec::new() };
+        let mut st = AgentState { id: 1, tick: 6, t_secs: 0.6, step_time_us: 1, obstacles: 0, neighbours: vec![], in_radio_range: 0, vectors: Default::default(), link: Default::default(), icp: Default::default(), delays: Vec::new(), traffic: Default::default() };
         st.tick = 5;
         m.on_state(st.clone());
         assert!(m.awaiting_last_states(), "an older state is not the last");
@@ -897,6 +965,7 @@ mod tests {
             link: Default::default(),
             icp: Default::default(),
             delays: Vec::new(),
+            traffic: Default::default(),
         };
         m.on_step(&truth(1));
         m.on_state(state(1, 2.1, 1)); // truth first: scored at once, error 0.1
@@ -937,5 +1006,44 @@ mod tests {
         m.on_state(state(6, 10.0, 1));
         let s = m.summary("r", &sc);
         assert_eq!((s.agents[0].steps_alone, s.agents[0].neighbours_reported_while_alone), (1, 1));
+    }
+
+    #[test]
+    fn traffic_is_per_session_and_per_agent_tick() {
+        let state = |id: u32, tick: u64, session: &str, shares: u64, bytes: u64, counted: u64| AgentState {
+            id,
+            tick,
+            t_secs: 0.1 * tick as f64,
+            step_time_us: 1,
+            obstacles: 0,
+            neighbours: vec![],
+            in_radio_range: 0,
+            vectors: Default::default(),
+            link: swarm_wire::LinkCounters { recv_msgs: counted, ..Default::default() },
+            icp: Default::default(),
+            delays: Vec::new(),
+            traffic: SessionTraffic { session: session.into(), agents: 2, shares, share_bytes: shares * 10, bytes, subscriptions: 4 },
+        };
+        let mut m = Metrics::default();
+        // A host "h" of agents 1 and 2 over ticks 0..=9, and agent 3 alone on "a" over ticks 5..=9;
+        // the host's states arrive out of order, as they may.
+        m.on_state(state(1, 9, "h", 200, 5000, 30));
+        m.on_state(state(2, 0, "h", 4, 100, 0));
+        m.on_state(state(2, 9, "h", 190, 4900, 50));
+        m.on_state(state(3, 5, "a", 1, 10, 0));
+        m.on_state(state(3, 9, "a", 25, 600, 20));
+        let sc = swarm_config::builtin("forest-5").expect("builtin");
+        let t = m.summary("r", &sc).traffic;
+        assert_eq!(t.sessions, 2);
+        let (a, h) = (&t.per_session[0], &t.per_session[1]);
+        assert_eq!((a.session.as_str(), a.agents, a.ticks), ("a", 1, 5));
+        assert_eq!((h.session.as_str(), h.agents, h.ticks), ("h", 2, 10));
+        assert_eq!((h.shares_arrived_per_tick, h.shares_counted_per_tick, h.bytes_per_tick), (20.0, 8.0, 500.0));
+        assert_eq!(h.subscriptions_mean, 4.0);
+        // Agent-ticks: 2 x 10 + 1 x 5 = 25.
+        assert_eq!(t.shares_arrived_per_agent_tick, (200.0 + 25.0) / 25.0);
+        assert_eq!(t.shares_counted_per_agent_tick, (80.0 + 20.0) / 25.0);
+        assert_eq!(t.bytes_per_agent_tick, (5000.0 + 600.0) / 25.0);
+        assert_eq!(t.share_bytes_per_agent_tick, (2000.0 + 250.0) / 25.0);
     }
 }

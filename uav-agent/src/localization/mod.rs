@@ -114,15 +114,6 @@ pub(crate) fn share_key(mode: LocalizationMode, keys: &Keys, id: u32) -> Option<
     }
 }
 
-/// Every UAV's share key in localization `mode` (a wildcard over ids); `None` in `uvdar` mode.
-pub(crate) fn share_key_any(mode: LocalizationMode, keys: &Keys) -> Option<String> {
-    match mode {
-        LocalizationMode::Broadcast => Some(keys.share_pose_any()),
-        LocalizationMode::Icp => Some(keys.share_obstacles_any()),
-        LocalizationMode::Uvdar => None,
-    }
-}
-
 impl Localizer {
     /// The localizer of UAV `id` for the scenario's mode.
     pub(crate) fn new(id: u32, sc: &Scenario) -> Localizer {

@@ -1,19 +1,19 @@
 //! An agent host: many agents in one process, so a large swarm does not pay one process (and
 //! one Zenoh session, about 15 MB resident) per UAV.
 //!
-//! Each agent keeps everything it has alone: its [`Node`](crate::node) state, sensor
-//! subscriptions, netem link, publishers and `alive/uav/{id}` token, so the hub, netem, the
-//! recorder and tools see exactly the keys of one process per UAV. The agents of a host share
-//! one Zenoh session and what [`crate::shared`] makes once per session: every UAV's share key,
-//! declared, and one subscription to all of them that hands each share to the agents listening
-//! to its sender. A share published by one agent reaches another of the same host through
-//! Zenoh's local routing (never through memory of this crate), after the neighbour window
-//! checks as for any share, so lockstep results do not depend on how agents are spread over
-//! processes. Each agent is its own task; one that fails is reported with its id and the others
-//! fly on.
+//! Each agent keeps everything it has alone: its [`node`] state, sensor subscriptions, netem
+//! link, publishers and `alive/uav/{id}` token, so the hub, netem, the recorder and tools see
+//! exactly the keys of one process per UAV. The agents of a host share one Zenoh session and its
+//! share feed ([`super::feed`]): one subscription per sender any of them listens to, so the host
+//! receives the shares of the union of its agents' radio sets, each once. A share published by
+//! one agent reaches another of the same host through Zenoh's local routing (never through
+//! memory of this crate), after the neighbour window checks as for any share, so lockstep
+//! results do not depend on how agents are spread over processes. Each agent is its own task;
+//! one that fails is reported with its id and the others fly on.
 
-use crate::node::{self, AgentError, AgentExit};
-use crate::shared::SessionShared;
+use super::feed::SessionShared;
+use super::node::{self, AgentExit};
+use super::AgentError;
 use std::future::Future;
 use std::sync::Arc;
 use swarm_config::Scenario;
@@ -53,7 +53,7 @@ pub async fn run_host(
             Some(sc) => sc,
             None => node::fetch_scenario(&s, &keys, &opts.run).await?,
         };
-        // Declared once, before any agent runs (see `shared`).
+        // Made once, before any agent runs (see `feed`).
         let shared = SessionShared::open(&s, &keys, &sc).await?;
         Ok(fly_all(&s, &keys, shared, &opts, sc, shutdown).await)
     }

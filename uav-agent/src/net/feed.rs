@@ -1,0 +1,352 @@
+//! The shares an agent session receives: one Zenoh subscription per sender that some agent of
+//! the session listens to, declared when the first of them starts listening and undeclared when
+//! the last one stops. A session's subscriptions are thus the union of its agents' radio sets,
+//! and the router sends it the shares of those UAVs and no others: traffic grows with the
+//! neighbours, not with the swarm.
+//!
+//! Why one subscription per sender and session, counted, rather than one per agent and
+//! neighbour: an agent host of hundreds of agents would hold thousands, and Zenoh 1.10's session
+//! does not order two declarations of the same key made concurrently (it hands a key
+//! expression's id to the second before the first has sent its `DeclareKeyExpr`, so the router
+//! could see a subscriber on an id it did not know yet, and an agent never hear that
+//! neighbour). Here every declaration of the session's share keys is made under one lock
+//! ([`Declared`]): each sender's key expression is declared once, the first time the session
+//! needs it (to listen to the sender, or to publish its own shares), and kept for the session's
+//! life, and its subscription is declared on that expression, so the router sends each share
+//! under the session's id for it and the session finds its one subscriber at once. The
+//! subscription's callback decodes a share once and posts the same [`Arc`] to the mailboxes of
+//! the agents listening to its sender, without waking them (each takes its mailbox when it
+//! handles the hub's next message, see [`crate::net::node`]).
+//!
+//! Ordering: an agent starts listening while it handles the radio set of tick k, before it
+//! publishes its command of tick k on the same session. The session's links carry one queue
+//! (`swarm_wire::session`), so the declaration reaches the router first; the router passes it on
+//! (to the sender's session, whose publisher sends only to known subscribers, and along a mesh
+//! of routers) before it hands the command to the hub, and the sender publishes its share of
+//! tick k+1 only after the hub had every command of tick k. So the first share that must count
+//! (see [`crate::admission`]) always finds the subscription in place, with no margin.
+//!
+//! The session also counts what it receives ([`Traffic`]): every sample of its share
+//! subscriptions, and, through [`Traffic::count`], the node's own sensor subscriptions.
+
+use super::AgentError;
+use crate::admission::Arrived;
+use crate::localization::Share;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use swarm_config::{LocalizationMode, Scenario};
+use swarm_wire::plumbing::Subscription;
+use swarm_wire::{Keys, Msg, SessionTraffic, WireError};
+use zenoh::key_expr::KeyExpr;
+use zenoh::Wait;
+
+impl Arrived {
+    /// Decodes `bytes`, received on sender `from`'s share key.
+    fn decode(from: u32, bytes: &[u8]) -> Arrived {
+        let share = match Msg::decode(bytes).map(|m| Share::from_msg(m, from)) {
+            Ok(Ok(share)) => Some(Arc::new(share)),
+            Ok(Err(other)) => {
+                tracing::debug!(from, ?other, "not a share of its sender");
+                None
+            }
+            Err(e) => {
+                tracing::debug!(from, error = %e, "undecodable share");
+                None
+            }
+        };
+        Arrived { from, share, len: bytes.len() }
+    }
+}
+
+/// Where the feed leaves an agent's shares, in arrival order, until the agent takes them.
+///
+/// Posting does not wake the agent: it needs its shares only when the hub's next message comes
+/// (see [`crate::net::node`]), and waking an agent task for each of its about 40 shares per
+/// tick cost a context switch each on a loaded host.
+#[derive(Clone, Default)]
+pub(crate) struct Mailbox(Arc<Mutex<Vec<Arrived>>>);
+
+impl Mailbox {
+    fn post(&self, arrived: Arrived) {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).push(arrived);
+    }
+
+    /// Moves what was posted into `out` (empty, its buffer is reused), in arrival order.
+    pub(crate) fn take_into(&self, out: &mut Vec<Arrived>) {
+        debug_assert!(out.is_empty(), "the last take was not drained");
+        std::mem::swap(&mut *self.0.lock().unwrap_or_else(PoisonError::into_inner), out);
+    }
+}
+
+/// What the session received since it opened, counted by its subscriptions' callbacks.
+#[derive(Debug, Default)]
+pub(crate) struct Traffic {
+    shares: AtomicU64,
+    share_bytes: AtomicU64,
+    bytes: AtomicU64,
+    agents: AtomicU32,
+    subscriptions: AtomicU32,
+}
+
+impl Traffic {
+    /// Counts a sample of `len` payload bytes on any of the session's subscriptions.
+    pub(crate) fn count(&self, len: usize) {
+        self.bytes.fetch_add(len as u64, Ordering::Relaxed);
+    }
+
+    /// Counts a share of `len` payload bytes.
+    fn count_share(&self, len: usize) {
+        self.shares.fetch_add(1, Ordering::Relaxed);
+        self.share_bytes.fetch_add(len as u64, Ordering::Relaxed);
+        self.count(len);
+    }
+
+    /// An agent started (`true`) or stopped flying on the session.
+    pub(crate) fn agent(&self, flying: bool) {
+        if flying {
+            self.agents.fetch_add(1, Ordering::Relaxed);
+        } else {
+            self.agents.fetch_sub(1, Ordering::Relaxed);
+        }
+    }
+
+    /// The counts now, for session `session` (its Zenoh id).
+    pub(crate) fn snapshot(&self, session: &str) -> SessionTraffic {
+        SessionTraffic {
+            session: session.to_string(),
+            agents: self.agents.load(Ordering::Relaxed),
+            shares: self.shares.load(Ordering::Relaxed),
+            share_bytes: self.share_bytes.load(Ordering::Relaxed),
+            bytes: self.bytes.load(Ordering::Relaxed),
+            subscriptions: self.subscriptions.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// Who listens to whom: per sender, the listening agents' ids and their mailboxes. The
+/// subscriptions' callbacks read it; no Zenoh call is ever made while it is locked.
+#[derive(Default)]
+struct Listeners {
+    by_sender: HashMap<u32, Vec<(u32, Mailbox)>>,
+}
+
+impl Listeners {
+    /// Hands sender `from`'s share to every agent listening to it, decoded once (not at all when
+    /// no one listens).
+    fn deliver(&self, from: u32, bytes: &[u8]) {
+        let Some(listening) = self.by_sender.get(&from) else { return };
+        let arrived = Arrived::decode(from, bytes);
+        for (_, mailbox) in listening {
+            mailbox.post(arrived.clone());
+        }
+    }
+}
+
+/// Every declaration the session makes on share keys, made under this one lock.
+#[derive(Default)]
+struct Declared {
+    /// Each UAV's share key, declared the first time the session needed it, kept for its life.
+    keys: HashMap<u32, KeyExpr<'static>>,
+    /// Per sender listened to: the subscription and how many of the session's agents listen.
+    subs: HashMap<u32, (Subscription, usize)>,
+}
+
+/// What the feed's handles share.
+struct Inner {
+    session: zenoh::Session,
+    keys: Keys,
+    mode: LocalizationMode,
+    listeners: Arc<Mutex<Listeners>>,
+    declared: Mutex<Declared>,
+    traffic: Arc<Traffic>,
+}
+
+/// The shares of the UAVs the session's agents listen to, received once per session and handed
+/// to the agents that listen.
+#[derive(Clone)]
+pub(crate) struct ShareFeed(Arc<Inner>);
+
+/// An agent listening to one sender's shares; dropping it stops the delivery (and the session's
+/// subscription, when it was the last listener).
+pub(crate) struct Listening {
+    feed: ShareFeed,
+    from: u32,
+    me: u32,
+}
+
+impl Drop for Listening {
+    fn drop(&mut self) {
+        let inner = &self.feed.0;
+        {
+            let mut l = inner.listeners.lock().unwrap_or_else(PoisonError::into_inner);
+            if let Some(v) = l.by_sender.get_mut(&self.from) {
+                v.retain(|(id, _)| *id != self.me);
+                if v.is_empty() {
+                    l.by_sender.remove(&self.from);
+                }
+            }
+        }
+        let mut d = inner.declared.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some((_, count)) = d.subs.get_mut(&self.from) {
+            *count -= 1;
+            if *count == 0 {
+                // Dropping the subscriber undeclares it.
+                d.subs.remove(&self.from);
+                inner.traffic.subscriptions.fetch_sub(1, Ordering::Relaxed);
+            }
+        }
+    }
+}
+
+impl ShareFeed {
+    /// The feed of session `s` for scenario `sc`'s localization mode.
+    pub(crate) fn new(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> ShareFeed {
+        ShareFeed(Arc::new(Inner {
+            session: s.clone(),
+            keys: keys.clone(),
+            mode: sc.localization.mode,
+            listeners: Arc::default(),
+            declared: Mutex::default(),
+            traffic: Arc::default(),
+        }))
+    }
+
+    /// What the session received.
+    pub(crate) fn traffic(&self) -> &Arc<Traffic> {
+        &self.0.traffic
+    }
+
+    /// UAV `id`'s share key, declared on the session (once for its life); `None` when the mode
+    /// has no shares.
+    pub(crate) fn key(&self, id: u32) -> Result<Option<KeyExpr<'static>>, AgentError> {
+        let mut d = self.0.declared.lock().unwrap_or_else(PoisonError::into_inner);
+        self.key_locked(&mut d, id)
+    }
+
+    fn key_locked(&self, d: &mut Declared, id: u32) -> Result<Option<KeyExpr<'static>>, AgentError> {
+        if let Some(k) = d.keys.get(&id) {
+            return Ok(Some(k.clone()));
+        }
+        let Some(key) = crate::localization::share_key(self.0.mode, &self.0.keys, id) else { return Ok(None) };
+        let declared = self.0.session.declare_keyexpr(key).wait().map_err(WireError::zenoh)?;
+        d.keys.insert(id, declared.clone());
+        Ok(Some(declared))
+    }
+
+    /// Agent `me` listens to `from`'s shares from now on, posted to `mailbox`, until the returned
+    /// guard is dropped; `None` when the mode has no shares. The session's subscription to
+    /// `from` is declared before this returns (when it is the first listener).
+    pub(crate) fn listen(&self, from: u32, me: u32, mailbox: &Mailbox) -> Result<Option<Listening>, AgentError> {
+        let inner = &self.0;
+        let mut d = inner.declared.lock().unwrap_or_else(PoisonError::into_inner);
+        let Some(key) = self.key_locked(&mut d, from)? else { return Ok(None) };
+        // The listener first: a share that arrives as soon as the subscription exists finds it.
+        inner.listeners.lock().unwrap_or_else(PoisonError::into_inner).by_sender.entry(from).or_default().push((me, mailbox.clone()));
+        let listening = Listening { feed: self.clone(), from, me };
+        if let Some((_, count)) = d.subs.get_mut(&from) {
+            *count += 1;
+            return Ok(Some(listening));
+        }
+        let (l, traffic) = (inner.listeners.clone(), inner.traffic.clone());
+        let declared = inner.session.declare_subscriber(key).callback(move |sample| {
+            // Borrowed when the payload is contiguous (one share is): no copy.
+            let bytes = sample.payload().to_bytes();
+            traffic.count_share(bytes.len());
+            l.lock().unwrap_or_else(PoisonError::into_inner).deliver(from, &bytes);
+        });
+        match declared.wait() {
+            Ok(sub) => {
+                d.subs.insert(from, (sub, 1));
+                inner.traffic.subscriptions.fetch_add(1, Ordering::Relaxed);
+                Ok(Some(listening))
+            }
+            Err(e) => {
+                drop(d);
+                drop(listening);
+                Err(WireError::zenoh(e).into())
+            }
+        }
+    }
+}
+
+/// What every agent of a session uses, made once per session before any agent starts.
+pub(crate) struct SessionShared {
+    /// The shares, for every agent of the session.
+    pub(crate) feed: ShareFeed,
+    /// `netem/rules`, declared once (every agent subscribes to it).
+    pub(crate) netem_rules: KeyExpr<'static>,
+    /// The session's Zenoh id, as the router's admin space names it.
+    pub(crate) zid: String,
+}
+
+impl SessionShared {
+    /// Declares the keys every agent of session `s` uses, for scenario `sc`.
+    pub(crate) async fn open(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Arc<SessionShared>, AgentError> {
+        let netem_rules = s.declare_keyexpr(keys.netem_rules()).await.map_err(WireError::zenoh)?;
+        Ok(Arc::new(SessionShared { feed: ShareFeed::new(s, keys, sc), netem_rules, zid: s.zid().to_string() }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What `mailbox` holds now, taken.
+    fn taken(mailbox: &Mailbox) -> Vec<Arrived> {
+        let mut out = Vec::new();
+        mailbox.take_into(&mut out);
+        out
+    }
+
+    fn listeners(pairs: &[(u32, u32, &Mailbox)]) -> Listeners {
+        let mut l = Listeners::default();
+        for &(from, me, mailbox) in pairs {
+            l.by_sender.entry(from).or_default().push((me, mailbox.clone()));
+        }
+        l
+    }
+
+    #[test]
+    fn a_listener_gets_only_its_senders_shares() {
+        let mailbox = Mailbox::default();
+        let l = listeners(&[(3, 1, &mailbox)]);
+        l.deliver(3, &Msg::Pose(pose(3)).encode().expect("encode"));
+        l.deliver(4, &Msg::Pose(pose(4)).encode().expect("encode"));
+        let got = taken(&mailbox);
+        assert_eq!(got.len(), 1, "only sender 3's share");
+        assert!(matches!(got[0].share.as_deref(), Some(Share::Pose(p)) if *p == pose(3)), "decoded: {:?}", got[0]);
+        assert!(taken(&mailbox).is_empty(), "taking empties the mailbox");
+    }
+
+    #[test]
+    fn every_listener_gets_the_same_decoded_share_and_a_bad_one_as_malformed() {
+        let mailboxes: Vec<Mailbox> = (0..3).map(|_| Mailbox::default()).collect();
+        let l = listeners(&[(7, 1, &mailboxes[0]), (7, 2, &mailboxes[1]), (7, 3, &mailboxes[2])]);
+        let bytes = Msg::Pose(pose(7)).encode().expect("encode");
+        l.deliver(7, &bytes);
+        l.deliver(7, &Msg::Pose(pose(8)).encode().expect("encode"));
+        l.deliver(7, &[0xff, 0xff]);
+        let got: Vec<Vec<Arrived>> = mailboxes.iter().map(taken).collect();
+        assert!(got.iter().all(|g| g.len() == 3), "each listener gets all three: {got:?}");
+        let first = got[0][0].share.clone().expect("a good share");
+        assert!(got.iter().all(|g| g[0].share.as_ref().is_some_and(|s| Arc::ptr_eq(s, &first)) && g[0].len == bytes.len()), "one decode, shared");
+        assert!(got.iter().all(|g| g[1..].iter().all(|a| a.share.is_none() && a.from == 7)), "a share whose sender is not its key's, or garbage, is malformed for each");
+    }
+
+    #[test]
+    fn traffic_counts_shares_apart_from_other_samples() {
+        let t = Traffic::default();
+        t.count_share(40);
+        t.count(100);
+        t.agent(true);
+        t.agent(true);
+        t.agent(false);
+        let s = t.snapshot("ab");
+        assert_eq!((s.shares, s.share_bytes, s.bytes, s.agents, s.session.as_str()), (1, 40, 140, 1, "ab"));
+    }
+
+    fn pose(from: u32) -> swarm_wire::PoseShare {
+        swarm_wire::PoseShare { from, tick: 4, t_secs: 0.4, x: 1.0, y: 2.0, yaw: 0.3, vx: 0.1, vy: 0.0 }
+    }
+}

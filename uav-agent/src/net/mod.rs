@@ -1,0 +1,47 @@
+//! The agent on the network: everything of this crate that touches Zenoh, and nothing else.
+//! The stages it feeds ([`crate::agent`], [`crate::admission`], [`crate::sensing`]) are pure; a
+//! tidy test keeps `zenoh` out of every module outside this folder.
+//!
+//! - `node`: one agent's node: its sensor and radio subscriptions feeding the frame collector,
+//!   listening to the shares of its radio set, liveliness, the hub watch, its publishers. Entry
+//!   point: [`run`].
+//! - `host`: many agents in one process on one shared Zenoh session, each with its own node
+//!   ([`run_host`]).
+//! - `feed`: what the agents of one session share: one subscription per sender any of them
+//!   listens to (the union of their radio sets), each share decoded once and posted to the
+//!   listeners' mailboxes, and the session's traffic counts.
+//!
+//! Arrows: `host` → `node`, and both → `feed`; `feed` knows neither, `node` not `host`.
+
+mod feed;
+mod host;
+mod node;
+
+pub use host::{run_host, HostOptions};
+pub use node::{run, AgentExit, AgentOptions};
+
+use swarm_config::ScenarioError;
+use swarm_wire::WireError;
+
+/// Errors of an agent.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// Zenoh or encoding trouble.
+    #[error(transparent)]
+    Wire(#[from] WireError),
+    /// The scenario the hub served (or the one given) is invalid.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// No hub answered in time.
+    #[error("no hub for run `{0}` answered within {1} s")]
+    NoHub(String, u64),
+    /// The UAV id is not in the scenario.
+    #[error("UAV id {0} is not in this scenario (ids 1..={1})")]
+    BadId(u32, u32),
+    /// The hub's ticks went backwards: another hub run took over the keys.
+    #[error("tick went back from {0} to {1}: the hub restarted; start the agent again for the new run")]
+    TickWentBack(u64, u64),
+    /// An agent's task of an agent host panicked.
+    #[error("the agent's task panicked: {0}")]
+    Panicked(String),
+}
