@@ -3,7 +3,7 @@
 # developed and tested on.
 #
 # Stage 1 builds `swarm` from the workspace (the first build takes minutes: Zenoh).
-FROM rust:1.87-bookworm AS build
+FROM rust:1.90-bookworm AS build
 WORKDIR /src
 COPY . .
 RUN cargo build --release --locked -p swarm \
