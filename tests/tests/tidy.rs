@@ -13,8 +13,9 @@
 //!   modules;
 //! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on;
 //! - no function in the agent's node, the hub's node or the launcher is over 60 lines;
-//! - the `Dockerfile` builds with the Rust of the workspace's `rust-version`, and that version is
-//!   at least the highest `rust-version` any package of the locked dependency graph declares.
+//! - every member declares the workspace's `rust-version`, the `Dockerfile` builds with that
+//!   Rust, and it is at least the highest `rust-version` any package of the locked dependency
+//!   graph declares.
 //!
 //! Pure file reading, but for the last check, which asks `cargo metadata --locked` for the locked
 //! graph (nothing is built).
@@ -463,6 +464,19 @@ fn dockerfile_builds_with_the_workspace_rust_version() {
             "Dockerfile builds FROM rust:{got}, but Cargo.toml's workspace rust-version is {want}: make them the same version"
         );
     }
+}
+
+#[test]
+fn every_member_inherits_the_workspace_rust_version() {
+    let mut missing = Vec::new();
+    for m in members() {
+        let own: toml::Table = read(&root().join(&m.dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
+        let inherits = own["package"].get("rust-version").and_then(|v| v.get("workspace")).and_then(|w| w.as_bool()) == Some(true);
+        if !inherits {
+            missing.push(format!("{}/Cargo.toml: add `rust-version.workspace = true` under [package]", m.dir));
+        }
+    }
+    assert!(missing.is_empty(), "members that do not declare the workspace's rust-version (cargo then checks none):\n{}", missing.join("\n"));
 }
 
 #[test]
