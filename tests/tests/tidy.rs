@@ -13,9 +13,13 @@
 //!   modules;
 //! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on;
 //! - no function in the agent's node, the hub's node or the launcher is over 60 lines;
-//! - in `uav-agent`, only the modules under `src/net/` name `zenoh`: the onboard stages stay pure.
+//! - in `uav-agent`, only the modules under `src/net/` name `zenoh`: the onboard stages stay pure;
+//! - every member declares the workspace's `rust-version`, the `Dockerfile` builds with that
+//!   Rust, and it is at least the highest `rust-version` any package of the locked dependency
+//!   graph declares.
 //!
-//! Pure file reading: no process is spawned and nothing is built.
+//! Pure file reading, but for the last check, which asks `cargo metadata --locked` for the locked
+//! graph (nothing is built).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -439,4 +443,96 @@ fn the_helpers_parse_what_they_should() {
     assert!(module_doc("use x;\n//! late").is_empty());
     assert!(matches("s/r/uav/*/cmd", "s/r/uav/{id}/cmd") && !matches("s/r/uav/*/cmd", "s/r/uav/{id}/state"));
     assert!(matches("s/r/truth/**", "s/r/truth/step") && !matches("s/r/truth/**", "s/r/clock"));
+    assert!(version("1.90") == version("1.90.0") && version("1.88.0") < version("1.90") && version("1.100") > version("1.90"));
+    let dockerfile = "# FROM rust:1.0 in a comment\nFROM rust:1.90-bookworm AS build\nFROM ${BASE} AS runtime\nfrom rust:1.91 as x\n";
+    assert_eq!(rust_images(dockerfile), ["1.90", "1.91"]);
+}
+
+/// The workspace's `rust-version` (root `Cargo.toml`, `[workspace.package]`).
+fn workspace_rust_version() -> String {
+    let manifest: toml::Table = read(&root().join("Cargo.toml")).parse().expect("root Cargo.toml parses");
+    manifest["workspace"]["package"]
+        .get("rust-version")
+        .and_then(|v| v.as_str())
+        .expect("root Cargo.toml: set `rust-version` in [workspace.package]")
+        .to_string()
+}
+
+/// A Rust version (`1.90`, `1.88.0`) as numbers to compare, missing parts 0.
+fn version(text: &str) -> [u32; 3] {
+    let mut out = [0; 3];
+    for (slot, part) in out.iter_mut().zip(text.split('.')) {
+        *slot = part.parse().unwrap_or_else(|e| panic!("{text:?} is not a Rust version: {e}"));
+    }
+    out
+}
+
+/// The versions of the `rust:` images a Dockerfile builds `FROM` (`rust:1.90-bookworm` -> `1.90`).
+fn rust_images(dockerfile: &str) -> Vec<String> {
+    dockerfile
+        .lines()
+        .map(str::trim)
+        .filter(|l| l.len() > 5 && l[..5].eq_ignore_ascii_case("FROM "))
+        .filter_map(|l| l[5..].trim().strip_prefix("rust:"))
+        .map(|tag| tag.split(['-', ' ']).next().expect("a tag").to_string())
+        .collect()
+}
+
+#[test]
+fn dockerfile_builds_with_the_workspace_rust_version() {
+    let want = workspace_rust_version();
+    let images = rust_images(&read(&root().join("Dockerfile")));
+    assert!(!images.is_empty(), "Dockerfile: no `FROM rust:<version>-...` build stage; the users' path builds `swarm` in one");
+    for got in &images {
+        assert_eq!(
+            got, &want,
+            "Dockerfile builds FROM rust:{got}, but Cargo.toml's workspace rust-version is {want}: make them the same version"
+        );
+    }
+}
+
+#[test]
+fn every_member_inherits_the_workspace_rust_version() {
+    let mut missing = Vec::new();
+    for m in members() {
+        let own: toml::Table = read(&root().join(&m.dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
+        let inherits = own["package"].get("rust-version").and_then(|v| v.get("workspace")).and_then(|w| w.as_bool()) == Some(true);
+        if !inherits {
+            missing.push(format!("{}/Cargo.toml: add `rust-version.workspace = true` under [package]", m.dir));
+        }
+    }
+    assert!(missing.is_empty(), "members that do not declare the workspace's rust-version (cargo then checks none):\n{}", missing.join("\n"));
+}
+
+#[test]
+fn rust_version_covers_every_locked_dependency() {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let out = std::process::Command::new(&cargo)
+        .args(["metadata", "--format-version", "1", "--locked"])
+        .current_dir(root())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run `{cargo} metadata`: {e}"));
+    assert!(out.status.success(), "`cargo metadata --locked` failed: {}", String::from_utf8_lossy(&out.stderr));
+    let metadata: serde_json::Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    let members: BTreeSet<&str> =
+        metadata["workspace_members"].as_array().expect("workspace_members").iter().filter_map(|m| m.as_str()).collect();
+    let packages = metadata["packages"].as_array().expect("packages");
+    let floors: Vec<(String, &str, &str)> = packages
+        .iter()
+        .filter(|p| !members.contains(p["id"].as_str().unwrap_or_default()))
+        .filter_map(|p| Some((p["rust_version"].as_str()?.to_string(), p["name"].as_str()?, p["version"].as_str()?)))
+        .collect();
+    assert!(floors.len() > 10, "cargo metadata: only {} locked packages declare a rust-version; is its output read right?", floors.len());
+    let ours = workspace_rust_version();
+    let above: Vec<String> = floors
+        .iter()
+        .filter(|(needs, _, _)| version(needs) > version(&ours))
+        .map(|(needs, name, v)| format!("{name} {v} needs Rust {needs}"))
+        .collect();
+    assert!(
+        above.is_empty(),
+        "Cargo.toml's rust-version {ours} is below what the locked graph needs; raise it (and the Dockerfile's rust image) to \
+         the highest of:\n{}",
+        above.join("\n")
+    );
 }
