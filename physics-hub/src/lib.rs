@@ -20,7 +20,8 @@
 //!   scenario and world queryables, the netem timeline (the scenario's plus `swarm netem`'s).
 //!
 //! Entry point: [`run`]. Public surface: [`run`] and its options, report and error; [`world`] and
-//! [`lidar`] for the LIDAR benchmark, [`sim`] for the hub tick benchmark; every other module is
+//! [`lidar`] for the LIDAR benchmark, [`sim`] for the hub tick benchmark; [`start_positions`], for
+//! tools that place agents by where their UAVs start (`swarm mesh`); every other module is
 //! private.
 //!
 //! Architecture invariant: the hub is the only holder of ground truth; it
@@ -38,4 +39,5 @@ pub mod sim;
 mod uvdar;
 pub mod world;
 
+pub use forest::start_positions;
 pub use node::{run, HubError, HubOptions, HubReport};

@@ -137,6 +137,16 @@ impl Credentials {
         self.dir.join(DICTIONARY)
     }
 
+    /// A dictionary of `user`'s line alone (`users-<user>.txt`, 0600), for a relay router whose
+    /// agents log in as that user.
+    pub fn dictionary_of(&self, user: &str) -> Result<PathBuf> {
+        let all = std::fs::read_to_string(self.dictionary())?;
+        let line = all.lines().find(|l| l.split_once(':').is_some_and(|(u, _)| u == user)).with_context(|| format!("no user {user:?} in {}", self.dictionary().display()))?;
+        let path = self.dir.join(format!("users-{user}.txt"));
+        write_private(&path, &format!("{line}\n"))?;
+        Ok(path)
+    }
+
     /// `--user USER --password-file FILE`, for a child of the launcher.
     pub fn client_args(&self, user: &str) -> [String; 4] {
         let file = self.password_file(user);

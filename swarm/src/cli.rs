@@ -54,6 +54,10 @@ pub enum Cmd {
     /// Measure the initial ICP decision on generated or given pairs of views: right, no
     /// estimate, wrong but accepted.
     IcpEval(crate::icp_eval::IcpEvalArgs),
+    /// Fly a swarm spread over machines (Linux network namespaces, root): the hub on one, agent
+    /// hosts behind their own routers on others; report each host's link bytes and the shares
+    /// that crossed into it.
+    Mesh(crate::mesh::MeshArgs),
     /// Fly swarms of growing size and print (and plot) speed, tick and step times and memory.
     Scale(crate::scale::ScaleArgs),
     /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
@@ -126,6 +130,7 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::IcpEval(a) => crate::icp_eval::icp_eval(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
+        Cmd::Mesh(a) => crate::mesh::mesh(a).await,
         Cmd::Plot(a) => crate::plot::plot(a),
         Cmd::Credentials(a) => crate::auth::credentials(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,

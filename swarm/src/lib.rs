@@ -2,7 +2,7 @@
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
 //!   router | view | replay | tap | put | keys | netem | compare | formations | sweep-error |
-//!   sweep-seeds | icp-eval | scale | plot | credentials | fuzz | scenarios | check`).
+//!   sweep-seeds | icp-eval | scale | mesh | plot | credentials | fuzz | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
 //! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
@@ -37,6 +37,9 @@
 //!   wrong-but-accepted rates by shared trees, ms per case.
 //! - [`scale`]: `swarm scale`: a series of growing swarms (5 to 1000 UAVs) flown in turn, with
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
+//! - [`mesh`]: `swarm mesh`: a run spread over machines made of network namespaces, the hub on
+//!   one and agent hosts behind their own routers on others; each host's link bytes as the
+//!   kernel counts them, and the shares that crossed into it beside its radio neighbours across.
 //! - [`fuzz`]: `swarm fuzz`: generated scenarios with nemesis schedules flown through the
 //!   `study` runner, judged by [`checks`], each failure shrunk to a minimal scenario file.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
@@ -69,6 +72,7 @@ mod fuzz;
 mod icp_eval;
 mod keyspace;
 mod launch;
+mod mesh;
 mod netem_cli;
 mod pieces;
 mod plot;

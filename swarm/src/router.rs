@@ -18,6 +18,12 @@ pub struct RouterArgs {
     /// Endpoints: `--listen` where agents connect to it, `--connect` the hub (or another router).
     #[command(flatten)]
     pub zenoh: crate::args::ZenohArgs,
+    /// The users who may connect to this router: a file of `user:password` lines. Needed when
+    /// the router itself logs in to a secured hub (`--user`): Zenoh then asks every session it
+    /// accepts for a login too; its agents log in as the host's user (`uavs1-250`), which the
+    /// hub's rules already bound.
+    #[arg(long)]
+    pub users: Option<std::path::PathBuf>,
     /// Exit when standard input closes.
     #[arg(long, hide = true)]
     pub exit_with_stdin: bool,
@@ -26,7 +32,17 @@ pub struct RouterArgs {
 /// Runs `swarm router` until Ctrl-C (or, with `--exit-with-stdin`, until standard input closes).
 pub async fn router(a: RouterArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.listen.is_empty(), "router needs --listen <endpoint> for its clients");
-    let s = session::open(Role::Router, &a.zenoh.listen, &a.zenoh.connect, &a.zenoh.session_cfg()?).await.context("router failed")?;
+    anyhow::ensure!(
+        a.zenoh.user.is_none() || a.users.is_some(),
+        "a router that logs in to the hub (--user) must also check its own clients: give --users FILE, a dictionary of the users \
+         its agents log in as (the host's own `user:password` line will do)"
+    );
+    let mut cfg = a.zenoh.session_cfg()?;
+    if let Some(users) = &a.users {
+        anyhow::ensure!(users.is_file(), "--users {}: no such file", users.display());
+        cfg.push(format!("transport/auth/usrpwd/dictionary_file:{}", serde_json::to_string(&users.to_string_lossy())?));
+    }
+    let s = session::open(Role::Router, &a.zenoh.listen, &a.zenoh.connect, &cfg).await.context("router failed")?;
     println!("{ROUTER_LISTENING_PREFIX} {}", session::locators(&s).await.join(" "));
     tracing::info!(connect = ?a.zenoh.connect, "router up");
     crate::pieces::shutdown_signal(a.exit_with_stdin).await;

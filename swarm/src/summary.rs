@@ -127,6 +127,9 @@ pub struct SessionTrafficSummary {
     pub session: String,
     /// Agents that flew on it.
     pub agents: usize,
+    /// Their UAV ids.
+    #[serde(default)]
+    pub uavs: Vec<u32>,
     /// Ticks its agents reported, first to last.
     pub ticks: u64,
     /// Shares that reached it per tick.
@@ -135,6 +138,10 @@ pub struct SessionTrafficSummary {
     pub shares_counted_per_tick: f64,
     /// Payload bytes received per tick (everything).
     pub bytes_per_tick: f64,
+    /// Shares from UAVs of other sessions per tick: what crossed the network.
+    pub remote_shares_per_tick: f64,
+    /// Their payload bytes per tick.
+    pub remote_share_bytes_per_tick: f64,
     /// Share subscriptions it held, mean over its agents' states (the union of their radio sets).
     pub subscriptions_mean: f64,
 }

@@ -422,6 +422,11 @@ pub struct SessionTraffic {
     pub bytes: u64,
     /// Senders whose shares the session subscribes to now (the union of its agents' radio sets).
     pub subscriptions: u32,
+    /// Of `shares`, those from UAVs flown by other sessions: what crossed the network to reach
+    /// this one (a host's agents hear each other through the session itself).
+    pub remote_shares: u64,
+    /// Their payload bytes.
+    pub remote_share_bytes: u64,
 }
 
 /// The static world, published once by the hub for the recorder.
@@ -610,7 +615,7 @@ pub(crate) mod tests {
             },
             icp: IcpCounts { short: 1, long: 2, initial: 3, deferred: 4, entries: 5, suspended: 6 },
             delays: vec![DelaySample { class: 1, delay_s: 0.5 }],
-            traffic: SessionTraffic { session: "a1".into(), agents: 2, shares: 3, share_bytes: 300, bytes: 5, subscriptions: 6 },
+            traffic: SessionTraffic { session: "a1".into(), agents: 2, shares: 3, share_bytes: 300, bytes: 5, subscriptions: 6, remote_shares: 7, remote_share_bytes: 8 },
         };
         let body = |id: u32, colliding: bool| TruthBody {
             id,
@@ -662,7 +667,7 @@ pub(crate) mod tests {
                 Msg::Pose(PoseShare { from: 3, tick: 5, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125 }),
                 "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf",
             ),
-            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac020506"),
+            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708"),
             (
                 Msg::TruthWorld(TruthWorld {
                     trees: vec![[1.0, 2.0, 0.25]],

@@ -185,6 +185,8 @@ impl SessionAcc {
         l.shares = l.shares.max(t.shares);
         l.share_bytes = l.share_bytes.max(t.share_bytes);
         l.bytes = l.bytes.max(t.bytes);
+        l.remote_shares = l.remote_shares.max(t.remote_shares);
+        l.remote_share_bytes = l.remote_share_bytes.max(t.remote_share_bytes);
         self.ticks = Some(self.ticks.map_or((st.tick, st.tick), |(a, b)| (a.min(st.tick), b.max(st.tick))));
         let counted = self.counted.entry(st.id).or_default();
         *counted = (*counted).max(st.link.recv_msgs);
@@ -199,10 +201,13 @@ impl SessionAcc {
         SessionTrafficSummary {
             session: session.to_string(),
             agents: self.counted.len(),
+            uavs: self.counted.keys().copied().collect(),
             ticks,
             shares_arrived_per_tick: per_tick(self.last.shares),
             shares_counted_per_tick: per_tick(self.counted.values().sum()),
             bytes_per_tick: per_tick(self.last.bytes),
+            remote_shares_per_tick: per_tick(self.last.remote_shares),
+            remote_share_bytes_per_tick: per_tick(self.last.remote_share_bytes),
             subscriptions_mean: self.subscriptions.0 as f64 / self.subscriptions.1.max(1) as f64,
         }
     }
@@ -1022,7 +1027,7 @@ mod tests {
             link: swarm_wire::LinkCounters { recv_msgs: counted, ..Default::default() },
             icp: Default::default(),
             delays: Vec::new(),
-            traffic: SessionTraffic { session: session.into(), agents: 2, shares, share_bytes: shares * 10, bytes, subscriptions: 4 },
+            traffic: SessionTraffic { session: session.into(), agents: 2, shares, share_bytes: shares * 10, bytes, subscriptions: 4, remote_shares: shares / 2, remote_share_bytes: shares * 5 },
         };
         let mut m = Metrics::default();
         // A host "h" of agents 1 and 2 over ticks 0..=9, and agent 3 alone on "a" over ticks 5..=9;
@@ -1037,9 +1042,10 @@ mod tests {
         assert_eq!(t.sessions, 2);
         let (a, h) = (&t.per_session[0], &t.per_session[1]);
         assert_eq!((a.session.as_str(), a.agents, a.ticks), ("a", 1, 5));
-        assert_eq!((h.session.as_str(), h.agents, h.ticks), ("h", 2, 10));
+        assert_eq!((h.session.as_str(), h.agents, h.ticks, h.uavs.clone()), ("h", 2, 10, vec![1, 2]));
         assert_eq!((h.shares_arrived_per_tick, h.shares_counted_per_tick, h.bytes_per_tick), (20.0, 8.0, 500.0));
         assert_eq!(h.subscriptions_mean, 4.0);
+        assert_eq!((h.remote_shares_per_tick, h.remote_share_bytes_per_tick), (10.0, 100.0));
         // Agent-ticks: 2 x 10 + 1 x 5 = 25.
         assert_eq!(t.shares_arrived_per_agent_tick, (200.0 + 25.0) / 25.0);
         assert_eq!(t.shares_counted_per_agent_tick, (80.0 + 20.0) / 25.0);

@@ -85,24 +85,7 @@ mod tests {
 
     #[test]
     fn writes_an_svg_with_text_and_a_png() {
-        let row = |uavs: usize, mode: &str, x: f64| ScaleRow {
-            scenario: format!("s{uavs}"),
-            uavs,
-            localization: mode.into(),
-            time_mode: "lockstep".into(),
-            processes: 2,
-            x_real_time: x,
-            hub_tick_p50_ms: 0.1,
-            hub_tick_p99_ms: 0.2,
-            agent_step_p50_ms: 0.3,
-            agent_step_p99_ms: 0.4,
-            rss_total_mib: 100.0,
-            rss_per_uav_mib: 100.0 / uavs as f64,
-            collisions: 0,
-            goal_s: None,
-            sim_time_s: 10.0,
-            late_share: 0.0,
-        };
+        let row = |uavs: usize, mode: &str, x: f64| ScaleRow { x_real_time: x, ..crate::scale::test_row(uavs, mode) };
         let rows = [row(5, "broadcast", 40.0), row(40, "broadcast", 8.0), row(40, "icp", 2.0), row(1000, "broadcast", f64::NAN)];
         let dir = std::env::temp_dir().join(format!("scale-chart-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");

@@ -10,6 +10,12 @@
 //! this process and is left out) and keeps the peak of their summed `VmRSS` (Linux; elsewhere
 //! the column reads 0). `tools/run_rss.py` does the same from outside for a single `swarm run`.
 //!
+//! Each row also says what an agent received per tick (summary.json's `traffic`): shares that
+//! reached its session, those it counted, and bytes; at constant density these stay flat as the
+//! swarm grows, since a session hears only its agents' radio neighbours. `--sizes 100,300,1000`
+//! flies each scenario at those sizes, its start disc scaled to keep the density (the world is
+//! unchanged), for exactly that series.
+//!
 //! Writes `scale.md` (the table), `scale.json` (the rows), and `scale.svg` / `scale.png` (x real
 //! time and RSS per UAV against the UAV count: [`chart`], drawn with plotters and an embedded
 //! font, so no system font is needed). [`proc_fs`] reads `/proc`. Speeds depend on the machine and its load: this is a measurement,
@@ -52,6 +58,10 @@ pub struct ScaleArgs {
     /// Override every run's time mode (`lockstep` or `realtime`).
     #[arg(long)]
     pub time_mode: Option<String>,
+    /// Fly each scenario at these swarm sizes instead of its own (e.g. `100,300,1000`): its start
+    /// disc is scaled to keep the density; the world and everything else stay.
+    #[arg(long, value_delimiter = ',')]
+    pub sizes: Vec<u32>,
     /// Agents per process for every run (default: as `swarm run` picks).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub agents_per_process: Option<u32>,
@@ -98,6 +108,15 @@ pub struct ScaleRow {
     pub sim_time_s: f64,
     /// Share of commands that arrived after their tick closed.
     pub late_share: f64,
+    /// Shares that reached an agent's session per agent and tick (summary.json's `traffic`).
+    #[serde(default)]
+    pub shares_arrived_per_tick: f64,
+    /// Shares an agent counted (inside a neighbour's window) per tick.
+    #[serde(default)]
+    pub shares_counted_per_tick: f64,
+    /// Payload kB an agent's session received per agent and tick (sensors and shares).
+    #[serde(default)]
+    pub kb_received_per_tick: f64,
 }
 
 impl ScaleRow {
@@ -122,6 +141,9 @@ impl ScaleRow {
             goal_s: s.time_to_goal_s,
             sim_time_s: s.sim_time_s,
             late_share: t.late_share,
+            shares_arrived_per_tick: s.traffic.shares_arrived_per_agent_tick,
+            shares_counted_per_tick: s.traffic.shares_counted_per_agent_tick,
+            kb_received_per_tick: s.traffic.bytes_per_agent_tick / 1000.0,
         }
     }
 }
@@ -172,10 +194,33 @@ fn plan(a: &ScaleArgs) -> Result<Vec<Scenario>> {
         if let Some(m) = mode {
             sc.time.mode = m;
         }
-        plan.push(sc);
+        if a.sizes.is_empty() {
+            plan.push(sc);
+        } else {
+            for &n in &a.sizes {
+                plan.push(resized(&sc, n).with_context(|| format!("--sizes {n} of {name}"))?);
+            }
+        }
     }
     anyhow::ensure!(!plan.is_empty(), "--scenarios: none of `{}` exists", a.scenarios);
     Ok(plan)
+}
+
+/// `sc` with `n` UAVs at the same density: its start disc's area scaled by `n / count`, its name
+/// `<name>-n<n>`. Needs a start disc (listed starts cannot be resized), and informed and failed
+/// UAVs that all exist among the `n`.
+pub fn resized(sc: &Scenario, n: u32) -> Result<Scenario> {
+    anyhow::ensure!(n > 0, "a swarm needs a UAV");
+    let mut out = sc.clone();
+    let area = out.swarm.start_area.as_mut().context("the scenario lists its start positions; only a start disc can be resized")?;
+    area.radius_m *= (f64::from(n) / f64::from(sc.swarm.count)).sqrt();
+    if let swarm_config::Informed::Ids(ids) = &sc.swarm.informed {
+        anyhow::ensure!(ids.iter().all(|&i| i <= n), "informed UAVs {ids:?} are not all among {n}");
+    }
+    anyhow::ensure!(sc.swarm.failed.iter().all(|&i| i <= n), "failed UAVs {:?} are not all among {n}", sc.swarm.failed);
+    out.swarm.count = n;
+    out.name = format!("{}-n{n}", sc.name);
+    Ok(out)
 }
 
 /// Two decimals or `-`; three below 1 (step and tick times are often fractions of a ms).
@@ -193,13 +238,13 @@ pub fn table(rows: &[ScaleRow]) -> String {
     let _ = writeln!(t, "# swarm scale: the full stack as the swarm grows\n");
     let _ = writeln!(
         t,
-        "| scenario | UAVs | localization | time | processes | x real time | hub tick p50 / p99 ms | agent step p50 / p99 ms | RSS total MiB | RSS per UAV MiB | collisions | goal s |"
+        "| scenario | UAVs | localization | time | processes | x real time | hub tick p50 / p99 ms | agent step p50 / p99 ms | RSS total MiB | RSS per UAV MiB | shares in / used per agent tick | kB in per agent tick | collisions | goal s |"
     );
-    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let _ = writeln!(
             t,
-            "| {} | {} | {} | {} | {} | {:.2} | {} / {} | {} / {} | {:.0} | {:.1} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {:.2} | {} / {} | {} / {} | {:.0} | {:.1} | {:.1} / {:.1} | {:.2} | {} | {} |",
             r.scenario,
             r.uavs,
             r.localization,
@@ -212,6 +257,9 @@ pub fn table(rows: &[ScaleRow]) -> String {
             ms(r.agent_step_p99_ms),
             r.rss_total_mib,
             r.rss_per_uav_mib,
+            r.shares_arrived_per_tick,
+            r.shares_counted_per_tick,
+            r.kb_received_per_tick,
             r.collisions,
             r.goal_s.map_or_else(|| format!("no ({:.0} s flown)", r.sim_time_s), |g| format!("{g:.1}")),
         );
@@ -323,38 +371,45 @@ pub mod proc_fs {
     }
 }
 
+/// A row with every field set, for the table's and the chart's tests.
+#[cfg(test)]
+pub(crate) fn test_row(uavs: usize, mode: &str) -> ScaleRow {
+    ScaleRow {
+        scenario: format!("s{uavs}"),
+        uavs,
+        localization: mode.into(),
+        time_mode: "lockstep".into(),
+        processes: 3,
+        x_real_time: 12.5,
+        hub_tick_p50_ms: 0.25,
+        hub_tick_p99_ms: 1.5,
+        agent_step_p50_ms: 0.5,
+        agent_step_p99_ms: f64::NAN,
+        rss_total_mib: 200.0,
+        rss_per_uav_mib: 200.0 / uavs as f64,
+        collisions: 0,
+        goal_s: (uavs == 5).then_some(41.25),
+        sim_time_s: 60.0,
+        late_share: 0.0,
+        shares_arrived_per_tick: 3.0,
+        shares_counted_per_tick: 2.5,
+        kb_received_per_tick: 3.25,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::proc_fs::*;
     use super::*;
 
-    fn row(uavs: usize, mode: &str) -> ScaleRow {
-        ScaleRow {
-            scenario: format!("s{uavs}"),
-            uavs,
-            localization: mode.into(),
-            time_mode: "lockstep".into(),
-            processes: 3,
-            x_real_time: 12.5,
-            hub_tick_p50_ms: 0.25,
-            hub_tick_p99_ms: 1.5,
-            agent_step_p50_ms: 0.5,
-            agent_step_p99_ms: f64::NAN,
-            rss_total_mib: 200.0,
-            rss_per_uav_mib: 200.0 / uavs as f64,
-            collisions: 0,
-            goal_s: (uavs == 5).then_some(41.25),
-            sim_time_s: 60.0,
-            late_share: 0.0,
-        }
-    }
+    use super::test_row as row;
 
     #[test]
     fn the_table_has_a_line_per_row_with_its_numbers() {
         let t = table(&[row(5, "broadcast"), row(40, "icp")]);
         let lines: Vec<&str> = t.lines().filter(|l| l.starts_with("| s") && !l.starts_with("| scenario")).collect();
         assert_eq!(lines.len(), 2, "{t}");
-        assert_eq!(lines[0], "| s5 | 5 | broadcast | lockstep | 3 | 12.50 | 0.250 / 1.50 | 0.500 / - | 200 | 40.0 | 0 | 41.2 |");
+        assert_eq!(lines[0], "| s5 | 5 | broadcast | lockstep | 3 | 12.50 | 0.250 / 1.50 | 0.500 / - | 200 | 40.0 | 3.0 / 2.5 | 3.25 | 0 | 41.2 |");
         assert!(lines[1].ends_with("| 0 | no (60 s flown) |"), "{}", lines[1]);
         let header_cells = t.lines().find(|l| l.starts_with("| scenario")).map(|l| l.matches('|').count());
         assert_eq!(header_cells, Some(lines[0].matches('|').count()), "header and rows have as many cells");
@@ -370,6 +425,19 @@ mod tests {
         assert_eq!((r.uavs, r.processes, r.collisions, r.goal_s), (5, 6, 0, Some(40.0)));
         assert_eq!((r.rss_total_mib, r.rss_per_uav_mib), (10.0, 2.0));
         assert_eq!((r.x_real_time, r.agent_step_p99_ms, r.late_share), (10.0, 0.4, 0.1));
+    }
+
+    #[test]
+    fn a_resized_scenario_keeps_its_density() {
+        let sc = swarm_config::builtin("open-1000").expect("builtin");
+        let small = resized(&sc, 250).expect("resized");
+        let (a, b) = (sc.swarm.start_area.as_ref().expect("disc"), small.swarm.start_area.as_ref().expect("disc"));
+        assert_eq!((small.swarm.count, small.name.as_str()), (250, "open-1000-n250"));
+        assert!((b.radius_m - a.radius_m / 2.0).abs() < 1e-9, "a quarter of the UAVs on a quarter of the area");
+        assert_eq!(b.min_spacing_m, a.min_spacing_m);
+        let listed = swarm_config::builtin("forest-5").expect("builtin");
+        let err = resized(&listed, 10).expect_err("listed starts").to_string();
+        assert!(err.contains("start disc"), "{err}");
     }
 
     #[test]

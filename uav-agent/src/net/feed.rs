@@ -87,6 +87,8 @@ pub(crate) struct Traffic {
     bytes: AtomicU64,
     agents: AtomicU32,
     subscriptions: AtomicU32,
+    remote_shares: AtomicU64,
+    remote_share_bytes: AtomicU64,
 }
 
 impl Traffic {
@@ -95,10 +97,14 @@ impl Traffic {
         self.bytes.fetch_add(len as u64, Ordering::Relaxed);
     }
 
-    /// Counts a share of `len` payload bytes.
-    fn count_share(&self, len: usize) {
+    /// Counts a share of `len` payload bytes, `remote` when its sender flies on another session.
+    fn count_share(&self, len: usize, remote: bool) {
         self.shares.fetch_add(1, Ordering::Relaxed);
         self.share_bytes.fetch_add(len as u64, Ordering::Relaxed);
+        if remote {
+            self.remote_shares.fetch_add(1, Ordering::Relaxed);
+            self.remote_share_bytes.fetch_add(len as u64, Ordering::Relaxed);
+        }
         self.count(len);
     }
 
@@ -120,6 +126,8 @@ impl Traffic {
             share_bytes: self.share_bytes.load(Ordering::Relaxed),
             bytes: self.bytes.load(Ordering::Relaxed),
             subscriptions: self.subscriptions.load(Ordering::Relaxed),
+            remote_shares: self.remote_shares.load(Ordering::Relaxed),
+            remote_share_bytes: self.remote_share_bytes.load(Ordering::Relaxed),
         }
     }
 }
@@ -157,6 +165,8 @@ struct Inner {
     session: zenoh::Session,
     keys: Keys,
     mode: LocalizationMode,
+    /// The UAVs this session flies: their shares reach it without crossing the network.
+    local: Vec<u32>,
     listeners: Arc<Mutex<Listeners>>,
     declared: Mutex<Declared>,
     traffic: Arc<Traffic>,
@@ -200,12 +210,14 @@ impl Drop for Listening {
 }
 
 impl ShareFeed {
-    /// The feed of session `s` for scenario `sc`'s localization mode.
-    pub(crate) fn new(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> ShareFeed {
+    /// The feed of session `s`, which flies the UAVs `local`, for scenario `sc`'s localization
+    /// mode.
+    pub(crate) fn new(s: &zenoh::Session, keys: &Keys, sc: &Scenario, local: &[u32]) -> ShareFeed {
         ShareFeed(Arc::new(Inner {
             session: s.clone(),
             keys: keys.clone(),
             mode: sc.localization.mode,
+            local: local.to_vec(),
             listeners: Arc::default(),
             declared: Mutex::default(),
             traffic: Arc::default(),
@@ -248,11 +260,11 @@ impl ShareFeed {
             *count += 1;
             return Ok(Some(listening));
         }
-        let (l, traffic) = (inner.listeners.clone(), inner.traffic.clone());
+        let (l, traffic, remote) = (inner.listeners.clone(), inner.traffic.clone(), !inner.local.contains(&from));
         let declared = inner.session.declare_subscriber(key).callback(move |sample| {
             // Borrowed when the payload is contiguous (one share is): no copy.
             let bytes = sample.payload().to_bytes();
-            traffic.count_share(bytes.len());
+            traffic.count_share(bytes.len(), remote);
             l.lock().unwrap_or_else(PoisonError::into_inner).deliver(from, &bytes);
         });
         match declared.wait() {
@@ -281,10 +293,11 @@ pub(crate) struct SessionShared {
 }
 
 impl SessionShared {
-    /// Declares the keys every agent of session `s` uses, for scenario `sc`.
-    pub(crate) async fn open(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Arc<SessionShared>, AgentError> {
+    /// Declares the keys every agent of session `s` uses, for scenario `sc`; the session flies
+    /// the UAVs `ids`.
+    pub(crate) async fn open(s: &zenoh::Session, keys: &Keys, sc: &Scenario, ids: &[u32]) -> Result<Arc<SessionShared>, AgentError> {
         let netem_rules = s.declare_keyexpr(keys.netem_rules()).await.map_err(WireError::zenoh)?;
-        Ok(Arc::new(SessionShared { feed: ShareFeed::new(s, keys, sc), netem_rules, zid: s.zid().to_string() }))
+        Ok(Arc::new(SessionShared { feed: ShareFeed::new(s, keys, sc, ids), netem_rules, zid: s.zid().to_string() }))
     }
 }
 
@@ -337,13 +350,15 @@ mod tests {
     #[test]
     fn traffic_counts_shares_apart_from_other_samples() {
         let t = Traffic::default();
-        t.count_share(40);
+        t.count_share(40, true);
+        t.count_share(30, false);
         t.count(100);
         t.agent(true);
         t.agent(true);
         t.agent(false);
         let s = t.snapshot("ab");
-        assert_eq!((s.shares, s.share_bytes, s.bytes, s.agents, s.session.as_str()), (1, 40, 140, 1, "ab"));
+        assert_eq!((s.shares, s.share_bytes, s.bytes, s.agents, s.session.as_str()), (2, 70, 170, 1, "ab"));
+        assert_eq!((s.remote_shares, s.remote_share_bytes), (1, 40), "the local share crossed no network");
     }
 
     fn pose(from: u32) -> swarm_wire::PoseShare {

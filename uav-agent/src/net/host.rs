@@ -54,7 +54,7 @@ pub async fn run_host(
             None => node::fetch_scenario(&s, &keys, &opts.run).await?,
         };
         // Made once, before any agent runs (see `feed`).
-        let shared = SessionShared::open(&s, &keys, &sc).await?;
+        let shared = SessionShared::open(&s, &keys, &sc, &opts.ids).await?;
         Ok(fly_all(&s, &keys, shared, &opts, sc, shutdown).await)
     }
     .await;

@@ -73,7 +73,7 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
             Some(sc) => sc,
             None => fetch_scenario(&s, &keys, &opts.run).await?,
         };
-        let shared = SessionShared::open(&s, &keys, &sc).await?;
+        let shared = SessionShared::open(&s, &keys, &sc, &[opts.id]).await?;
         fly(s.clone(), keys, shared, opts.id, sc, opts.hub_grace_s, shutdown).await
     }
     .instrument(span)

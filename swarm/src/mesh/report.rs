@@ -1,0 +1,231 @@
+//! What `swarm mesh` computes from what a run left, with no IO: which host flies which UAV, how
+//! many UAVs of the other hosts each host's UAVs could hear per tick (from the truth track), and
+//! the table that puts those beside the bytes the kernel counted on each host's link.
+
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::fmt::Write as _;
+
+/// Splits the UAVs (ids 1..=n, `starts[id - 1]`) into `hosts` groups by where they start: sorted
+/// by the coordinate across the way from their centroid to `goal`, cut into strips of nearly
+/// equal size, so a UAV's radio neighbours are mostly on its own host and only the strips'
+/// borders talk across hosts. Each group's ids ascend.
+pub fn strips(starts: &[[f64; 2]], goal: [f64; 2], hosts: usize) -> Vec<Vec<u32>> {
+    let n = starts.len();
+    let hosts = hosts.clamp(1, n.max(1));
+    let c = starts.iter().fold([0.0, 0.0], |a, p| [a[0] + p[0] / n as f64, a[1] + p[1] / n as f64]);
+    let (dx, dy) = (goal[0] - c[0], goal[1] - c[1]);
+    let len = dx.hypot(dy);
+    let (ux, uy) = if len > 1e-9 { (dx / len, dy / len) } else { (1.0, 0.0) };
+    let across = |p: &[f64; 2]| ux * (p[1] - c[1]) - uy * (p[0] - c[0]);
+    let mut order: Vec<u32> = (1..=n as u32).collect();
+    order.sort_by(|&a, &b| across(&starts[a as usize - 1]).total_cmp(&across(&starts[b as usize - 1])).then(a.cmp(&b)));
+    (0..hosts)
+        .map(|h| {
+            let mut ids = order[h * n / hosts..(h + 1) * n / hosts].to_vec();
+            ids.sort_unstable();
+            ids
+        })
+        .collect()
+}
+
+/// One tick of the truth track: each live UAV's position.
+pub type Positions = Vec<(u32, [f64; 2])>;
+
+/// The live UAVs' positions per tick of a `trajectories.csv` (`tick,t_s,id,x_m,y_m,...,alive,...`).
+pub fn positions_by_tick(csv: &str) -> Result<BTreeMap<u64, Positions>, String> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().ok_or("trajectories.csv is empty")?.split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).ok_or(format!("trajectories.csv has no `{name}` column"));
+    let (tick, id, x, y, alive) = (col("tick")?, col("id")?, col("x_m")?, col("y_m")?, col("alive")?);
+    let mut out: BTreeMap<u64, Positions> = BTreeMap::new();
+    for (n, line) in lines.enumerate() {
+        let c: Vec<&str> = line.split(',').collect();
+        let bad = || format!("trajectories.csv line {}: {line:?}", n + 2);
+        let get = |i: usize| c.get(i).copied().ok_or_else(bad);
+        if get(alive)? != "1" {
+            continue;
+        }
+        let t: u64 = get(tick)?.parse().map_err(|_| bad())?;
+        let p = [get(x)?.parse().map_err(|_| bad())?, get(y)?.parse().map_err(|_| bad())?];
+        out.entry(t).or_default().push((get(id)?.parse().map_err(|_| bad())?, p));
+    }
+    Ok(out)
+}
+
+/// Per host, the mean over ticks of how many UAVs of other hosts are within `range` of at least
+/// one of its UAVs: the senders whose shares must cross into the host (each once per tick, to its
+/// one session). `host_of` maps a UAV to its host's index.
+pub fn outside_heard_per_tick(ticks: &BTreeMap<u64, Positions>, host_of: &HashMap<u32, usize>, hosts: usize, range: f64) -> Vec<f64> {
+    let mut sums = vec![0u64; hosts];
+    for positions in ticks.values() {
+        // A uniform grid of `range` cells: a UAV's neighbours are in its cell and the 8 around.
+        let cell = |p: [f64; 2]| ((p[0] / range).floor() as i64, (p[1] / range).floor() as i64);
+        let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+        for (i, &(_, p)) in positions.iter().enumerate() {
+            grid.entry(cell(p)).or_default().push(i);
+        }
+        let mut heard: Vec<BTreeSet<u32>> = vec![BTreeSet::new(); hosts];
+        for &(id, p) in positions {
+            let Some(&h) = host_of.get(&id) else { continue };
+            let (cx, cy) = cell(p);
+            for (gx, gy) in (cx - 1..=cx + 1).flat_map(|gx| (cy - 1..=cy + 1).map(move |gy| (gx, gy))) {
+                for &j in grid.get(&(gx, gy)).map_or(&[][..], Vec::as_slice) {
+                    let (other, q) = positions[j];
+                    if host_of.get(&other).is_some_and(|&g| g != h) && (p[0] - q[0]).hypot(p[1] - q[1]) <= range {
+                        heard[h].insert(other);
+                    }
+                }
+            }
+        }
+        for (s, h) in sums.iter_mut().zip(&heard) {
+            *s += h.len() as u64;
+        }
+    }
+    let n = ticks.len().max(1) as f64;
+    sums.into_iter().map(|s| s as f64 / n).collect()
+}
+
+/// What one host of the mesh saw.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HostRow {
+    /// Host name (its namespace's suffix).
+    pub host: String,
+    /// The UAVs it flew.
+    pub uavs: usize,
+    /// Bytes into its link, as the kernel counted them (`ip -s link`), per tick.
+    pub link_rx_kb_per_tick: f64,
+    /// Bytes out of its link per tick.
+    pub link_tx_kb_per_tick: f64,
+    /// Shares from UAVs of other hosts that reached its agent host per tick (its session's count).
+    pub remote_shares_per_tick: f64,
+    /// Their payload bytes per tick.
+    pub remote_share_kb_per_tick: f64,
+    /// UAVs of other hosts within radio range of one of its UAVs, per tick (truth): what the
+    /// remote shares should follow.
+    pub outside_heard_per_tick: f64,
+    /// UAVs of other hosts: what every host would receive per tick if each heard every share.
+    pub outside_uavs: usize,
+}
+
+/// The whole study's result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MeshReport {
+    /// Scenario name.
+    pub scenario: String,
+    /// `lockstep` or `realtime`.
+    pub time_mode: String,
+    /// UAVs.
+    pub uavs: usize,
+    /// Ticks flown.
+    pub ticks: u64,
+    /// Sim seconds per wall second.
+    pub x_real_time: f64,
+    /// Commands that arrived after their tick closed, and all commands.
+    pub late_commands: u64,
+    /// See `late_commands`.
+    pub commands: u64,
+    /// Collisions.
+    pub collisions: usize,
+    /// Whether the goal rule was met.
+    pub reached_goal: bool,
+    /// One row per agent host.
+    pub hosts: Vec<HostRow>,
+    /// Bytes the hub's link carried, in and out, per tick.
+    pub hub_rx_kb_per_tick: f64,
+    /// See `hub_rx_kb_per_tick`.
+    pub hub_tx_kb_per_tick: f64,
+}
+
+/// The report as a Markdown table with its headline.
+pub fn table(r: &MeshReport) -> String {
+    let mut t = String::new();
+    let late = if r.commands > 0 { 100.0 * r.late_commands as f64 / r.commands as f64 } else { 0.0 };
+    let _ = writeln!(
+        t,
+        "# swarm mesh: {} ({} UAVs, {}) over {} agent hosts\n\n{:.2}x real time, {} ticks, late commands {} of {} ({late:.2} %), collisions {}, goal {}; hub link {:.1} kB in / {:.1} kB out per tick\n",
+        r.scenario,
+        r.uavs,
+        r.time_mode,
+        r.hosts.len(),
+        r.x_real_time,
+        r.ticks,
+        r.late_commands,
+        r.commands,
+        r.collisions,
+        if r.reached_goal { "reached" } else { "not reached" },
+        r.hub_rx_kb_per_tick,
+        r.hub_tx_kb_per_tick
+    );
+    let _ = writeln!(t, "| host | UAVs | link in kB/tick | link out kB/tick | shares in from other hosts /tick | their kB/tick | other hosts' UAVs in radio range /tick | other hosts' UAVs |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|");
+    for h in &r.hosts {
+        let _ = writeln!(
+            t,
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {} |",
+            h.host, h.uavs, h.link_rx_kb_per_tick, h.link_tx_kb_per_tick, h.remote_shares_per_tick, h.remote_share_kb_per_tick, h.outside_heard_per_tick, h.outside_uavs
+        );
+    }
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_cut_across_the_way_to_the_goal() {
+        // Six UAVs in two columns flying along +x: strips by y.
+        let starts = [[0.0, 0.0], [0.0, 5.0], [0.0, 10.0], [2.0, 0.0], [2.0, 5.0], [2.0, 10.0]];
+        assert_eq!(strips(&starts, [100.0, 5.0], 3), vec![vec![1, 4], vec![2, 5], vec![3, 6]]);
+        // Flying along +y: strips by x.
+        assert_eq!(strips(&starts, [1.0, 100.0], 2), vec![vec![4, 5, 6], vec![1, 2, 3]]);
+        let all: usize = strips(&starts, [100.0, 5.0], 4).iter().map(Vec::len).sum();
+        assert_eq!(all, 6, "every UAV on exactly one host");
+    }
+
+    #[test]
+    fn a_host_hears_the_other_hosts_uavs_within_range_once_each() {
+        let csv = "tick,t_s,id,x_m,y_m,alive\n1,0.1,1,0.0,0.0,1\n1,0.1,2,5.0,0.0,1\n1,0.1,3,8.0,0.0,1\n1,0.1,4,30.0,0.0,1\n2,0.2,1,0.0,0.0,1\n2,0.2,2,5.0,0.0,1\n2,0.2,3,8.0,0.0,0\n2,0.2,4,30.0,0.0,1\n";
+        let ticks = positions_by_tick(csv).expect("parses");
+        assert_eq!(ticks.len(), 2);
+        assert_eq!(ticks[&2].len(), 3, "a dead UAV is heard by no one");
+        let host_of: HashMap<u32, usize> = [(1, 0), (2, 1), (3, 1), (4, 1)].into();
+        let heard = outside_heard_per_tick(&ticks, &host_of, 2, 10.0);
+        // Host 0 (UAV 1) hears 2 and 3 at tick 1, 2 at tick 2; host 1 hears UAV 1 at both.
+        assert_eq!(heard, vec![1.5, 1.0]);
+        assert!(positions_by_tick("tick,id\n").is_err(), "columns missing");
+        assert!(positions_by_tick("tick,t_s,id,x_m,y_m,alive\n1,0,x,0,0,1\n").is_err(), "a bad number names its line");
+    }
+
+    #[test]
+    fn the_table_has_a_row_per_host() {
+        let host = |h: &str| HostRow {
+            host: h.into(),
+            uavs: 250,
+            link_rx_kb_per_tick: 812.5,
+            link_tx_kb_per_tick: 60.0,
+            remote_shares_per_tick: 20.0,
+            remote_share_kb_per_tick: 1.25,
+            outside_heard_per_tick: 21.0,
+            outside_uavs: 750,
+        };
+        let r = MeshReport {
+            scenario: "open-1000".into(),
+            time_mode: "lockstep".into(),
+            uavs: 1000,
+            ticks: 600,
+            x_real_time: 1.5,
+            late_commands: 0,
+            commands: 600_000,
+            collisions: 0,
+            reached_goal: false,
+            hosts: vec![host("h1"), host("h2")],
+            hub_rx_kb_per_tick: 200.0,
+            hub_tx_kb_per_tick: 1700.0,
+        };
+        let t = table(&r);
+        assert!(t.contains("| h1 | 250 | 812.5 | 60.0 | 20.0 | 1.25 | 21.0 | 750 |"), "{t}");
+        assert!(t.contains("1.50x real time"), "{t}");
+    }
+}
