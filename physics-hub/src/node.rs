@@ -11,6 +11,12 @@
 //! In `realtime` mode step 2 is a wall-clock wait of dt / `realtime_factor`, and whatever
 //! commands arrived meanwhile are used. The hub holds the `alive/hub` token, which agents watch,
 //! and answers `swarm/{run}/scenario` with the scenario text so agents elsewhere need no file.
+//!
+//! The hub's session is its router's own, so the keys it declares are resources of the router
+//! (see [`declare_agent_keys`]): besides its own, it declares every key the agents publish on, so
+//! the router routes each agent's put from a cached route instead of matching its key against
+//! the whole key space every time (agents write without declaring publishers; see
+//! `swarm_wire::session::Writer`).
 
 use crate::lateness::Lateness;
 use crate::sim::{Sensors, Sim};
@@ -21,7 +27,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use swarm_config::{Scenario, TimeMode};
 use swarm_wire::plumbing::{self, Subscription};
-use swarm_wire::session::{self, publisher, Role};
+use swarm_wire::session::{self, Role, Writer};
 use swarm_wire::{Cmd, CmdKind, EndReason, Keys, Msg, TruthStep, WireError};
 use tokio::sync::{mpsc, Notify};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
@@ -68,7 +74,7 @@ pub struct HubReport {
     pub ignored: u64,
 }
 
-type Publisher = zenoh::pubsub::Publisher<'static>;
+type Publisher = Writer;
 
 /// Realtime pacing: the wall-clock instant of each next tick, `real_dt` apart.
 struct Pacer {
@@ -140,7 +146,7 @@ impl EncodedSensors {
 }
 
 async fn put(p: &Publisher, msg: &Msg) -> Result<(), WireError> {
-    p.put(msg.encode()?).await.map_err(WireError::zenoh)
+    p.put(msg.encode()?).await
 }
 
 /// Runs the hub until the scenario's end condition or `shutdown`. `on_listening` receives the
@@ -205,6 +211,8 @@ struct Subs {
     _cmd: Subscription,
     _alive: Subscription,
     _netem: Subscription,
+    /// See [`declare_agent_keys`].
+    _agent_keys: Vec<zenoh::key_expr::KeyExpr<'static>>,
 }
 
 /// The sensor publishers of every UAV of the scenario, in id order.
@@ -216,11 +224,11 @@ async fn uav_publishers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Resul
     let mut uavs = Vec::with_capacity(sc.count());
     for id in sc.uav_ids() {
         uavs.push(UavPubs {
-            radio: publisher(s, keys.radio(id), sensors_cc).await?,
-            odom: publisher(s, keys.odom(id), sensors_cc).await?,
-            gnss: publisher(s, keys.gnss(id), sensors_cc).await?,
-            uvdar: publisher(s, keys.uvdar(id), sensors_cc).await?,
-            scan: publisher(s, keys.scan(id), sensors_cc).await?,
+            radio: Writer::new(s, keys.radio(id), sensors_cc).await?,
+            odom: Writer::new(s, keys.odom(id), sensors_cc).await?,
+            gnss: Writer::new(s, keys.gnss(id), sensors_cc).await?,
+            uvdar: Writer::new(s, keys.uvdar(id), sensors_cc).await?,
+            scan: Writer::new(s, keys.scan(id), sensors_cc).await?,
         });
     }
     Ok(uavs)
@@ -275,6 +283,29 @@ async fn subscribe_cmds(
     Ok((sub, cmds))
 }
 
+/// Declares, on the hub's session, every key the agents of `sc` publish on: each UAV's command,
+/// state and share keys. The hub's session lives in its router, so each declaration makes the key
+/// a resource of the router with its matching subscriptions computed and its route cached; an
+/// agent's put arrives with the key spelled out (its session declared the key to itself, not to
+/// the router), finds that resource, and takes the cached route. Without it, the router matched
+/// every command and state message of 1000 agents against its whole key space (53 % of the
+/// hub's CPU in `Resource::get_matches`, `perf`, open-1000 in 100 processes). Kept for the
+/// hub's life.
+async fn declare_agent_keys(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<zenoh::key_expr::KeyExpr<'static>>, WireError> {
+    let mut declared = Vec::with_capacity(sc.count() * 3);
+    for id in sc.uav_ids() {
+        let share = match sc.localization.mode {
+            swarm_config::LocalizationMode::Broadcast => Some(keys.share_pose(id)),
+            swarm_config::LocalizationMode::Icp => Some(keys.share_obstacles(id)),
+            swarm_config::LocalizationMode::Uvdar => None,
+        };
+        for key in [Some(keys.cmd(id)), Some(keys.state(id)), share].into_iter().flatten() {
+            declared.push(s.declare_keyexpr(key).await.map_err(WireError::zenoh)?);
+        }
+    }
+    Ok(declared)
+}
+
 /// Keeps `alive` equal to the set of agents holding a liveliness token, and notifies `changed`
 /// on every change.
 async fn watch_agents(
@@ -308,6 +339,7 @@ async fn watch_agents(
 impl Net {
     async fn declare(s: zenoh::Session, keys: Keys, sc: &Scenario) -> Result<(Net, Subs), WireError> {
         let uavs = uav_publishers(&s, &keys, sc).await?;
+        let agent_keys = declare_agent_keys(&s, &keys, sc).await?;
         let malformed = Arc::new(AtomicU64::new(0));
         let ignored = Arc::new(AtomicU64::new(0));
         let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.swarm.count, malformed.clone(), ignored.clone()).await?;
@@ -319,11 +351,11 @@ impl Net {
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
-            netem_rules: publisher(&s, keys.netem_rules(), CongestionControl::Block).await?,
+            netem_rules: Writer::new(&s, keys.netem_rules(), CongestionControl::Block).await?,
             netem_added,
-            clock: publisher(&s, keys.clock(), CongestionControl::Block).await?,
-            truth_world: publisher(&s, keys.truth_world(), CongestionControl::Block).await?,
-            truth_step: publisher(&s, keys.truth_step(), CongestionControl::Block).await?,
+            clock: Writer::new(&s, keys.clock(), CongestionControl::Block).await?,
+            truth_world: Writer::new(&s, keys.truth_world(), CongestionControl::Block).await?,
+            truth_step: Writer::new(&s, keys.truth_step(), CongestionControl::Block).await?,
             session: s,
             keys,
             uavs,
@@ -335,7 +367,7 @@ impl Net {
             malformed,
             ignored,
         };
-        Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub, _netem: netem_sub }))
+        Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub, _netem: netem_sub, _agent_keys: agent_keys }))
     }
 
     fn alive_now(&self) -> BTreeSet<u32> {
@@ -484,7 +516,7 @@ impl Net {
     fn put_sensors(&self, id: u32, e: EncodedSensors) -> Result<(), WireError> {
         let p = &self.uavs[(id - 1) as usize];
         // Blocking puts (the caller is inside `block_in_place`), unlike the async `put` above.
-        let put_now = |publisher: &Publisher, bytes: Vec<u8>| publisher.put(bytes).wait().map_err(WireError::zenoh);
+        let put_now = |w: &Publisher, bytes: Vec<u8>| w.put_now(bytes);
         put_now(&p.radio, e.radio)?;
         put_now(&p.odom, e.odom)?;
         if let Some(g) = e.gnss {

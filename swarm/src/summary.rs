@@ -99,22 +99,22 @@ pub struct Summary {
     pub traffic: TrafficSummary,
 }
 
-/// What the agent sessions (one agent's process, or a host's) received, from the counts each
-/// agent's state carries. Per agent and tick: a session's counts divided by its agents and the
-/// ticks it flew, so one agent per process and hosts read alike.
+/// What the agents and their sessions (one agent's process, or a host's) received, from the
+/// counts each agent's state carries. Per agent and tick: each agent's own counts (what it would
+/// receive on a session of its own, so one agent per process and hosts read alike) over the
+/// ticks it reported; per session: what the session received once for all its agents.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct TrafficSummary {
     /// Agent sessions that reported.
     pub sessions: usize,
-    /// Shares that reached the agents' sessions, per agent and tick.
+    /// Shares that reached an agent (from the UAVs it listened to: what it would receive on a
+    /// session of its own), per agent and tick.
     pub shares_arrived_per_agent_tick: f64,
     /// Shares that counted (sent inside a neighbour's window), per agent and tick: what the
     /// agents needed.
     pub shares_counted_per_agent_tick: f64,
-    /// Payload bytes of the shares that reached the sessions, per agent and tick.
-    pub share_bytes_per_agent_tick: f64,
-    /// Payload bytes of everything the sessions received (sensors, radio sets, rules, shares),
-    /// per agent and tick.
+    /// Payload bytes an agent received (its sensors, radio sets, rules and those shares), per
+    /// agent and tick.
     pub bytes_per_agent_tick: f64,
     /// Each session.
     pub per_session: Vec<SessionTrafficSummary>,
@@ -553,11 +553,10 @@ impl Summary {
         if w.sessions > 0 {
             let _ = writeln!(
                 s,
-                "traffic per agent and tick: {} shares arrived, {} counted; {} kB received ({} kB of shares); {} agent sessions",
+                "traffic per agent and tick: {} shares arrived, {} counted, {} kB received; {} agent sessions",
                 f(w.shares_arrived_per_agent_tick),
                 f(w.shares_counted_per_agent_tick),
                 f(w.bytes_per_agent_tick / 1000.0),
-                f(w.share_bytes_per_agent_tick / 1000.0),
                 w.sessions
             );
         }

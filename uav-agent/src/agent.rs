@@ -22,7 +22,7 @@ use crate::sensing::{FrameCollector, SensorFrame};
 use nalgebra::Point2;
 use std::time::Instant;
 use swarm_config::Scenario;
-use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, LinkCounters, NeighbourEstimate, SessionTraffic, VectorMagnitudes};
+use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, LinkCounters, NeighbourEstimate, Traffic, VectorMagnitudes};
 
 /// What one step produces.
 #[derive(Debug, Clone)]
@@ -66,7 +66,7 @@ pub struct LinkReport {
     /// Delays of the shares delivered since the last report.
     pub delays: Vec<DelaySample>,
     /// What the agent's session received since it opened.
-    pub traffic: SessionTraffic,
+    pub traffic: Traffic,
 }
 
 impl StepReport {

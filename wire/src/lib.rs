@@ -5,8 +5,8 @@
 //!   appended, so `swarm tap` can decode any key of a run without knowing which it is.
 //! - [`keys`]: the key-expression space, `swarm/{run}/...`, built in one place ([`Keys`]).
 //! - [`session`]: Zenoh configs for the hub (router) and everyone else (clients), with multicast
-//!   scouting off everywhere so parallel runs cannot cross-talk; [`session::publisher`] makes
-//!   every publisher.
+//!   scouting off everywhere so parallel runs cannot cross-talk; [`session::Writer`] writes on
+//!   every key a process publishes (a publisher that declares nothing: see why there).
 //! - [`plumbing`]: what every process repeats around its session, written once: subscribe a key
 //!   into a channel, watch liveliness tokens, fetch the scenario text from the hub.
 //!

@@ -399,16 +399,17 @@ pub struct AgentState {
     pub icp: IcpCounts,
     /// Delays applied to the copies scheduled for delivery since the previous state.
     pub delays: Vec<DelaySample>,
-    /// What the agent's Zenoh session received since it opened. Appended: the wire's measure of
-    /// whether traffic grows with the neighbours or with the swarm.
-    pub traffic: SessionTraffic,
+    /// What the agent and its Zenoh session received since they started. Appended: the wire's
+    /// measure of whether traffic grows with the neighbours or with the swarm.
+    pub traffic: Traffic,
 }
 
-/// What one agent session (one agent's process, or a host's) received since it opened, counted
-/// by the session's own subscriptions: every agent of a host reports the same session's counts,
-/// and readers group them by `session`.
+/// What an agent and its Zenoh session (the agent's own process, or a host's) received since
+/// they started. The session's counts are the same in the state of every agent of a host (readers
+/// group them by `session`); the agent's own (`agent_*`) are what it would receive on a session
+/// of its own, so they read alike however agents share sessions.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SessionTraffic {
+pub struct Traffic {
     /// The session's Zenoh id, as the router's admin space names it.
     pub session: String,
     /// Agents flying on the session.
@@ -427,6 +428,12 @@ pub struct SessionTraffic {
     pub remote_shares: u64,
     /// Their payload bytes.
     pub remote_share_bytes: u64,
+    /// Shares that reached this agent: every one its session received from a UAV it listened to
+    /// (counted or not by its windows).
+    pub agent_shares: u64,
+    /// Payload bytes this agent received: its own sensor, radio and rules samples and those
+    /// shares.
+    pub agent_bytes: u64,
 }
 
 /// The static world, published once by the hub for the recorder.
@@ -615,7 +622,7 @@ pub(crate) mod tests {
             },
             icp: IcpCounts { short: 1, long: 2, initial: 3, deferred: 4, entries: 5, suspended: 6 },
             delays: vec![DelaySample { class: 1, delay_s: 0.5 }],
-            traffic: SessionTraffic { session: "a1".into(), agents: 2, shares: 3, share_bytes: 300, bytes: 5, subscriptions: 6, remote_shares: 7, remote_share_bytes: 8 },
+            traffic: Traffic { session: "a1".into(), agents: 2, shares: 3, share_bytes: 300, bytes: 5, subscriptions: 6, remote_shares: 7, remote_share_bytes: 8, agent_shares: 9, agent_bytes: 10 },
         };
         let body = |id: u32, colliding: bool| TruthBody {
             id,
@@ -667,7 +674,7 @@ pub(crate) mod tests {
                 Msg::Pose(PoseShare { from: 3, tick: 5, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125 }),
                 "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf",
             ),
-            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708"),
+            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a"),
             (
                 Msg::TruthWorld(TruthWorld {
                     trees: vec![[1.0, 2.0, 0.25]],

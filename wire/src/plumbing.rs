@@ -1,6 +1,6 @@
 //! The Zenoh plumbing every process of a run needs, written once: subscribe a key into a
 //! channel, watch liveliness tokens, fetch a reply (the scenario text) from a queryable.
-//! Publishers are made by [`crate::session::publisher`]; a tool that puts one message uses
+//! Writers are made by [`crate::session::Writer`]; a tool that puts one message uses
 //! [`put_once`] with the same encoding and priority.
 //!
 //! Why channels and callbacks: a callback runs in Zenoh's delivery order, and an unbounded
@@ -114,7 +114,7 @@ pub async fn fetch_scenario_text(s: &zenoh::Session, keys: &Keys, wait: Duration
 }
 
 /// Puts one payload on `key` without declaring a publisher (one-shot tools: `swarm put`,
-/// `swarm netem`), with the encoding and priority of [`crate::session::publisher`].
+/// `swarm netem`), with the encoding and priority of [`crate::session::Writer`].
 pub async fn put_once(s: &zenoh::Session, key: &str, bytes: Vec<u8>, cc: CongestionControl) -> Result<(), WireError> {
     s.put(key, bytes)
         .encoding(crate::session::encoding())

@@ -78,20 +78,55 @@ pub async fn locators(session: &zenoh::Session) -> Vec<String> {
     session.info().locators().await.iter().map(|l| l.to_string()).collect()
 }
 
-/// A publisher of our payloads on `key`. Every publisher of a run uses one priority, so the
-/// router forwards each session's messages in the order they were put (the lockstep protocol
-/// relies on that); `cc` chooses back-pressure (`Block`) or dropping (`Drop`) under congestion.
-/// `key` is a key, or a key expression declared on `s` (the router then sends its id, not the
-/// string).
-pub async fn publisher<K>(s: &zenoh::Session, key: K, cc: CongestionControl) -> Result<zenoh::pubsub::Publisher<'static>, WireError>
-where
-    K: TryInto<zenoh::key_expr::KeyExpr<'static>> + Send,
-    K::Error: Into<zenoh::Error>,
-{
-    s.declare_publisher(key)
-        .encoding(encoding())
-        .congestion_control(cc)
-        .priority(Priority::Data)
-        .await
-        .map_err(WireError::zenoh)
+/// Writes our payloads on one key: what a Zenoh publisher does, without declaring one.
+///
+/// Why not a publisher: a declared publisher sends its router an interest in the subscribers of
+/// its key (Zenoh's writer-side filtering), and a router matches every subscriber declared
+/// anywhere against every such interest of every session. With the hub's five sensor publishers
+/// per UAV and the agents' three, that was 79 % of the hub's CPU (`perf`, `Resource::matches`
+/// under `propagate_subscriber`) while 1000 agents in 100 processes declared the share
+/// subscriptions of their first radio sets, long enough to expire some sessions' leases. The
+/// puts take the same path as a publisher's (`Session::put` and `Publisher::put` both end in
+/// Zenoh's `resolve_put`), and the key is declared on the session, so each put carries its id.
+///
+/// Every writer of a run uses one priority, so a session's messages leave in the order they were
+/// put (the lockstep protocol relies on that; see the module doc); `cc` chooses back-pressure
+/// (`Block`) or dropping (`Drop`) under congestion.
+#[derive(Debug, Clone)]
+pub struct Writer {
+    session: zenoh::Session,
+    key: zenoh::key_expr::KeyExpr<'static>,
+    cc: CongestionControl,
+}
+
+impl Writer {
+    /// A writer on `key` (a key, or a key expression already declared on `s`).
+    pub async fn new<K>(s: &zenoh::Session, key: K, cc: CongestionControl) -> Result<Writer, WireError>
+    where
+        K: TryInto<zenoh::key_expr::KeyExpr<'static>> + Send,
+        K::Error: Into<zenoh::Error>,
+    {
+        let key = s.declare_keyexpr(key).await.map_err(WireError::zenoh)?;
+        Ok(Writer { session: s.clone(), key, cc })
+    }
+
+    /// The key written on.
+    pub fn key(&self) -> &str {
+        self.key.as_str()
+    }
+
+    fn builder(&self, bytes: Vec<u8>) -> zenoh::session::SessionPutBuilder<'_, 'static> {
+        self.session.put(self.key.clone(), bytes).encoding(encoding()).congestion_control(self.cc).priority(Priority::Data)
+    }
+
+    /// Puts `bytes`.
+    pub async fn put(&self, bytes: Vec<u8>) -> Result<(), WireError> {
+        self.builder(bytes).await.map_err(WireError::zenoh)
+    }
+
+    /// Puts `bytes`, blocking the calling thread (inside `block_in_place` or off the runtime).
+    pub fn put_now(&self, bytes: Vec<u8>) -> Result<(), WireError> {
+        use zenoh::Wait;
+        self.builder(bytes).wait().map_err(WireError::zenoh)
+    }
 }

@@ -9,7 +9,7 @@ use crate::summary::{
     LocalizationSummary, Reconnection, SessionTrafficSummary, Summary, TimingSummary, TrafficSummary, SCHEMA,
 };
 use std::collections::BTreeMap;
-use swarm_wire::{AgentState, ClassCounts, EndReason, SessionTraffic, TruthBody, TruthStep, TruthWorld};
+use swarm_wire::{AgentState, ClassCounts, EndReason, Traffic, TruthBody, TruthStep, TruthWorld};
 
 /// One UAV's samples over the run.
 #[derive(Debug, Clone, Default)]
@@ -169,13 +169,35 @@ pub struct Metrics {
 struct SessionAcc {
     /// Its counts as of the latest state (each field the largest seen: counts only grow, and
     /// its agents' states arrive in any order).
-    last: SessionTraffic,
+    last: Traffic,
     /// First and last tick its agents reported.
     ticks: Option<(u64, u64)>,
-    /// Per agent: the shares its link counted, as of its latest state.
-    counted: BTreeMap<u32, u64>,
+    /// Each of its agents' own counts.
+    agents: BTreeMap<u32, AgentTraffic>,
     /// Subscriptions summed over the states, and the states.
     subscriptions: (u64, u64),
+}
+
+/// One agent's own counts as of its latest state, and the ticks it reported.
+#[derive(Debug, Default, Clone, Copy)]
+struct AgentTraffic {
+    ticks: Option<(u64, u64)>,
+    /// Shares its link counted (inside a neighbour's window).
+    counted: u64,
+    /// Shares that reached it, and the payload bytes it received.
+    shares: u64,
+    bytes: u64,
+}
+
+impl AgentTraffic {
+    fn span(&self) -> u64 {
+        self.ticks.map_or(0, |(a, b)| b - a + 1)
+    }
+}
+
+/// `(first, last)` widened to take `tick`.
+fn widen(span: Option<(u64, u64)>, tick: u64) -> Option<(u64, u64)> {
+    Some(span.map_or((tick, tick), |(a, b)| (a.min(tick), b.max(tick))))
 }
 
 impl SessionAcc {
@@ -187,9 +209,12 @@ impl SessionAcc {
         l.bytes = l.bytes.max(t.bytes);
         l.remote_shares = l.remote_shares.max(t.remote_shares);
         l.remote_share_bytes = l.remote_share_bytes.max(t.remote_share_bytes);
-        self.ticks = Some(self.ticks.map_or((st.tick, st.tick), |(a, b)| (a.min(st.tick), b.max(st.tick))));
-        let counted = self.counted.entry(st.id).or_default();
-        *counted = (*counted).max(st.link.recv_msgs);
+        self.ticks = widen(self.ticks, st.tick);
+        let a = self.agents.entry(st.id).or_default();
+        a.ticks = widen(a.ticks, st.tick);
+        a.counted = a.counted.max(st.link.recv_msgs);
+        a.shares = a.shares.max(t.agent_shares);
+        a.bytes = a.bytes.max(t.agent_bytes);
         self.subscriptions.0 += u64::from(t.subscriptions);
         self.subscriptions.1 += 1;
     }
@@ -200,11 +225,11 @@ impl SessionAcc {
         let per_tick = |v: u64| if ticks > 0 { v as f64 / ticks as f64 } else { 0.0 };
         SessionTrafficSummary {
             session: session.to_string(),
-            agents: self.counted.len(),
-            uavs: self.counted.keys().copied().collect(),
+            agents: self.agents.len(),
+            uavs: self.agents.keys().copied().collect(),
             ticks,
             shares_arrived_per_tick: per_tick(self.last.shares),
-            shares_counted_per_tick: per_tick(self.counted.values().sum()),
+            shares_counted_per_tick: per_tick(self.agents.values().map(|a| a.counted).sum()),
             bytes_per_tick: per_tick(self.last.bytes),
             remote_shares_per_tick: per_tick(self.last.remote_shares),
             remote_share_bytes_per_tick: per_tick(self.last.remote_share_bytes),
@@ -608,21 +633,21 @@ impl Metrics {
         }
     }
 
-    /// What the agent sessions received, per session and per agent and tick over all of them.
+    /// What the agent sessions received, per session, and what the agents received, per agent
+    /// and tick over all of them.
     fn traffic(&self) -> TrafficSummary {
-        let per_session: Vec<SessionTrafficSummary> = self.sessions.iter().map(|(id, s)| s.summary(id)).collect();
-        let agent_ticks: u64 = per_session.iter().map(|s| s.agents as u64 * s.ticks).sum();
-        let per_agent_tick = |f: &dyn Fn(&SessionAcc) -> u64| {
-            let total: u64 = self.sessions.values().map(f).sum();
+        let agents: Vec<&AgentTraffic> = self.sessions.values().flat_map(|s| s.agents.values()).collect();
+        let agent_ticks: u64 = agents.iter().map(|a| a.span()).sum();
+        let per_agent_tick = |f: fn(&AgentTraffic) -> u64| {
+            let total: u64 = agents.iter().map(|a| f(a)).sum();
             if agent_ticks > 0 { total as f64 / agent_ticks as f64 } else { 0.0 }
         };
         TrafficSummary {
-            sessions: per_session.len(),
-            shares_arrived_per_agent_tick: per_agent_tick(&|s| s.last.shares),
-            shares_counted_per_agent_tick: per_agent_tick(&|s| s.counted.values().sum()),
-            share_bytes_per_agent_tick: per_agent_tick(&|s| s.last.share_bytes),
-            bytes_per_agent_tick: per_agent_tick(&|s| s.last.bytes),
-            per_session,
+            sessions: self.sessions.len(),
+            shares_arrived_per_agent_tick: per_agent_tick(|a| a.shares),
+            shares_counted_per_agent_tick: per_agent_tick(|a| a.counted),
+            bytes_per_agent_tick: per_agent_tick(|a| a.bytes),
+            per_session: self.sessions.iter().map(|(id, s)| s.summary(id)).collect(),
         }
     }
 
@@ -1015,7 +1040,8 @@ mod tests {
 
     #[test]
     fn traffic_is_per_session_and_per_agent_tick() {
-        let state = |id: u32, tick: u64, session: &str, shares: u64, bytes: u64, counted: u64| AgentState {
+        // (id, tick, session, session shares, session bytes, counted, agent shares, agent bytes)
+        let state = |id: u32, tick: u64, session: &str, shares: u64, bytes: u64, counted: u64, mine: (u64, u64)| AgentState {
             id,
             tick,
             t_secs: 0.1 * tick as f64,
@@ -1027,16 +1053,27 @@ mod tests {
             link: swarm_wire::LinkCounters { recv_msgs: counted, ..Default::default() },
             icp: Default::default(),
             delays: Vec::new(),
-            traffic: SessionTraffic { session: session.into(), agents: 2, shares, share_bytes: shares * 10, bytes, subscriptions: 4, remote_shares: shares / 2, remote_share_bytes: shares * 5 },
+            traffic: Traffic {
+                session: session.into(),
+                agents: 2,
+                shares,
+                share_bytes: shares * 10,
+                bytes,
+                subscriptions: 4,
+                remote_shares: shares / 2,
+                remote_share_bytes: shares * 5,
+                agent_shares: mine.0,
+                agent_bytes: mine.1,
+            },
         };
         let mut m = Metrics::default();
         // A host "h" of agents 1 and 2 over ticks 0..=9, and agent 3 alone on "a" over ticks 5..=9;
         // the host's states arrive out of order, as they may.
-        m.on_state(state(1, 9, "h", 200, 5000, 30));
-        m.on_state(state(2, 0, "h", 4, 100, 0));
-        m.on_state(state(2, 9, "h", 190, 4900, 50));
-        m.on_state(state(3, 5, "a", 1, 10, 0));
-        m.on_state(state(3, 9, "a", 25, 600, 20));
+        m.on_state(state(1, 9, "h", 200, 5000, 30, (35, 3000)));
+        m.on_state(state(2, 0, "h", 4, 100, 0, (1, 50)));
+        m.on_state(state(2, 9, "h", 190, 4900, 50, (55, 4000)));
+        m.on_state(state(3, 5, "a", 1, 10, 0, (1, 10)));
+        m.on_state(state(3, 9, "a", 25, 600, 20, (25, 600)));
         let sc = swarm_config::builtin("forest-5").expect("builtin");
         let t = m.summary("r", &sc).traffic;
         assert_eq!(t.sessions, 2);
@@ -1046,10 +1083,9 @@ mod tests {
         assert_eq!((h.shares_arrived_per_tick, h.shares_counted_per_tick, h.bytes_per_tick), (20.0, 8.0, 500.0));
         assert_eq!(h.subscriptions_mean, 4.0);
         assert_eq!((h.remote_shares_per_tick, h.remote_share_bytes_per_tick), (10.0, 100.0));
-        // Agent-ticks: 2 x 10 + 1 x 5 = 25.
-        assert_eq!(t.shares_arrived_per_agent_tick, (200.0 + 25.0) / 25.0);
-        assert_eq!(t.shares_counted_per_agent_tick, (80.0 + 20.0) / 25.0);
-        assert_eq!(t.bytes_per_agent_tick, (5000.0 + 600.0) / 25.0);
-        assert_eq!(t.share_bytes_per_agent_tick, (2000.0 + 250.0) / 25.0);
+        // Agent 1 reported one tick (9), agent 2 ten, agent 3 five: 16 agent-ticks.
+        assert_eq!(t.shares_arrived_per_agent_tick, (35.0 + 55.0 + 25.0) / 16.0);
+        assert_eq!(t.shares_counted_per_agent_tick, (30.0 + 50.0 + 20.0) / 16.0);
+        assert_eq!(t.bytes_per_agent_tick, (3000.0 + 4000.0 + 600.0) / 16.0);
     }
 }

@@ -26,8 +26,8 @@
 //! tick k+1 only after the hub had every command of tick k. So the first share that must count
 //! (see [`crate::admission`]) always finds the subscription in place, with no margin.
 //!
-//! The session also counts what it receives ([`Traffic`]): every sample of its share
-//! subscriptions, and, through [`Traffic::count`], the node's own sensor subscriptions.
+//! The session also counts what it receives ([`SessionCounts`]): every sample of its share
+//! subscriptions, and, through [`SessionCounts::count`], the node's own sensor subscriptions.
 
 use super::AgentError;
 use crate::admission::Arrived;
@@ -37,7 +37,7 @@ use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use swarm_config::{LocalizationMode, Scenario};
 use swarm_wire::plumbing::Subscription;
-use swarm_wire::{Keys, Msg, SessionTraffic, WireError};
+use swarm_wire::{Keys, Msg, Traffic, WireError};
 use zenoh::key_expr::KeyExpr;
 use zenoh::Wait;
 
@@ -81,7 +81,7 @@ impl Mailbox {
 
 /// What the session received since it opened, counted by its subscriptions' callbacks.
 #[derive(Debug, Default)]
-pub(crate) struct Traffic {
+pub(crate) struct SessionCounts {
     shares: AtomicU64,
     share_bytes: AtomicU64,
     bytes: AtomicU64,
@@ -91,7 +91,7 @@ pub(crate) struct Traffic {
     remote_share_bytes: AtomicU64,
 }
 
-impl Traffic {
+impl SessionCounts {
     /// Counts a sample of `len` payload bytes on any of the session's subscriptions.
     pub(crate) fn count(&self, len: usize) {
         self.bytes.fetch_add(len as u64, Ordering::Relaxed);
@@ -117,9 +117,12 @@ impl Traffic {
         }
     }
 
-    /// The counts now, for session `session` (its Zenoh id).
-    pub(crate) fn snapshot(&self, session: &str) -> SessionTraffic {
-        SessionTraffic {
+    /// The counts now, for session `session` (its Zenoh id), with an agent's own `(shares,
+    /// bytes)`.
+    pub(crate) fn snapshot(&self, session: &str, agent: (u64, u64)) -> Traffic {
+        Traffic {
+            agent_shares: agent.0,
+            agent_bytes: agent.1,
             session: session.to_string(),
             agents: self.agents.load(Ordering::Relaxed),
             shares: self.shares.load(Ordering::Relaxed),
@@ -169,7 +172,7 @@ struct Inner {
     local: Vec<u32>,
     listeners: Arc<Mutex<Listeners>>,
     declared: Mutex<Declared>,
-    traffic: Arc<Traffic>,
+    traffic: Arc<SessionCounts>,
 }
 
 /// The shares of the UAVs the session's agents listen to, received once per session and handed
@@ -225,7 +228,7 @@ impl ShareFeed {
     }
 
     /// What the session received.
-    pub(crate) fn traffic(&self) -> &Arc<Traffic> {
+    pub(crate) fn traffic(&self) -> &Arc<SessionCounts> {
         &self.0.traffic
     }
 
@@ -349,16 +352,84 @@ mod tests {
 
     #[test]
     fn traffic_counts_shares_apart_from_other_samples() {
-        let t = Traffic::default();
+        let t = SessionCounts::default();
         t.count_share(40, true);
         t.count_share(30, false);
         t.count(100);
         t.agent(true);
         t.agent(true);
         t.agent(false);
-        let s = t.snapshot("ab");
+        let s = t.snapshot("ab", (4, 500));
         assert_eq!((s.shares, s.share_bytes, s.bytes, s.agents, s.session.as_str()), (2, 70, 170, 1, "ab"));
         assert_eq!((s.remote_shares, s.remote_share_bytes), (1, 40), "the local share crossed no network");
+        assert_eq!((s.agent_shares, s.agent_bytes), (4, 500), "the agent's own counts, as given");
+    }
+
+    /// A Zenoh router in this process and a client session of it, as an agent host has.
+    async fn router_and_client() -> (zenoh::Session, zenoh::Session) {
+        use swarm_wire::session::{self, Role};
+        let router = session::open(Role::Router, &["tcp/127.0.0.1:0".to_string()], &[], &[]).await.expect("router");
+        let at = session::locators(&router).await;
+        let client = session::open(Role::Client, &[], &at, &[]).await.expect("client");
+        (router, client)
+    }
+
+    /// Waits (at most `tries` x 10 ms) until `mailbox` has received `n` shares sent at `tick`
+    /// (any tick: `None`), and takes them; shares of other ticks are taken and left out.
+    async fn wait_for(mailbox: &Mailbox, tick: Option<u64>, n: usize, tries: u32) -> Vec<Arrived> {
+        let mut got = Vec::new();
+        for _ in 0..tries {
+            let mut more = Vec::new();
+            mailbox.take_into(&mut more);
+            got.extend(more.into_iter().filter(|a| tick.is_none() || a.share.as_ref().map(|s| s.tick()) == tick));
+            if got.len() >= n {
+                break;
+            }
+            tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+        }
+        got
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_session_subscribes_once_per_sender_while_any_of_its_agents_listens() {
+        let (router, client) = router_and_client().await;
+        let keys = Keys::new("feedtest").expect("run id");
+        let sc = swarm_config::builtin("open-field-5").expect("builtin");
+        let feed = ShareFeed::new(&client, &keys, &sc, &[1, 2]);
+        let (m1, m2) = (Mailbox::default(), Mailbox::default());
+        let a = feed.listen(3, 1, &m1).expect("declared").expect("broadcast shares");
+        let b = feed.listen(3, 2, &m2).expect("declared").expect("broadcast shares");
+        let c = feed.listen(4, 1, &m1).expect("declared").expect("broadcast shares");
+        let subs = || feed.traffic().snapshot("s", (0, 0)).subscriptions;
+        assert_eq!(subs(), 2, "one subscription per sender, however many agents listen");
+        let put = |from: u32, tick: u64| {
+            let bytes = Msg::Pose(swarm_wire::PoseShare { tick, ..pose(from) }).encode().expect("encode");
+            router.put(keys.share_pose(from), bytes).wait().expect("put");
+        };
+        // The router has the client's subscriptions once it has handled their declarations,
+        // which this test cannot see: put until a share arrives, then count only tick 100's.
+        for _ in 0..500 {
+            put(3, 0);
+            if !wait_for(&m1, None, 1, 5).await.is_empty() {
+                break;
+            }
+        }
+        put(3, 100);
+        put(4, 100);
+        let (one, two) = (wait_for(&m1, Some(100), 2, 500).await, wait_for(&m2, Some(100), 1, 500).await);
+        assert_eq!(one.iter().map(|a| a.from).collect::<Vec<_>>(), [3, 4], "agent 1 hears 3 and 4");
+        assert_eq!(two.iter().map(|a| a.from).collect::<Vec<_>>(), [3], "agent 2 hears 3 only");
+        assert!(Arc::ptr_eq(one[0].share.as_ref().expect("share"), two[0].share.as_ref().expect("share")), "decoded once for both");
+        drop(a);
+        assert_eq!(subs(), 2, "agent 2 still listens to 3");
+        drop(b);
+        assert_eq!(subs(), 1, "nobody listens to 3: its subscription is gone");
+        drop(c);
+        assert_eq!(subs(), 0);
+        let t = feed.traffic().snapshot("s", (0, 0));
+        assert!(t.shares >= 3 && t.remote_shares == t.shares, "3 and 4 fly on other sessions: {t:?}");
+        let _ = client.close().await;
+        let _ = router.close().await;
     }
 
     fn pose(from: u32) -> swarm_wire::PoseShare {

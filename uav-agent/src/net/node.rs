@@ -26,11 +26,12 @@ use crate::agent::{Agent, StepOutput};
 use crate::sensing::FrameCollector;
 use std::collections::BTreeMap;
 use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use swarm_config::{Scenario, TimeMode};
 use swarm_wire::plumbing::{self, Subscription as Subscriber};
-use swarm_wire::session::{self, publisher, Role};
+use swarm_wire::session::{self, Role, Writer};
 use swarm_wire::{Cmd, CmdKind, Keys, Msg, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
@@ -111,7 +112,7 @@ pub(crate) async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -
     Ok(Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?)
 }
 
-type Publisher = zenoh::pubsub::Publisher<'static>;
+type Publisher = Writer;
 
 /// What the node's own subscriptions deliver, in one channel so wire order is kept: a sensor,
 /// radio or netem-rules message (`None`: malformed). Shares come through the [`Mailbox`].
@@ -160,13 +161,18 @@ struct Node {
     _token: Option<zenoh::liveliness::LivelinessToken>,
     /// Counted among the session's agents while the node lives.
     _flying: Flying,
+    /// Payload bytes of this agent's own samples (sensors, radio, rules), counted by their
+    /// subscriptions' callbacks.
+    own_bytes: Arc<AtomicU64>,
+    /// Shares posted to this agent's mailbox so far, and their bytes.
+    arrived: (u64, u64),
 }
 
 /// An agent counted among its session's agents until dropped.
-struct Flying(Arc<super::feed::Traffic>);
+struct Flying(Arc<super::feed::SessionCounts>);
 
 impl Flying {
-    fn new(traffic: &Arc<super::feed::Traffic>) -> Flying {
+    fn new(traffic: &Arc<super::feed::SessionCounts>) -> Flying {
         traffic.agent(true);
         Flying(traffic.clone())
     }
@@ -196,18 +202,22 @@ async fn subscribe_declared<T: Send + 'static>(
 }
 
 /// Subscribes the node's own sensor, radio and netem-rule keys into `tx`, and watches the hub's
-/// liveliness token. Every sample is counted in the session's traffic.
+/// liveliness token. Every sample's bytes are counted in the session's traffic and `own_bytes`.
 async fn declare_inputs(
     s: &zenoh::Session,
     keys: &Keys,
     shared: &SessionShared,
     id: u32,
     tx: &mpsc::UnboundedSender<Incoming>,
+    own_bytes: &Arc<AtomicU64>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
     let traffic = shared.feed.traffic().clone();
+    let own = own_bytes.clone();
     // Decoded from the payload in place when it is contiguous (no copy of each scan).
     let decode = move |sample: &zenoh::sample::Sample| {
-        traffic.count(sample.payload().len());
+        let len = sample.payload().len();
+        traffic.count(len);
+        own.fetch_add(len as u64, Ordering::Relaxed);
         Some(plumbing::decode(sample).ok())
     };
     let mut sense_subs = Vec::with_capacity(4);
@@ -231,16 +241,17 @@ async fn declare_outputs(s: &zenoh::Session, keys: &Keys, shared: &SessionShared
     // The share key as the session declared it (once, for every agent of the session). `uvdar`
     // never shares (no communication): its publisher is on the pose key, and stays silent.
     let share = match shared.feed.key(id)? {
-        Some(key) => publisher(s, key, cc).await?,
-        None => publisher(s, keys.share_pose(id), cc).await?,
+        Some(key) => Writer::new(s, key, cc).await?,
+        None => Writer::new(s, keys.share_pose(id), cc).await?,
     };
-    Ok(Outputs { cmd: publisher(s, keys.cmd(id), CongestionControl::Block).await?, share, state: publisher(s, keys.state(id), cc).await? })
+    Ok(Outputs { cmd: Writer::new(s, keys.cmd(id), CongestionControl::Block).await?, share, state: Writer::new(s, keys.state(id), cc).await? })
 }
 
 impl Node {
     async fn start(s: zenoh::Session, keys: Keys, shared: Arc<SessionShared>, id: u32, sc: Scenario) -> Result<Node, AgentError> {
         let (tx, rx) = mpsc::unbounded_channel();
-        let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx).await?;
+        let own_bytes = Arc::new(AtomicU64::new(0));
+        let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx, &own_bytes).await?;
         let agent = Agent::new(id, sc.clone());
         let publish = declare_outputs(&s, &keys, &shared, id, &sc).await?;
         let shares = crate::localization::share_key(sc.localization.mode, &keys, id).is_some();
@@ -255,6 +266,8 @@ impl Node {
             hub_grace_s: 0.0,
             hub_alive,
             _flying: Flying::new(shared.feed.traffic()),
+            own_bytes,
+            arrived: (0, 0),
             shared,
             listening: BTreeMap::new(),
             publish,
@@ -328,6 +341,7 @@ impl Node {
         let mut posted = std::mem::take(&mut self.posted);
         self.mailbox.take_into(&mut posted);
         for arrived in posted.drain(..) {
+            self.arrived = (self.arrived.0 + 1, self.arrived.1 + arrived.len as u64);
             self.admission.on_arrived(arrived);
         }
         self.posted = posted;
@@ -393,14 +407,15 @@ impl Node {
         if let Some(share) = out.share {
             let bytes = share.into_msg().encode()?;
             if self.admission.on_send(bytes.len()) {
-                self.publish.share.put(bytes).await.map_err(WireError::zenoh)?;
+                self.publish.share.put(bytes).await?;
             }
         }
-        self.publish.cmd.put(Msg::Cmd(out.cmd).encode()?).await.map_err(WireError::zenoh)?;
+        self.publish.cmd.put(Msg::Cmd(out.cmd).encode()?).await?;
         let mut link = self.admission.report();
-        link.traffic = self.shared.feed.traffic().snapshot(&self.shared.zid);
+        let own = (self.arrived.0, self.arrived.1 + self.own_bytes.load(Ordering::Relaxed));
+        link.traffic = self.shared.feed.traffic().snapshot(&self.shared.zid, own);
         let state = out.report.into_state(link);
-        self.publish.state.put(Msg::State(Box::new(state)).encode()?).await.map_err(WireError::zenoh)?;
+        self.publish.state.put(Msg::State(Box::new(state)).encode()?).await?;
         Ok(())
     }
 }
