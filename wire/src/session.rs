@@ -87,16 +87,27 @@ pub async fn locators(session: &zenoh::Session) -> Vec<String> {
 /// under `propagate_subscriber`) while 1000 agents in 100 processes declared the share
 /// subscriptions of their first radio sets, long enough to expire some sessions' leases. The
 /// puts take the same path as a publisher's (`Session::put` and `Publisher::put` both end in
-/// Zenoh's `resolve_put`), and the key is declared on the session, so each put carries its id.
+/// Zenoh's `resolve_put`).
+///
+/// What a publisher's interest also did, and a writer must still do: carry the key's declaration
+/// to the router. A client session declares a key expression to itself only; its puts reach the
+/// router with the key spelled out unless the router knows the key under an id, and the router
+/// caches its access-control decision and route only for keys it knows under an id (without
+/// them, deciding each agent host's puts against its per-UAV rules took more of the hub's time
+/// than the simulation). So a writer also declares a querier on its key: a querier's interest is
+/// in queryables, which are declared a few times per run, so no subscriber is ever matched
+/// against it, and Zenoh forwards it to the router with the key's declaration. It never queries.
 ///
 /// Every writer of a run uses one priority, so a session's messages leave in the order they were
 /// put (the lockstep protocol relies on that; see the module doc); `cc` chooses back-pressure
 /// (`Block`) or dropping (`Drop`) under congestion.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Writer {
     session: zenoh::Session,
     key: zenoh::key_expr::KeyExpr<'static>,
     cc: CongestionControl,
+    /// Declares the key to the router (see above); dropping it undeclares the interest.
+    _declares_key: zenoh::query::Querier<'static>,
 }
 
 impl Writer {
@@ -107,7 +118,8 @@ impl Writer {
         K::Error: Into<zenoh::Error>,
     {
         let key = s.declare_keyexpr(key).await.map_err(WireError::zenoh)?;
-        Ok(Writer { session: s.clone(), key, cc })
+        let declares_key = s.declare_querier(key.clone()).await.map_err(WireError::zenoh)?;
+        Ok(Writer { session: s.clone(), key, cc, _declares_key: declares_key })
     }
 
     /// The key written on.
