@@ -74,7 +74,6 @@ pub struct HubReport {
     pub ignored: u64,
 }
 
-type Publisher = Writer;
 
 /// Realtime pacing: the wall-clock instant of each next tick, `real_dt` apart.
 struct Pacer {
@@ -95,21 +94,21 @@ impl Pacer {
     }
 }
 
-struct UavPubs {
-    radio: Publisher,
-    odom: Publisher,
-    gnss: Publisher,
-    uvdar: Publisher,
-    scan: Publisher,
+struct UavWriters {
+    radio: Writer,
+    odom: Writer,
+    gnss: Writer,
+    uvdar: Writer,
+    scan: Writer,
 }
 
 struct Net {
     session: zenoh::Session,
     keys: Keys,
-    clock: Publisher,
-    truth_world: Publisher,
-    truth_step: Publisher,
-    uavs: Vec<UavPubs>,
+    clock: Writer,
+    truth_world: Writer,
+    truth_step: Writer,
+    uavs: Vec<UavWriters>,
     alive: Arc<Mutex<BTreeSet<u32>>>,
     /// Bumped (under the `alive` lock) on every change of `alive`: the barrier re-reads the set
     /// only when this moved, so its cost per command does not grow with the agents.
@@ -120,7 +119,7 @@ struct Net {
     lateness: Lateness,
     malformed: Arc<AtomicU64>,
     ignored: Arc<AtomicU64>,
-    netem_rules: Publisher,
+    netem_rules: Writer,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
 }
 
@@ -145,7 +144,7 @@ impl EncodedSensors {
     }
 }
 
-async fn put(p: &Publisher, msg: &Msg) -> Result<(), WireError> {
+async fn put(p: &Writer, msg: &Msg) -> Result<(), WireError> {
     p.put(msg.encode()?).await
 }
 
@@ -215,15 +214,15 @@ struct Subs {
     _agent_keys: Vec<zenoh::key_expr::KeyExpr<'static>>,
 }
 
-/// The sensor publishers of every UAV of the scenario, in id order.
-async fn uav_publishers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<UavPubs>, WireError> {
+/// The sensor writers of every UAV of the scenario, in id order.
+async fn uav_writers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<UavWriters>, WireError> {
     let sensors_cc = match sc.time.mode {
         TimeMode::Lockstep => CongestionControl::Block,
         TimeMode::Realtime => CongestionControl::Drop,
     };
     let mut uavs = Vec::with_capacity(sc.count());
     for id in sc.uav_ids() {
-        uavs.push(UavPubs {
+        uavs.push(UavWriters {
             radio: Writer::new(s, keys.radio(id), sensors_cc).await?,
             odom: Writer::new(s, keys.odom(id), sensors_cc).await?,
             gnss: Writer::new(s, keys.gnss(id), sensors_cc).await?,
@@ -338,7 +337,7 @@ async fn watch_agents(
 
 impl Net {
     async fn declare(s: zenoh::Session, keys: Keys, sc: &Scenario) -> Result<(Net, Subs), WireError> {
-        let uavs = uav_publishers(&s, &keys, sc).await?;
+        let uavs = uav_writers(&s, &keys, sc).await?;
         let agent_keys = declare_agent_keys(&s, &keys, sc).await?;
         let malformed = Arc::new(AtomicU64::new(0));
         let ignored = Arc::new(AtomicU64::new(0));
@@ -516,7 +515,7 @@ impl Net {
     fn put_sensors(&self, id: u32, e: EncodedSensors) -> Result<(), WireError> {
         let p = &self.uavs[(id - 1) as usize];
         // Blocking puts (the caller is inside `block_in_place`), unlike the async `put` above.
-        let put_now = |w: &Publisher, bytes: Vec<u8>| w.put_now(bytes);
+        let put_now = |w: &Writer, bytes: Vec<u8>| w.put_now(bytes);
         put_now(&p.radio, e.radio)?;
         put_now(&p.odom, e.odom)?;
         if let Some(g) = e.gnss {

@@ -3,8 +3,11 @@
 //! publishes it and who subscribes to it, per Zenoh session, and its message rate and bandwidth.
 //!
 //! Who publishes and who subscribes is what the routers themselves hold: their admin space
-//! (`@/<zid>/router/{publisher,subscriber,token}/swarm/R/**`, enabled read-only on every router
-//! we start; the hub's access control lets only observers query it). Every router of a mesh
+//! (`@/<zid>/router/{subscriber,publisher,querier,token}/swarm/R/**`, enabled read-only on every
+//! router we start; the hub's access control lets only observers query it). Our pieces write
+//! without declaring Zenoh publishers, but each of their writers declares a querier on its key
+//! (`swarm_wire::session::Writer` says why): a session is a key's publisher when it declared a
+//! publisher or a querier on it. Every router of a mesh
 //! answers for the sessions attached to it, so the union is the whole run. A session is named
 //! by the liveliness tokens it holds: `uav3` (an agent), `uavs1-20` (an agent host), `hub`,
 //! `recorder`; one holding none goes by its Zenoh id. Rates come from a subscription to
@@ -64,7 +67,7 @@ pub struct KeySpace {
     pub routers: BTreeSet<String>,
     /// Per session, the keys it subscribes to.
     pub subscribes: BTreeMap<String, BTreeSet<String>>,
-    /// Per session, the keys it declared publishers on.
+    /// Per session, the keys it declared publishers (or our writers' queriers) on.
     pub publishes: BTreeMap<String, BTreeSet<String>>,
     /// Per session, the liveliness tokens it holds.
     pub tokens: BTreeMap<String, BTreeSet<String>>,
@@ -92,7 +95,7 @@ impl KeySpace {
         };
         let entry = match kind {
             "subscriber" => Entry::Subscriber,
-            "publisher" => Entry::Publisher,
+            "publisher" | "querier" => Entry::Publisher,
             "token" => Entry::Token,
             _ => return,
         };
@@ -193,7 +196,7 @@ impl KeySpace {
 pub struct FamilyRow {
     /// `uav/{id}/sense/scan`: numeric ids written `{id}`.
     pub family: String,
-    /// Sessions that declared a publisher on a key of it.
+    /// Sessions that declared a publisher, or a writer's querier, on a key of it.
     pub publishers: Vec<String>,
     /// Sessions that subscribe to a key of it (wildcards included).
     pub subscribers: Vec<String>,
@@ -248,6 +251,7 @@ fn intersects(a: &str, b: &str) -> bool {
 /// Runs `swarm keys`.
 pub async fn keys(a: KeysArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "keys needs --connect <hub endpoint>");
+    anyhow::ensure!((0.0..=3600.0).contains(&a.window), "--window {}: seconds from 0 (no rates) to 3600", a.window);
     let keys = Keys::new(&a.run)?;
     let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
     let gathered = gather(&s, &keys, a.window).await;
@@ -277,7 +281,7 @@ pub async fn keys(a: KeysArgs) -> Result<ExitCode> {
 async fn gather(s: &zenoh::Session, keys: &Keys, window: f64) -> Result<KeySpace> {
     let prefix = keys.prefix().to_string();
     let mut space = KeySpace::default();
-    for kind in ["subscriber", "publisher", "token"] {
+    for kind in ["subscriber", "publisher", "querier", "token"] {
         let selector = format!("@/*/router/{kind}/{prefix}/**");
         let replies = s.get(&selector).timeout(Duration::from_secs(3)).await.map_err(WireError::zenoh).with_context(|| format!("query {selector}"))?;
         while let Ok(r) = replies.recv_async().await {
@@ -380,7 +384,7 @@ mod tests {
         add("@/h/router/subscriber/swarm/r/uav/1/sense/scan", r#"{"clients":["a1"]}"#);
         add("@/h/router/subscriber/swarm/r/uav/2/sense/scan", r#"{"clients":["a2"]}"#);
         add("@/h/router/subscriber/swarm/r/uav/*/sense/scan", r#"{"clients":["rec"]}"#);
-        add("@/h/router/publisher/swarm/r/uav/1/share/pose", r#"{"clients":["a1"]}"#);
+        add("@/h/router/querier/swarm/r/uav/1/share/pose", r#"{"clients":["a1"]}"#);
         add("@/h/router/subscriber/swarm/r/uav/1/share/pose", r#"{"routers":["x"],"clients":["a2"]}"#);
         add("@/x/router/subscriber/swarm/r/uav/1/share/pose", r#"{"clients":["hh"]}"#);
         add("@/x/router/subscriber/swarm/r/uav/2/share/pose", r#"{"clients":["hh"]}"#);

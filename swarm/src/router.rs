@@ -39,7 +39,8 @@ pub async fn router(a: RouterArgs) -> Result<ExitCode> {
     );
     let mut cfg = a.zenoh.session_cfg()?;
     if let Some(users) = &a.users {
-        anyhow::ensure!(users.is_file(), "--users {}: no such file", users.display());
+        let names = crate::auth::users_of(users).with_context(|| format!("--users {}", users.display()))?;
+        anyhow::ensure!(!names.is_empty(), "--users {}: no `user:password` line", users.display());
         cfg.push(format!("transport/auth/usrpwd/dictionary_file:{}", serde_json::to_string(&users.to_string_lossy())?));
     }
     let s = session::open(Role::Router, &a.zenoh.listen, &a.zenoh.connect, &cfg).await.context("router failed")?;

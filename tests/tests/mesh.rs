@@ -4,7 +4,8 @@
 //! - the flight is the same, byte for byte, as `swarm run` of the same scenario on one machine:
 //!   scoped subscriptions across routers keep lockstep runs repeatable;
 //! - the shares that crossed into each host follow the UAVs of other hosts within radio range of
-//!   its UAVs (from the truth track), not the number of UAVs elsewhere;
+//!   its UAVs (from the truth track: between those within range and within range plus the
+//!   radio's hysteresis, within 10 % and one share), not the number of UAVs elsewhere;
 //! - the kernel counted traffic on every host's link.
 //!
 //! `swarm mesh` makes and removes its namespaces itself (every address inside them); it needs
@@ -56,9 +57,11 @@ fn a_swarm_over_three_sites_flies_as_on_one_machine_and_hears_across_borders_onl
     assert_eq!(hosts.len(), 3);
     for h in hosts {
         let f = |k: &str| h[k].as_f64().unwrap_or_else(|| panic!("{k} in {h}"));
-        let (remote, heard, elsewhere) = (f("remote_shares_per_tick"), f("outside_heard_per_tick"), f("outside_uavs"));
+        let (remote, heard, wide, elsewhere) = (f("remote_shares_per_tick"), f("outside_heard_per_tick"), f("outside_heard_wide_per_tick"), f("outside_uavs"));
         assert!(heard > 1.0, "the strips border each other: {h}");
-        assert!((remote - heard).abs() <= 0.1 * heard + 1.0, "shares in from other hosts follow their UAVs in radio range: {h}");
+        // A UAV enters a radio set within range and leaves it beyond range + hysteresis; the
+        // first and last ticks of a subscription add a little either way.
+        assert!(remote >= 0.9 * heard - 1.0 && remote <= 1.1 * wide + 1.0, "shares in from other hosts follow their UAVs in radio range: {h}");
         assert!(remote < 0.6 * elsewhere, "not every other UAV's share: {h}");
         assert!(f("link_rx_kb_per_tick") > 10.0 && f("link_tx_kb_per_tick") > 1.0, "the kernel counted the host's traffic: {h}");
     }

@@ -19,8 +19,10 @@
 //! - **The netem link.** An admitted share passes [`netem::Link`] under the rule the timeline in
 //!   force gives for its link at the send time, after the radio's distance loss of the sender,
 //!   and waits in a [`netem::Inbox`] for its delivery instant (or its link's release).
-//! - **Leaving range.** A neighbour that leaves takes its undelivered shares of that tick and
-//!   later with it.
+//! - **Leaving range.** A neighbour's window closes with the radio set that took it out of
+//!   range: its later shares never count. The ones admitted before were sent in range and are
+//!   delivered as due (at that radio set, only shares of ticks already stepped have been
+//!   admitted).
 
 use crate::agent::LinkReport;
 use crate::localization::Share;
@@ -121,7 +123,6 @@ impl Admission {
         let left: Vec<u32> = self.windows.keys().copied().filter(|id| !in_range.contains(id)).collect();
         for &id in &left {
             self.windows.remove(&id);
-            self.inbox.retain(|m| !(m.from() == id && m.tick() >= tick));
             debug!(neighbour = id, "stopped listening");
         }
         if !self.shares {
@@ -344,6 +345,43 @@ mod tests {
         let mut a = Admission::new(1, 7, DT, netem::Timeline::default(), false);
         assert_eq!(a.on_radio(0, &[1, 2, 3], &[0.0, 0.1, 0.2]), RadioChange::default());
         assert_eq!(a.report().in_radio_range, 0);
+    }
+
+    #[test]
+    fn a_neighbour_that_comes_back_counts_again_from_the_tick_after() {
+        let mut a = admission();
+        a.on_radio(0, &[2], &[]);
+        step(&mut a, 0);
+        a.on_arrived(share(2, 1));
+        step(&mut a, 1);
+        a.admit_early();
+        assert_eq!(a.on_radio(2, &[], &[]), RadioChange { left: vec![2], entered: vec![] });
+        assert_eq!(step(&mut a, 2), vec![(2, 1)], "sent in range: delivered though it left since");
+        a.on_arrived(share(2, 2));
+        a.admit_early();
+        assert_eq!(a.on_radio(3, &[2], &[]), RadioChange { left: vec![], entered: vec![2] });
+        a.on_arrived(share(2, 3));
+        step(&mut a, 3);
+        a.on_arrived(share(2, 4));
+        assert_eq!(step(&mut a, 4), vec![], "tick 2's share was sent out of range, tick 3's before the window reopened");
+        assert_eq!(step(&mut a, 5), vec![(2, 4)]);
+        assert_eq!(a.report().counters.recv_msgs, 2, "ticks 1 and 4");
+    }
+
+    #[test]
+    fn a_holding_link_keeps_shares_until_it_releases() {
+        let json = r#"{"netem":[{"at_s":0.0,"rule":{"hold":true}},{"at_s":0.35}],"failures":[]}"#;
+        let mut a = admission();
+        a.set_timeline(serde_json::from_str(json).expect("a timeline"));
+        a.on_radio(0, &[2], &[]);
+        step(&mut a, 0);
+        for t in 1..=3 {
+            a.on_arrived(share(2, t));
+            assert_eq!(step(&mut a, t), vec![], "held at tick {t}");
+        }
+        assert_eq!(step(&mut a, 4), vec![(2, 1), (2, 2), (2, 3)], "released together once the rule stops holding");
+        let cut = a.report().counters.classes[2];
+        assert_eq!((cut.held, cut.released), (3, 3));
     }
 
     #[test]

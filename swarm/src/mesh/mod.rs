@@ -74,15 +74,19 @@ struct Piece {
 /// Runs `swarm mesh`.
 pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
     let sc = scenario(&a)?;
-    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("mesh-{}", unix_secs())));
-    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
-    let out = out.canonicalize()?;
     let groups = report::strips(&physics_hub::start_positions(&sc), sc.swarm.goal, a.hosts as usize);
     let hosts: Vec<String> = (1..=groups.len()).map(|h| format!("h{h}")).collect();
     let machines: Vec<String> = std::iter::once("hub".to_string()).chain(hosts.iter().cloned()).collect();
     let net = Net::build(&format!("mesh{}", std::process::id()), &machines)?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("mesh-{}", unix_secs())));
+    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let out = out.canonicalize()?;
     eprintln!("mesh: {} UAVs of {} on {} agent hosts ({}), hub and recorder on their own machine", sc.count(), sc.name, hosts.len(), sizes(&groups));
-    let flown = fly(&net, &sc, &out, &hosts, &groups, a.mcap).await?;
+    // Ctrl-C at any moment still drops the network (its namespaces) and the pieces.
+    let flown = tokio::select! {
+        f = fly(&net, &sc, &out, &hosts, &groups, a.mcap) => f?,
+        _ = tokio::signal::ctrl_c() => bail!("interrupted; the network and its pieces are removed"),
+    };
     drop(net);
     let report = build_report(&sc, &out, &hosts, &groups, &flown)?;
     let table = report::table(&report);
@@ -104,6 +108,7 @@ fn scenario(a: &MeshArgs) -> Result<Scenario> {
         sc.time.mode = scenario_value("--time-mode", m)?;
     }
     if let Some(t) = a.time_limit {
+        anyhow::ensure!(t.is_finite() && t > 0.0, "--time-limit {t}: a positive number of seconds");
         sc.end.time_limit_s = t;
     }
     Ok(sc)
@@ -171,7 +176,9 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     let after = counters(net)?;
     drop(pieces);
     drop(hub);
-    Ok(Flown { link_bytes: before.iter().zip(&after).map(|(b, a)| (a.0 - b.0, a.1 - b.1)).collect() })
+    let delta = |b: &(u64, u64), a: &(u64, u64)| Some((a.0.checked_sub(b.0)?, a.1.checked_sub(b.1)?));
+    let link_bytes = before.iter().zip(&after).map(|(b, a)| delta(b, a)).collect::<Option<Vec<_>>>();
+    Ok(Flown { link_bytes: link_bytes.context("a link's byte counters went back during the flight")? })
 }
 
 fn strings(args: &[&str]) -> Vec<String> {
@@ -212,8 +219,9 @@ fn counters(net: &Net) -> Result<Vec<(u64, u64)>> {
     net.machines().iter().map(|m| net.link_bytes(m)).collect()
 }
 
-/// Shows progress from the clock tap until the recorder ends with the run; fails if the hub or
-/// the recorder fails first.
+/// Shows progress from the clock tap until the recorder ends with the run (the hub ends first, a
+/// moment after its last step, while the recorder still writes the run folder); fails if the
+/// recorder fails, or the hub fails or stops with the recorder still waiting for a whole minute.
 async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piece) -> Result<()> {
     let bar = crate::recorder::progress_bar(sc, false);
     let stdout = clock.child.stdout.take().context("piped stdout")?;
@@ -226,11 +234,23 @@ async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piec
         }
         std::future::pending::<()>().await
     };
+    let recorded = async {
+        match rec.child.wait().await? {
+            s if s.success() => Ok(()),
+            s => Err(anyhow::anyhow!("the recorder failed ({s}); see recorder.log in the study folder")),
+        }
+    };
+    tokio::pin!(recorded);
     let result = tokio::select! {
-        s = rec.child.wait() => match s? { s if s.success() => Ok(()), s => Err(anyhow::anyhow!("the recorder failed ({s})")) },
-        s = hub.child.wait() => Err(anyhow::anyhow!("the hub stopped before the recorder ({})", s?)),
+        r = &mut recorded => r,
+        s = hub.child.wait() => match s? {
+            s if s.success() => match tokio::time::timeout(Duration::from_secs(60), &mut recorded).await {
+                Ok(r) => r,
+                Err(_) => Err(anyhow::anyhow!("the hub ended the run but the recorder did not finish within 60 s")),
+            },
+            s => Err(anyhow::anyhow!("the hub failed ({s}); see hub.log in the study folder")),
+        },
         _ = ticks => Ok(()),
-        _ = tokio::signal::ctrl_c() => Err(anyhow::anyhow!("interrupted")),
     };
     bar.finish_and_clear();
     result
@@ -244,6 +264,7 @@ fn build_report(sc: &Scenario, out: &Path, hosts: &[String], groups: &[Vec<u32>]
     let ticks = report::positions_by_tick(&csv).map_err(anyhow::Error::msg)?;
     let host_of: HashMap<u32, usize> = groups.iter().enumerate().flat_map(|(h, ids)| ids.iter().map(move |&id| (id, h))).collect();
     let heard = report::outside_heard_per_tick(&ticks, &host_of, groups.len(), sc.radio.range_m);
+    let heard_wide = report::outside_heard_per_tick(&ticks, &host_of, groups.len(), sc.radio.range_m + sc.radio.hysteresis_m);
     let n = summary.ticks.max(1) as f64;
     let kb = |b: u64| b as f64 / 1000.0 / n;
     let rows = hosts
@@ -261,6 +282,7 @@ fn build_report(sc: &Scenario, out: &Path, hosts: &[String], groups: &[Vec<u32>]
                 remote_shares_per_tick: session.map_or(0.0, |s| s.remote_shares_per_tick),
                 remote_share_kb_per_tick: session.map_or(0.0, |s| s.remote_share_bytes_per_tick / 1000.0),
                 outside_heard_per_tick: heard[h],
+                outside_heard_wide_per_tick: heard_wide[h],
                 outside_uavs: sc.count() - ids.len(),
             }
         })

@@ -53,7 +53,7 @@ impl Net {
 
     fn add_ns(&mut self, name: &str) -> Result<String> {
         let ns = format!("{}-{name}", self.prefix);
-        ip(&["netns", "add", &ns]).context("a network namespace could not be made: `swarm mesh` needs root (or CAP_SYS_ADMIN) on Linux")?;
+        ip(&["netns", "add", &ns]).with_context(|| format!("cannot make network namespace {ns} (`swarm mesh` needs root, or CAP_SYS_ADMIN, on Linux)"))?;
         self.created.push(ns.clone());
         Ok(ns)
     }

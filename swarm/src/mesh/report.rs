@@ -104,6 +104,9 @@ pub struct HostRow {
     /// UAVs of other hosts within radio range of one of its UAVs, per tick (truth): what the
     /// remote shares should follow.
     pub outside_heard_per_tick: f64,
+    /// The same within range plus the radio's hysteresis (a UAV leaves a radio set only beyond
+    /// it): the remote shares lie between the two.
+    pub outside_heard_wide_per_tick: f64,
     /// UAVs of other hosts: what every host would receive per tick if each heard every share.
     pub outside_uavs: usize,
 }
@@ -157,13 +160,21 @@ pub fn table(r: &MeshReport) -> String {
         r.hub_rx_kb_per_tick,
         r.hub_tx_kb_per_tick
     );
-    let _ = writeln!(t, "| host | UAVs | link in kB/tick | link out kB/tick | shares in from other hosts /tick | their kB/tick | other hosts' UAVs in radio range /tick | other hosts' UAVs |");
+    let _ = writeln!(t, "| host | UAVs | link in kB/tick | link out kB/tick | shares in from other hosts /tick | their kB/tick | other hosts' UAVs in radio range /tick (+ hysteresis) | other hosts' UAVs |");
     let _ = writeln!(t, "|---|---|---|---|---|---|---|---|");
     for h in &r.hosts {
         let _ = writeln!(
             t,
-            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {} |",
-            h.host, h.uavs, h.link_rx_kb_per_tick, h.link_tx_kb_per_tick, h.remote_shares_per_tick, h.remote_share_kb_per_tick, h.outside_heard_per_tick, h.outside_uavs
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} ({:.1}) | {} |",
+            h.host,
+            h.uavs,
+            h.link_rx_kb_per_tick,
+            h.link_tx_kb_per_tick,
+            h.remote_shares_per_tick,
+            h.remote_share_kb_per_tick,
+            h.outside_heard_per_tick,
+            h.outside_heard_wide_per_tick,
+            h.outside_uavs
         );
     }
     t
@@ -208,6 +219,7 @@ mod tests {
             remote_shares_per_tick: 20.0,
             remote_share_kb_per_tick: 1.25,
             outside_heard_per_tick: 21.0,
+            outside_heard_wide_per_tick: 22.5,
             outside_uavs: 750,
         };
         let r = MeshReport {
@@ -225,7 +237,7 @@ mod tests {
             hub_tx_kb_per_tick: 1700.0,
         };
         let t = table(&r);
-        assert!(t.contains("| h1 | 250 | 812.5 | 60.0 | 20.0 | 1.25 | 21.0 | 750 |"), "{t}");
+        assert!(t.contains("| h1 | 250 | 812.5 | 60.0 | 20.0 | 1.25 | 21.0 (22.5) | 750 |"), "{t}");
         assert!(t.contains("1.50x real time"), "{t}");
     }
 }

@@ -1070,6 +1070,7 @@ mod tests {
         // A host "h" of agents 1 and 2 over ticks 0..=9, and agent 3 alone on "a" over ticks 5..=9;
         // the host's states arrive out of order, as they may.
         m.on_state(state(1, 9, "h", 200, 5000, 30, (35, 3000)));
+        m.on_state(state(1, 0, "h", 2, 50, 0, (1, 40)));
         m.on_state(state(2, 0, "h", 4, 100, 0, (1, 50)));
         m.on_state(state(2, 9, "h", 190, 4900, 50, (55, 4000)));
         m.on_state(state(3, 5, "a", 1, 10, 0, (1, 10)));
@@ -1083,9 +1084,9 @@ mod tests {
         assert_eq!((h.shares_arrived_per_tick, h.shares_counted_per_tick, h.bytes_per_tick), (20.0, 8.0, 500.0));
         assert_eq!(h.subscriptions_mean, 4.0);
         assert_eq!((h.remote_shares_per_tick, h.remote_share_bytes_per_tick), (10.0, 100.0));
-        // Agent 1 reported one tick (9), agent 2 ten, agent 3 five: 16 agent-ticks.
-        assert_eq!(t.shares_arrived_per_agent_tick, (35.0 + 55.0 + 25.0) / 16.0);
-        assert_eq!(t.shares_counted_per_agent_tick, (30.0 + 50.0 + 20.0) / 16.0);
-        assert_eq!(t.bytes_per_agent_tick, (3000.0 + 4000.0 + 600.0) / 16.0);
+        // Agents 1 and 2 reported ticks 0 to 9, agent 3 ticks 5 to 9: 25 agent-ticks.
+        assert_eq!(t.shares_arrived_per_agent_tick, (35.0 + 55.0 + 25.0) / 25.0);
+        assert_eq!(t.shares_counted_per_agent_tick, (30.0 + 50.0 + 20.0) / 25.0);
+        assert_eq!(t.bytes_per_agent_tick, (3000.0 + 4000.0 + 600.0) / 25.0);
     }
 }

@@ -10,8 +10,9 @@
 //! this process and is left out) and keeps the peak of their summed `VmRSS` (Linux; elsewhere
 //! the column reads 0). `tools/run_rss.py` does the same from outside for a single `swarm run`.
 //!
-//! Each row also says what an agent received per tick (summary.json's `traffic`): shares that
-//! reached its session, those it counted, and bytes; at constant density these stay flat as the
+//! Each row also says what an agent received per tick (summary.json's `traffic`, each agent's
+//! own counts): shares from the UAVs it listened to, those it counted, and the payload bytes of
+//! its samples and those shares; at constant density these stay flat as the
 //! swarm grows, since a session hears only its agents' radio neighbours. `--sizes 100,300,1000`
 //! flies each scenario at those sizes, its start disc scaled to keep the density (the world is
 //! unchanged), for exactly that series.
@@ -108,13 +109,14 @@ pub struct ScaleRow {
     pub sim_time_s: f64,
     /// Share of commands that arrived after their tick closed.
     pub late_share: f64,
-    /// Shares that reached an agent's session per agent and tick (summary.json's `traffic`).
+    /// Shares that reached an agent per tick, from the UAVs it listened to (summary.json's
+    /// `traffic`).
     #[serde(default)]
     pub shares_arrived_per_tick: f64,
     /// Shares an agent counted (inside a neighbour's window) per tick.
     #[serde(default)]
     pub shares_counted_per_tick: f64,
-    /// Payload kB an agent's session received per agent and tick (sensors and shares).
+    /// Payload kB an agent received per tick (its sensors, radio sets, rules and shares).
     #[serde(default)]
     pub kb_received_per_tick: f64,
 }

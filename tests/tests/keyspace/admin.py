@@ -5,7 +5,7 @@ radio sets the hub published around the same moment.
 Usage: admin.py LOCATOR RUN OBSERVER_PASSWORD UAVS
 Prints one JSON line:
   {"subscribed": {"<id>": [senders...]},       # from @/*/router/subscriber/..., per agent session
-   "radio": {"<id>": [[tick, [ids...]], ...]},  # the radio sets of the ticks around the query
+   "radio": {"<id>": [[tick, [ids...]], ...]},  # radio sets from 1 s (10 ticks) before the query to 0.5 s after
    "share_wildcards": [...],                    # share subscriptions with a wildcard, by anyone
    "sessions": n}                               # agent sessions named by their alive/uav token
 Radio sets are decoded from the postcard bytes by hand: a varint tag (4), then tick (varint),
@@ -98,7 +98,7 @@ for r in s.get(f"@/*/router/subscriber/swarm/{run}/uav/*/share/**", timeout=5.0)
             subscribed.setdefault(str(holders[zid]), []).append(int(sender))
 time.sleep(0.5)
 with lock:
-    window = {str(u): [[t, ids] for t, ids in v if t >= first - 2] for u, v in radio.items()}
+    window = {str(u): [[t, ids] for t, ids in v if t >= first - 10] for u, v in radio.items()}
 sub.undeclare()
 s.close()
 print(json.dumps({"subscribed": subscribed, "radio": window, "share_wildcards": wildcards, "sessions": len(holders)}))

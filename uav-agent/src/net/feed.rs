@@ -20,11 +20,17 @@
 //!
 //! Ordering: an agent starts listening while it handles the radio set of tick k, before it
 //! publishes its command of tick k on the same session. The session's links carry one queue
-//! (`swarm_wire::session`), so the declaration reaches the router first; the router passes it on
-//! (to the sender's session, whose publisher sends only to known subscribers, and along a mesh
-//! of routers) before it hands the command to the hub, and the sender publishes its share of
-//! tick k+1 only after the hub had every command of tick k. So the first share that must count
-//! (see [`crate::admission`]) always finds the subscription in place, with no margin.
+//! (`swarm_wire::session`), so the declaration reaches the router first; the router has handled
+//! it (and passed it on along a mesh of routers) before it hands the command to the hub, and the
+//! sender publishes its share of tick k+1 only after the hub had every command of tick k (the
+//! sender's session sends every put to its router, which routes it by the subscriptions it
+//! holds). So the first share that must count (see [`crate::admission`]) always finds the
+//! subscription in place, with no margin, as long as the hub waits for the command: a tick that
+//! runs into `tick_timeout_ms`, or an agent that lost its liveliness token, lets the hub go on
+//! without it, and lockstep runs then differ anyway.
+//!
+//! The declarations are blocking Zenoh calls made on the agent's task while the lock is held:
+//! each takes microseconds, and a session whose link stalls stalls its agents either way.
 //!
 //! The session also counts what it receives ([`SessionCounts`]): every sample of its share
 //! subscriptions, and, through [`SessionCounts::count`], the node's own sensor subscriptions.
@@ -143,6 +149,16 @@ struct Listeners {
 }
 
 impl Listeners {
+    /// Agent `me` no longer listens to `from` (a sender's entry goes with its last listener).
+    fn remove(&mut self, from: u32, me: u32) {
+        if let Some(v) = self.by_sender.get_mut(&from) {
+            v.retain(|(id, _)| *id != me);
+            if v.is_empty() {
+                self.by_sender.remove(&from);
+            }
+        }
+    }
+
     /// Hands sender `from`'s share to every agent listening to it, decoded once (not at all when
     /// no one listens).
     fn deliver(&self, from: u32, bytes: &[u8]) {
@@ -191,15 +207,7 @@ pub(crate) struct Listening {
 impl Drop for Listening {
     fn drop(&mut self) {
         let inner = &self.feed.0;
-        {
-            let mut l = inner.listeners.lock().unwrap_or_else(PoisonError::into_inner);
-            if let Some(v) = l.by_sender.get_mut(&self.from) {
-                v.retain(|(id, _)| *id != self.me);
-                if v.is_empty() {
-                    l.by_sender.remove(&self.from);
-                }
-            }
-        }
+        inner.listeners.lock().unwrap_or_else(PoisonError::into_inner).remove(self.from, self.me);
         let mut d = inner.declared.lock().unwrap_or_else(PoisonError::into_inner);
         if let Some((_, count)) = d.subs.get_mut(&self.from) {
             *count -= 1;
@@ -258,10 +266,9 @@ impl ShareFeed {
         let Some(key) = self.key_locked(&mut d, from)? else { return Ok(None) };
         // The listener first: a share that arrives as soon as the subscription exists finds it.
         inner.listeners.lock().unwrap_or_else(PoisonError::into_inner).by_sender.entry(from).or_default().push((me, mailbox.clone()));
-        let listening = Listening { feed: self.clone(), from, me };
         if let Some((_, count)) = d.subs.get_mut(&from) {
             *count += 1;
-            return Ok(Some(listening));
+            return Ok(Some(Listening { feed: self.clone(), from, me }));
         }
         let (l, traffic, remote) = (inner.listeners.clone(), inner.traffic.clone(), !inner.local.contains(&from));
         let declared = inner.session.declare_subscriber(key).callback(move |sample| {
@@ -274,11 +281,11 @@ impl ShareFeed {
             Ok(sub) => {
                 d.subs.insert(from, (sub, 1));
                 inner.traffic.subscriptions.fetch_add(1, Ordering::Relaxed);
-                Ok(Some(listening))
+                Ok(Some(Listening { feed: self.clone(), from, me }))
             }
             Err(e) => {
-                drop(d);
-                drop(listening);
+                // Undone under the same lock, so no other agent's count is touched.
+                inner.listeners.lock().unwrap_or_else(PoisonError::into_inner).remove(from, me);
                 Err(WireError::zenoh(e).into())
             }
         }
@@ -407,11 +414,14 @@ mod tests {
             router.put(keys.share_pose(from), bytes).wait().expect("put");
         };
         // The router has the client's subscriptions once it has handled their declarations,
-        // which this test cannot see: put until a share arrives, then count only tick 100's.
-        for _ in 0..500 {
-            put(3, 0);
-            if !wait_for(&m1, None, 1, 5).await.is_empty() {
-                break;
+        // which this test cannot see: put until a share of each sender arrives, then count only
+        // tick 100's.
+        for from in [3, 4] {
+            for _ in 0..500 {
+                put(from, 0);
+                if !wait_for(&m1, None, 1, 5).await.is_empty() {
+                    break;
+                }
             }
         }
         put(3, 100);
@@ -426,6 +436,9 @@ mod tests {
         assert_eq!(subs(), 1, "nobody listens to 3: its subscription is gone");
         drop(c);
         assert_eq!(subs(), 0);
+        put(3, 200);
+        put(4, 200);
+        assert!(wait_for(&m1, Some(200), 1, 30).await.is_empty() && wait_for(&m2, Some(200), 1, 1).await.is_empty(), "nobody hears anything any more");
         let t = feed.traffic().snapshot("s", (0, 0));
         assert!(t.shares >= 3 && t.remote_shares == t.shares, "3 and 4 fly on other sessions: {t:?}");
         let _ = client.close().await;

@@ -2,7 +2,7 @@
 //! one Zenoh session, about 15 MB resident) per UAV.
 //!
 //! Each agent keeps everything it has alone: its [`node`] state, sensor subscriptions, netem
-//! link, publishers and `alive/uav/{id}` token, so the hub, netem, the recorder and tools see
+//! link, writers and `alive/uav/{id}` token, so the hub, netem, the recorder and tools see
 //! exactly the keys of one process per UAV. The agents of a host share one Zenoh session and its
 //! share feed ([`super::feed`]): one subscription per sender any of them listens to, so the host
 //! receives the shares of the union of its agents' radio sets, each once. A share published by

@@ -112,8 +112,6 @@ pub(crate) async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -
     Ok(Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?)
 }
 
-type Publisher = Writer;
-
 /// What the node's own subscriptions deliver, in one channel so wire order is kept: a sensor,
 /// radio or netem-rules message (`None`: malformed). Shares come through the [`Mailbox`].
 type Incoming = Option<Msg>;
@@ -126,11 +124,11 @@ struct Inputs {
     _hub_watch: Subscriber,
 }
 
-/// The node's publishers.
+/// The node's writers.
 struct Outputs {
-    cmd: Publisher,
-    share: Publisher,
-    state: Publisher,
+    cmd: Writer,
+    share: Writer,
+    state: Writer,
 }
 
 struct Node {
@@ -232,14 +230,14 @@ async fn declare_inputs(
     Ok((Inputs { _sense: sense_subs, _radio: radio_sub, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
 }
 
-/// Declares the command, share and state publishers of UAV `id`.
+/// The command, share and state writers of UAV `id`.
 async fn declare_outputs(s: &zenoh::Session, keys: &Keys, shared: &SessionShared, id: u32, sc: &Scenario) -> Result<Outputs, AgentError> {
     let cc = match sc.time.mode {
         TimeMode::Lockstep => CongestionControl::Block,
         TimeMode::Realtime => CongestionControl::Drop,
     };
     // The share key as the session declared it (once, for every agent of the session). `uvdar`
-    // never shares (no communication): its publisher is on the pose key, and stays silent.
+    // never shares (no communication): its writer is on the pose key, and stays silent.
     let share = match shared.feed.key(id)? {
         Some(key) => Writer::new(s, key, cc).await?,
         None => Writer::new(s, keys.share_pose(id), cc).await?,
