@@ -1,8 +1,9 @@
 //! Issue 22, item 4, at the size CI affords: `swarm mesh` spreads 150 UAVs (open-1000's density,
 //! broadcast, lockstep) over three agent hosts, each a network namespace behind its own relay
 //! router, with the hub and recorder on a fourth, every piece logged in. Asserted:
-//! - the flight is the same, byte for byte, as `swarm run` of the same scenario on one machine:
-//!   scoped subscriptions across routers keep lockstep runs repeatable;
+//! - the flight is the same, byte for byte, as `swarm run` of the same scenario on one machine
+//!   (the one the mesh flew: its UAVs numbered host by host): scoped subscriptions across
+//!   routers keep lockstep runs repeatable;
 //! - the shares that crossed into each host follow the UAVs of other hosts within radio range of
 //!   its UAVs (from the truth track: between those within range and within range plus the
 //!   radio's hysteresis, within 10 % and one share), not the number of UAVs elsewhere;
@@ -45,8 +46,11 @@ fn a_swarm_over_three_sites_flies_as_on_one_machine_and_hears_across_borders_onl
     assert_eq!(r["collisions"], 0, "{r}");
     assert_eq!(r["late_commands"], 0, "lockstep: {r}");
 
+    // The mesh numbers UAVs host by host and flies that scenario (its study folder keeps it).
+    let flown = out.join("scenario.toml");
+    assert!(std::fs::read_to_string(&flown).expect("the scenario flown").contains("start_positions"), "starts listed, by host");
     let local = dir.path().join("local");
-    let o = swarm_run(&[&sc, "--out", local.to_str().expect("utf8"), "--no-mcap"]);
+    let o = swarm_run(&[flown.to_str().expect("utf8"), "--out", local.to_str().expect("utf8"), "--no-mcap"]);
     assert!(o.status.success(), "swarm run: {}", String::from_utf8_lossy(&o.stderr));
     let mesh_csv = std::fs::read(out.join("run/trajectories.csv")).expect("the mesh run's trajectories");
     let local_csv = std::fs::read(local.join("trajectories.csv")).expect("the local run's trajectories");

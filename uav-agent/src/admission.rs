@@ -4,13 +4,14 @@
 //! is unit-tested here.
 //!
 //! - **Windows.** An agent listens to the UAVs of its radio set. A neighbour's share counts only
-//!   if it was sent inside the neighbour's window: from the tick after the radio set that brought
-//!   it into range up to the tick before the radio set that took it out. The first tick is
-//!   exactly the first share that must reach the agent's session: the agent declares its
-//!   subscription while handling that radio set, before its command of the same tick, and the
-//!   neighbour sends its next share only after the hub had that command (ARCHITECTURE.md,
-//!   "Lockstep tick k"). So what counts never depends on when a declaration or undeclaration
-//!   reached a router, nor on which other agents of a host happened to subscribe already.
+//!   if it was sent inside the neighbour's window: from the second tick after the radio set that
+//!   brought it into range ([`WINDOW_OPENS_AFTER`]) up to the tick before the radio set that took
+//!   it out. The agent declares its subscription while handling that radio set k; the neighbour
+//!   sends its share of tick k+2 only after the hub had every command of tick k+1, and the
+//!   agent's command of tick k+1 leaves its session after the declaration (ARCHITECTURE.md, "Who
+//!   receives which shares"). So the first share that counts always finds the subscription in
+//!   place, and what counts never depends on when a declaration or undeclaration reached a
+//!   router, nor on which other agents of a host happened to subscribe already.
 //! - **Early shares.** A neighbour's share of tick k may arrive before or after this agent's own
 //!   step k, depending on which process ran first. One that arrives before waits in `early` and
 //!   is admitted at the hub's next message, which comes after every share of tick k: what each
@@ -29,6 +30,14 @@ use crate::localization::Share;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 use tracing::{debug, trace};
+
+/// Ticks from the radio set that brings a neighbour into range to the first tick whose share
+/// counts. Two, not one: Zenoh sends a declaration at its control priority and a command at its
+/// data priority, each from its own queue of the link, so the agent's command of tick k may leave
+/// just before the declaration made while handling tick k's radio set, but its command of tick
+/// k+1, put only after the hub had the one of tick k, always leaves after it (the link's sender
+/// takes the control queue first).
+pub(crate) const WINDOW_OPENS_AFTER: u64 = 2;
 
 /// A share as an agent's session received it, decoded once and handed to every agent of the
 /// session listening to its sender.
@@ -132,7 +141,7 @@ impl Admission {
         for &id in in_range {
             if id != self.me && !self.windows.contains_key(&id) {
                 debug!(neighbour = id, "listening");
-                self.windows.insert(id, tick.saturating_add(1));
+                self.windows.insert(id, tick.saturating_add(WINDOW_OPENS_AFTER));
                 entered.push(id);
             }
         }
@@ -291,23 +300,25 @@ mod tests {
     }
 
     #[test]
-    fn a_neighbour_counts_from_the_tick_after_it_entered_until_it_left() {
+    fn a_neighbour_counts_from_the_second_tick_after_it_entered_until_it_left() {
         let mut a = admission();
         assert_eq!(a.on_radio(4, &[1, 2, 3], &[]), RadioChange { left: vec![], entered: vec![2, 3] }, "never itself");
-        a.on_arrived(share(2, 3));
         a.on_arrived(share(2, 4));
         step(&mut a, 4);
         a.on_arrived(share(2, 5));
         a.on_arrived(share(3, 5));
-        assert_eq!(step(&mut a, 5), vec![], "ticks 3 and 4 are before the window; tick 5's is due at tick 6");
-        assert_eq!(step(&mut a, 6), vec![(2, 5), (3, 5)]);
+        step(&mut a, 5);
         a.on_arrived(share(2, 6));
+        a.on_arrived(share(3, 6));
+        assert_eq!(step(&mut a, 6), vec![], "ticks 4 and 5 are before the window; tick 6's is due at tick 7");
+        assert_eq!(step(&mut a, 7), vec![(2, 6), (3, 6)]);
+        a.on_arrived(share(2, 7));
         // The node admits what arrived at every hub message, before it offers the message.
         a.admit_early();
-        assert_eq!(a.on_radio(7, &[1, 3], &[]), RadioChange { left: vec![2], entered: vec![] });
-        a.on_arrived(share(2, 7));
-        assert_eq!(step(&mut a, 7), vec![(2, 6)], "its last share in range still counts; the one after does not");
-        assert_eq!(step(&mut a, 8), vec![]);
+        assert_eq!(a.on_radio(8, &[1, 3], &[]), RadioChange { left: vec![2], entered: vec![] });
+        a.on_arrived(share(2, 8));
+        assert_eq!(step(&mut a, 8), vec![(2, 7)], "its last share in range still counts; the one after does not");
+        assert_eq!(step(&mut a, 9), vec![]);
         let report = a.report();
         assert_eq!(report.in_radio_range, 1);
         assert_eq!(report.counters.recv_msgs, 3, "only shares inside a window are counted");
@@ -319,13 +330,15 @@ mod tests {
         for a in [&mut early, &mut late] {
             a.on_radio(0, &[2], &[]);
             step(a, 0);
+            step(a, 1);
         }
-        early.on_arrived(share(2, 1));
-        assert_eq!(early.report().counters.recv_msgs, 0, "not counted before this agent stepped tick 1");
-        step(&mut early, 1);
-        step(&mut late, 1);
-        late.on_arrived(share(2, 1));
-        assert_eq!(step(&mut early, 2), step(&mut late, 2));
+        early.on_arrived(share(2, 2));
+        assert_eq!(early.report().counters.recv_msgs, 0, "not counted before this agent stepped tick 2");
+        step(&mut early, 2);
+        step(&mut late, 2);
+        late.on_arrived(share(2, 2));
+        let (e, l) = (step(&mut early, 3), step(&mut late, 3));
+        assert_eq!((e.clone(), e), (l, vec![(2, 2)]));
         assert_eq!(early.report().counters, late.report().counters);
     }
 
@@ -348,58 +361,64 @@ mod tests {
     }
 
     #[test]
-    fn a_neighbour_that_comes_back_counts_again_from_the_tick_after() {
+    fn a_neighbour_that_comes_back_counts_again_from_the_second_tick_after() {
         let mut a = admission();
         a.on_radio(0, &[2], &[]);
         step(&mut a, 0);
-        a.on_arrived(share(2, 1));
         step(&mut a, 1);
-        a.admit_early();
-        assert_eq!(a.on_radio(2, &[], &[]), RadioChange { left: vec![2], entered: vec![] });
-        assert_eq!(step(&mut a, 2), vec![(2, 1)], "sent in range: delivered though it left since");
         a.on_arrived(share(2, 2));
+        step(&mut a, 2);
         a.admit_early();
-        assert_eq!(a.on_radio(3, &[2], &[]), RadioChange { left: vec![], entered: vec![2] });
+        assert_eq!(a.on_radio(3, &[], &[]), RadioChange { left: vec![2], entered: vec![] });
+        assert_eq!(step(&mut a, 3), vec![(2, 2)], "sent in range: delivered though it left since");
         a.on_arrived(share(2, 3));
-        step(&mut a, 3);
+        a.admit_early();
+        assert_eq!(a.on_radio(4, &[2], &[]), RadioChange { left: vec![], entered: vec![2] });
         a.on_arrived(share(2, 4));
-        assert_eq!(step(&mut a, 4), vec![], "tick 2's share was sent out of range, tick 3's before the window reopened");
-        assert_eq!(step(&mut a, 5), vec![(2, 4)]);
-        assert_eq!(a.report().counters.recv_msgs, 2, "ticks 1 and 4");
+        step(&mut a, 4);
+        a.on_arrived(share(2, 5));
+        step(&mut a, 5);
+        a.on_arrived(share(2, 6));
+        assert_eq!(step(&mut a, 6), vec![], "tick 3's share was sent out of range, ticks 4 and 5's before the window reopened");
+        assert_eq!(step(&mut a, 7), vec![(2, 6)]);
+        assert_eq!(a.report().counters.recv_msgs, 2, "ticks 2 and 6");
     }
 
     #[test]
     fn a_holding_link_keeps_shares_until_it_releases() {
-        let json = r#"{"netem":[{"at_s":0.0,"rule":{"hold":true}},{"at_s":0.35}],"failures":[]}"#;
+        let json = r#"{"netem":[{"at_s":0.0,"rule":{"hold":true}},{"at_s":0.45}],"failures":[]}"#;
         let mut a = admission();
         a.set_timeline(serde_json::from_str(json).expect("a timeline"));
         a.on_radio(0, &[2], &[]);
         step(&mut a, 0);
-        for t in 1..=3 {
+        step(&mut a, 1);
+        for t in 2..=4 {
             a.on_arrived(share(2, t));
             assert_eq!(step(&mut a, t), vec![], "held at tick {t}");
         }
-        assert_eq!(step(&mut a, 4), vec![(2, 1), (2, 2), (2, 3)], "released together once the rule stops holding");
+        assert_eq!(step(&mut a, 5), vec![(2, 2), (2, 3), (2, 4)], "released together once the rule stops holding");
         let cut = a.report().counters.classes[2];
         assert_eq!((cut.held, cut.released), (3, 3));
     }
 
     #[test]
     fn the_radio_loss_and_netem_rules_apply_at_admission() {
+        let in_window = |a: &mut Admission| {
+            step(a, 0);
+            step(a, 1);
+            a.on_arrived(share(2, 2));
+            step(a, 2);
+            step(a, 3)
+        };
         let mut lossy = admission();
         lossy.on_radio(0, &[2], &[1.0]);
-        step(&mut lossy, 0);
-        lossy.on_arrived(share(2, 1));
-        step(&mut lossy, 1);
-        assert_eq!(step(&mut lossy, 2), vec![], "a certain radio loss drops it");
+        assert_eq!(in_window(&mut lossy), vec![], "a certain radio loss drops it");
+        assert_eq!((lossy.report().counters.recv_msgs, lossy.report().counters.delivered_msgs), (1, 0), "counted, then lost");
         let json = r#"{"netem":[{"at_s":0.0,"rule":{"blocked":true}}],"failures":[]}"#;
         let mut cut = admission();
         cut.set_timeline(serde_json::from_str(json).expect("a timeline"));
         cut.on_radio(0, &[2], &[]);
-        step(&mut cut, 0);
-        cut.on_arrived(share(2, 1));
-        step(&mut cut, 1);
-        assert_eq!(step(&mut cut, 2), vec![], "the rule in force drops it");
+        assert_eq!(in_window(&mut cut), vec![], "the rule in force drops it");
         assert_eq!(cut.report().counters.classes[2].dropped, 1, "counted on a cut link");
     }
 }

@@ -3,7 +3,8 @@
 //! hub (with the recorder) on one, and each of `--hosts` agent hosts on its own, behind its own
 //! `swarm router` connected to the hub, as a site's agents would be. UAVs are placed on hosts by
 //! where they start ([`report::strips`]: strips across the way to the goal), so most radio
-//! neighbours share a host and only the strips' borders talk across. It flies the scenario,
+//! neighbours share a host and only the strips' borders talk across, and numbered host by host
+//! ([`report::renumbered`]: the scenario flown lists their starts, in the study folder). It flies the scenario,
 //! then reports what each host's link carried as the kernel counted it (`ip -s link`), the
 //! shares that reached each host from UAVs of other hosts (its session's own count), and how
 //! many UAVs of other hosts were within radio range of the host's UAVs per tick (from the truth
@@ -74,7 +75,9 @@ struct Piece {
 /// Runs `swarm mesh`.
 pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
     let sc = scenario(&a)?;
-    let groups = report::strips(&physics_hub::start_positions(&sc), sc.swarm.goal, a.hosts as usize);
+    let starts = physics_hub::start_positions(&sc);
+    let by_position = report::strips(&starts, sc.swarm.goal, a.hosts as usize);
+    let (sc, groups) = report::renumbered(&sc, &starts, &by_position).map_err(anyhow::Error::msg)?;
     let hosts: Vec<String> = (1..=groups.len()).map(|h| format!("h{h}")).collect();
     let machines: Vec<String> = std::iter::once("hub".to_string()).chain(hosts.iter().cloned()).collect();
     let net = Net::build(&format!("mesh{}", std::process::id()), &machines)?;
@@ -82,10 +85,12 @@ pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let out = out.canonicalize()?;
     eprintln!("mesh: {} UAVs of {} on {} agent hosts ({}), hub and recorder on their own machine", sc.count(), sc.name, hosts.len(), sizes(&groups));
-    // Ctrl-C at any moment still drops the network (its namespaces) and the pieces.
+    // Ctrl-C or SIGTERM at any moment still drops the network (its namespaces) and the pieces.
+    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).context("cannot watch SIGTERM")?;
     let flown = tokio::select! {
         f = fly(&net, &sc, &out, &hosts, &groups, a.mcap) => f?,
         _ = tokio::signal::ctrl_c() => bail!("interrupted; the network and its pieces are removed"),
+        _ = term.recv() => bail!("terminated; the network and its pieces are removed"),
     };
     drop(net);
     let report = build_report(&sc, &out, &hosts, &groups, &flown)?;
@@ -134,7 +139,7 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     let creds = Credentials::create(&out.join("credentials"), &users)?;
     let run = default_run_id("mesh");
     let hub_ep = format!("tcp/{}:{PORT}", net.addr("hub"));
-    let start = |machine: &str, args: Vec<String>, log: &str| spawn(net, machine, &exe, args, &out.join(log));
+    let start = |machine: &str, args: Vec<String>, log: &str| spawn(net, machine, &exe, args, &out.join(log), Stdio::piped());
 
     let dict = creds.dictionary().to_string_lossy().into_owned();
     let mut hub = start("hub", strings(&["hub", &scenario_file.to_string_lossy(), "--run", &run, "--listen", &hub_ep, "--users", &dict, "--exit-with-stdin"]), "hub.log")?;
@@ -145,10 +150,13 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     if !mcap {
         rec_args.push("--no-mcap".into());
     }
-    let mut rec = start("hub", rec_args, "recorder.log")?;
+    // Its stdout (the printed summary, a line per UAV) to a file: a pipe nobody reads would fill
+    // and stall it.
+    let printed = std::fs::File::create(out.join("summary.txt")).context("cannot create summary.txt")?;
+    let mut rec = spawn(net, "hub", &exe, rec_args, &out.join("recorder.log"), Stdio::from(printed))?;
     let mut up = strings(&["tap", &format!("swarm/{run}/alive/recorder"), "--alive", "--count", "1", "--duration", "60", "--connect", &hub_ep]);
     up.extend(observer.iter().cloned());
-    let seen = spawn(net, "hub", &exe, up, &out.join("tap-recorder.log"))?.child.wait_with_output().await?;
+    let seen = spawn(net, "hub", &exe, up, &out.join("tap-recorder.log"), Stdio::piped())?.child.wait_with_output().await?;
     anyhow::ensure!(String::from_utf8_lossy(&seen.stdout).contains("\"alive\":true"), "the recorder never came up (see {})", out.join("recorder.log").display());
 
     let mut pieces = Vec::new();
@@ -167,11 +175,11 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
         let ep = format!("tcp/{}:{PORT}", net.addr(host));
         let mut a_args = strings(&["agent", "--run", &run, "--ids", &ids_text(ids), "--connect", &ep, "--exit-with-stdin"]);
         a_args.extend(creds.client_args(&host_user(ids)));
-        pieces.push(start(host, a_args, &format!("agents-{host}.log"))?);
+        pieces.push(spawn(net, host, &exe, a_args, &out.join(format!("agents-{host}.log")), Stdio::null())?);
     }
     let mut clock = strings(&["tap", &format!("swarm/{run}/clock"), "--connect", &hub_ep]);
     clock.extend(observer.iter().cloned());
-    let progress = spawn(net, "hub", &exe, clock, &out.join("tap-clock.log"))?;
+    let progress = spawn(net, "hub", &exe, clock, &out.join("tap-clock.log"), Stdio::piped())?;
     follow(sc, &mut rec, &mut hub, progress).await?;
     let after = counters(net)?;
     drop(pieces);
@@ -185,11 +193,12 @@ fn strings(args: &[&str]) -> Vec<String> {
     args.iter().map(|s| s.to_string()).collect()
 }
 
-/// Starts `exe ARGS` in `machine`'s namespace, stdout piped, stderr to `log`; it dies with us.
-fn spawn(net: &Net, machine: &str, exe: &Path, args: Vec<String>, log: &Path) -> Result<Piece> {
+/// Starts `exe ARGS` in `machine`'s namespace, its stdout to `stdout` (piped only when read),
+/// stderr to `log`; it dies with us.
+fn spawn(net: &Net, machine: &str, exe: &Path, args: Vec<String>, log: &Path, stdout: Stdio) -> Result<Piece> {
     let log_file = std::fs::File::create(log).with_context(|| format!("cannot create {}", log.display()))?;
     let mut c = net.command(machine, exe);
-    c.args(args).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::from(log_file)).kill_on_drop(true);
+    c.args(args).stdin(Stdio::piped()).stdout(stdout).stderr(Stdio::from(log_file)).kill_on_drop(true);
     let mut child = c.spawn().context("cannot start `ip netns exec`")?;
     let stdin = child.stdin.take();
     Ok(Piece { child, _stdin: stdin })
@@ -220,8 +229,8 @@ fn counters(net: &Net) -> Result<Vec<(u64, u64)>> {
 }
 
 /// Shows progress from the clock tap until the recorder ends with the run (the hub ends first, a
-/// moment after its last step, while the recorder still writes the run folder); fails if the
-/// recorder fails, or the hub fails or stops with the recorder still waiting for a whole minute.
+/// moment after its last step, while the recorder still writes the run folder and its figures:
+/// a minute or more at 1000 UAVs); fails if the recorder or the hub fails.
 async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piece) -> Result<()> {
     let bar = crate::recorder::progress_bar(sc, false);
     let stdout = clock.child.stdout.take().context("piped stdout")?;
@@ -244,10 +253,10 @@ async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piec
     let result = tokio::select! {
         r = &mut recorded => r,
         s = hub.child.wait() => match s? {
-            s if s.success() => match tokio::time::timeout(Duration::from_secs(60), &mut recorded).await {
-                Ok(r) => r,
-                Err(_) => Err(anyhow::anyhow!("the hub ended the run but the recorder did not finish within 60 s")),
-            },
+            s if s.success() => {
+                bar.set_message("run over: the recorder writes the run folder and its figures");
+                recorded.await
+            }
             s => Err(anyhow::anyhow!("the hub failed ({s}); see hub.log in the study folder")),
         },
         _ = ticks => Ok(()),

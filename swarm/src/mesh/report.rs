@@ -29,6 +29,45 @@ pub fn strips(starts: &[[f64; 2]], goal: [f64; 2], hosts: usize) -> Vec<Vec<u32>
         .collect()
 }
 
+/// `sc` with its UAVs numbered host by host: `groups` (old ids, by host) become consecutive id
+/// ranges in their order, the start positions listed explicitly in the new order (`starts`, by
+/// old id), and the informed and failed UAVs renumbered with them. A host then logs in as
+/// `uavs1-250`, as a site would, instead of a list of scattered ids. Scenarios whose timelines
+/// name UAVs (`[[netem]]`, `[[failures]]`, `[[mission]]`) are refused: they would need the same
+/// renumbering of every set they name.
+pub fn renumbered(sc: &swarm_config::Scenario, starts: &[[f64; 2]], groups: &[Vec<u32>]) -> Result<(swarm_config::Scenario, Vec<Vec<u32>>), String> {
+    if !sc.netem.is_empty() || !sc.failures.is_empty() || !sc.mission.is_empty() {
+        return Err(format!(
+            "{}: swarm mesh numbers UAVs host by host, and this scenario's [[netem]], [[failures]] or [[mission]] name UAVs by id; fly one without them",
+            sc.name
+        ));
+    }
+    let order: Vec<u32> = groups.iter().flatten().copied().collect();
+    let new_of: HashMap<u32, u32> = order.iter().enumerate().map(|(i, &old)| (old, i as u32 + 1)).collect();
+    let map = |ids: &[u32]| -> Vec<u32> {
+        let mut v: Vec<u32> = ids.iter().filter_map(|i| new_of.get(i).copied()).collect();
+        v.sort_unstable();
+        v
+    };
+    let mut out = sc.clone();
+    out.swarm.start_positions = Some(order.iter().map(|&old| starts[old as usize - 1]).collect());
+    out.swarm.start_area = None;
+    if let swarm_config::Informed::Ids(ids) = &sc.swarm.informed {
+        out.swarm.informed = swarm_config::Informed::Ids(map(ids));
+    }
+    out.swarm.failed = map(&sc.swarm.failed);
+    let mut next = 1;
+    let ranges = groups
+        .iter()
+        .map(|g| {
+            let r: Vec<u32> = (next..next + g.len() as u32).collect();
+            next += g.len() as u32;
+            r
+        })
+        .collect();
+    Ok((out, ranges))
+}
+
 /// One tick of the truth track: each live UAV's position.
 pub type Positions = Vec<(u32, [f64; 2])>;
 
@@ -193,6 +232,23 @@ mod tests {
         assert_eq!(strips(&starts, [1.0, 100.0], 2), vec![vec![4, 5, 6], vec![1, 2, 3]]);
         let all: usize = strips(&starts, [100.0, 5.0], 4).iter().map(Vec::len).sum();
         assert_eq!(all, 6, "every UAV on exactly one host");
+    }
+
+    #[test]
+    fn renumbering_gives_each_host_a_range_and_keeps_where_each_uav_starts() {
+        let mut sc = swarm_config::builtin("open-field-5").expect("builtin");
+        sc.swarm.informed = swarm_config::Informed::Ids(vec![2, 5]);
+        sc.swarm.failed = vec![4];
+        let starts = physics_hub::start_positions(&sc);
+        let groups = vec![vec![2, 4], vec![1, 3, 5]];
+        let (out, ranges) = renumbered(&sc, &starts, &groups).expect("renumbered");
+        assert_eq!(ranges, vec![vec![1, 2], vec![3, 4, 5]]);
+        let listed = out.swarm.start_positions.clone().expect("listed");
+        assert_eq!(listed, vec![starts[1], starts[3], starts[0], starts[2], starts[4]], "old 2, 4, 1, 3, 5 are new 1 to 5");
+        assert!(matches!(&out.swarm.informed, swarm_config::Informed::Ids(ids) if ids == &vec![1, 5]), "old 2 and 5");
+        assert_eq!(out.swarm.failed, vec![2], "old 4");
+        sc.failures.push(serde_json::from_str(r#"{"at_s": 1.0, "uav": 3, "kind": "kill"}"#).expect("a failure"));
+        assert!(renumbered(&sc, &starts, &groups).is_err(), "timelines that name UAVs are refused");
     }
 
     #[test]

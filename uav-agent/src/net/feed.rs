@@ -18,16 +18,18 @@
 //! the agents listening to its sender, without waking them (each takes its mailbox when it
 //! handles the hub's next message, see [`crate::net::node`]).
 //!
-//! Ordering: an agent starts listening while it handles the radio set of tick k, before it
-//! publishes its command of tick k on the same session. The session's links carry one queue
-//! (`swarm_wire::session`), so the declaration reaches the router first; the router has handled
-//! it (and passed it on along a mesh of routers) before it hands the command to the hub, and the
-//! sender publishes its share of tick k+1 only after the hub had every command of tick k (the
-//! sender's session sends every put to its router, which routes it by the subscriptions it
-//! holds). So the first share that must count (see [`crate::admission`]) always finds the
-//! subscription in place, with no margin, as long as the hub waits for the command: a tick that
-//! runs into `tick_timeout_ms`, or an agent that lost its liveliness token, lets the hub go on
-//! without it, and lockstep runs then differ anyway.
+//! Ordering: an agent starts listening while it handles the radio set of tick k. Zenoh sends the
+//! declaration at its control priority, and a link's sender always takes the control queue before
+//! the data queue, so the declaration leaves the session before anything put after it was queued
+//! and before the agent's command of tick k+1 at the latest (that command is put only after the
+//! hub had the one of tick k, which may have left first). Each router handles a link's messages
+//! in order, so it holds the subscription (and has passed it on along a mesh of routers) before
+//! it hands that command to the hub; and the sender publishes its share of tick k+2 only after
+//! the hub had every command of tick k+1 (the sender's session sends every put to its router,
+//! which routes it by the subscriptions it holds). So the first share that counts, the one of tick
+//! k+2 (see [`crate::admission`]), always finds the subscription in place, as long as the hub
+//! waits for each command: a tick that runs into `tick_timeout_ms`, or an agent that lost its
+//! liveliness token, lets the hub go on without it, and lockstep runs then differ anyway.
 //!
 //! The declarations are blocking Zenoh calls made on the agent's task while the lock is held:
 //! each takes microseconds, and a session whose link stalls stalls its agents either way.
