@@ -277,6 +277,9 @@ impl Scenario {
         if self.time.tick_timeout_ms == 0 {
             return Err(("time.tick_timeout_ms".into(), "must be > 0".into()));
         }
+        if let Some(bad) = self.controller.external.iter().find(|&&i| i == 0 || i > self.swarm.count) {
+            return Err(("controller.external".into(), format!("UAV id {bad} is not in 1..={}", self.swarm.count)));
+        }
         self.controller.k21.validate("controller.k21")?;
         self.controller.p17.validate("controller.p17")?;
         self.controller.a21.validate("controller.a21")?;

@@ -554,9 +554,10 @@ impl Default for Time {
     }
 }
 
-/// Which controller flies the swarm.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+/// Which controller flies the swarm: one of the four built in, or one a program registered
+/// under its own name (`uav_agent::Controllers::with`; the run checks that it knows the name).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
 pub enum ControllerKind {
     /// Seed 000 chapter 4: Boids with tangential obstacle avoidance; velocity output.
     K21,
@@ -566,6 +567,43 @@ pub enum ControllerKind {
     A21,
     /// Seed 004 chapter 3: formation topologies on top of a costmap planner; velocity output.
     M23,
+    /// A controller registered by the program that flies the scenario, by its name.
+    Own(String),
+}
+
+impl ControllerKind {
+    /// The name a scenario gives (`k21`, `p17`, `a21`, `m23`, or the registered one).
+    pub fn name(&self) -> &str {
+        match self {
+            ControllerKind::K21 => "k21",
+            ControllerKind::P17 => "p17",
+            ControllerKind::A21 => "a21",
+            ControllerKind::M23 => "m23",
+            ControllerKind::Own(name) => name,
+        }
+    }
+}
+
+impl TryFrom<String> for ControllerKind {
+    type Error = String;
+    fn try_from(name: String) -> Result<Self, String> {
+        let valid = name.starts_with(|c: char| c.is_ascii_lowercase() || c.is_ascii_digit())
+            && name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '_');
+        Ok(match name.as_str() {
+            "k21" => ControllerKind::K21,
+            "p17" => ControllerKind::P17,
+            "a21" => ControllerKind::A21,
+            "m23" => ControllerKind::M23,
+            _ if valid => ControllerKind::Own(name),
+            _ => return Err(format!("`{name}` is not a controller name: k21, p17, a21, m23, or a registered name of lower-case letters, digits, `-` and `_`")),
+        })
+    }
+}
+
+impl From<ControllerKind> for String {
+    fn from(k: ControllerKind) -> String {
+        k.name().to_string()
+    }
 }
 
 /// Controller choice and parameters.
@@ -575,6 +613,10 @@ pub struct Controller {
     /// The controller.
     #[serde(default = "d_controller")]
     pub kind: ControllerKind,
+    /// UAVs flown by an external controller instead of `kind`: their agents publish each tick's
+    /// view on `uav/{id}/ext/view` (JSON) and wait for a command on `uav/{id}/ext/cmd`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub external: Vec<u32>,
     /// K21 parameters.
     #[serde(default)]
     pub k21: K21Params,
@@ -595,6 +637,7 @@ impl Default for Controller {
     fn default() -> Self {
         Controller {
             kind: d_controller(),
+            external: Vec::new(),
             k21: K21Params::default(),
             p17: crate::P17Params::default(),
             a21: crate::A21Params::default(),

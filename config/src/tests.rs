@@ -74,6 +74,24 @@ fn wrong_type_names_field() {
 }
 
 #[test]
+fn a_controller_name_a_program_could_register_is_accepted_and_round_trips() {
+    let sc = Scenario::from_toml_str(&format!("{MINIMAL}\n[controller]\nkind = \"potential-field\"\n"), "t.toml").expect("valid");
+    assert_eq!(sc.controller.kind, ControllerKind::Own("potential-field".into()));
+    assert_eq!(sc.controller.kind.name(), "potential-field");
+    let back = toml::to_string(&sc).expect("serializes");
+    assert!(back.contains("kind = \"potential-field\""), "{back}");
+    let k21 = Scenario::from_toml_str(&format!("{MINIMAL}\n[controller]\nkind = \"k21\"\n"), "t.toml").expect("valid");
+    assert_eq!(k21.controller.kind, ControllerKind::K21);
+}
+
+#[test]
+fn a_controller_name_no_program_could_register_names_field() {
+    let e = err(&format!("{MINIMAL}\n[controller]\nkind = \"Potential Field\"\n"));
+    assert_eq!(e.field, "controller.kind", "{e}");
+    assert!(e.message.contains("Potential Field") && e.message.contains("lower-case"), "{e}");
+}
+
+#[test]
 fn bad_enum_value_names_field() {
     let e = err(&format!("{MINIMAL}\n[time]\nmode = \"fast\"\n"));
     assert_eq!(e.field, "time.mode", "{e}");

@@ -11,6 +11,9 @@
 //! - `uavs{ids}` (`uavs1-20`, `uavs1-4,7`, the `--ids` syntax): an agent host, one session for
 //!   several UAVs, allowed exactly what each of those UAVs is. The same user serves a second
 //!   router that relays a group of agents to the hub.
+//! - `ext{id}`: UAV `id`'s external controller (README "Fly your own controller"). It may
+//!   subscribe to `uav/{id}/ext/view`, put only `uav/{id}/ext/cmd`, hold only `alive/ext/{id}`,
+//!   watch `alive/hub` (to know the run is over); nothing else of the run (not even the scenario).
 //! - `observer` (or `observer-NAME`): reads every key of the run and the routers' admin space
 //!   (`@/**`, read-only: who subscribes to what, for `swarm keys`), publishes nothing; it may hold
 //!   `alive/recorder` (the recorder is an observer).
@@ -49,6 +52,8 @@ pub const DICTIONARY: &str = "users.txt";
 pub enum Role {
     /// Agents of these UAVs (one, or an agent host's).
     Agents(Vec<u32>),
+    /// UAV `id`'s external controller.
+    External(u32),
     /// Reads everything, publishes nothing.
     Observer,
     /// An observer that may also add netem timelines.
@@ -71,13 +76,21 @@ impl Role {
         if let Some(id) = name.strip_prefix("uav").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
             return Ok(Role::Agents(vec![id]));
         }
-        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), observer[-name], operator[-name]")
+        if let Some(id) = name.strip_prefix("ext").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
+            return Ok(Role::External(id));
+        }
+        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, observer[-name], operator[-name]")
     }
 }
 
 /// The user name of UAV `id`'s own agent: `uav7`.
 pub fn uav_user(id: u32) -> String {
     format!("uav{id}")
+}
+
+/// The user name of UAV `id`'s external controller: `ext7`.
+pub fn ext_user(id: u32) -> String {
+    format!("ext{id}")
 }
 
 /// The user name of an agent host serving `ids` (ascending): `uavs1-4,7`.
@@ -227,11 +240,15 @@ fn access_control(run: &str, users: &[String]) -> Result<Value> {
         // Every agent: the run-wide keys, and its neighbours' shares.
         rule("agent-sub", "ingress", &["declare_subscriber"], agent_common_keys(&r)),
         rule("agent-data", "egress", &["put"], agent_common_keys(&r)),
-        rule("agent-sensors-out", "egress", &["put"], vec![format!("{r}/uav/*/sense/**"), format!("{r}/radio/*")]),
+        // Bounded by each agent's own ingress list, as the sensors (see the module doc).
+        rule("agent-sensors-out", "egress", &["put"], vec![format!("{r}/uav/*/sense/**"), format!("{r}/radio/*"), format!("{r}/uav/*/ext/cmd")]),
+        rule("agent-ext-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
         rule("agent-ask", "ingress", &["query"], vec![format!("{r}/scenario")]),
         rule("agent-answer", "egress", &["reply"], vec![format!("{r}/scenario")]),
         rule("agent-hub-watch", "ingress", &["declare_liveliness_subscriber", "liveliness_query"], vec![format!("{r}/alive/hub")]),
         rule("agent-hub-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/hub")]),
+        // External controllers: their view, bounded by each one's own ingress list.
+        rule("ext-view-out", "egress", &["put"], vec![format!("{r}/uav/*/ext/view")]),
     ];
     let mut subjects = Vec::new();
     let mut policies = Vec::new();
@@ -245,10 +262,14 @@ fn access_control(run: &str, users: &[String]) -> Result<Value> {
         let granted: Vec<String> = match Role::of(user)? {
             Role::Observer => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token"].map(String::from).to_vec(),
             Role::Operator => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token", "operate"].map(String::from).to_vec(),
+            Role::External(id) => {
+                rules.extend(external_rules(&r, &subject, id));
+                ["decl-out", "ext-view-out", "agent-hub-watch", "agent-hub-token"].iter().map(|s| s.to_string()).chain(["sub", "pub", "token"].map(|k| format!("{subject}-ext-{k}"))).collect()
+            }
             Role::Agents(ids) => {
                 rules.extend(own_rules(&r, &subject, &ids));
-                let own = ["own-sub", "own-pub", "own-token"].map(|k| format!("{subject}-{k}"));
-                ["decl-out", "agent-sub", "agent-data", "agent-sensors-out", "agent-ask", "agent-answer", "agent-hub-watch", "agent-hub-token"]
+                let own = ["own-sub", "own-pub", "own-token", "own-ext-watch"].map(|k| format!("{subject}-{k}"));
+                ["decl-out", "agent-sub", "agent-data", "agent-sensors-out", "agent-ext-token", "agent-ask", "agent-answer", "agent-hub-watch", "agent-hub-token"]
                     .iter()
                     .map(|s| s.to_string())
                     .chain(own)
@@ -269,13 +290,27 @@ fn agent_common_keys(r: &str) -> Vec<String> {
 /// sensors and radio, their own command, shares and state out, their own liveliness tokens.
 fn own_rules(r: &str, subject: &str, ids: &[u32]) -> Vec<Value> {
     let keys = |f: &dyn Fn(u32) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
-    let sensors = keys(&|i| vec![format!("{r}/uav/{i}/sense/**"), format!("{r}/radio/{i}")]);
-    let out = keys(&|i| vec![format!("{r}/uav/{i}/cmd"), format!("{r}/uav/{i}/share/**"), format!("{r}/uav/{i}/state")]);
+    let sensors = keys(&|i| vec![format!("{r}/uav/{i}/sense/**"), format!("{r}/radio/{i}"), format!("{r}/uav/{i}/ext/cmd")]);
+    let out = keys(&|i| {
+        vec![format!("{r}/uav/{i}/cmd"), format!("{r}/uav/{i}/share/**"), format!("{r}/uav/{i}/state"), format!("{r}/uav/{i}/ext/view")]
+    });
     let tokens = keys(&|i| vec![format!("{r}/alive/uav/{i}")]);
+    let ext_tokens = keys(&|i| vec![format!("{r}/alive/ext/{i}")]);
     vec![
         rule(&format!("{subject}-own-sub"), "ingress", &["declare_subscriber"], sensors),
         rule(&format!("{subject}-own-pub"), "ingress", &["put"], out),
         rule(&format!("{subject}-own-token"), "ingress", &["liveliness_token"], tokens),
+        rule(&format!("{subject}-own-ext-watch"), "ingress", &["declare_liveliness_subscriber", "liveliness_query"], ext_tokens),
+    ]
+}
+
+/// The rules of UAV `id`'s external controller (under subject id `subject`): its view in, its
+/// command out, its token.
+fn external_rules(r: &str, subject: &str, id: u32) -> Vec<Value> {
+    vec![
+        rule(&format!("{subject}-ext-sub"), "ingress", &["declare_subscriber"], vec![format!("{r}/uav/{id}/ext/view")]),
+        rule(&format!("{subject}-ext-pub"), "ingress", &["put"], vec![format!("{r}/uav/{id}/ext/cmd")]),
+        rule(&format!("{subject}-ext-token"), "ingress", &["liveliness_token"], vec![format!("{r}/alive/ext/{id}")]),
     ]
 }
 

@@ -4,6 +4,7 @@
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
+use uav_agent::Controllers;
 
 /// Zenoh-networked UAV swarm: physics hub, one agent per UAV, recorder.
 #[derive(Parser, Debug)]
@@ -79,6 +80,13 @@ pub enum Cmd {
 
 /// Entry point of the binary: parse, set up logging and the runtime, dispatch.
 pub fn main() -> ExitCode {
+    main_with(Controllers::builtin())
+}
+
+/// The whole command line with `controllers`: the entry point of a program that adds its own
+/// controllers to the built-in ones (`Controllers::builtin().with(name, make)`). The agents a run
+/// starts are this same executable, so they know the same controllers.
+pub fn main_with(controllers: Controllers) -> ExitCode {
     let cli = Cli::parse();
     init_tracing();
     let rt = match tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build() {
@@ -88,7 +96,7 @@ pub fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let code = match rt.block_on(dispatch(cli)) {
+    let code = match rt.block_on(dispatch(cli, controllers)) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -111,11 +119,11 @@ fn init_tracing() {
         .try_init();
 }
 
-async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
+async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode> {
     match cli.cmd {
-        Cmd::Run(a) => crate::launch::run(a).await,
+        Cmd::Run(a) => crate::launch::run(a, &controllers).await,
         Cmd::Hub(a) => crate::pieces::hub(a).await,
-        Cmd::Agent(a) => crate::pieces::agent(a).await,
+        Cmd::Agent(a) => crate::pieces::agent(a, controllers).await,
         Cmd::Router(a) => crate::router::router(a).await,
         Cmd::Record(a) => crate::recorder::record(a).await,
         Cmd::View(a) => crate::view::view(a).await,
@@ -135,6 +143,6 @@ async fn dispatch(cli: Cli) -> anyhow::Result<ExitCode> {
         Cmd::Credentials(a) => crate::auth::credentials(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
-        Cmd::Check { scenario } => crate::scenarios::check(&scenario),
+        Cmd::Check { scenario } => crate::scenarios::check(&scenario, &controllers),
     }
 }

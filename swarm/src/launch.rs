@@ -11,7 +11,7 @@
 //! skips all that.
 
 use crate::args::{default_run_id, scenario_value};
-use crate::auth::{host_user, ids_text, uav_user, Credentials};
+use crate::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
 use crate::pieces::LISTENING_PREFIX;
 use crate::proxy::{LinkProxy, LinkState};
 use crate::recorder::{progress_bar, Recording};
@@ -24,6 +24,7 @@ use std::process::{ExitCode, Stdio};
 use std::time::Duration;
 use swarm_config::{FailureKind, Scenario};
 use swarm_wire::Keys;
+use uav_agent::Controllers;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, ChildStdin, Command};
 use tracing::{info, warn};
@@ -55,6 +56,10 @@ pub struct RunArgs {
     /// scenario's own timeline.
     #[arg(long)]
     pub experiment: Option<PathBuf>,
+    /// Fly these UAVs (`3`, `1-4,7`) with an external controller (README "Fly your own
+    /// controller"), added to the scenario's `[controller] external`.
+    #[arg(long, value_parser = crate::args::parse_ids)]
+    pub external: Option<crate::args::UavIds>,
     /// Zenoh config override `KEY:JSON5` for every piece of the run (repeatable).
     #[arg(long)]
     pub cfg: Vec<String>,
@@ -104,8 +109,9 @@ fn per_process(uavs: usize, cores: u32, asked: Option<u32>) -> u32 {
 }
 
 /// Runs a scenario end to end and writes the run folder.
-pub async fn run(a: RunArgs) -> Result<ExitCode> {
+pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
     let (sc, text) = resolve(&a)?;
+    controllers.check(&sc).with_context(|| format!("scenario `{}`", a.scenario.as_deref().unwrap_or(swarm_config::DEFAULT_SCENARIO)))?;
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     let per_process = agents_per_process(sc.count(), a.agents_per_process);
@@ -143,7 +149,15 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
         sc.netem.extend(t.netem);
         sc.failures.extend(t.failures);
     }
-    if a.time_mode.is_some() || a.seed.is_some() || a.experiment.is_some() {
+    if let Some(ids) = &a.external {
+        let external = &mut sc.controller.external;
+        for &id in &ids.0 {
+            if !external.contains(&id) {
+                external.push(id);
+            }
+        }
+    }
+    if a.time_mode.is_some() || a.seed.is_some() || a.experiment.is_some() || a.external.is_some() {
         // The hub serves this text to the agents, so overrides must be in it; and the whole must
         // still be valid (link faults need realtime mode, say).
         text = toml::to_string(&sc).context("cannot re-serialize the scenario")?;
@@ -201,6 +215,8 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     let mut hub = launcher.hub(&scenario_path)?;
     let locators = read_locators(&mut hub.child, &launcher.logs).await?;
     info!(?locators, "hub up");
+    // Where pieces started by hand (an external controller) connect: one locator a line.
+    std::fs::write(out.join(HUB_FILE), locators.join("\n") + "\n").with_context(|| format!("cannot write {}", out.join(HUB_FILE).display()))?;
     let proxies = start_proxies(sc, &locators).await?;
 
     let mut rec_cfg = match &launcher.creds {
@@ -226,15 +242,20 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     Ok((summary, hub_ok))
 }
 
+/// The file of the run folder that holds the hub's locators while the run flies.
+pub const HUB_FILE: &str = "hub.txt";
+
 /// The user the launcher's own recording logs in as.
 const OBSERVER: &str = "observer";
 
 /// Fresh credentials for one run in `<out>/credentials/`: a user per UAV (restarts reuse it),
-/// one per agent host of `hosts` (as [`spread`] grouped them), the recorder's `observer`, and
-/// an `operator` for `swarm netem` on the running swarm.
+/// one per agent host of `hosts` (as [`spread`] grouped them), one per external controller
+/// (`ext{id}`), the recorder's `observer`, and an `operator` for `swarm netem` on the running
+/// swarm.
 fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>]) -> Result<Credentials> {
     let mut users: Vec<String> = sc.agent_ids().map(uav_user).collect();
     users.extend(hosts.iter().map(|g| host_user(g)));
+    users.extend(sc.controller.external.iter().map(|&id| ext_user(id)));
     users.extend([OBSERVER.to_string(), "operator".to_string()]);
     Credentials::create(&out.join("credentials"), &users)
 }

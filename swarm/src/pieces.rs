@@ -7,6 +7,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use std::process::ExitCode;
 use swarm_config::Scenario;
+use uav_agent::Controllers;
 
 /// The line the hub prints on stdout once it listens; the launcher reads it.
 pub const LISTENING_PREFIX: &str = "swarm-hub listening:";
@@ -137,14 +138,14 @@ fn warn_insecure() {
 }
 
 /// Runs `swarm agent`: one agent on its own session with `--id`, an agent host with `--ids`.
-pub async fn agent(a: AgentArgs) -> Result<ExitCode> {
+pub async fn agent(a: AgentArgs, controllers: Controllers) -> Result<ExitCode> {
     let scenario = match &a.scenario {
         Some(s) => Some(Scenario::from_arg(s)?.0),
         None => None,
     };
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "an agent needs --connect <hub endpoint>");
     let Some(id) = a.id else {
-        return agent_host(a, scenario).await;
+        return agent_host(a, scenario, controllers).await;
     };
     let opts = uav_agent::AgentOptions {
         run: a.run,
@@ -153,6 +154,7 @@ pub async fn agent(a: AgentArgs) -> Result<ExitCode> {
         connect: a.zenoh.connect,
         scenario,
         hub_grace_s: a.hub_grace_s,
+        controllers,
     };
     let exit = uav_agent::run(opts, shutdown_signal(a.exit_with_stdin)).await.context("agent failed")?;
     tracing::info!(?exit, "agent done");
@@ -161,7 +163,7 @@ pub async fn agent(a: AgentArgs) -> Result<ExitCode> {
 
 /// Runs `swarm agent --ids`: every agent in this process; each failed one is reported by id,
 /// and the host fails if any did.
-async fn agent_host(a: AgentArgs, scenario: Option<Scenario>) -> Result<ExitCode> {
+async fn agent_host(a: AgentArgs, scenario: Option<Scenario>, controllers: Controllers) -> Result<ExitCode> {
     let ids = a.ids.map(|i| i.0).unwrap_or_default();
     let n = ids.len();
     let opts = uav_agent::HostOptions {
@@ -171,6 +173,7 @@ async fn agent_host(a: AgentArgs, scenario: Option<Scenario>) -> Result<ExitCode
         connect: a.zenoh.connect,
         scenario,
         hub_grace_s: a.hub_grace_s,
+        controllers,
     };
     let ends = uav_agent::run_host(opts, shutdown_signal(a.exit_with_stdin)).await.context("agent host failed")?;
     let mut failed = Vec::new();

@@ -1,9 +1,10 @@
 //! `swarm scenarios` and `swarm check`: the built-in scenarios, and what a scenario file
 //! resolves to (every default filled in), for a person writing one.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use std::process::ExitCode;
 use swarm_config::Scenario;
+use uav_agent::Controllers;
 
 /// Writes `text` to standard output; a reader that went away (`swarm scenarios | head`) ends the
 /// output quietly instead of a panic.
@@ -28,8 +29,9 @@ pub fn list() -> Result<ExitCode> {
 }
 
 /// Runs `swarm check`: validates `scenario` and prints it resolved, as JSON.
-pub fn check(scenario: &str) -> Result<ExitCode> {
+pub fn check(scenario: &str, controllers: &Controllers) -> Result<ExitCode> {
     let (sc, _) = Scenario::from_arg(scenario)?;
+    controllers.check(&sc).with_context(|| format!("scenario `{scenario}`"))?;
     print_out(&format!("{}\n", serde_json::to_string_pretty(&sc)?))?;
     Ok(ExitCode::SUCCESS)
 }

@@ -398,6 +398,9 @@ pub struct AgentSummary {
     pub stable_neighbour_share: f64,
     /// Its estimates more than 1 m from the truth.
     pub false_estimates: u64,
+    /// Estimates other agents made of it, by its id, within 1 m of the truth: how its
+    /// neighbours localized it.
+    pub placed_by_others: u64,
     /// Each time it lost all neighbours or found one again.
     pub contact_events: Vec<ContactEvent>,
     /// Steps at which no live UAV was within 8 m of it.

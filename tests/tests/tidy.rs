@@ -220,6 +220,9 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("alive_hub", Key(|k: &Keys, _| k.alive_hub())),
         ("alive_uav", Key(|k: &Keys, id| k.alive_uav(id))),
         ("alive_recorder", Key(|k: &Keys, _| k.alive_recorder())),
+        ("alive_ext", Key(|k: &Keys, id| k.alive_ext(id))),
+        ("ext_view", Key(|k: &Keys, id| k.ext_view(id))),
+        ("ext_cmd", Key(|k: &Keys, id| k.ext_cmd(id))),
         ("alive_uav_any", Wildcard(|k: &Keys, _| k.alive_uav_any())),
     ]
 }

@@ -12,7 +12,7 @@
 //! (default 40 UAVs, 300 ticks = 30 s).
 
 use swarm_wire::{Odom, Scan};
-use uav_agent::{Agent, SensorFrame, Share};
+use uav_agent::{Agent, Controllers, SensorFrame, Share};
 
 /// A small deterministic PRNG (an LCG) for the forest, the start disc and the range noise.
 struct Lcg(u64);
@@ -109,7 +109,7 @@ fn main() {
     let mut rng = Lcg(0x5eed_0040);
     let trees = forest(&mut rng);
     let mut poses = starts(&mut rng, n);
-    let mut agents: Vec<Agent> = (0..n).map(|i| Agent::new(i as u32 + 1, sc.clone())).collect();
+    let mut agents: Vec<Agent> = (0..n).map(|i| Agent::new(i as u32 + 1, sc.clone(), &Controllers::builtin()).expect("agent")).collect();
     let mut errors: Vec<f64> = Vec::new();
     let (mut step_s, mut steps, mut estimates) = (0.0, 0u64, 0u64);
     let mut false_by_second: Vec<u64> = vec![0; ticks as usize / 10 + 1];

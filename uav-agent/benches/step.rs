@@ -10,7 +10,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use swarm_wire::{Gnss, ObstacleShare, Odom, PoseShare, Scan};
-use uav_agent::{Agent, SensorFrame, Share};
+use uav_agent::{Agent, Controllers, SensorFrame, Share};
 
 /// About 5 trees per 100 m² in a 24 m square around the origin, ≥ 2.5 m apart, none within
 /// 1.5 m of the origin (deterministic: a small LCG).
@@ -69,7 +69,7 @@ fn bench_step(c: &mut Criterion) {
     let gnss = Gnss { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0 };
     let frame = SensorFrame { scan, odom, gnss: Some(gnss), uvdar: None };
     for n in [4u32, 8] {
-        let mut agent = Agent::new(1, sc.clone());
+        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
         c.bench_function(&format!("agent/step_750b_{n}_neighbours"), |b| {
             b.iter(|| {
                 for j in 0..n {
@@ -102,7 +102,7 @@ fn bench_icp_step(c: &mut Criterion) {
     assert_eq!(sc.localization.mode, swarm_config::LocalizationMode::Icp);
     let scan = forest_scan(750);
     for n in [4u32, 8] {
-        let mut agent = Agent::new(1, sc.clone());
+        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
         let poses: Vec<(f64, f64, f64)> =
             (0..n).map(|j| (f64::from(j) * 0.8).sin_cos()).map(|(s, c)| (2.5 * c, 2.5 * s, 0.2 * s)).collect();
         let mut tick = 1u64;
@@ -179,7 +179,7 @@ fn bench_icp_crowd(c: &mut Criterion) {
     let mut group = c.benchmark_group("agent/step_icp_crowd");
     for n in [8usize, 16, 32, 64] {
         let poses = crowd(&trees, n);
-        let mut agent = Agent::new(1, sc.clone());
+        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
         let mut placed = 0;
         for tick in 1..=WARM_UP_TICKS {
             placed = crowd_step(&mut agent, &trees, &poses, &scan, tick).report.neighbours.len();
@@ -213,7 +213,7 @@ fn cpu_table(sc: swarm_config::Scenario, trees: &[(f64, f64, f64)], scan: &Scan)
     const TICKS: u64 = 200;
     for n in [8usize, 16, 32, 64] {
         let poses = crowd(trees, n);
-        let mut agent = Agent::new(1, sc.clone());
+        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
         for tick in 1..=WARM_UP_TICKS {
             crowd_step(&mut agent, trees, &poses, scan, tick);
         }

@@ -7,7 +7,7 @@
 //! 1. perception: the scan becomes circles, wall segments and points ([`perception::extract`]);
 //! 2. localization: the mode's [`Localizer`] places the neighbours;
 //! 3. the view: the obstacles minus the neighbours the LIDAR sees, built once ([`surroundings`]);
-//! 4. control: the [`Pilot`] turns the view into a command, which the [`LostContact`] layer
+//! 4. control: the scenario's [`Controller`] turns the view into a command, which the [`LostContact`] layer
 //!    replaces while the agent has lost its swarm;
 //! 5. out: the command, the share the localizer sends, and a [`StepReport`] that becomes the
 //!    agent's state message once the node adds what its link measured ([`StepReport::into_state`]).
@@ -15,7 +15,7 @@
 //! Architecture invariant: an agent sees the world only through its own sensor messages and its
 //! neighbours' shares. Nothing here can reach ground truth.
 
-use crate::control::{Command, LostContact, Pilot, View};
+use crate::control::{Command, Controller, Controllers, LostContact, UnknownController, View};
 use crate::localization::{Estimate, Localizer, Share};
 use crate::perception::{self, Circle, Extracted};
 use crate::sensing::{FrameCollector, SensorFrame};
@@ -96,17 +96,23 @@ pub struct Agent {
     /// The localization mode's localizer and what it keeps between steps.
     localizer: Localizer,
     /// The controller and what it keeps between steps.
-    pilot: Pilot,
+    pilot: Box<dyn Controller>,
     /// Where the swarm was last estimated, and whether the agent has lost it.
     lost: LostContact,
 }
 
 impl Agent {
-    /// The agent of UAV `id` under scenario `sc`.
-    pub fn new(id: u32, sc: Scenario) -> Agent {
+    /// The agent of UAV `id` under scenario `sc`, flown by the controller of `controllers`
+    /// the scenario names.
+    pub fn new(id: u32, sc: Scenario, controllers: &Controllers) -> Result<Agent, UnknownController> {
         let localizer = Localizer::new(id, &sc);
-        let pilot = Pilot::new(&sc);
-        Agent { id, sc, localizer, pilot, lost: LostContact::new() }
+        let pilot = controllers.make(&sc)?;
+        Ok(Agent { id, sc, localizer, pilot, lost: LostContact::new() })
+    }
+
+    /// The UAV this agent flies.
+    pub fn id(&self) -> u32 {
+        self.id
     }
 
     /// A collector of the sensor frames this agent's localizer needs.
@@ -123,34 +129,67 @@ impl Agent {
 
     /// Runs perception, localization and control for one frame.
     pub fn step(&mut self, frame: &SensorFrame) -> StepOutput {
+        let seen = self.perceive(frame);
+        let command = self.pilot.step(&seen.view(self.id, frame));
+        self.finish(frame, seen, command)
+    }
+
+    /// The first half of a step: perception and localization, up to the [`View`] a controller
+    /// gets ([`Perceived::view`]). An external controller answers it from outside the process;
+    /// [`Agent::finish`] takes its command.
+    pub fn perceive(&mut self, frame: &SensorFrame) -> Perceived {
         let started = Instant::now();
         let seen = perception::extract(&frame.scan, &self.sc.perception, &perception::SegmentParams::default());
         let localized = self.localizer.localize(frame, &seen.circles, started);
-        let estimates = &localized.estimates;
-        let around = surroundings(&seen, estimates, self.sc.perception.neighbour_match_m, self.pilot.maps_the_scan());
-        let view = View {
-            id: self.id,
-            t_secs: frame.scan.t_secs,
-            odom: &frame.odom,
-            neighbours: estimates,
-            trees: &around.trees,
-            walls: &seen.segments,
-            static_points: &around.static_points,
-        };
-        let flock = self.pilot.step(&self.sc, &view);
-        let command = self.lost.steer(&self.sc, &view, flock);
-        let share = self.localizer.share(frame, &seen.circles);
+        let around =
+            surroundings(&seen, &localized.estimates, self.sc.perception.neighbour_match_m, self.pilot.wants_scan_points());
+        Perceived { started, seen, localized, around }
+    }
+
+    /// The second half of a step: the controller's `command` (replaced by the lost-contact
+    /// layer while the swarm is lost), the share, and the report.
+    pub fn finish(&mut self, frame: &SensorFrame, seen: Perceived, command: Command) -> StepOutput {
+        let command = self.lost.steer(&self.sc, &seen.view(self.id, frame), command);
+        let share = self.localizer.share(frame, &seen.seen.circles);
         let report = StepReport {
             id: self.id,
             tick: frame.tick(),
             t_secs: frame.scan.t_secs,
-            step_time_us: started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32,
-            obstacles: around.trees.len() as u32,
-            neighbours: estimates.iter().map(neighbour_estimate).collect(),
+            step_time_us: seen.started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32,
+            obstacles: seen.around.trees.len() as u32,
+            neighbours: seen.localized.estimates.iter().map(neighbour_estimate).collect(),
             vectors: command.vectors,
-            icp: localized.icp,
+            icp: seen.localized.icp,
         };
         StepOutput { cmd: cmd_of(frame.tick(), &command), share, report }
+    }
+}
+
+/// What a step perceived and localized, before control.
+#[derive(Debug)]
+pub struct Perceived {
+    /// When the step began (wall clock): the step time runs to [`Agent::finish`].
+    started: Instant,
+    /// The scan's circles, segments and points.
+    seen: Extracted,
+    /// The neighbour estimates.
+    localized: crate::localization::Localized,
+    /// The obstacles once the neighbours are taken out.
+    around: Surroundings,
+}
+
+impl Perceived {
+    /// The controller's view of this step for UAV `id`.
+    pub fn view<'a>(&'a self, id: u32, frame: &'a SensorFrame) -> View<'a> {
+        View {
+            id,
+            t_secs: frame.scan.t_secs,
+            odom: &frame.odom,
+            neighbours: &self.localized.estimates,
+            trees: &self.around.trees,
+            walls: &self.seen.segments,
+            static_points: &self.around.static_points,
+        }
     }
 }
 
@@ -217,7 +256,7 @@ mod tests {
 
     #[test]
     fn alone_in_open_field_an_informed_agent_flies_at_kf_toward_the_goal() {
-        let mut a = Agent::new(1, scenario());
+        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
         let out = a.step(&frame(Some([30.0, 0.0]), Some(fix())));
         assert_eq!(out.cmd.tick, 1);
         assert!((out.cmd.x - 0.4).abs() < 1e-6 && out.cmd.y.abs() < 1e-6, "{:?}", out.cmd);
@@ -228,7 +267,7 @@ mod tests {
 
     #[test]
     fn goal_to_the_left_turns_left() {
-        let mut a = Agent::new(1, scenario());
+        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
         let out = a.step(&frame(Some([0.0, 10.0]), None));
         assert!(out.cmd.yaw_rate > 0.0, "{:?}", out.cmd);
         assert!(out.share.is_none(), "no fix, nothing to share");
@@ -236,7 +275,7 @@ mod tests {
 
     #[test]
     fn own_pose_is_ignored() {
-        let mut a = Agent::new(1, scenario());
+        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
         a.on_share(&Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
         a.on_share(&Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
         let out = a.step(&frame(None, Some(fix())));
@@ -257,7 +296,7 @@ mod tests {
 
     #[test]
     fn the_state_message_joins_the_step_and_the_link() {
-        let mut a = Agent::new(1, scenario());
+        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
         let out = a.step(&frame(None, Some(fix())));
         let link = LinkReport { in_radio_range: 3, counters: LinkCounters { sent_msgs: 1, ..LinkCounters::default() }, ..LinkReport::default() };
         let state = out.report.clone().into_state(link);

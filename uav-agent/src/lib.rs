@@ -11,8 +11,8 @@
 //!   (`broadcast`, `icp` with its neighbour database, `uvdar`), chosen once, each with the
 //!   [`Share`] it sends and what it does with those it receives. The ICP itself is public as
 //!   [`icp`] for its benchmark.
-//! - `control`: the pilot and the controllers K21, P17, A21 and M23, from a view of the
-//!   neighbours and obstacles to a command.
+//! - `control`: the [`Controller`] trait and the [`Controllers`] registry, and the built-in
+//!   controllers K21, P17, A21 and M23, from a view of the neighbours and obstacles to a command.
 //! - `planning`: the occupancy grid with A* (A21) and the seed 004 costmap (M23) that control
 //!   plans on.
 //! - `geometry`: what every stage shares: the odometry pose, the one angle-wrap convention,
@@ -44,7 +44,10 @@ mod perception;
 mod planning;
 mod sensing;
 
-pub use agent::{Agent, LinkReport, StepOutput, StepReport};
+pub use agent::{Agent, LinkReport, Perceived, StepOutput, StepReport};
+pub use control::{Command, Controller, Controllers, MakeController, UnknownController, View};
+pub use localization::Estimate;
+pub use perception::{Circle, Segment};
 pub use localization::icp;
 pub use localization::Share;
 pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions};

@@ -144,6 +144,18 @@ impl Keys {
     pub fn alive_uav(&self, id: u32) -> String {
         format!("{}/alive/uav/{id}", self.prefix)
     }
+    /// `swarm/{run}/alive/ext/{id}`: an external controller of UAV `id` is connected.
+    pub fn alive_ext(&self, id: u32) -> String {
+        format!("{}/alive/ext/{id}", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/ext/view`: each tick's view of an externally controlled UAV (JSON).
+    pub fn ext_view(&self, id: u32) -> String {
+        format!("{}/uav/{id}/ext/view", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/ext/cmd`: an external controller's command (JSON).
+    pub fn ext_cmd(&self, id: u32) -> String {
+        format!("{}/uav/{id}/ext/cmd", self.prefix)
+    }
     /// `swarm/{run}/alive/recorder`
     pub fn alive_recorder(&self) -> String {
         format!("{}/alive/recorder", self.prefix)

@@ -7,12 +7,15 @@
 //! - [`session`]: Zenoh configs for the hub (router) and everyone else (clients), with multicast
 //!   scouting off everywhere so parallel runs cannot cross-talk; [`session::Writer`] writes on
 //!   every key a process publishes (a publisher that declares nothing: see why there).
+//! - [`external`]: the JSON view and command an agent exchanges with an external controller
+//!   (the only payloads that are not a [`Msg`]).
 //! - [`plumbing`]: what every process repeats around its session, written once: subscribe a key
 //!   into a channel, watch liveliness tokens, fetch the scenario text from the hub.
 //!
 //! Architecture invariant: this crate defines shapes, not behaviour. It has no simulation,
 //! perception or control code, and nothing here reads ground truth.
 
+pub mod external;
 pub mod keys;
 pub mod msg;
 pub mod plumbing;

@@ -57,22 +57,23 @@ pub struct Case {
     pub weaken: Option<Weaken>,
 }
 
-/// The built-in forest scenario a controller's cases start from.
-pub fn base_name(kind: ControllerKind) -> &'static str {
+/// The built-in forest scenario a controller's cases start from (a registered controller's:
+/// forest-5, as K21's).
+pub fn base_name(kind: &ControllerKind) -> &'static str {
     match kind {
         ControllerKind::P17 => "p17-error-forest",
         ControllerKind::A21 => "a21-forest-uvdar",
         ControllerKind::M23 => "m23-indoor-none",
-        ControllerKind::K21 => "forest-5",
+        ControllerKind::K21 | ControllerKind::Own(_) => "forest-5",
     }
 }
 
 /// Localization modes a controller flies with in its built-in scenarios.
-fn modes(kind: ControllerKind) -> &'static [LocalizationMode] {
+fn modes(kind: &ControllerKind) -> &'static [LocalizationMode] {
     match kind {
         ControllerKind::P17 | ControllerKind::M23 => &[LocalizationMode::Broadcast],
         ControllerKind::A21 => &[LocalizationMode::Uvdar, LocalizationMode::Broadcast],
-        ControllerKind::K21 => &[LocalizationMode::Broadcast, LocalizationMode::Icp],
+        ControllerKind::K21 | ControllerKind::Own(_) => &[LocalizationMode::Broadcast, LocalizationMode::Icp],
     }
 }
 
@@ -116,15 +117,15 @@ impl Case {
     /// Case `index` of the fuzz, all of it drawn from `seed`.
     pub fn generate(space: &Space, index: usize, seed: u64) -> anyhow::Result<Case> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let controller = space.controllers[rng.gen_range(0..space.controllers.len())];
-        let m = modes(controller);
+        let controller = space.controllers[rng.gen_range(0..space.controllers.len())].clone();
+        let m = modes(&controller);
         let localization = m[rng.gen_range(0..m.len())];
         let n = rng.gen_range(2..=space.max_uavs.max(2));
         let starts = starts(&mut rng, n);
         let start_r = starts.iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
         let goal_x_m = rng.gen_range(20.0..35.0_f64).round();
         let trees = forest(&mut rng, goal_x_m, start_r);
-        let base = swarm_config::builtin(base_name(controller))?;
+        let base = swarm_config::builtin(base_name(&controller))?;
         let base_goal_m = base.swarm.goal[0].hypot(base.swarm.goal[1]).max(1.0);
         let time_limit_s = (base.end.time_limit_s * goal_x_m / base_goal_m).round();
         let spec = ScheduleSpec {
@@ -160,7 +161,7 @@ impl Case {
     /// The case as a scenario: its controller's base scenario with the world, the swarm, the
     /// flight time and the nemesis schedule of the case.
     pub fn render(&self) -> anyhow::Result<Scenario> {
-        let mut sc = swarm_config::builtin(base_name(self.controller))?;
+        let mut sc = swarm_config::builtin(base_name(&self.controller))?;
         sc.name = format!("fuzz-{}", self.index);
         sc.description = format!("swarm fuzz case {}: {}", self.index, self.label());
         sc.seed = self.seed;
@@ -177,7 +178,7 @@ impl Case {
                 ids.push(1);
             }
         }
-        sc.controller.kind = self.controller;
+        sc.controller.kind = self.controller.clone();
         sc.localization.mode = self.localization;
         sc.end.time_limit_s = self.time_limit_s;
         sc.netem.clear();

@@ -75,6 +75,8 @@ struct Acc {
     neighbour_counts: BTreeMap<usize, u64>,
     /// Estimates farther than [`FALSE_ESTIMATE_M`] from the truth.
     false_estimates: u64,
+    /// Estimates of this UAV by others, by id, within [`FALSE_ESTIMATE_M`] of the truth.
+    placed_by_others: u64,
     /// Neighbour count at the last scored state.
     last_count: Option<usize>,
     /// Times it lost all neighbours or found one again.
@@ -108,6 +110,7 @@ impl Default for Acc {
             loc_errors: Vec::new(),
             neighbour_counts: BTreeMap::new(),
             false_estimates: 0,
+            placed_by_others: 0,
             last_count: None,
             contacts: Vec::new(),
             reported_while_alone: 0,
@@ -439,15 +442,20 @@ impl Metrics {
     fn score(&mut self, st: &AgentState) {
         let Some(TickTruth { bodies, all_alive }) = self.truth.get(&st.tick) else { return };
         let Some(me) = body_of(bodies, st.id) else { return };
-        let errors: Vec<f64> = st
+        let placed: Vec<(u32, f64)> = st
             .neighbours
             .iter()
             .filter_map(|e| {
-                let other = body_of(bodies, e.id?)?;
+                let id = e.id?;
+                let other = body_of(bodies, id)?;
                 let (x, y) = true_relative(me, other);
-                Some((f64::from(e.x) - x).hypot(f64::from(e.y) - y))
+                Some((id, (f64::from(e.x) - x).hypot(f64::from(e.y) - y)))
             })
             .collect();
+        for &(id, _) in placed.iter().filter(|(_, e)| *e <= FALSE_ESTIMATE_M) {
+            self.agents.entry(id).or_default().placed_by_others += 1;
+        }
+        let errors: Vec<f64> = placed.iter().map(|&(_, e)| e).collect();
         // Contact lost (some neighbours -> none) or regained, with the true distance to the
         // nearest other live UAV at that moment (seed 000 6.2: lost at ~6.7 m, regained at
         // ~6.3 m). A failed UAV shares nothing, so it is no company.
@@ -806,6 +814,7 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         p95_localization_error_m: quantile(&a.loc_errors, 0.95),
         stable_neighbour_share: a.neighbour_counts.values().max().map_or(f64::NAN, |&m| m as f64 / steps),
         false_estimates: a.false_estimates,
+        placed_by_others: a.placed_by_others,
         contact_events: a.contacts.clone(),
         steps_alone: a.steps_alone,
         neighbours_reported_while_alone: a.reported_while_alone,

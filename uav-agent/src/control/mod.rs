@@ -1,7 +1,10 @@
 //! Control: from what perception and localization made of a tick to a command for the hub.
 //!
-//! - [`pilot`]: runs the scenario's controller step by step, with what it keeps between steps,
-//!   and does the frame conversions; the agent hands it a [`View`].
+//! - [`controller`]: the [`Controller`] trait (a [`View`] in, a [`Command`] out, memory of its
+//!   own) and the [`Controllers`] registry a scenario's `[controller] kind` names one from; a
+//!   user's crate adds its own there.
+//! - [`pilot`]: the built-in controllers' pilots: each runs its seed's controller step by step,
+//!   with what it keeps between steps, and does the frame conversions.
 //! - `k21`: the Boids-style K21 controller of seed 000 chapter 4.
 //! - `p17`: the P17 controller of seed 001 chapter 3 (β-agents for cylinders and walls).
 //! - `a21`: the A21 controller of seed 003 section III (proximal control, φ-limited navigation).
@@ -14,6 +17,7 @@
 //! [`crate::planning`]; nothing here reaches back up to the agent or the node.
 
 mod a21;
+pub(crate) mod controller;
 mod k21;
 pub(crate) mod lost_contact;
 // Seed API kept whole and tested, partly unused by the pilot (see `lib.rs`).
@@ -25,4 +29,5 @@ mod p17;
 pub(crate) mod pilot;
 
 pub use lost_contact::LostContact;
-pub use pilot::{Command, Pilot, View};
+pub use controller::{Controller, Controllers, MakeController, UnknownController};
+pub use pilot::{Command, View};

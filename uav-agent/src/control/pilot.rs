@@ -1,10 +1,12 @@
-//! The pilot: one control step of the scenario's controller, from what perception and
-//! localization made of this tick to a command for the hub.
+//! The pilots of the built-in controllers: each a [`Controller`] that runs one control step of
+//! its seed's controller, from what perception and localization made of this tick to a command
+//! for the hub.
 //!
-//! Why a module of its own: the controllers ([`k21`], [`p17`], [`a21`]) are pure functions of
-//! their seeds' inputs, each in its own frame and units. The pilot owns what they need to keep
-//! between steps (P17's previous velocity and its neighbours' velocity tracker, A21's occupancy
-//! grid and planned path) and does the conversions, so the agent's step stays one readable pipeline.
+//! Why a module of its own: the controllers ([`k21`], [`p17`], [`a21`], [`m23`]) are pure
+//! functions of their seeds' inputs, each in its own frame and units. A pilot owns what its
+//! controller keeps between steps (P17's previous velocity and its neighbours' velocity tracker,
+//! A21's occupancy grid and planned path, M23's costmap) and does the conversions, so the
+//! agent's step stays one readable pipeline.
 //!
 //! Frames: perception and localization give everything in the body frame. K21 and A21 work in
 //! it; P17 works in the agent's odometry frame (its steering update integrates velocities, which
@@ -26,13 +28,15 @@
 
 use super::m23::{self, FollowerInput, LeaderWait, UavState};
 use super::neighbour_velocity::VelocityTracker;
+use super::controller::Controller;
 use super::{a21, k21, p17};
 use crate::geometry::{wrap_angle, Pose2};
 use crate::localization::Estimate;
 use crate::perception::{Circle, Segment};
 use crate::planning::{CostQuery, Costmap, GridParams, Heuristic, OccupancyGrid, PlanParams, SocialAgent, LETHAL_OBSTACLE};
 use nalgebra::{Point2, Rotation2, Vector2};
-use swarm_config::{ControllerKind, Scenario};
+use std::sync::Arc;
+use swarm_config::Scenario;
 use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
 /// What one step saw, in the body frame: the neighbours, and the obstacles once the neighbours
@@ -52,7 +56,7 @@ pub struct View<'a> {
     /// Wall faces.
     pub walls: &'a [Segment],
     /// The scan points that are not a localized neighbour: what goes into a map (empty unless the
-    /// controller keeps one, see [`Pilot::maps_the_scan`]).
+    /// controller asks for them, see [`Controller::wants_scan_points`]).
     pub static_points: &'a [Point2<f64>],
 }
 
@@ -69,73 +73,83 @@ pub struct Command {
     pub vectors: VectorMagnitudes,
 }
 
-/// The controller's memory between steps.
+/// K21 (seed 000 chapter 4): keeps nothing between steps.
 #[derive(Debug)]
-pub enum Pilot {
-    /// K21 keeps nothing.
-    K21,
-    /// P17.
-    P17 {
-        /// v[t−1] of seed 001 eq. 40 [m/s], odometry frame.
-        prev_vel: Vector2<f64>,
-        /// Neighbour velocities from position differences (eq. 9).
-        tracker: VelocityTracker,
-    },
-    /// M23 (boxed: it is by far the largest).
-    M23(Box<M23Pilot>),
-    /// A21.
-    A21 {
-        /// The map built from its own scans (seed 003 IV-C).
-        grid: Box<OccupancyGrid>,
-        /// The current path to the goal, odometry frame.
-        path: Vec<Point2<f64>>,
-        /// When it was planned [s].
-        planned_at: Option<f64>,
-    },
+pub struct K21Pilot {
+    params: swarm_config::K21Params,
 }
 
-impl Pilot {
-    /// The pilot of the scenario's controller.
-    pub fn new(sc: &Scenario) -> Pilot {
-        match sc.controller.kind {
-            ControllerKind::P17 => {
-                Pilot::P17 { prev_vel: Vector2::zeros(), tracker: VelocityTracker::new(sc.localization.stale_after_s) }
-            }
-            ControllerKind::A21 => {
-                let a = &sc.controller.a21;
-                let params =
-                    GridParams { resolution_m: a.grid_resolution_m, max_range_m: sc.lidar.max_range_m, ..GridParams::default() };
-                Pilot::A21 { grid: Box::new(OccupancyGrid::new(params)), path: Vec::new(), planned_at: None }
-            }
-            ControllerKind::M23 => Pilot::M23(Box::new(M23Pilot::new(sc))),
-            ControllerKind::K21 => Pilot::K21,
+impl K21Pilot {
+    pub(super) fn new(sc: &Scenario) -> K21Pilot {
+        K21Pilot { params: sc.controller.k21.clone() }
+    }
+}
+
+impl Controller for K21Pilot {
+    fn step(&mut self, v: &View) -> Command {
+        k21_command(&self.params, v, v.neighbours, goal_heading(v.odom), &[])
+    }
+}
+
+/// P17 (seed 001 chapter 3): its previous velocity and its neighbours' velocity tracker.
+#[derive(Debug)]
+pub struct P17Pilot {
+    values: swarm_config::P17Values,
+    /// v[t−1] of seed 001 eq. 40 [m/s], odometry frame.
+    prev_vel: Vector2<f64>,
+    /// Neighbour velocities from position differences (eq. 9).
+    tracker: VelocityTracker,
+}
+
+impl P17Pilot {
+    pub(super) fn new(sc: &Scenario) -> P17Pilot {
+        P17Pilot {
+            values: sc.controller.p17.values(),
+            prev_vel: Vector2::zeros(),
+            tracker: VelocityTracker::new(sc.localization.stale_after_s),
         }
     }
+}
 
-    /// Whether the controller builds a map from the scan (A21's grid, M23's costmap), and so needs
-    /// [`View::static_points`].
-    pub fn maps_the_scan(&self) -> bool {
-        matches!(self, Pilot::A21 { .. } | Pilot::M23(_))
+impl Controller for P17Pilot {
+    fn step(&mut self, v: &View) -> Command {
+        fly_p17(&self.values, v, &mut self.prev_vel, &mut self.tracker)
+    }
+}
+
+/// A21 (seed 003 section III): the map from its own scans and the path planned on it.
+#[derive(Debug)]
+pub struct A21Pilot {
+    params: swarm_config::A21Params,
+    /// The map built from its own scans (seed 003 IV-C).
+    grid: Box<OccupancyGrid>,
+    /// The current path to the goal, odometry frame.
+    path: Vec<Point2<f64>>,
+    /// When it was planned [s].
+    planned_at: Option<f64>,
+}
+
+impl A21Pilot {
+    pub(super) fn new(sc: &Scenario) -> A21Pilot {
+        let a = &sc.controller.a21;
+        let grid = GridParams { resolution_m: a.grid_resolution_m, max_range_m: sc.lidar.max_range_m, ..GridParams::default() };
+        A21Pilot { params: a.clone(), grid: Box::new(OccupancyGrid::new(grid)), path: Vec::new(), planned_at: None }
+    }
+}
+
+impl Controller for A21Pilot {
+    fn step(&mut self, v: &View) -> Command {
+        fly_a21(&self.params, v, &mut self.grid, &mut self.path, &mut self.planned_at)
     }
 
-    /// One control step.
-    pub fn step(&mut self, sc: &Scenario, v: &View) -> Command {
-        match self {
-            Pilot::K21 => fly_k21(sc, v),
-            Pilot::P17 { prev_vel, tracker } => fly_p17(sc, v, prev_vel, tracker),
-            Pilot::A21 { grid, path, planned_at } => fly_a21(sc, v, grid, path, planned_at),
-            Pilot::M23(m) => m.step(sc, v),
-        }
+    fn wants_scan_points(&self) -> bool {
+        true
     }
 }
 
 /// The goal's bearing in the body frame (seed 000 eq. 4.15 minus own heading).
 fn goal_heading(odom: &Odom) -> Option<f64> {
     odom.goal.map(|g| wrap_angle((g[1] - odom.y).atan2(g[0] - odom.x) - odom.yaw))
-}
-
-fn fly_k21(sc: &Scenario, v: &View) -> Command {
-    k21_command(&sc.controller.k21, v, v.neighbours, goal_heading(v.odom), &[])
 }
 
 /// One K21 step on `neighbours`, the view's trees plus `more_obstacles` (body frame), towards
@@ -171,7 +185,7 @@ fn pose(odom: &Odom) -> (Vector2<f64>, Rotation2<f64>) {
     (Vector2::new(odom.x, odom.y), Rotation2::new(odom.yaw))
 }
 
-fn fly_p17(sc: &Scenario, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut VelocityTracker) -> Command {
+fn fly_p17(values: &swarm_config::P17Values, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut VelocityTracker) -> Command {
     let (p0, rot) = pose(v.odom);
     let to_odom = |b: Vector2<f64>| p0 + rot * b;
     tracker.forget_stale(v.t_secs);
@@ -197,9 +211,8 @@ fn fly_p17(sc: &Scenario, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut V
             None => p17::Goal::Static { pos },
         }
     });
-    let values = sc.controller.p17.values();
     let out = p17::step(
-        &values,
+        values,
         &p17::Input { pos: p0, prev_vel_mps: *prev_vel, neighbours: &neighbours, cylinders: &cylinders, walls: &walls, goal },
     );
     *prev_vel = out.velocity_mps;
@@ -223,13 +236,12 @@ fn odom_velocity(rot: Rotation2<f64>, vel: Vector2<f64>, vectors: VectorMagnitud
 }
 
 fn fly_a21(
-    sc: &Scenario,
+    a: &swarm_config::A21Params,
     v: &View,
     grid: &mut OccupancyGrid,
     path: &mut Vec<Point2<f64>>,
     planned_at: &mut Option<f64>,
 ) -> Command {
-    let a = &sc.controller.a21;
     let (p0, rot) = pose(v.odom);
     grid.update(Pose2::new(p0.x, p0.y, v.odom.yaw), v.static_points);
     let direction = v.odom.goal.and_then(|g| {
@@ -271,6 +283,7 @@ fn fly_a21(
 /// neighbour estimates, so the network's faults reach the formation too.
 #[derive(Debug)]
 pub struct M23Pilot {
+    sc: Arc<Scenario>,
     costmap: Costmap,
     wait: LeaderWait,
     tracker: VelocityTracker,
@@ -280,8 +293,9 @@ pub struct M23Pilot {
 }
 
 impl M23Pilot {
-    fn new(sc: &Scenario) -> M23Pilot {
+    pub(super) fn new(sc: &Scenario) -> M23Pilot {
         M23Pilot {
+            sc: Arc::new(sc.clone()),
             costmap: Costmap::new(&sc.controller.m23.costmap),
             wait: LeaderWait::default(),
             tracker: VelocityTracker::new(sc.localization.stale_after_s),
@@ -291,7 +305,8 @@ impl M23Pilot {
         }
     }
 
-    fn step(&mut self, sc: &Scenario, v: &View) -> Command {
+    fn fly(&mut self, v: &View) -> Command {
+        let sc = &Arc::clone(&self.sc);
         let p = &sc.controller.m23;
         let (p0, rot) = pose(v.odom);
         let me_id = v.id;
@@ -361,6 +376,16 @@ impl M23Pilot {
         // range yet) flies to its own goal rather than hovering.
         self.goal = m23::follower_goal(p.topology, &input, &self.costmap, p).or(Some(own));
         self.path = self.goal.and_then(|g| self.costmap.plan(me.position, g)).map(|path| path.points).unwrap_or_default();
+    }
+}
+
+impl Controller for M23Pilot {
+    fn step(&mut self, v: &View) -> Command {
+        self.fly(v)
+    }
+
+    fn wants_scan_points(&self) -> bool {
+        true
     }
 }
 

@@ -12,7 +12,8 @@
 //! one that fails is reported with its id and the others fly on.
 
 use super::feed::SessionShared;
-use super::node::{self, AgentExit};
+use super::node::{self, AgentExit, Flight};
+use crate::control::Controllers;
 use super::AgentError;
 use std::future::Future;
 use std::sync::Arc;
@@ -37,6 +38,8 @@ pub struct HostOptions {
     pub scenario: Option<Scenario>,
     /// See [`AgentOptions::hub_grace_s`](crate::AgentOptions::hub_grace_s).
     pub hub_grace_s: f64,
+    /// See [`AgentOptions::controllers`](crate::AgentOptions::controllers).
+    pub controllers: Controllers,
 }
 
 /// Runs the agents `opts.ids` in this process on one Zenoh session until each has ended (hub
@@ -79,7 +82,8 @@ async fn fly_all(
             let _ = stop.wait_for(|v| *v).await;
         };
         let span = info_span!("agent", uav_id = id, run = %opts.run);
-        let fly = node::fly(s.clone(), keys.clone(), shared.clone(), id, sc.clone(), opts.hub_grace_s, stopped);
+        let flight = Flight { sc: sc.clone(), hub_grace_s: opts.hub_grace_s, controllers: opts.controllers.clone() };
+        let fly = node::fly(s.clone(), keys.clone(), shared.clone(), id, flight, stopped);
         let reported = async move {
             let r = fly.await;
             if let Err(e) = &r {

@@ -7,12 +7,16 @@
 //!   point: [`run`].
 //! - `host`: many agents in one process on one shared Zenoh session, each with its own node
 //!   ([`run_host`]).
+//! - `external`: the link of an agent whose controller runs outside our processes: the tick's
+//!   view out as JSON, the command back, bounded by the tick's wait.
 //! - `feed`: what the agents of one session share: one subscription per sender any of them
 //!   listens to (the union of their radio sets), each share decoded once and posted to the
 //!   listeners' mailboxes, and the session's traffic counts.
 //!
-//! Arrows: `host` → `node`, and both → `feed`; `feed` knows neither, `node` not `host`.
+//! Arrows: `host` → `node`, and both → `feed`; `node` → `external`; `feed` and `external` know
+//! neither, `node` not `host`.
 
+mod external;
 mod feed;
 mod host;
 mod node;
@@ -41,6 +45,12 @@ pub enum AgentError {
     /// The hub's ticks went backwards: another hub run took over the keys.
     #[error("tick went back from {0} to {1}: the hub restarted; start the agent again for the new run")]
     TickWentBack(u64, u64),
+    /// The scenario names a controller this program does not know.
+    #[error(transparent)]
+    UnknownController(#[from] crate::control::UnknownController),
+    /// The UAV is flown by an external controller, which did not come.
+    #[error("UAV {0} waits for its external controller (alive/ext/{0}), which did not come within {1} s")]
+    NoExternalController(u32, u64),
     /// An agent's task of an agent host panicked.
     #[error("the agent's task panicked: {0}")]
     Panicked(String),

@@ -19,10 +19,12 @@
 //!   token, knows the agent will get tick 0) and watches `alive/hub`: when the hub goes, the agent
 //!   commands hover and exits cleanly.
 
+use super::external::ExternalLink;
 use super::feed::{Listening, Mailbox, SessionShared};
 use super::AgentError;
 use crate::admission::{Admission, Arrived};
 use crate::agent::{Agent, StepOutput};
+use crate::control::Controllers;
 use crate::sensing::FrameCollector;
 use std::collections::BTreeMap;
 use std::future::Future;
@@ -53,6 +55,8 @@ pub struct AgentOptions {
     /// How long to wait for a hub whose liveliness token went away before giving up [s]: its link
     /// may come back (Zenoh clients reconnect by themselves) or it may have stopped for good.
     pub hub_grace_s: f64,
+    /// The controllers the scenario may name (default: the built-in ones).
+    pub controllers: Controllers,
 }
 
 /// How an agent's run ended.
@@ -75,7 +79,8 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
             None => fetch_scenario(&s, &keys, &opts.run).await?,
         };
         let shared = SessionShared::open(&s, &keys, &sc, &[opts.id]).await?;
-        fly(s.clone(), keys, shared, opts.id, sc, opts.hub_grace_s, shutdown).await
+        let flight = Flight { sc, hub_grace_s: opts.hub_grace_s, controllers: opts.controllers.clone() };
+        fly(s.clone(), keys, shared, opts.id, flight, shutdown).await
     }
     .instrument(span)
     .await;
@@ -83,22 +88,34 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
     result
 }
 
-/// Flies UAV `id` of `sc` on session `s` (its own or shared with other agents of a host, with
-/// what the session's agents share) until the hub goes away or `shutdown` resolves.
+/// What every agent of a run flies with, whichever process it runs in.
+#[derive(Debug, Clone)]
+pub(crate) struct Flight {
+    /// The scenario.
+    pub sc: Scenario,
+    /// See [`AgentOptions::hub_grace_s`].
+    pub hub_grace_s: f64,
+    /// See [`AgentOptions::controllers`].
+    pub controllers: Controllers,
+}
+
+/// Flies UAV `id` of the flight's scenario on session `s` (its own or shared with other agents
+/// of a host, with what the session's agents share) until the hub goes away or `shutdown`
+/// resolves.
 pub(crate) async fn fly(
     s: zenoh::Session,
     keys: Keys,
     shared: Arc<SessionShared>,
     id: u32,
-    sc: Scenario,
-    hub_grace_s: f64,
+    flight: Flight,
     shutdown: impl Future<Output = ()>,
 ) -> Result<AgentExit, AgentError> {
-    if id == 0 || id > sc.swarm.count {
-        return Err(AgentError::BadId(id, sc.swarm.count));
+    if id == 0 || id > flight.sc.swarm.count {
+        return Err(AgentError::BadId(id, flight.sc.swarm.count));
     }
-    let mut node = Node::start(s, keys, shared, id, sc).await?;
-    node.hub_grace_s = hub_grace_s;
+    let agent = Agent::new(id, flight.sc.clone(), &flight.controllers)?;
+    let mut node = Node::start(s, keys, shared, agent, flight.sc).await?;
+    node.hub_grace_s = flight.hub_grace_s;
     node.run_loop(shutdown).await
 }
 
@@ -156,6 +173,10 @@ struct Node {
     listening: BTreeMap<u32, Listening>,
     publish: Outputs,
     _inputs: Inputs,
+    /// The link to this UAV's external controller, when it has one instead of ours.
+    external: Option<ExternalLink>,
+    /// How long to wait for the external controller before giving up.
+    startup_wait: Duration,
     _token: Option<zenoh::liveliness::LivelinessToken>,
     /// Counted among the session's agents while the node lives.
     _flying: Flying,
@@ -246,12 +267,16 @@ async fn declare_outputs(s: &zenoh::Session, keys: &Keys, shared: &SessionShared
 }
 
 impl Node {
-    async fn start(s: zenoh::Session, keys: Keys, shared: Arc<SessionShared>, id: u32, sc: Scenario) -> Result<Node, AgentError> {
+    async fn start(s: zenoh::Session, keys: Keys, shared: Arc<SessionShared>, agent: Agent, sc: Scenario) -> Result<Node, AgentError> {
+        let id = agent.id();
         let (tx, rx) = mpsc::unbounded_channel();
         let own_bytes = Arc::new(AtomicU64::new(0));
         let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx, &own_bytes).await?;
-        let agent = Agent::new(id, sc.clone());
         let publish = declare_outputs(&s, &keys, &shared, id, &sc).await?;
+        let external = match sc.controller.external.contains(&id) {
+            true => Some(ExternalLink::open(&s, &keys, id, &sc).await?),
+            false => None,
+        };
         let shares = crate::localization::share_key(sc.localization.mode, &keys, id).is_some();
         Ok(Node {
             sensors: agent.frame_collector(),
@@ -270,6 +295,8 @@ impl Node {
             listening: BTreeMap::new(),
             publish,
             _inputs: inputs,
+            external,
+            startup_wait: Duration::from_secs_f64(sc.time.startup_timeout_s.max(0.0)),
             _token: None,
             s,
             keys,
@@ -279,6 +306,9 @@ impl Node {
 
     async fn run_loop(mut self, shutdown: impl Future<Output = ()>) -> Result<AgentExit, AgentError> {
         tokio::pin!(shutdown);
+        if let Some(ext) = self.external.as_mut() {
+            ext.wait_for_controller(self.id, self.startup_wait).await?;
+        }
         // Subscriptions are in place: now tell the hub we are here.
         let token = self.s.liveliness().declare_token(self.keys.alive_uav(self.id)).await.map_err(WireError::zenoh)?;
         self._token = Some(token);
@@ -394,7 +424,14 @@ impl Node {
         for share in due {
             self.agent.on_share(&share);
         }
-        let out = self.agent.step(&frame);
+        let out = match self.external.as_mut() {
+            None => self.agent.step(&frame),
+            Some(ext) => {
+                let seen = self.agent.perceive(&frame);
+                let command = ext.ask(tick, &seen.view(self.id, &frame)).await?;
+                self.agent.finish(&frame, seen, command)
+            }
+        };
         self.publish_step(out).await?;
         trace!(tick, "stepped");
         Ok(())
