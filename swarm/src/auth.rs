@@ -14,6 +14,13 @@
 //! - `ext{id}`: UAV `id`'s external controller (README "Fly your own controller"). It may
 //!   subscribe to `uav/{id}/ext/view`, put only `uav/{id}/ext/cmd`, hold only `alive/ext/{id}`,
 //!   watch `alive/hub` (to know the run is over); nothing else of the run (not even the scenario).
+//! - `bridge`: the ROS 2 bridge (`swarm ros2`): an observer that also puts the UAVs' ROS 2
+//!   topics (`*/*/scan/**`, `*/*/odom/**`), reads `*/*/cmd_vel/**`, holds `@ros2_lv/**` tokens,
+//!   and is the external controller of every UAV (`uav/*/ext/view` in, `uav/*/ext/cmd` out,
+//!   `alive/ext/*`).
+//! - `ros` (or `ros-NAME`): a ROS 2 machine on rmw_zenoh: it may read the UAVs' `scan` and
+//!   `odom` topics, put `cmd_vel` only of the scenario's external UAVs, and hold and read the
+//!   `@ros2_lv/**` tokens of the ROS graph; nothing of the run's own keys.
 //! - `observer` (or `observer-NAME`): reads every key of the run and the routers' admin space
 //!   (`@/**`, read-only: who subscribes to what, for `swarm keys`), publishes nothing; it may hold
 //!   `alive/recorder` (the recorder is an observer).
@@ -54,6 +61,10 @@ pub enum Role {
     Agents(Vec<u32>),
     /// UAV `id`'s external controller.
     External(u32),
+    /// The ROS 2 bridge.
+    Bridge,
+    /// A ROS 2 machine.
+    Ros,
     /// Reads everything, publishes nothing.
     Observer,
     /// An observer that may also add netem timelines.
@@ -70,6 +81,12 @@ impl Role {
         if named("operator") {
             return Ok(Role::Operator);
         }
+        if name == "bridge" {
+            return Ok(Role::Bridge);
+        }
+        if named("ros") {
+            return Ok(Role::Ros);
+        }
         if let Some(spec) = name.strip_prefix("uavs") {
             return parse_ids(spec).map(|ids| Role::Agents(ids.0)).map_err(|e| anyhow::anyhow!("user {name:?}: {e}"));
         }
@@ -79,7 +96,7 @@ impl Role {
         if let Some(id) = name.strip_prefix("ext").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
             return Ok(Role::External(id));
         }
-        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, observer[-name], operator[-name]")
+        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, bridge, ros[-name], observer[-name], operator[-name]")
     }
 }
 
@@ -210,9 +227,9 @@ pub(crate) fn users_of(dictionary: &Path) -> Result<Vec<String>> {
 
 /// The hub router's `--cfg` overrides for run `run`: the dictionary, and access control with a
 /// rule set per user of it (see the module doc), default deny.
-pub fn router_cfg(run: &str, dictionary: &Path) -> Result<Vec<String>> {
+pub fn router_cfg(run: &str, dictionary: &Path, external: &[u32]) -> Result<Vec<String>> {
     let users = users_of(dictionary)?;
-    let acl = access_control(run, &users)?;
+    let acl = access_control(run, &users, external)?;
     let path = serde_json::to_string(&dictionary.to_string_lossy())?;
     Ok(vec![format!("transport/auth/usrpwd/dictionary_file:{path}"), format!("access_control:{acl}")])
 }
@@ -223,7 +240,7 @@ fn rule(id: &str, flow: &str, messages: &[&str], keys: Vec<String>) -> Value {
 }
 
 /// The `access_control` section for `users` of run `run`.
-fn access_control(run: &str, users: &[String]) -> Result<Value> {
+fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value> {
     let r = format!("swarm/{run}");
     let read = ["declare_subscriber", "query", "liveliness_query", "declare_liveliness_subscriber"];
     let mut rules = vec![
@@ -250,6 +267,7 @@ fn access_control(run: &str, users: &[String]) -> Result<Value> {
         // External controllers: their view, bounded by each one's own ingress list.
         rule("ext-view-out", "egress", &["put"], vec![format!("{r}/uav/*/ext/view")]),
     ];
+    rules.extend(ros_rules(&r, external));
     let mut subjects = Vec::new();
     let mut policies = Vec::new();
     let mut seen = BTreeMap::new();
@@ -260,6 +278,16 @@ fn access_control(run: &str, users: &[String]) -> Result<Value> {
         let subject = format!("user{n}");
         subjects.push(json!({ "id": subject, "usernames": [user] }));
         let granted: Vec<String> = match Role::of(user)? {
+            Role::Bridge => {
+                ["decl-out", "observe-in", "observe-out", "bridge-ext-in", "bridge-ros-pub", "bridge-ros-sub", "bridge-ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
+                    .map(String::from)
+                    .to_vec()
+            }
+            Role::Ros => ["ros-in", "ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
+                .into_iter()
+                .chain((!external.is_empty()).then_some("ros-cmd"))
+                .map(String::from)
+                .collect(),
             Role::Observer => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token"].map(String::from).to_vec(),
             Role::Operator => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token", "operate"].map(String::from).to_vec(),
             Role::External(id) => {
@@ -279,6 +307,30 @@ fn access_control(run: &str, users: &[String]) -> Result<Value> {
         policies.push(json!({ "id": format!("{subject}-policy"), "rules": granted, "subjects": [subject] }));
     }
     Ok(json!({ "enabled": true, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies }))
+}
+
+/// The ROS 2 side: the bridge (`swarm ros2`) and ROS machines. A ROS key starts with its
+/// domain, so the rules hold for any domain (`*`); cmd_vel only for the `external` UAVs.
+fn ros_rules(r: &str, external: &[u32]) -> Vec<Value> {
+    let topics = vec!["*/*/scan/**".to_string(), "*/*/odom/**".to_string()];
+    let cmd_vel: Vec<String> = external.iter().map(|id| format!("*/uav{id}/cmd_vel/**")).collect();
+    let graph = vec!["@ros2_lv/**".to_string()];
+    let token_read = ["declare_liveliness_subscriber", "liveliness_query", "liveliness_token"];
+    let mut rules = vec![
+        rule("bridge-ext-in", "ingress", &["declare_subscriber", "put", "liveliness_token"], vec![format!("{r}/uav/*/ext/**"), format!("{r}/alive/ext/*")]),
+        rule("bridge-ros-pub", "ingress", &["put"], topics.clone()),
+        rule("bridge-ros-sub", "ingress", &["declare_subscriber"], vec!["*/*/cmd_vel/**".into()]),
+        rule("bridge-ros-out", "egress", &["put"], vec!["*/*/cmd_vel/**".into()]),
+        rule("ros-in", "ingress", &["declare_subscriber"], topics.clone()),
+        rule("ros-out", "egress", &["put"], topics.clone()),
+        rule("ros-graph-in", "ingress", &token_read, graph.clone()),
+        rule("ros-graph-out", "egress", &["liveliness_token", "reply"], graph),
+        rule("ros-decl-out", "egress", &["declare_subscriber"], topics.into_iter().chain(["*/*/cmd_vel/**".to_string()]).collect()),
+    ];
+    if !cmd_vel.is_empty() {
+        rules.push(rule("ros-cmd", "ingress", &["put"], cmd_vel));
+    }
+    rules
 }
 
 /// Keys every agent may read: `clock`, `netem/rules`, and every UAV's shares.
@@ -377,7 +429,7 @@ mod tests {
         let mode = std::fs::metadata(c.dictionary()).expect("dict").permissions().mode() & 0o777;
         assert_eq!(mode, 0o600);
         assert_eq!(users_of(&c.dictionary()).expect("read"), users);
-        let acl = access_control("r", &users).expect("acl");
+        let acl = access_control("r", &users, &[]).expect("acl");
         assert_eq!(acl["default_permission"], "deny");
         assert_eq!(acl["policies"].as_array().expect("p").len(), 4);
         let text = acl.to_string();

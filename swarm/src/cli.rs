@@ -43,6 +43,9 @@ pub enum Cmd {
     Keys(crate::keyspace::KeysArgs),
     /// Change the network faults of a running swarm (loss, delay, partition, isolate, heal).
     Netem(crate::netem_cli::NetemArgs),
+    /// Show a running swarm's UAVs to ROS 2 (rmw_zenoh): /uav{id}/scan, /uav{id}/odom, and
+    /// /uav{id}/cmd_vel for external UAVs.
+    Ros2(crate::ros2::Ros2Args),
     /// Fly one scenario with each controller and print the comparison (seed 000 section 6.5).
     Compare(crate::study::CompareArgs),
     /// Fly seed 004's formation topologies and print its Table 8 beside ours.
@@ -132,6 +135,7 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Put(a) => crate::tap::put(a).await,
         Cmd::Keys(a) => crate::keyspace::keys(a).await,
         Cmd::Netem(a) => crate::netem_cli::netem(a).await,
+        Cmd::Ros2(a) => crate::ros2::ros2(a).await,
         Cmd::Compare(a) => crate::study::compare(a).await,
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
         Cmd::SweepSeeds(a) => crate::sweep_seeds::sweep_seeds(a).await,

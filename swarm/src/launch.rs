@@ -86,6 +86,11 @@ pub struct RunArgs {
     /// summary), after a run that otherwise ended well.
     #[arg(long)]
     pub check: bool,
+    /// Also show the UAVs to ROS 2 (`swarm ros2` in the run: /uav{id}/scan, /uav{id}/odom,
+    /// /uav{id}/cmd_vel of external UAVs), in this ROS domain (0 when given without a value);
+    /// a ROS machine logs in as `ros` (README "ROS 2").
+    #[arg(long, num_args = 0..=1, default_missing_value = "0", value_name = "DOMAIN")]
+    pub ros2: Option<u32>,
 }
 
 /// Up to this many UAVs, `swarm run` starts one process per UAV by default.
@@ -115,7 +120,7 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     let per_process = agents_per_process(sc.count(), a.agents_per_process);
-    let show = Show { quiet: a.quiet, mcap: !a.no_mcap, view: a.view };
+    let show = Show { quiet: a.quiet, mcap: !a.no_mcap, view: a.view, ros2: a.ros2 };
     let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
     println!("{}", summary.human());
@@ -188,6 +193,8 @@ pub struct Show {
     pub mcap: bool,
     /// Serve the live view on this page port (see `RunArgs::view`).
     pub view: Option<u16>,
+    /// Bridge the UAVs to ROS 2 in this domain (see `RunArgs::ros2`).
+    pub ros2: Option<u32>,
 }
 
 /// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
@@ -204,7 +211,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     eprintln!("run {run_id}: scenario {} ({} UAVs), folder {}", sc.name, sc.count(), out.display());
 
     let groups = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id));
-    let creds = if insecure { None } else { Some(run_credentials(sc, out, &groups.hosts)?) };
+    let creds = if insecure { None } else { Some(run_credentials(sc, out, &groups.hosts, show.ros2.is_some())?) };
     let launcher = Launcher {
         exe: std::env::current_exe().context("cannot find my own executable")?,
         logs,
@@ -234,6 +241,9 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         let _ = std::io::stdout().flush();
         tokio::spawn(live.run());
     }
+    if let Some(domain) = show.ros2 {
+        start_bridge(&launcher, run_id, &locators, zenoh_cfg, domain).await?;
+    }
     let mut agents = Agents::start(&launcher, sc, locators, proxies, groups)?;
     let progress = progress_bar(sc, show.quiet);
     let summary = rec.record(out, sc, &progress, Some(&mut hub.child), &mut |t| agents.on_tick(t)).await?;
@@ -245,17 +255,36 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
 /// The file of the run folder that holds the hub's locators while the run flies.
 pub const HUB_FILE: &str = "hub.txt";
 
+/// Starts the ROS 2 bridge of the run in this process, logged in as `bridge`.
+async fn start_bridge(launcher: &Launcher, run_id: &str, locators: &[String], zenoh_cfg: &[String], domain: u32) -> Result<()> {
+    let mut cfg = match &launcher.creds {
+        Some(c) => c.client_cfg("bridge")?,
+        None => Vec::new(),
+    };
+    cfg.extend(zenoh_cfg.iter().cloned());
+    let bridge = crate::ros2::Bridge::start(run_id, locators, &cfg, domain).await?;
+    tokio::spawn(async move {
+        if let Err(e) = bridge.run().await {
+            warn!("the ROS 2 bridge failed: {e:#}");
+        }
+    });
+    Ok(())
+}
+
 /// The user the launcher's own recording logs in as.
 const OBSERVER: &str = "observer";
 
 /// Fresh credentials for one run in `<out>/credentials/`: a user per UAV (restarts reuse it),
 /// one per agent host of `hosts` (as [`spread`] grouped them), one per external controller
-/// (`ext{id}`), the recorder's `observer`, and an `operator` for `swarm netem` on the running
-/// swarm.
-fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>]) -> Result<Credentials> {
+/// (`ext{id}`), with `--ros2` the bridge's `bridge` and a `ros` for ROS machines, the recorder's
+/// `observer`, and an `operator` for `swarm netem` on the running swarm.
+fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>], ros2: bool) -> Result<Credentials> {
     let mut users: Vec<String> = sc.agent_ids().map(uav_user).collect();
     users.extend(hosts.iter().map(|g| host_user(g)));
     users.extend(sc.controller.external.iter().map(|&id| ext_user(id)));
+    if ros2 {
+        users.extend(["bridge".to_string(), "ros".to_string()]);
+    }
     users.extend([OBSERVER.to_string(), "operator".to_string()]);
     Credentials::create(&out.join("credentials"), &users)
 }

@@ -1,7 +1,7 @@
 //! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
-//!   router | view | replay | tap | put | keys | netem | compare | formations | sweep-error |
+//!   router | view | replay | tap | put | keys | netem | ros2 | compare | formations | sweep-error |
 //!   sweep-seeds | icp-eval | scale | mesh | plot | credentials | fuzz | scenarios | check`).
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
@@ -24,6 +24,8 @@
 //! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
 //!   `swarm put` publishes one.
+//! - [`ros2`]: `swarm ros2` (and `swarm run --ros2`): the UAVs as ROS 2 nodes on rmw_zenoh's
+//!   wire, scan and odometry out, cmd_vel in for external UAVs.
 //! - [`keyspace`]: `swarm keys`: the live key space of a run from the routers' admin space (who
 //!   publishes and subscribes to each key family, per session) with rates and bandwidth.
 //! - [`study`]: `swarm compare` (one scenario, each controller), `swarm formations` (seed 004's
@@ -78,6 +80,7 @@ mod pieces;
 mod plot;
 mod proxy;
 mod recorder;
+mod ros2;
 mod router;
 mod scale;
 mod scene;

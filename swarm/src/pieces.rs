@@ -103,7 +103,7 @@ pub async fn hub(a: HubArgs) -> Result<ExitCode> {
     let (sc, text) = Scenario::from_arg(name)?;
     let listen = if a.zenoh.listen.is_empty() { vec!["tcp/127.0.0.1:7447".to_string()] } else { a.zenoh.listen.clone() };
     let mut zenoh_cfg = match &a.users {
-        Some(dictionary) => crate::auth::router_cfg(&a.run, dictionary)?,
+        Some(dictionary) => crate::auth::router_cfg(&a.run, dictionary, &sc.controller.external)?,
         None => {
             warn_insecure();
             Vec::new()

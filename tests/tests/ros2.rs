@@ -59,3 +59,62 @@ fn rosbags_reads_our_scan_odometry_and_twist_and_we_read_its_twist() {
     let theirs = std::fs::read(dir.path().join("twist_from_rosbags.cdr")).expect("rosbags' twist");
     assert_eq!(Twist::decode(&theirs), Ok(twist));
 }
+
+const ROS_CLIENT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/ros2/ros_client.py");
+
+/// A run with `--ros2` and UAV 3 external, in realtime so a person's pace is the run's: a
+/// client that follows rmw_zenoh's documented key, attachment and token formats, logged in as
+/// `ros`, finds UAV 3's node, reads its scan and odometry by ROS names and drives it through
+/// cmd_vel; it cannot read the run's own keys.
+#[test]
+fn a_ros_client_sees_uav_3_and_drives_it_through_cmd_vel() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scenario = common::forest5_cut(dir.path(), 15.0);
+    let out = dir.path().join("run");
+    let run = common::run_id("ros2");
+    let args = ["run", &scenario, "--external", "3", "--ros2", "--time-mode", "realtime", "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet"];
+    let swarm = Command::new(common::SWARM).args(args).stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().expect("swarm run");
+    let start = std::time::Instant::now();
+    let loc = loop {
+        if let Some(l) = std::fs::read_to_string(out.join("hub.txt")).ok().and_then(|t| t.lines().next().map(String::from)) {
+            break l;
+        }
+        assert!(start.elapsed() < std::time::Duration::from_secs(60), "no hub.txt");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    let password = out.join("credentials/ros.password");
+    let client = Command::new(python())
+        .args([ROS_CLIENT, &loc, &run, password.to_str().expect("utf8")])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("python");
+    let o = common::wait_output(swarm, common::RUN_LIMIT, "swarm run --ros2");
+    let c = common::wait_output(client, std::time::Duration::from_secs(150), "ros_client.py");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+    let seen: serde_json::Value = serde_json::from_slice(&c.stdout).expect("json");
+    let graph: Vec<&str> = seen["graph"].as_array().expect("graph").iter().filter_map(|k| k.as_str()).collect();
+    let has = |kind: &str, tail: &str| graph.iter().any(|k| k.contains(&format!("/{kind}/%/%uav3/swarm")) && k.ends_with(tail));
+    assert!(has("NN", "/NN/%/%uav3/swarm"), "{graph:?}");
+    assert!(has("MP", &format!("/%uav3%scan/{}/{}/2::,5:,:,:,,", LASER_SCAN.dds, LASER_SCAN.hash)), "{graph:?}");
+    assert!(has("MP", &format!("/%uav3%odom/{}/{}/2::,5:,:,:,,", ODOMETRY.dds, ODOMETRY.hash)), "{graph:?}");
+    assert!(has("MS", &format!("/%uav3%cmd_vel/{}/{}/::,10:,:,:,,", TWIST.dds, TWIST.hash)), "{graph:?}");
+    assert!(!graph.iter().any(|k| k.contains("%uav2%cmd_vel")), "UAV 2 is not external: {graph:?}");
+    assert!(seen["scans"].as_u64().expect("scans") >= 50, "{seen}");
+    assert_eq!(seen["bad_attachments"], 0, "{seen}");
+    assert_eq!(seen["scan_seq_increasing"], true, "{seen}");
+    assert_eq!(seen["scan_frame"], "uav3/base_link");
+    assert!(seen["ranges"].as_u64().expect("ranges") > 100, "{seen}");
+    assert_eq!(seen["run_keys"], 0, "the ros user read the run's own keys: {seen}");
+    let xs: Vec<f64> = seen["odom_x"].as_array().expect("odom").iter().filter_map(|x| x.as_f64()).collect();
+    let moved = xs.last().expect("odometry") - xs.first().expect("odometry");
+    assert!(moved > 3.0, "UAV 3 moved {moved:.2} m ahead on cmd_vel 0.8 m/s: {seen}");
+    let s = common::summary(&out);
+    assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
+    let three = s["agents"].as_array().expect("agents").iter().find(|a| a["id"] == 3).expect("UAV 3");
+    eprintln!(
+        "ROS client: {} scans, first seq {}, {} cmd_vel sent; UAV 3 moved {moved:.2} m on odometry, late ticks {}, mean step {:.3} ms",
+        seen["scans"], seen["scan_seq_first"], seen["cmd_vel_sent"], three["late_ticks"], three["mean_step_time_ms"].as_f64().unwrap_or(f64::NAN)
+    );
+}
