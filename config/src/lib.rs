@@ -119,8 +119,44 @@ fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, source_name: &str) -> 
             "" => inner.to_string().trim().to_string(),
             m => m.to_string(),
         };
+        let message = match inner.span() {
+            Some(span) => {
+                let (line, column) = line_column(text, span.start);
+                format!("{message} (line {line}, column {column})")
+            }
+            None => message,
+        };
         ScenarioError::new(source_name, field, message)
     })
+}
+
+/// Listed start positions closer than `min_m` put two bodies into one another: refused, naming
+/// the UAVs (ids are 1-based, in list order).
+fn apart(field: &str, p: &[[f64; 2]], min_m: f64) -> Check {
+    for (i, a) in p.iter().enumerate() {
+        for (j, b) in p.iter().enumerate().skip(i + 1) {
+            let d = (a[0] - b[0]).hypot(a[1] - b[1]);
+            if d < min_m {
+                return Err((
+                    field.into(),
+                    format!("UAVs {} and {} start {d:.2} m apart, closer than two body radii ({min_m:.2} m)", i + 1, j + 1),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The 1-based line and column (in characters) of byte `at` of `text`.
+fn line_column(text: &str, at: usize) -> (usize, usize) {
+    let mut end = at.min(text.len());
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    let before = &text[..end];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
 }
 
 impl Timeline {
@@ -490,6 +526,7 @@ impl Scenario {
                 for (i, xy) in p.iter().enumerate() {
                     finite(&format!("swarm.start_positions[{i}]"), xy)?;
                 }
+                apart("swarm.start_positions", p, 2.0 * self.body.radius_m)?;
             }
             (None, Some(a)) => {
                 finite("swarm.start_area.center", &a.center)?;

@@ -92,6 +92,22 @@ fn a_controller_name_no_program_could_register_names_field() {
 }
 
 #[test]
+fn a_syntax_error_says_where() {
+    let e = err("name = \"x\"\n[swarm\ncount = 2\n");
+    assert!(e.message.contains("(line 2, column"), "{e}");
+    let e = err(&format!("{MINIMAL}\n[lidar]\nbeams = \"many\"\n"));
+    let line = MINIMAL.lines().count() + 3;
+    assert!(e.message.contains(&format!("(line {line}, column 9)")), "{e}");
+}
+
+#[test]
+fn listed_starts_closer_than_two_body_radii_are_refused_naming_the_uavs() {
+    let e = err(&MINIMAL.replace("[[0.0, 0.0], [1.0, 0.0]]", "[[0.0, 0.0], [0.1, 0.0]]"));
+    assert_eq!(e.field, "swarm.start_positions", "{e}");
+    assert!(e.message.starts_with("UAVs 1 and 2 start 0.10 m apart, closer than two body radii"), "{e}");
+}
+
+#[test]
 fn bad_enum_value_names_field() {
     let e = err(&format!("{MINIMAL}\n[time]\nmode = \"fast\"\n"));
     assert_eq!(e.field, "time.mode", "{e}");
