@@ -38,6 +38,21 @@ impl ZenohArgs {
         cfg.extend(self.cfg.iter().cloned());
         Ok(cfg)
     }
+
+    /// A tool's client session (`tap`, `put`, `keys`, `netem`). When it cannot connect, the error
+    /// says so in our words, and without `--user` that the hub may want a login: a `swarm run`
+    /// hub refuses anyone without one, which Zenoh reports only as refused handshakes.
+    pub async fn open_tool_session(&self) -> Result<zenoh::Session> {
+        anyhow::ensure!(!self.connect.is_empty(), "give --connect <hub endpoint>");
+        let opened = swarm_wire::session::open(swarm_wire::session::Role::Client, &[], &self.connect, &self.session_cfg()?).await;
+        opened.map_err(|e| {
+            let hint = match &self.user {
+                None => "; a hub started by `swarm run` wants a login: --user observer --password-file <run folder>/credentials/observer.password",
+                Some(_) => "; check that the hub is up and that the user and password are this run's",
+            };
+            anyhow::anyhow!("cannot connect to {} ({e}){hint}", self.connect.join(", "))
+        })
+    }
 }
 
 /// The first line of a password file, trimmed; an empty one is an error.

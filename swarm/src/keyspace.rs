@@ -23,7 +23,6 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::process::ExitCode;
 use std::time::Duration;
-use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, WireError};
 use zenoh::key_expr::KeyExpr;
 
@@ -253,7 +252,7 @@ pub async fn keys(a: KeysArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "keys needs --connect <hub endpoint>");
     anyhow::ensure!((0.0..=3600.0).contains(&a.window), "--window {}: seconds from 0 (no rates) to 3600", a.window);
     let keys = Keys::new(&a.run)?;
-    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
+    let s = a.zenoh.open_tool_session().await?;
     let gathered = gather(&s, &keys, a.window).await;
     let _ = s.close().await;
     let space = gathered?;

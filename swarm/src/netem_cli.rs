@@ -11,7 +11,6 @@ use clap::{Args, Subcommand};
 use std::process::ExitCode;
 use swarm_config::{Failure, FailureKind, NetemRule, Timeline, UavSet};
 use swarm_wire::plumbing;
-use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, Msg};
 use netem::impair::{Impairment, JitterDistribution, LossModel, Partition};
 
@@ -203,7 +202,7 @@ pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
     let keys = Keys::new(&a.run)?;
     let timeline = timeline_of(&a.op)?;
     let json = serde_json::to_string(&timeline)?;
-    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
+    let s = a.zenoh.open_tool_session().await?;
     plumbing::put_once(&s, &keys.netem_add(), Msg::NetemRules(json.clone()).encode()?, zenoh::qos::CongestionControl::Block).await?;
     let _ = s.close().await;
     println!("{json}");

@@ -13,7 +13,6 @@ use serde_json::{json, Value};
 use std::process::ExitCode;
 use std::time::Duration;
 use swarm_wire::plumbing;
-use swarm_wire::session::{self, Role};
 use swarm_wire::{Msg, WireError};
 use zenoh::qos::CongestionControl;
 
@@ -81,7 +80,7 @@ pub async fn put(a: PutArgs) -> Result<ExitCode> {
         (None, Some(h)) => parse_hex(h)?,
         (None, None) => anyhow::bail!("give --json or --hex"),
     };
-    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
+    let s = a.zenoh.open_tool_session().await?;
     if a.repeat == 1 {
         // Zenoh's default for a put: dropped rather than blocking under congestion.
         plumbing::put_once(&s, &a.key, bytes, CongestionControl::Drop).await?;
@@ -123,7 +122,7 @@ pub fn describe(key: &str, encoding: &str, bytes: &[u8]) -> Value {
 /// Runs `swarm tap`.
 pub async fn tap(a: TapArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "tap needs --connect <hub endpoint>");
-    let s = session::open(Role::Client, &[], &a.zenoh.connect, &a.zenoh.session_cfg()?).await?;
+    let s = a.zenoh.open_tool_session().await?;
     let limit = a.count.unwrap_or(u64::MAX);
     let mut printed = 0u64;
     // Stop quietly when the reader goes away (`swarm tap ... | head`): no panic on a broken pipe.

@@ -102,6 +102,11 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     let key = format!("swarm/{}/clock", f.run);
     let anonymous = f.as_user(None, "tap", &[&[key.as_str()], &quick[..]].concat());
     assert!(!anonymous.status.success(), "a session without credentials is refused: {}", String::from_utf8_lossy(&anonymous.stdout));
+    let said = String::from_utf8_lossy(&anonymous.stderr);
+    assert!(
+        said.contains(&format!("error: cannot connect to {}", f.loc)) && said.contains("--user observer --password-file <run folder>/credentials/observer.password"),
+        "a refused tool says what to do: {said}"
+    );
     let wrong = output_within(
         Command::new(SWARM)
             .args(["tap", &key, "--connect", &f.loc, "--user", "uav3", "--password-file"])
@@ -110,6 +115,8 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
         TOOL_LIMIT,
     );
     assert!(!wrong.status.success(), "UAV 3 with UAV 2's password is refused");
+    let said = String::from_utf8_lossy(&wrong.stderr);
+    assert!(said.contains("check that the hub is up and that the user and password are this run's"), "{said}");
 
     // Agent: its own sensors, never truth, nor another UAV's sensors. A subscription broader
     // than its keys (`swarm/{run}/**`) is refused whole by the router: it receives nothing.
