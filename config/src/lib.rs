@@ -316,6 +316,10 @@ impl Scenario {
         if let Some(bad) = self.controller.external.iter().find(|&&i| i == 0 || i > self.swarm.count) {
             return Err(("controller.external".into(), format!("UAV id {bad} is not in 1..={}", self.swarm.count)));
         }
+        let ext = &self.controller.external;
+        if let Some(twice) = ext.iter().enumerate().find(|(i, id)| ext[..*i].contains(id)).map(|(_, id)| id) {
+            return Err(("controller.external".into(), format!("UAV {twice} is listed twice")));
+        }
         self.controller.k21.validate("controller.k21")?;
         self.controller.p17.validate("controller.p17")?;
         self.controller.a21.validate("controller.a21")?;

@@ -92,6 +92,13 @@ fn a_controller_name_no_program_could_register_names_field() {
 }
 
 #[test]
+fn an_external_uav_listed_twice_is_refused() {
+    let e = err(&format!("{MINIMAL}\n[controller]\nexternal = [2, 2]\n"));
+    assert_eq!(e.field, "controller.external", "{e}");
+    assert_eq!(e.message, "UAV 2 is listed twice");
+}
+
+#[test]
 fn a_syntax_error_says_where() {
     let e = err("name = \"x\"\n[swarm\ncount = 2\n");
     assert!(e.message.contains("(line 2, column"), "{e}");

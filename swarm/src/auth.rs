@@ -279,7 +279,7 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
         subjects.push(json!({ "id": subject, "usernames": [user] }));
         let granted: Vec<String> = match Role::of(user)? {
             Role::Bridge => {
-                ["decl-out", "observe-in", "observe-out", "bridge-ext-in", "bridge-ros-pub", "bridge-ros-sub", "bridge-ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
+                ["decl-out", "observe-in", "observe-out", "bridge-ext-in", "bridge-ext-token", "bridge-ros-pub", "bridge-ros-sub", "bridge-ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
                     .map(String::from)
                     .to_vec()
             }
@@ -317,7 +317,8 @@ fn ros_rules(r: &str, external: &[u32]) -> Vec<Value> {
     let graph = vec!["@ros2_lv/**".to_string()];
     let token_read = ["declare_liveliness_subscriber", "liveliness_query", "liveliness_token"];
     let mut rules = vec![
-        rule("bridge-ext-in", "ingress", &["declare_subscriber", "put", "liveliness_token"], vec![format!("{r}/uav/*/ext/**"), format!("{r}/alive/ext/*")]),
+        rule("bridge-ext-in", "ingress", &["put"], vec![format!("{r}/uav/*/ext/cmd")]),
+        rule("bridge-ext-token", "ingress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
         rule("bridge-ros-pub", "ingress", &["put"], topics.clone()),
         rule("bridge-ros-sub", "ingress", &["declare_subscriber"], vec!["*/*/cmd_vel/**".into()]),
         rule("bridge-ros-out", "egress", &["put"], vec!["*/*/cmd_vel/**".into()]),

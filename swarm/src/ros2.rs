@@ -7,7 +7,8 @@
 //! key family per concern) and ROS's cost is paid only when someone asks for it; the bridge is
 //! one more client of the router, logged in as `bridge`. For each external UAV it is the external
 //! controller (README "Fly your own controller"): it answers every view with the newest Twist
-//! from ROS (linear x, y in the body frame, angular z as the yaw rate), zero before the first.
+//! from ROS (linear x, y in the body frame, angular z as the yaw rate), zero before the first
+//! and once the newest is older than half a second.
 //! Formats: `swarm_wire::ros2`.
 
 use crate::args::ZenohArgs;
@@ -15,9 +16,9 @@ use anyhow::{Context, Result};
 use clap::Args;
 use std::collections::BTreeMap;
 use std::process::ExitCode;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use swarm_config::Scenario;
-use swarm_wire::external::{ExtCmd, ExtCmdKind, ExtView};
+use swarm_wire::external::{ExtCmd, ExtCmdKind};
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::ros2::msgs::{laser_scan, odometry, Twist};
 use swarm_wire::ros2::{attachment, data_key, Entity, Kind, RosType, LASER_SCAN, ODOMETRY, QOS_DEFAULT, QOS_SENSOR, TWIST};
@@ -76,8 +77,8 @@ pub struct Bridge {
     _tokens: Vec<LivelinessToken>,
     /// Last sequence number per (UAV, topic).
     seq: BTreeMap<(u32, &'static str), i64>,
-    /// The newest Twist of each external UAV.
-    twists: BTreeMap<u32, Twist>,
+    /// The newest Twist of each external UAV, and when it came.
+    twists: BTreeMap<u32, (Twist, Instant)>,
     /// Payloads on a cmd_vel or view key that were not a Twist or view.
     malformed: u64,
 }
@@ -114,19 +115,20 @@ impl Bridge {
 
     /// Bridges until the hub's token goes away (after it was seen).
     pub async fn run(mut self) -> Result<()> {
-        let mut seen = *self.hub_alive.borrow();
         loop {
             tokio::select! {
                 ev = self.rx.recv() => match ev {
-                    Some(ev) => self.on_event(ev).await?,
+                    // One failed put must not take every external UAV's controller with it.
+                    Some(ev) => if let Err(e) = self.on_event(ev).await {
+                        warn!("ROS 2 bridge: {e:#}");
+                    },
                     None => break,
                 },
+                // The token only ever goes down after it was up: a change to down is the end.
                 changed = self.hub_alive.changed() => {
-                    let up = changed.is_ok() && *self.hub_alive.borrow();
-                    if !up && (seen || changed.is_err()) {
+                    if changed.is_err() || !*self.hub_alive.borrow() {
                         break;
                     }
-                    seen |= up;
                 }
             }
         }
@@ -146,13 +148,13 @@ impl Bridge {
             Event::CmdVel(id, bytes) => {
                 match Twist::decode(&bytes) {
                     Ok(t) if t.linear.iter().chain(&t.angular).all(|v| v.is_finite()) => {
-                        self.twists.insert(id, t);
+                        self.twists.insert(id, (t, Instant::now()));
                     }
                     _ => self.dropped(id, "cmd_vel"),
                 }
                 Ok(())
             }
-            Event::View(id, bytes) => match serde_json::from_slice::<ExtView>(&bytes) {
+            Event::View(id, bytes) => match serde_json::from_slice::<ViewTick>(&bytes) {
                 Ok(v) => self.answer(id, v.tick).await,
                 Err(_) => {
                     self.dropped(id, "ext/view");
@@ -178,13 +180,25 @@ impl Bridge {
         put.await.map_err(|e| anyhow::anyhow!("{e}"))
     }
 
-    /// Answers the view of `tick` of external UAV `id` with its newest Twist.
+    /// Answers the view of `tick` of external UAV `id` with its newest Twist, or zero when none
+    /// came in the last [`CMD_VEL_TIMEOUT`] (a ROS driver's usual guard: a teleop that stops or
+    /// dies must not leave the UAV flying).
     async fn answer(&self, id: u32, tick: u64) -> Result<()> {
-        let t = self.twists.get(&id).copied().unwrap_or_default();
+        let fresh = self.twists.get(&id).filter(|(_, at)| at.elapsed() <= CMD_VEL_TIMEOUT);
+        let t = fresh.map(|(t, _)| *t).unwrap_or_default();
         let cmd = ExtCmd { tick, kind: ExtCmdKind::Velocity, x: t.linear[0], y: t.linear[1], yaw_rate: t.angular[2] };
         let json = serde_json::to_vec(&cmd)?;
         self.session.put(self.keys.ext_cmd(id), json).await.map_err(|e| anyhow::anyhow!("{e}"))
     }
+}
+
+/// How long a cmd_vel Twist holds (wall clock).
+const CMD_VEL_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// The one field of a view the bridge needs.
+#[derive(serde::Deserialize)]
+struct ViewTick {
+    tick: u64,
 }
 
 /// A UAV's sensor message from its key; scans and odometry only.

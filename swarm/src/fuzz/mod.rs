@@ -127,6 +127,9 @@ fn space(a: &FuzzArgs) -> Result<Space> {
         .map(|n| crate::args::scenario_value("--nemesis", n))
         .collect::<Result<_>>()?;
     anyhow::ensure!(!controllers.is_empty(), "--controllers: none given");
+    if let Some(own) = controllers.iter().find(|k| matches!(k, ControllerKind::Own(_))) {
+        anyhow::bail!("--controllers: `{}` is not one of k21, p17, a21, m23 (the fuzzer flies the built-in controllers)", own.name());
+    }
     Ok(Space { controllers, max_uavs: a.max_uavs, nemesis, max_faults: a.max_faults, weaken: a.weaken })
 }
 

@@ -3,9 +3,11 @@
 //! the view as JSON on `uav/{id}/ext/view`, and waits for the controller's command for that tick
 //! on `uav/{id}/ext/cmd` (encoding in `swarm_wire::external`).
 //!
-//! The wait is bounded by what the hub would wait: the tick timeout in lockstep, one tick
-//! period in realtime. A command that does not come in time is counted, and the UAV hovers for
-//! that tick (a hover command, so its state and share still go out). Before the agent says it
+//! The wait is bounded to answer before the hub gives up: 80 % of the tick timeout in lockstep
+//! (the hub's clock started when it sent the sensors), one tick period in realtime. A command
+//! that does not come in time is counted, and the UAV hovers (a hover command, which the hub
+//! takes even late, so its state and share still go out). A controller whose token went away
+//! is not waited for at all: its UAV hovers at once, tick after tick. Before the agent says it
 //! is up (its liveliness token, which the hub waits for), it waits for the controller's own
 //! token `alive/ext/{id}`, so a lockstep run does not start without it.
 
@@ -18,8 +20,12 @@ use swarm_wire::external::{ExtCmd, ExtCmdKind, ExtNeighbour, ExtOdom, ExtTree, E
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::{CmdKind, Keys, VectorMagnitudes, WireError};
 use tokio::sync::{mpsc, watch};
-use tracing::{debug, info};
+use tracing::{debug, info, warn};
 use zenoh::bytes::Encoding;
+
+/// The share of the hub's tick timeout an agent waits for its external controller in lockstep,
+/// so that its hover reaches the hub before the hub's own deadline.
+const LOCKSTEP_SHARE: f64 = 0.8;
 
 /// The link of one agent to its external controller.
 pub(super) struct ExternalLink {
@@ -45,7 +51,7 @@ impl ExternalLink {
         let (controller_alive, alive_sub) = plumbing::watch_token(s, keys.alive_ext(id)).await?;
         let view_key = s.declare_keyexpr(keys.ext_view(id)).await.map_err(WireError::zenoh)?;
         let wait = match sc.time.mode {
-            TimeMode::Lockstep => Duration::from_millis(sc.time.tick_timeout_ms),
+            TimeMode::Lockstep => Duration::from_millis(sc.time.tick_timeout_ms).mul_f64(LOCKSTEP_SHARE),
             TimeMode::Realtime => Duration::from_secs_f64(sc.dt_secs() / sc.time.realtime_factor.max(1e-9)),
         };
         Ok(ExternalLink { session: s.clone(), view_key, cmds, _cmd_sub: cmd_sub, controller_alive, _alive_sub: alive_sub, wait, missed: 0, malformed: 0 })
@@ -62,6 +68,14 @@ impl ExternalLink {
 
     /// Publishes the view of `tick` and waits for its command; a hover if none comes in time.
     pub(super) async fn ask(&mut self, tick: u64, view: &View<'_>) -> Result<Command, AgentError> {
+        if !*self.controller_alive.borrow() {
+            self.missed += 1;
+            if self.missed == 1 || self.missed.is_power_of_two() {
+                warn!(tick, missed = self.missed, "the external controller is gone: hovering");
+            }
+            return Ok(hover());
+        }
+        // serde_json writes a non-finite number as null; a view has none (see `finite`).
         let text = serde_json::to_vec(&ext_view(tick, view)).expect("a view serializes");
         self.session.put(self.view_key.clone(), text).encoding(Encoding::APPLICATION_JSON).await.map_err(WireError::zenoh)?;
         let deadline = tokio::time::Instant::now() + self.wait;
@@ -85,17 +99,17 @@ fn ext_view(tick: u64, v: &View) -> ExtView {
     let o = v.odom;
     ExtView {
         tick,
-        t_s: v.t_secs,
+        t_s: finite(v.t_secs),
         id: v.id,
-        odom: ExtOdom { x: o.x, y: o.y, yaw: o.yaw, vx: o.vx, vy: o.vy },
-        goal: o.goal,
+        odom: ExtOdom { x: finite(o.x), y: finite(o.y), yaw: finite(o.yaw), vx: finite(o.vx), vy: finite(o.vy) },
+        goal: o.goal.map(|[x, y]| [finite(x), finite(y)]),
         neighbours: v
             .neighbours
             .iter()
-            .map(|e| ExtNeighbour { id: e.id, x: e.pos_in_body.x, y: e.pos_in_body.y, heading: e.heading, age_s: e.age_secs })
+            .map(|e| ExtNeighbour { id: e.id, x: finite(e.pos_in_body.x), y: finite(e.pos_in_body.y), heading: finite(e.heading), age_s: finite(e.age_secs) })
             .collect(),
-        trees: v.trees.iter().map(|c| ExtTree { x: c.center.x, y: c.center.y, r: c.radius }).collect(),
-        walls: v.walls.iter().map(|w| ExtWall { ax: w.a.x, ay: w.a.y, bx: w.b.x, by: w.b.y }).collect(),
+        trees: v.trees.iter().map(|c| ExtTree { x: finite(c.center.x), y: finite(c.center.y), r: finite(c.radius) }).collect(),
+        walls: v.walls.iter().map(|w| ExtWall { ax: finite(w.a.x), ay: finite(w.a.y), bx: finite(w.b.x), by: finite(w.b.y) }).collect(),
     }
 }
 
@@ -104,11 +118,30 @@ fn command_of(c: &ExtCmd) -> Command {
         ExtCmdKind::Velocity => CmdKind::Velocity,
         ExtCmdKind::Acceleration => CmdKind::Acceleration,
     };
-    let xy = Vector2::new(c.x, c.y);
-    Command { kind, xy, yaw_rate: c.yaw_rate, vectors: VectorMagnitudes { output: xy.norm() as f32, ..VectorMagnitudes::default() } }
+    // Beyond f32 the wire's command would be infinite; nothing flies that fast anyway.
+    let clamp = |v: f64| v.clamp(-1e6, 1e6);
+    let xy = Vector2::new(clamp(c.x), clamp(c.y));
+    Command { kind, xy, yaw_rate: clamp(c.yaw_rate), vectors: VectorMagnitudes { output: xy.norm() as f32, ..VectorMagnitudes::default() } }
 }
 
-/// Zero velocity: what a UAV does for a tick its controller did not answer.
+/// A hover: what a UAV does for a tick its controller did not answer.
 fn hover() -> Command {
-    Command { kind: CmdKind::Velocity, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+    Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+}
+
+/// `v`, or 0 where it is not a number a JSON reader can take.
+fn finite(v: f64) -> f64 {
+    if v.is_finite() {
+        v
+    } else {
+        0.0
+    }
+}
+
+impl Drop for ExternalLink {
+    fn drop(&mut self) {
+        if self.missed > 0 || self.malformed > 0 {
+            info!(missed = self.missed, malformed = self.malformed, "external controller: ticks without its command, and payloads that were not one");
+        }
+    }
 }
