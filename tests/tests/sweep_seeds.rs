@@ -1,6 +1,6 @@
 //! End to end: `swarm sweep-seeds` flies a tiny sweep with real processes (3 seeds, 3 s each,
 //! two at once), writes its table, JSON and pictures, and a second call with one more seed
-//! flies only that one (resume).
+//! flies only that one (resume); resuming into it with another localization mode is refused.
 
 mod common;
 
@@ -46,4 +46,14 @@ fn sweep_seeds_flies_each_seed_once_and_resumes() {
     assert!(!stderr.contains("seed-001: running") && stderr.contains("seed-004: running"), "only the new seed flies: {stderr}");
     assert_eq!(std::fs::read(out.join("seed-001/summary.json")).expect("summary"), first, "a flown run is not flown again");
     assert!(table.contains("| collisions | 4 |"), "{table}");
+
+    // The same folder for another experiment: refused, naming what the kept runs were.
+    let o = output_within(
+        Command::new(SWARM).args(["sweep-seeds", "forest-5", "--seeds", "1..2", "--time-limit", "3", "--localization", "icp", "--out"]).arg(&out),
+        RUN_LIMIT,
+    );
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{said}");
+    assert!(said.contains("seed-001 was flown as forest-5 (broadcast), not forest-5 (icp)"), "{said}");
+    assert_eq!(std::fs::read(out.join("seed-001/summary.json")).expect("summary"), first, "nothing flown over it");
 }
