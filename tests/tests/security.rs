@@ -39,7 +39,7 @@ impl Flight {
         let run = run_id(tag);
         let sc = dir.path().join("three.toml");
         std::fs::write(&sc, THREE).expect("scenario");
-        let creds = Creds::make(dir.path(), 3);
+        let creds = Creds::make_with(dir.path(), 3, &["ext3", "ros", "bridge"]);
         let (hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
         let out = dir.path().join("rec");
         let mut args = vec!["record".to_string(), "--run".into(), run.clone(), "--out".into(), out.to_str().expect("utf8").into()];
@@ -142,6 +142,17 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     f.put_as("uav3", "uav/2/cmd", &["--hex", "05 02"]);
     f.put_as("uav3", "uav/2/cmd", &["--json", FUTURE_CMD]);
     f.put_as("uav3", "uav/3/cmd", &["--json", FUTURE_CMD]);
+    // An external controller, the ROS 2 bridge and a ROS machine read none of the run's data
+    // keys but their own, and none of them may command a UAV through the hub's key.
+    assert_eq!(f.tap_as("ext3", "clock", &["--duration", "3"]).lines().count(), 0, "ext3 reads only its view");
+    assert_eq!(f.tap_as("ext3", "uav/3/sense/scan", &["--duration", "3"]).lines().count(), 0, "ext3 reads no sensor");
+    assert_eq!(f.tap_as("ros", "clock", &["--duration", "3"]).lines().count(), 0, "ros reads nothing of the run");
+    assert_eq!(f.tap_as("bridge", "clock", &["--count", "1", "--duration", "30"]).lines().count(), 1, "the bridge reads as an observer");
+    for user in ["ext3", "ros", "bridge"] {
+        f.put_as(user, "uav/3/cmd", &["--json", FUTURE_CMD]);
+        let o = f.as_user(Some(user), "netem", &["--run", &f.run, "freeze", "2"]);
+        assert!(o.status.success(), "sent (the router drops it): {}", String::from_utf8_lossy(&o.stderr));
+    }
     // An observer publishes nothing: neither a command nor a netem timeline.
     f.put_as("observer", "uav/1/cmd", &["--hex", "05 02"]);
     let o = f.as_user(Some("observer"), "netem", &["--run", &f.run, "freeze", "2"]);

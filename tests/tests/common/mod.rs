@@ -139,9 +139,15 @@ pub struct Creds(pub std::path::PathBuf);
 impl Creds {
     /// Makes them.
     pub fn make(dir: &Path, uavs: u32) -> Creds {
+        Creds::make_with(dir, uavs, &[])
+    }
+
+    /// As [`Creds::make`], and the users `more` (`ext3`, `ros`, `bridge`...).
+    pub fn make_with(dir: &Path, uavs: u32, more: &[&str]) -> Creds {
         let creds = dir.join("creds");
+        let users = more.iter().flat_map(|u| ["--user", u]);
         let o = output_within(
-            Command::new(SWARM).args(["credentials", "--out", creds.to_str().expect("utf8"), "--uavs", &uavs.to_string()]),
+            Command::new(SWARM).args(["credentials", "--out", creds.to_str().expect("utf8"), "--uavs", &uavs.to_string()]).args(users),
             TOOL_LIMIT,
         );
         assert!(o.status.success(), "swarm credentials: {}", String::from_utf8_lossy(&o.stderr));
