@@ -469,11 +469,17 @@ impl Net {
     async fn take_added_rules(&mut self, sc: &Scenario, sim: &mut Sim, not_before: f64) -> Result<(), WireError> {
         let mut changed = false;
         while let Ok(bytes) = self.netem_added.try_recv() {
-            let parsed = match Msg::decode(&bytes) {
-                Ok(Msg::NetemRules(json)) => serde_json::from_str::<swarm_config::Timeline>(&json).map_err(|e| e.to_string()),
-                other => Err(format!("not a NetemRules message: {other:?}")),
+            let (json, parsed) = match Msg::decode(&bytes) {
+                Ok(Msg::NetemRules(json)) => {
+                    let t = serde_json::from_str::<swarm_config::Timeline>(&json).map_err(|e| e.to_string());
+                    (Some(json), t)
+                }
+                other => (None, Err(format!("not a NetemRules message: {other:?}"))),
             };
             let checked = parsed.and_then(|t| sc.check_timeline(&t, true).map(|()| t));
+            if let Some(json) = json {
+                self.acknowledge(json, checked.as_ref().err()).await;
+            }
             let mut t = match checked {
                 Ok(t) => t,
                 Err(e) => {
@@ -492,6 +498,17 @@ impl Net {
             self.publish_rules(sim).await?;
         }
         Ok(())
+    }
+
+    /// Answers a timeline that came on `netem/add` on `netem/ack`: accepted, or refused and why
+    /// (`swarm netem` waits for it). A failed answer is only logged: the timeline stands.
+    async fn acknowledge(&self, timeline: String, refused: Option<&String>) {
+        let ack = swarm_wire::NetemAck { timeline, accepted: refused.is_none(), reason: refused.cloned().unwrap_or_default() };
+        let Ok(json) = serde_json::to_vec(&ack) else { return };
+        let put = self.session.put(self.keys.netem_ack(), json).encoding(zenoh::bytes::Encoding::APPLICATION_JSON);
+        if let Err(e) = put.await {
+            warn!("cannot answer a netem timeline: {e}");
+        }
     }
 
     /// Publishes the timeline in force (the simulation's: the scenario's plus every addition).

@@ -11,7 +11,7 @@ use clap::{Args, Subcommand};
 use std::process::ExitCode;
 use swarm_config::{Failure, FailureKind, NetemRule, Timeline, UavSet};
 use swarm_wire::plumbing;
-use swarm_wire::{Keys, Msg};
+use swarm_wire::{Keys, Msg, NetemAck};
 use netem::impair::{Impairment, JitterDistribution, LossModel, Partition};
 
 /// `swarm netem`.
@@ -23,6 +23,9 @@ pub struct NetemArgs {
     /// What to do.
     #[command(subcommand)]
     pub op: NetemOp,
+    /// How long to wait for the hub to say it applied the change [s].
+    #[arg(long, default_value_t = 10.0)]
+    pub wait: f64,
     /// Endpoints.
     #[command(flatten)]
     pub zenoh: crate::args::ZenohArgs,
@@ -203,10 +206,32 @@ pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
     let timeline = timeline_of(&a.op)?;
     let json = serde_json::to_string(&timeline)?;
     let s = a.zenoh.open_tool_session().await?;
+    // Listen for the hub's answer before asking, so it cannot be missed.
+    let (tx, mut acks) = tokio::sync::mpsc::unbounded_channel();
+    let _sub = plumbing::subscribe(&s, keys.netem_ack(), tx, |x| serde_json::from_slice::<NetemAck>(&plumbing::payload(x)).ok()).await?;
     plumbing::put_once(&s, &keys.netem_add(), Msg::NetemRules(json.clone()).encode()?, zenoh::qos::CongestionControl::Block).await?;
+    let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs_f64(a.wait.max(0.0));
+    let answer = loop {
+        match tokio::time::timeout_at(deadline, acks.recv()).await {
+            Ok(Some(ack)) if ack.timeline == json => break Some(ack),
+            Ok(Some(_)) => {}
+            Ok(None) | Err(_) => break None,
+        }
+    };
     let _ = s.close().await;
-    println!("{json}");
-    Ok(ExitCode::SUCCESS)
+    match answer {
+        Some(ack) if ack.accepted => {
+            println!("{json}");
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(ack) => bail!("the hub refused the change: {}", ack.reason),
+        None => bail!(
+            "no answer from the hub of run {} within {} s: the change was not applied. Is the run still flying, and are you an operator? \
+             (only an operator may change the faults: --user operator --password-file <run folder>/credentials/operator.password)",
+            a.run,
+            a.wait
+        ),
+    }
 }
 
 #[cfg(test)]

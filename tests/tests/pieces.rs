@@ -267,7 +267,8 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
     let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "2"]), TOOL_LIMIT);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "9"]), TOOL_LIMIT);
-    assert!(o.status.success(), "sent; the hub refuses it: {}", String::from_utf8_lossy(&o.stderr));
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && said.contains("the hub refused the change:"), "UAV 9 does not exist, and netem says so: {said}");
     assert!(rec.wait_for(Duration::from_secs(60)).expect("the run ends").success());
     assert!(hub.wait_for(Duration::from_secs(20)).is_some());
     let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");

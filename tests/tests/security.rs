@@ -150,13 +150,16 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     assert_eq!(f.tap_as("bridge", "clock", &["--count", "1", "--duration", "30"]).lines().count(), 1, "the bridge reads as an observer");
     for user in ["ext3", "ros", "bridge"] {
         f.put_as(user, "uav/3/cmd", &["--json", FUTURE_CMD]);
-        let o = f.as_user(Some(user), "netem", &["--run", &f.run, "freeze", "2"]);
-        assert!(o.status.success(), "sent (the router drops it): {}", String::from_utf8_lossy(&o.stderr));
+        let o = f.as_user(Some(user), "netem", &["--run", &f.run, "--wait", "2", "freeze", "2"]);
+        let said = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && said.contains("no answer from the hub of run"), "{user}: the router drops it, and netem says so: {said}");
     }
     // An observer publishes nothing: neither a command nor a netem timeline.
     f.put_as("observer", "uav/1/cmd", &["--hex", "05 02"]);
-    let o = f.as_user(Some("observer"), "netem", &["--run", &f.run, "freeze", "2"]);
-    assert!(o.status.success(), "sent (the router drops it): {}", String::from_utf8_lossy(&o.stderr));
+    let o = f.as_user(Some("observer"), "netem", &["--run", &f.run, "--wait", "2", "freeze", "2"]);
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "the router drops it, and netem says so: {said}");
+    assert!(said.contains("the change was not applied") && said.contains("--user operator"), "{said}");
     // An operator may change the netem timeline.
     let o = f.as_user(Some("operator"), "netem", &["--run", &f.run, "freeze", "1"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

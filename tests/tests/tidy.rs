@@ -214,6 +214,7 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("scan_any", Wildcard(|k: &Keys, _| k.scan_any())),
         ("netem_rules", Key(|k: &Keys, _| k.netem_rules())),
         ("netem_add", Key(|k: &Keys, _| k.netem_add())),
+        ("netem_ack", Key(|k: &Keys, _| k.netem_ack())),
         ("truth_world", Key(|k: &Keys, _| k.truth_world())),
         ("truth_step", Key(|k: &Keys, _| k.truth_step())),
         ("truth_all", Wildcard(|k: &Keys, _| k.truth_all())),

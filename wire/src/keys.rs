@@ -124,6 +124,10 @@ impl Keys {
     pub fn netem_add(&self) -> String {
         format!("{}/netem/add", self.prefix)
     }
+    /// `swarm/{run}/netem/ack`: the hub's answer to each timeline on `netem/add` (JSON).
+    pub fn netem_ack(&self) -> String {
+        format!("{}/netem/ack", self.prefix)
+    }
     /// `swarm/{run}/truth/world`
     pub fn truth_world(&self) -> String {
         format!("{}/truth/world", self.prefix)

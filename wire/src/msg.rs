@@ -540,6 +540,18 @@ pub struct HubTiming {
     pub late_ms: Vec<f32>,
 }
 
+/// The hub's answer to a timeline put on `netem/add`, published as JSON (not a [`Msg`]) on
+/// `netem/ack`, so that `swarm netem` knows whether its change was applied.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NetemAck {
+    /// The timeline's JSON as it came (what the sender matches its request by).
+    pub timeline: String,
+    /// Whether it was added to the timeline in force.
+    pub accepted: bool,
+    /// Why not, when refused.
+    pub reason: String,
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
