@@ -98,7 +98,7 @@ impl Bridge {
             let key = format!("{}/uav/*/sense/{topic}", keys.prefix());
             subs.push(plumbing::subscribe(&s, key, tx.clone(), move |sample| sense_event(&keys2, sample)).await?);
         }
-        let mut tokens = graph(&s, &keys, &sc, domain).await?;
+        let mut tokens = graph(&s, &sc, domain).await?;
         for &id in &sc.controller.external {
             subs.push(plumbing::subscribe(&s, keys.ext_view(id), tx.clone(), move |x| Some(Event::View(id, plumbing::payload(x)))).await?);
             let cmd_vel = data_key(domain, &format!("/uav{id}/cmd_vel"), &TWIST);
@@ -222,8 +222,7 @@ fn gid(id: u32, topic: &str) -> [u8; 16] {
 
 /// The liveliness tokens of the ROS graph: node `swarm` in namespace `/uav{id}` for each UAV,
 /// with its `scan` and `odom` publishers, and a `cmd_vel` subscription for an external UAV.
-async fn graph(s: &zenoh::Session, keys: &Keys, sc: &Scenario, domain: u32) -> Result<Vec<LivelinessToken>> {
-    let _ = keys;
+async fn graph(s: &zenoh::Session, sc: &Scenario, domain: u32) -> Result<Vec<LivelinessToken>> {
     let zid = s.zid().to_string();
     let mut tokens = Vec::new();
     for id in sc.uav_ids() {

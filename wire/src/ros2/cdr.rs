@@ -30,32 +30,31 @@ impl Writer {
         }
     }
 
+    /// A primitive's little-endian bytes, aligned to its own size.
+    fn primitive<const N: usize>(&mut self, bytes: [u8; N]) -> &mut Self {
+        self.align(N);
+        self.buf.extend_from_slice(&bytes);
+        self
+    }
+
     /// An `int32`.
     pub fn i32(&mut self, v: i32) -> &mut Self {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-        self
+        self.primitive(v.to_le_bytes())
     }
 
     /// A `uint32`.
     pub fn u32(&mut self, v: u32) -> &mut Self {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-        self
+        self.primitive(v.to_le_bytes())
     }
 
     /// A `float32`.
     pub fn f32(&mut self, v: f32) -> &mut Self {
-        self.align(4);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-        self
+        self.primitive(v.to_le_bytes())
     }
 
     /// A `float64`.
     pub fn f64(&mut self, v: f64) -> &mut Self {
-        self.align(8);
-        self.buf.extend_from_slice(&v.to_le_bytes());
-        self
+        self.primitive(v.to_le_bytes())
     }
 
     /// A `string`: length with the NUL, the bytes, the NUL.
