@@ -173,8 +173,6 @@ struct SessionAcc {
     /// Its counts as of the latest state (each field the largest seen: counts only grow, and
     /// its agents' states arrive in any order).
     last: Traffic,
-    /// First and last tick its agents reported.
-    ticks: Option<(u64, u64)>,
     /// Each of its agents' own counts.
     agents: BTreeMap<u32, AgentTraffic>,
     /// Subscriptions summed over the states, and the states.
@@ -206,13 +204,10 @@ fn widen(span: Option<(u64, u64)>, tick: u64) -> Option<(u64, u64)> {
 impl SessionAcc {
     fn fold(&mut self, st: &AgentState) {
         let (t, l) = (&st.traffic, &mut self.last);
-        l.agents = l.agents.max(t.agents);
         l.shares = l.shares.max(t.shares);
-        l.share_bytes = l.share_bytes.max(t.share_bytes);
         l.bytes = l.bytes.max(t.bytes);
         l.remote_shares = l.remote_shares.max(t.remote_shares);
         l.remote_share_bytes = l.remote_share_bytes.max(t.remote_share_bytes);
-        self.ticks = widen(self.ticks, st.tick);
         let a = self.agents.entry(st.id).or_default();
         a.ticks = widen(a.ticks, st.tick);
         a.counted = a.counted.max(st.link.recv_msgs);
@@ -224,7 +219,9 @@ impl SessionAcc {
 
     /// Its summary, for session `session`.
     fn summary(&self, session: &str) -> SessionTrafficSummary {
-        let ticks = self.ticks.map_or(0, |(a, b)| b - a + 1);
+        // First and last tick any of its agents reported.
+        let span = self.agents.values().filter_map(|a| a.ticks).reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+        let ticks = span.map_or(0, |(a, b)| b - a + 1);
         let per_tick = |v: u64| if ticks > 0 { v as f64 / ticks as f64 } else { 0.0 };
         SessionTrafficSummary {
             session: session.to_string(),
