@@ -478,7 +478,7 @@ impl Net {
             };
             let checked = parsed.and_then(|t| sc.check_timeline(&t, true).map(|()| t));
             if let Some(json) = json {
-                self.acknowledge(json, checked.as_ref().err()).await;
+                self.acknowledge(json, checked.as_ref().err().map(String::as_str)).await;
             }
             let mut t = match checked {
                 Ok(t) => t,
@@ -502,8 +502,8 @@ impl Net {
 
     /// Answers a timeline that came on `netem/add` on `netem/ack`: accepted, or refused and why
     /// (`swarm netem` waits for it). A failed answer is only logged: the timeline stands.
-    async fn acknowledge(&self, timeline: String, refused: Option<&String>) {
-        let ack = swarm_wire::NetemAck { timeline, accepted: refused.is_none(), reason: refused.cloned().unwrap_or_default() };
+    async fn acknowledge(&self, timeline: String, refused: Option<&str>) {
+        let ack = swarm_wire::NetemAck { timeline, accepted: refused.is_none(), reason: refused.unwrap_or_default().to_string() };
         let Ok(json) = serde_json::to_vec(&ack) else { return };
         let put = self.session.put(self.keys.netem_ack(), json).encoding(zenoh::bytes::Encoding::APPLICATION_JSON);
         if let Err(e) = put.await {
@@ -532,16 +532,15 @@ impl Net {
     fn put_sensors(&self, id: u32, e: EncodedSensors) -> Result<(), WireError> {
         let p = &self.uavs[(id - 1) as usize];
         // Blocking puts (the caller is inside `block_in_place`), unlike the async `put` above.
-        let put_now = |w: &Writer, bytes: Vec<u8>| w.put_now(bytes);
-        put_now(&p.radio, e.radio)?;
-        put_now(&p.odom, e.odom)?;
+        p.radio.put_now(e.radio)?;
+        p.odom.put_now(e.odom)?;
         if let Some(g) = e.gnss {
-            put_now(&p.gnss, g)?;
+            p.gnss.put_now(g)?;
         }
         if let Some(u) = e.uvdar {
-            put_now(&p.uvdar, u)?;
+            p.uvdar.put_now(u)?;
         }
-        put_now(&p.scan, e.scan)
+        p.scan.put_now(e.scan)
     }
 
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors

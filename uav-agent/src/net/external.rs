@@ -37,6 +37,8 @@ pub(super) struct ExternalLink {
     _alive_sub: Subscription,
     /// How long a tick waits for its command.
     wait: Duration,
+    /// How long the agent waits for the controller to come (the scenario's startup timeout).
+    startup_wait: Duration,
     /// Ticks whose command did not come in time.
     pub(super) missed: u64,
     /// Messages on the command key that were not a command.
@@ -54,11 +56,24 @@ impl ExternalLink {
             TimeMode::Lockstep => Duration::from_millis(sc.time.tick_timeout_ms).mul_f64(LOCKSTEP_SHARE),
             TimeMode::Realtime => Duration::from_secs_f64(sc.dt_secs() / sc.time.realtime_factor.max(1e-9)),
         };
-        Ok(ExternalLink { session: s.clone(), view_key, cmds, _cmd_sub: cmd_sub, controller_alive, _alive_sub: alive_sub, wait, missed: 0, malformed: 0 })
+        let startup_wait = Duration::from_secs_f64(sc.time.startup_timeout_s.max(0.0));
+        Ok(ExternalLink {
+            session: s.clone(),
+            view_key,
+            cmds,
+            _cmd_sub: cmd_sub,
+            controller_alive,
+            _alive_sub: alive_sub,
+            wait,
+            startup_wait,
+            missed: 0,
+            malformed: 0,
+        })
     }
 
-    /// Waits until the external controller's token is alive, at most `limit`.
-    pub(super) async fn wait_for_controller(&mut self, id: u32, limit: Duration) -> Result<(), AgentError> {
+    /// Waits until the external controller's token is alive, at most the startup timeout.
+    pub(super) async fn wait_for_controller(&mut self, id: u32) -> Result<(), AgentError> {
+        let limit = self.startup_wait;
         info!(uav_id = id, "waiting for the external controller (alive/ext/{id})");
         match tokio::time::timeout(limit, self.controller_alive.wait_for(|up| *up)).await {
             Ok(Ok(_)) => Ok(()),

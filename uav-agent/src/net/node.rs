@@ -175,8 +175,6 @@ struct Node {
     _inputs: Inputs,
     /// The link to this UAV's external controller, when it has one instead of ours.
     external: Option<ExternalLink>,
-    /// How long to wait for the external controller before giving up.
-    startup_wait: Duration,
     _token: Option<zenoh::liveliness::LivelinessToken>,
     /// Counted among the session's agents while the node lives.
     _flying: Flying,
@@ -273,10 +271,8 @@ impl Node {
         let own_bytes = Arc::new(AtomicU64::new(0));
         let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx, &own_bytes).await?;
         let publish = declare_outputs(&s, &keys, &shared, id, &sc).await?;
-        let external = match sc.controller.external.contains(&id) {
-            true => Some(ExternalLink::open(&s, &keys, id, &sc).await?),
-            false => None,
-        };
+        let external =
+            if sc.controller.external.contains(&id) { Some(ExternalLink::open(&s, &keys, id, &sc).await?) } else { None };
         let shares = crate::localization::share_key(sc.localization.mode, &keys, id).is_some();
         Ok(Node {
             sensors: agent.frame_collector(),
@@ -296,7 +292,6 @@ impl Node {
             publish,
             _inputs: inputs,
             external,
-            startup_wait: Duration::from_secs_f64(sc.time.startup_timeout_s.max(0.0)),
             _token: None,
             s,
             keys,
@@ -307,7 +302,7 @@ impl Node {
     async fn run_loop(mut self, shutdown: impl Future<Output = ()>) -> Result<AgentExit, AgentError> {
         tokio::pin!(shutdown);
         if let Some(ext) = self.external.as_mut() {
-            ext.wait_for_controller(self.id, self.startup_wait).await?;
+            ext.wait_for_controller(self.id).await?;
         }
         // Subscriptions are in place: now tell the hub we are here.
         let token = self.s.liveliness().declare_token(self.keys.alive_uav(self.id)).await.map_err(WireError::zenoh)?;
