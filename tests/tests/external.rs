@@ -4,25 +4,12 @@
 
 mod common;
 
-use common::{python, run_id, summary, wait_output, RUN_LIMIT, SWARM};
-use std::path::Path;
+use common::{hub_locator, python, run_id, summary, wait_output, RUN_LIMIT, SWARM};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// The example a user runs.
 const EXTERNAL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples/python/external_uav.py");
-
-/// Waits for the run folder's `hub.txt` and returns the hub's first locator.
-fn hub_locator(out: &Path) -> String {
-    let start = Instant::now();
-    loop {
-        if let Some(loc) = std::fs::read_to_string(out.join("hub.txt")).ok().and_then(|t| t.lines().next().map(String::from)) {
-            return loc;
-        }
-        assert!(start.elapsed() < Duration::from_secs(60), "no hub.txt in {}", out.display());
-        std::thread::sleep(Duration::from_millis(100));
-    }
-}
 
 #[test]
 fn an_external_python_controller_flies_uav_3_through_forest5() {

@@ -74,14 +74,7 @@ fn a_ros_client_sees_uav_3_and_drives_it_through_cmd_vel() {
     let run = common::run_id("ros2");
     let args = ["run", &scenario, "--external", "3", "--ros2", "--time-mode", "realtime", "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet"];
     let swarm = Command::new(common::SWARM).args(args).stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().expect("swarm run");
-    let start = std::time::Instant::now();
-    let loc = loop {
-        if let Some(l) = std::fs::read_to_string(out.join("hub.txt")).ok().and_then(|t| t.lines().next().map(String::from)) {
-            break l;
-        }
-        assert!(start.elapsed() < std::time::Duration::from_secs(60), "no hub.txt");
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    };
+    let loc = common::hub_locator(&out);
     let password = out.join("credentials/ros.password");
     let client = Command::new(python())
         .args([ROS_CLIENT, &loc, &run, password.to_str().expect("utf8")])

@@ -293,3 +293,16 @@ pub fn forest5_cut(dir: &Path, limit_s: f64) -> String {
     std::fs::write(&path, cut).expect("write scenario");
     path.to_str().expect("utf8").to_string()
 }
+
+/// The hub's first locator from a running `swarm run`'s folder (`hub.txt`), waited for up to
+/// 60 s: what a piece started by hand (an external controller, a ROS client) connects to.
+pub fn hub_locator(out: &Path) -> String {
+    let start = Instant::now();
+    loop {
+        if let Some(loc) = std::fs::read_to_string(out.join("hub.txt")).ok().and_then(|t| t.lines().next().map(String::from)) {
+            return loc;
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "no hub.txt in {}", out.display());
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
