@@ -21,7 +21,8 @@
 //!
 //! Entry point: [`run`]. Public surface: [`run`] and its options, report and error; [`world`] and
 //! [`lidar`] for the LIDAR benchmark, [`sim`] for the hub tick benchmark; [`start_positions`], for
-//! tools that place agents by where their UAVs start (`swarm mesh`); every other module is
+//! tools that place agents by where their UAVs start (`swarm mesh`), and [`start_in_obstacle`],
+//! which `swarm check` and `swarm run` ask before starting anything; every other module is
 //! private.
 //!
 //! Architecture invariant: the hub is the only holder of ground truth; it
@@ -39,5 +40,5 @@ pub mod sim;
 mod uvdar;
 pub mod world;
 
-pub use forest::start_positions;
+pub use forest::{start_in_obstacle, start_positions};
 pub use node::{run, HubError, HubOptions, HubReport};

@@ -116,7 +116,7 @@ fn per_process(uavs: usize, cores: u32, asked: Option<u32>) -> u32 {
 /// Runs a scenario end to end and writes the run folder.
 pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
     let (sc, text) = resolve(&a)?;
-    controllers.check(&sc).with_context(|| format!("scenario `{}`", a.scenario.as_deref().unwrap_or(swarm_config::DEFAULT_SCENARIO)))?;
+    crate::scenarios::admit(&sc, a.scenario.as_deref().unwrap_or(swarm_config::DEFAULT_SCENARIO), controllers)?;
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     let per_process = agents_per_process(sc.count(), a.agents_per_process);

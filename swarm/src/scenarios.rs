@@ -28,10 +28,22 @@ pub fn list() -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// What a parsed scenario must still pass before a run starts, beyond its own validation: every
+/// controller it names is known, and no UAV starts inside a tree or wall (the forest is drawn
+/// here, so a generated forest over the start area is caught too).
+pub fn admit(sc: &Scenario, name: &str, controllers: &Controllers) -> Result<()> {
+    controllers.check(sc).with_context(|| format!("scenario `{name}`"))?;
+    if let Some((uav, what)) = physics_hub::start_in_obstacle(sc) {
+        let field = if sc.swarm.start_positions.is_some() { "swarm.start_positions" } else { "swarm.start_area" };
+        anyhow::bail!("scenario `{name}`: {field}: UAV {uav} {what} (move it, or list the spot in world.forest.keep_clear)");
+    }
+    Ok(())
+}
+
 /// Runs `swarm check`: validates `scenario` and prints it resolved, as JSON.
 pub fn check(scenario: &str, controllers: &Controllers) -> Result<ExitCode> {
     let (sc, _) = Scenario::from_arg(scenario)?;
-    controllers.check(&sc).with_context(|| format!("scenario `{scenario}`"))?;
+    admit(&sc, scenario, controllers)?;
     print_out(&format!("{}\n", serde_json::to_string_pretty(&sc)?))?;
     Ok(ExitCode::SUCCESS)
 }

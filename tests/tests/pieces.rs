@@ -286,3 +286,29 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
     assert_eq!(cut["class"], "cut");
     assert!(cut["dropped"].as_u64().expect("n") > 50 && cut["delivered"] == 0, "{cut:#}");
 }
+
+#[test]
+fn a_uav_starting_inside_a_tree_is_refused_before_anything_starts() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let forest5 = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-5.toml")).expect("forest-5");
+    // An explicit trunk on UAV 2's start, and a dense forest drawn over the whole start area.
+    let listed = forest5.replace("[world.forest]", "[[world.trees]]\nx = 0.1\ny = 2.0\nr = 0.3\n\n[world.forest]");
+    let drawn = forest5
+        .replace("x_min = 3.0", "x_min = -4.0")
+        .replace("density_per_100m2 = 5.0", "density_per_100m2 = 40.0")
+        .replace("min_spacing_m = 2.5", "min_spacing_m = 0.8")
+        .replace("keep_clear = [{ x = 0.0, y = 0.0, r = 4.0 }, ", "keep_clear = [");
+    for (name, text, said) in [("listed", listed, "UAV 2 starts at (0.00, 2.00), -0.20 m from the tree at (0.10, 2.00)"), ("drawn", drawn, "starts at (")] {
+        let file = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&file, text).expect("write scenario");
+        let file = file.to_str().expect("utf-8 path");
+        let out = output_within(Command::new(SWARM).args(["check", file]), TOOL_LIMIT);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{name}: swarm check refuses it");
+        assert!(err.contains("swarm.start_positions: UAV") && err.contains(said) && err.contains("world.forest.keep_clear"), "{name}: {err}");
+        let run_dir = dir.path().join(format!("{name}-run"));
+        let out = output_within(Command::new(SWARM).args(["run", file, "--out", run_dir.to_str().expect("utf-8")]), TOOL_LIMIT);
+        assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains(said), "{name}: swarm run refuses it");
+        assert!(!run_dir.exists(), "{name}: nothing was started or written");
+    }
+}
