@@ -29,6 +29,9 @@ pub enum Cmd {
     Router(crate::router::RouterArgs),
     /// Record a run started by hand: write the run folder when the hub ends the run.
     Record(crate::recorder::RecordArgs),
+    /// Make a killed run's folder whole: summary, CSVs and figures from its journal, run.mcap
+    /// rewritten from its whole chunks (at most the last sim second is lost).
+    Recover(crate::recorder::RecoverArgs),
     /// Watch a running swarm: a web page and the Foxglove WebSocket, on loopback.
     View(crate::view::ViewArgs),
     /// Replay a recorded run (`run.mcap` or its run folder) on the view's page and the Foxglove
@@ -129,6 +132,7 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Agent(a) => crate::pieces::agent(a, controllers).await,
         Cmd::Router(a) => crate::router::router(a).await,
         Cmd::Record(a) => crate::recorder::record(a).await,
+        Cmd::Recover(a) => crate::recorder::recover(a),
         Cmd::View(a) => crate::view::view(a).await,
         Cmd::Replay(a) => crate::view::replay(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,

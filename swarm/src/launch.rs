@@ -69,9 +69,9 @@ pub struct RunArgs {
     /// No credentials: the hub lets anyone in (`swarm hub --insecure`; it says so loudly).
     #[arg(long)]
     pub insecure: bool,
-    /// Do not write `run.mcap` (the Foxglove recording of the run).
-    #[arg(long)]
-    pub no_mcap: bool,
+    /// What `run.mcap` keeps.
+    #[command(flatten)]
+    pub mcap: crate::recorder::McapArgs,
     /// Watch the run live: serve `swarm view`'s page on this port of 127.0.0.1 (default 8765;
     /// 0 = any free port) and the Foxglove WebSocket beside it; prints the addresses, and keeps
     /// serving after the run until Ctrl-C.
@@ -119,8 +119,9 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
     crate::scenarios::admit(&sc, a.scenario.as_deref().unwrap_or(swarm_config::DEFAULT_SCENARIO), controllers)?;
     let run_id = a.run.clone().unwrap_or_else(|| default_run_id(&sc.name));
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
+    refuse_cut_short(&out)?;
     let per_process = agents_per_process(sc.count(), a.agents_per_process);
-    let show = Show { quiet: a.quiet, mcap: !a.no_mcap, view: a.view, ros2: a.ros2 };
+    let show = Show { quiet: a.quiet, mcap: a.mcap.detail(sc.count()), journal: !a.mcap.no_journal, view: a.view, ros2: a.ros2 };
     let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
     println!("{}", summary.human());
@@ -133,6 +134,20 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
         return Ok(ExitCode::from(2));
     }
     Ok(summary.exit_code(hub_ok))
+}
+
+/// A run folder still holding a killed run's journal is not flown over (that would lose it);
+/// the other cut-short runs beside it are named, with the command that recovers them.
+fn refuse_cut_short(out: &Path) -> Result<()> {
+    let recover = |d: &Path| format!("swarm recover {}", d.display());
+    if crate::recorder::cut_short(out) {
+        anyhow::bail!("{} holds a run that was cut short and not recovered: run `{}`, or choose another --out", out.display(), recover(out));
+    }
+    let siblings = out.parent().and_then(|p| std::fs::read_dir(p).ok()).into_iter().flatten().flatten();
+    for d in siblings.map(|e| e.path()).filter(|d| crate::recorder::cut_short(d)) {
+        eprintln!("note: {} was cut short; `{}` rebuilds its summary and run.mcap", d.display(), recover(&d));
+    }
+    Ok(())
 }
 
 /// The scenario `swarm run` flies, with the command line's overrides, and the text the hub
@@ -172,7 +187,7 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
 }
 
 /// How [`execute`] starts the pieces.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct How<'a> {
     /// `--cfg` overrides for every piece.
     pub zenoh_cfg: &'a [String],
@@ -185,12 +200,14 @@ pub struct How<'a> {
 }
 
 /// What a run shows besides its run folder's CSV, summary and figures.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Show {
     /// No progress bar.
     pub quiet: bool,
-    /// Write `run.mcap`.
-    pub mcap: bool,
+    /// Write `run.mcap`, with this much of each UAV.
+    pub mcap: Option<crate::scene::Detail>,
+    /// Keep the recorder's journal while the run goes (for `swarm recover`).
+    pub journal: bool,
     /// Serve the live view on this page port (see `RunArgs::view`).
     pub view: Option<u16>,
     /// Bridge the UAVs to ROS 2 in this domain (see `RunArgs::ros2`).
@@ -202,7 +219,7 @@ pub struct Show {
 /// Unless `insecure`, every piece logs in with credentials made for this run in
 /// `<out>/credentials/` (readable by the owner only).
 pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &How<'_>) -> Result<(Summary, bool)> {
-    let How { zenoh_cfg, show, per_process, insecure } = *how;
+    let How { zenoh_cfg, show, per_process, insecure } = how.clone();
     Keys::new(run_id)?;
     let logs = out.join("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("cannot create {}", logs.display()))?;
@@ -231,8 +248,13 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         None => Vec::new(),
     };
     rec_cfg.extend(zenoh_cfg.iter().cloned());
-    let mut rec = Recording::start(run_id, &locators, &rec_cfg, show.mcap).await?;
-    rec.write_mcap(sc, out)?;
+    let mut rec = Recording::start(run_id, &locators, &rec_cfg, show.mcap.is_some()).await?;
+    if let Some(detail) = show.mcap {
+        rec.write_mcap(sc, out, detail)?;
+    }
+    if !show.journal {
+        rec.without_journal();
+    }
     if let Some(port) = show.view {
         let live = crate::view::Live::start(run_id, &locators, &rec_cfg, port).await?;
         // Stdout, flushed at once: scripts (and tests) read the address while the run goes.

@@ -91,8 +91,9 @@ pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: Varia
     let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace('.', "_");
     eprintln!("{tag}: running");
     let per_process = agents_per_process(sc.count(), how.per_process);
-    // A study's runs are for its table: no MCAP recording each.
-    let show = crate::launch::Show { quiet: !how.progress, mcap: false, view: None, ros2: None };
+    // A study's runs are for its table: no MCAP recording each, and no journal (a killed
+    // study flies its runs again).
+    let show = crate::launch::Show { quiet: !how.progress, mcap: None, journal: false, view: None, ros2: None };
     let run = How { zenoh_cfg: &[], show, per_process, insecure: false };
     let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &run).await?;
     Ok(summary)

@@ -12,19 +12,26 @@
 //! - `files`: the run folder's files: the CSVs that grow while the run goes, and those written
 //!   at its end.
 //! - `recording`: the Zenoh side, [`Recording`]: session, subscriptions, the loop that ends with
-//!   the run.
+//!   the run; and [`replay`], the same folding from a killed run's journal.
+//! - [`journal`]: the payloads the recorder folded, kept until the run ends cleanly, and the
+//!   whole-chunk salvage of an MCAP file whose writer was killed (`swarm recover`).
+//! - `recover`: `swarm recover`, a killed run's folder made whole from its journal and chunks.
 //!
 //! `swarm run` starts a [`Recording`] beside its children; `swarm record` ([`record`]) is the
 //! recorder alone, for a run whose pieces were started by hand.
 
 mod files;
+pub mod journal;
 pub mod metrics;
 mod recording;
+mod recover;
 pub mod solitude;
 
-pub use recording::Recording;
+pub use recording::{replay, Recording};
+pub use recover::{cut_short, recover, RecoverArgs};
 
 use crate::args::ZenohArgs;
+use crate::scene::Detail;
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,18 +51,57 @@ pub struct RecordArgs {
     /// Endpoints.
     #[command(flatten)]
     pub zenoh: ZenohArgs,
+    /// What `run.mcap` keeps.
+    #[command(flatten)]
+    pub mcap: McapArgs,
+}
+
+/// What `run.mcap` keeps (`swarm run`, `swarm record`; README "Recording size").
+#[derive(Args, Debug, Clone, Default)]
+pub struct McapArgs {
     /// Do not write `run.mcap` (the Foxglove recording of the run).
     #[arg(long)]
     pub no_mcap: bool,
+    /// Keep each UAV's scans, estimates and numbers, and the radio graph, every K-th time only
+    /// (poses, trails and events always). Default: 1 up to 50 UAVs, then ceil(UAVs / 50).
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..))]
+    pub mcap_every: Option<u64>,
+    /// Keep scans, estimates and numbers of these UAVs only, e.g. `1-4,9` (default: all).
+    #[arg(long, value_parser = crate::args::parse_ids, value_name = "IDS")]
+    pub mcap_uavs: Option<crate::args::UavIds>,
+    /// Keep no journal (`journal.mcap`, removed at a clean end): a killed run's summary, CSVs
+    /// and figures then cannot be rebuilt by `swarm recover` (its run.mcap still can).
+    #[arg(long)]
+    pub no_journal: bool,
+}
+
+impl McapArgs {
+    /// What a recording of `uavs` UAVs keeps, or `None` with `--no-mcap`.
+    pub fn detail(&self, uavs: usize) -> Option<Detail> {
+        if self.no_mcap {
+            return None;
+        }
+        let mut d = Detail::auto(uavs as u64);
+        if let Some(k) = self.mcap_every {
+            d.every = k;
+        }
+        d.uavs = self.mcap_uavs.as_ref().map(|ids| ids.0.iter().copied().collect());
+        Some(d)
+    }
 }
 
 /// Runs `swarm record`: the recorder alone, for a run whose pieces were started by hand.
 pub async fn record(a: RecordArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "the recorder needs --connect <hub endpoint>");
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
-    let mut rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?, !a.no_mcap).await?;
+    let mut rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?, !a.mcap.no_mcap).await?;
     let sc = rec.fetch_scenario().await?;
-    rec.write_mcap(&sc, &a.out)?;
+    if let Some(detail) = a.mcap.detail(sc.count()) {
+        rec.write_mcap(&sc, &a.out, detail)?;
+    }
+    if a.mcap.no_journal {
+        rec.without_journal();
+    }
     let progress = progress_bar(&sc, false);
     let summary = rec.record(&a.out, &sc, &progress, None, &mut |_| Ok(())).await?;
     progress.finish_and_clear();

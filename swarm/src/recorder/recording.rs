@@ -3,6 +3,7 @@
 //! writing `summary.json` and the figures of [`crate::plot`].
 
 use super::files::{decode, write_connectivity, write_world, Files};
+use super::journal::{self, Journal, Kind};
 use super::metrics::Metrics;
 use crate::scene::{Feed, Scene};
 use crate::checks::Checker;
@@ -37,8 +38,14 @@ pub struct Recording {
     _subs: [Subscription; 3],
     feed: Option<Feed>,
     scene: Option<Scene>,
+    journal: bool,
     _token: zenoh::liveliness::LivelinessToken,
 }
+
+/// How often the recorder hands what it has to the file system [sim s]: the CSVs, `run.mcap`
+/// (whose chunks therefore span at most this) and the journal. A killed run loses at most the
+/// data of the last such span (see `swarm recover`).
+pub const CHECKPOINT_S: f64 = 1.0;
 
 /// What the recorder writes as it goes.
 struct Sink<'a> {
@@ -49,11 +56,67 @@ struct Sink<'a> {
     sc: &'a Scenario,
     pb: &'a ProgressBar,
     scene: Option<Scene>,
+    journal: Option<Journal>,
+    next_checkpoint_t: f64,
 }
 
-impl Sink<'_> {
+impl<'a> Sink<'a> {
+    /// A sink writing the run folder `out` (its CSVs are created afresh).
+    fn new(out: &Path, sc: &'a Scenario, pb: &'a ProgressBar, scene: Option<Scene>, journal: Option<Journal>) -> Result<Sink<'a>> {
+        let files = Files::create(out)?;
+        Ok(Sink { files, m: Metrics::default(), checks: Checker::new(sc), malformed: 0, sc, pb, scene, journal, next_checkpoint_t: 0.0 })
+    }
+
+    /// Journals one payload (stamped with the latest truth step's time).
+    fn journal(&mut self, kind: Kind, b: &[u8]) -> Result<()> {
+        if let Some(j) = self.journal.as_mut() {
+            j.append(kind, b, self.m.last_step().map_or(0.0, |s| s.t_secs))?;
+        }
+        Ok(())
+    }
+
+    /// Hands the CSVs, the scene's file and the journal to the file system, once every
+    /// [`CHECKPOINT_S`] of sim time.
+    fn checkpoint(&mut self, t_secs: f64) -> Result<()> {
+        if t_secs < self.next_checkpoint_t {
+            return Ok(());
+        }
+        // A hair early, so a sum of tick lengths that rounds below a whole second still counts.
+        self.next_checkpoint_t = t_secs + CHECKPOINT_S - 1e-6;
+        self.files.flush()?;
+        if let Some(scene) = &self.scene {
+            scene.flush()?;
+        }
+        if let Some(j) = self.journal.as_mut() {
+            j.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Closes the files and writes the summary, `world.json`, `connectivity.csv` and the
+    /// figures into `out`; hands back the journal, for the caller to discard once content.
+    /// `recovered`: folded again from a killed run's journal (see [`replay`]).
+    fn finish(self, run_id: &str, out: &Path, recovered: bool) -> Result<(Summary, Option<Journal>)> {
+        let Sink { mut files, m, checks, malformed, scene, sc, journal, .. } = self;
+        files.flush()?;
+        if let Some(mut scene) = scene {
+            scene.finish()?;
+        }
+        let mut summary = m.summary(run_id, sc);
+        if recovered && m.ended().is_none() {
+            summary.end_reason = CUT_SHORT.into();
+        }
+        summary.checks = checks.finish(sc, &summary);
+        write_outputs(out, &summary, &m)?;
+        if malformed > 0 {
+            warn!(malformed, "recorder dropped malformed messages");
+        }
+        Ok((summary, journal))
+    }
+
     /// Takes one truth payload; returns true on the run's last step.
     fn truth(&mut self, b: &[u8]) -> Result<bool> {
+        self.journal(Kind::Truth, b)?;
         match decode(b, &mut self.malformed) {
             Some(Msg::TruthStep(s)) => {
                 if let Some(scene) = self.scene.as_mut() {
@@ -71,6 +134,7 @@ impl Sink<'_> {
                     s.t_secs,
                     self.m.collision_count()
                 ));
+                self.checkpoint(s.t_secs)?;
                 Ok(self.m.ended().is_some())
             }
             Some(Msg::TruthWorld(w)) => {
@@ -86,6 +150,7 @@ impl Sink<'_> {
 
     /// Takes one agent state payload (states of ids outside the scenario are dropped).
     fn state(&mut self, b: &[u8]) -> Result<()> {
+        self.journal(Kind::State, b)?;
         if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
             if (1..=self.sc.swarm.count).contains(&st.id) {
                 self.files.write_state(&st)?;
@@ -129,18 +194,26 @@ impl Recording {
             _subs: [t_sub, s_sub, h_sub],
             feed,
             scene: None,
+            journal: true,
             _token: token,
         })
     }
 
-    /// Starts `run.mcap` in `out`, for a recording started with `mcap` (else does nothing).
-    pub fn write_mcap(&mut self, sc: &Scenario, out: &Path) -> Result<()> {
+    /// Starts `run.mcap` in `out` with `detail`, for a recording started with `mcap` (else
+    /// does nothing).
+    pub fn write_mcap(&mut self, sc: &Scenario, out: &Path, detail: crate::scene::Detail) -> Result<()> {
         if self.feed.is_some() {
             let mut scene = Scene::new(sc)?;
+            scene.set_detail(detail);
             scene.write_mcap(&out.join("run.mcap"))?;
             self.scene = Some(scene);
         }
         Ok(())
+    }
+
+    /// Keeps no journal: a killed run's summary then cannot be rebuilt (`--no-journal`).
+    pub fn without_journal(&mut self) {
+        self.journal = false;
     }
 
     /// The scenario the hub serves.
@@ -162,7 +235,8 @@ impl Recording {
         on_tick: &mut dyn FnMut(f64) -> Result<()>,
     ) -> Result<Summary> {
         let (scene, mut feed) = (self.scene.take(), self.feed.take());
-        let mut sink = Sink { files: Files::create(out)?, m: Metrics::default(), checks: Checker::new(sc), malformed: 0, sc, pb, scene };
+        let journal = if self.journal { Some(Journal::create(out, &self.run_id)?) } else { None };
+        let mut sink = Sink::new(out, sc, pb, scene, journal)?;
         // The world is published once; ask for it too, in case that was before we subscribed.
         match plumbing::fetch(&self.session, &self.keys.truth_world(), ASK_WAIT).await {
             Ok(b) => {
@@ -172,16 +246,9 @@ impl Recording {
         }
         self.follow(&mut sink, feed.as_mut(), hub, on_tick).await?;
         self.drain(&mut sink, feed.as_mut()).await?;
-        let Sink { mut files, m, checks, malformed, scene, .. } = sink;
-        files.flush()?;
-        if let Some(mut scene) = scene {
-            scene.finish()?;
-        }
-        let mut summary = m.summary(&self.run_id, sc);
-        summary.checks = checks.finish(sc, &summary);
-        write_outputs(out, &summary, &m)?;
-        if malformed > 0 {
-            warn!(malformed, "recorder dropped malformed messages");
+        let (summary, journal) = sink.finish(&self.run_id, out, false)?;
+        if let Some(j) = journal {
+            j.discard(out)?;
         }
         let _ = self.session.close().await;
         Ok(summary)
@@ -275,6 +342,28 @@ impl Recording {
         }
         Ok(())
     }
+}
+
+/// The `end_reason` of a run recovered from its journal that did not reach its last step.
+pub const CUT_SHORT: &str = "cut_short";
+
+/// Folds the journal of the run folder `out` (a run whose recorder was killed) into the CSVs,
+/// summary and figures a clean end at its last journaled tick would have written; the summary's
+/// end reason is [`CUT_SHORT`] unless the journal holds the hub's last step.
+pub fn replay(out: &Path, sc: &Scenario) -> Result<(Summary, journal::salvage::Cut)> {
+    let journal::Journaled { run_id, payloads, cut } = journal::read(out)?;
+    let pb = ProgressBar::hidden();
+    let mut sink = Sink::new(out, sc, &pb, None, None)?;
+    for (kind, b) in &payloads {
+        match kind {
+            Kind::Truth => {
+                sink.truth(b)?;
+            }
+            Kind::State => sink.state(b)?,
+        }
+    }
+    let (summary, _) = sink.finish(&run_id, out, true)?;
+    Ok((summary, cut))
 }
 
 /// Writes `summary.json`, `world.json` and `connectivity.csv` into the run folder `out`, then

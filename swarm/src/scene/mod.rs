@@ -36,6 +36,7 @@ mod feed;
 mod shapes;
 
 pub use feed::{Extra, Feed};
+pub use shapes::log_time_ns;
 
 use anyhow::{Context as _, Result};
 use foxglove::messages::log::Level;
@@ -88,6 +89,44 @@ pub struct Scene {
     last_t: Option<f64>,
     next_trail_t: f64,
     mcap: Option<foxglove::McapWriterHandle<BufWriter<File>>>,
+    detail: Detail,
+    /// Scans seen per UAV (for [`Detail::every`]).
+    scans_seen: BTreeMap<u32, u64>,
+}
+
+/// How much of each UAV a scene logs. Poses, transforms, trails and events are always logged;
+/// the heavy topics (scans, estimates, numbers: about 3/4 of a recording's bytes; the radio
+/// graph, most of the rest) can be thinned for large swarms.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detail {
+    /// Log every `every`-th scan and state (estimates, numbers) of a UAV, and every `every`-th
+    /// radio graph (at least 1: everything).
+    pub every: u64,
+    /// Log scans, estimates and numbers of these UAVs only (`None`: of every UAV).
+    pub uavs: Option<std::collections::BTreeSet<u32>>,
+}
+
+impl Default for Detail {
+    fn default() -> Detail {
+        Detail { every: 1, uavs: None }
+    }
+}
+
+impl Detail {
+    /// UAVs up to which a recording keeps everything by default; beyond, `every` grows so the
+    /// heavy topics stay near this many UAVs' worth.
+    pub const FULL_UP_TO_UAVS: u64 = 50;
+
+    /// The default for `uavs` UAVs: everything up to [`Self::FULL_UP_TO_UAVS`], then every
+    /// `ceil(uavs / FULL_UP_TO_UAVS)`-th.
+    pub fn auto(uavs: u64) -> Detail {
+        Detail { every: uavs.div_ceil(Self::FULL_UP_TO_UAVS).max(1), uavs: None }
+    }
+
+    /// Whether the `n`-th (0-based) heavy message of UAV `id` is logged.
+    fn keeps(&self, id: u32, n: u64) -> bool {
+        n.is_multiple_of(self.every.max(1)) && self.uavs.as_ref().is_none_or(|u| u.contains(&id))
+    }
 }
 
 impl Scene {
@@ -137,7 +176,14 @@ impl Scene {
             last_t: None,
             next_trail_t: 0.0,
             mcap: None,
+            detail: Detail::default(),
+            scans_seen: BTreeMap::new(),
         })
+    }
+
+    /// Thins what is logged from now on (see [`Detail`]).
+    pub fn set_detail(&mut self, detail: Detail) {
+        self.detail = detail;
     }
 
     /// The context sinks attach to (the WebSocket server of `swarm view`).
@@ -151,6 +197,15 @@ impl Scene {
         let options = foxglove::McapWriteOptions::new().compression(Some(foxglove::McapCompression::Zstd));
         let h = self.ctx.mcap_writer_with_options(options).create(BufWriter::new(file)).context("cannot start the MCAP writer")?;
         self.mcap = Some(h);
+        Ok(())
+    }
+
+    /// Ends the MCAP file's open chunk and hands it to the file system: a killed run keeps
+    /// everything logged before (see `swarm recover`).
+    pub fn flush(&self) -> Result<()> {
+        if let Some(h) = &self.mcap {
+            h.flush().context("cannot flush run.mcap")?;
+        }
         Ok(())
     }
 
@@ -190,6 +245,11 @@ impl Scene {
 
     /// One scan the hub sent UAV `id`.
     pub fn on_scan(&mut self, id: u32, s: &Scan) {
+        let seen = self.scans_seen.entry(id).or_default();
+        *seen += 1;
+        if !self.detail.keeps(id, *seen - 1) {
+            return;
+        }
         if let Some(u) = self.uavs.get(&id) {
             u.scan.log_with_time(&shapes::laser_scan(id, s), shapes::log_time_ns(s.t_secs));
         }
@@ -211,7 +271,9 @@ impl Scene {
         for b in &s.bodies {
             self.bodies.insert(b.id, *b);
         }
-        self.radio_graph(t);
+        if s.tick.is_multiple_of(self.detail.every.max(1)) {
+            self.radio_graph(t);
+        }
         if t >= self.next_trail_t {
             self.next_trail_t = t.floor() + 1.0;
             self.draw_trails(t);
@@ -222,6 +284,9 @@ impl Scene {
     /// One agent's state: its neighbour estimates against the truth, and its numbers.
     pub fn on_state(&mut self, st: &AgentState) {
         let Some(u) = self.uavs.get(&st.id) else { return };
+        if !self.detail.keeps(st.id, st.tick) {
+            return;
+        }
         let ns = shapes::log_time_ns(st.t_secs);
         let (update, error) = self.estimates(st);
         u.estimates.log_with_time(&update, ns);
@@ -389,6 +454,32 @@ mod tests {
     fn one_uav_step(tick: u64, x: f64, y: f64, yaw: f64) -> TruthStep {
         let body = TruthBody { id: 1, x, y, yaw, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
         TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() }
+    }
+
+    #[test]
+    fn detail_thins_heavy_topics_per_uav_and_grows_with_the_swarm() {
+        assert_eq!(Detail::auto(40), Detail::default());
+        assert_eq!(Detail::auto(1000).every, 20);
+        let d = Detail { every: 3, uavs: Some([2, 5].into()) };
+        let kept: Vec<u64> = (0..10).filter(|&n| d.keeps(2, n)).collect();
+        assert_eq!(kept, vec![0, 3, 6, 9]);
+        assert!(!d.keeps(1, 0), "UAV 1 is not chosen");
+    }
+
+    #[test]
+    fn a_thinned_scene_keeps_every_pose_and_every_kth_scan() {
+        let (mut scene, path) = recording("thin");
+        scene.set_detail(Detail { every: 4, uavs: None });
+        let scan = |tick: u64| Scan { tick, t_secs: tick as f64 * 0.1, angle_min: 0.0, angle_increment: 0.1, max_range_m: 10.0, ranges_m: vec![1.0; 8] };
+        for tick in 1..=12u64 {
+            scene.on_step(&one_uav_step(tick, tick as f64, 0.0, 0.0));
+            scene.on_scan(1, &scan(tick));
+        }
+        let bytes = finished(scene, &path);
+        let count = |topic: &str| mcap::MessageStream::new(&bytes).expect("mcap").filter(|m| m.as_ref().expect("record").channel.topic == topic).count();
+        assert_eq!(count("/uav/1/pose"), 12);
+        assert_eq!(count("/uav/1/scan"), 3, "scans 1, 5 and 9");
+        assert_eq!(count("/radio"), 3, "ticks 4, 8 and 12");
     }
 
     #[test]
