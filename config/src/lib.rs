@@ -330,6 +330,10 @@ impl Scenario {
         positive("lost_contact.after_s", self.lost_contact.after_s)?;
         positive("lost_contact.speed_mps", self.lost_contact.speed_mps)?;
         positive("lost_contact.hold_radius_m", self.lost_contact.hold_radius_m)?;
+        non_negative("lost_contact.regroup_after_s", self.lost_contact.regroup_after_s)?;
+        if self.lost_contact.max_hops < 2 {
+            return Err(("lost_contact.max_hops".into(), "must be at least 2".into()));
+        }
         if let Some(r) = self.lost_contact.contact_radius_m {
             positive("lost_contact.contact_radius_m", r)?;
         }
@@ -586,6 +590,7 @@ impl K21Params {
             non_negative(&format!("{at}.{name}"), v)?;
         }
         non_negative(&format!("{at}.separation_all_around_m"), self.separation_all_around_m)?;
+        non_negative(&format!("{at}.barrier_m"), self.barrier_m)?;
         for (name, v) in [
             ("kf", self.kf),
             ("cohesion_radius_m", self.cohesion_radius_m),

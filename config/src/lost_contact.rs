@@ -19,6 +19,14 @@
 //! An informed UAV (one that has a goal) keeps flying to its goal, where the swarm is going,
 //! unless `informed_return` is set. A UAV that never had an estimate flocks as before (there is
 //! nowhere to go back to).
+//!
+//! The same for a group (seed 000 is silent here too): a group cut off from every informed UAV
+//! (by a partition, or because the informed failed) is never "alone", yet nobody steers it and
+//! it flies on. Every share carries its sender's hop count to the nearest informed UAV (0 for
+//! an informed UAV, one more than the smallest count heard for the others, so no id is
+//! revealed; counts of `max_hops` or more mean "no path"). An uninformed UAV that has had no path
+//! for `regroup_after_s` flies back, still flocking, to where it last had one, hovers within
+//! `hold_radius_m` of it, and flocks again as soon as a path is back.
 
 use serde::{Deserialize, Serialize};
 
@@ -49,6 +57,15 @@ pub struct LostContactParams {
     /// An informed UAV goes back too, instead of flying on to its goal.
     #[serde(default)]
     pub informed_return: bool,
+    /// With no path to an informed UAV for this long, an uninformed UAV that had one flies back
+    /// to where it last had one [s] (see the module doc). 0 turns the group behaviour off.
+    #[serde(default = "d_regroup")]
+    pub regroup_after_s: f64,
+    /// Hop counts of this or more mean "no path to an informed UAV". Once the informed are gone
+    /// a group's counts rise by about one a tick, so this is also how fast "no path" is known;
+    /// it must exceed the swarm's diameter in radio hops.
+    #[serde(default = "d_max_hops")]
+    pub max_hops: u8,
 }
 
 impl Default for LostContactParams {
@@ -60,6 +77,8 @@ impl Default for LostContactParams {
             hold_radius_m: d_hold(),
             contact_radius_m: None,
             informed_return: false,
+            regroup_after_s: d_regroup(),
+            max_hops: d_max_hops(),
         }
     }
 }
@@ -69,6 +88,12 @@ fn yes() -> bool {
 }
 fn d_after() -> f64 {
     5.0
+}
+fn d_regroup() -> f64 {
+    10.0
+}
+fn d_max_hops() -> u8 {
+    32
 }
 fn d_speed() -> f64 {
     0.25

@@ -709,6 +709,14 @@ pub struct K21Params {
     /// keeps the priority section 4.6 gives it.
     #[serde(default = "d_true")]
     pub obstacle_priority: bool,
+    /// Every obstacle centre and every neighbour closer than this [m] is a barrier: the final
+    /// velocity (eq. 4.2) loses its component towards each of them, so avoiding the closest
+    /// obstacle (eq. 4.10-4.13) never pushes the UAV into a second one (a frozen UAV on one
+    /// side, a trunk on the other), nor separation into another neighbour. Our extension; 0
+    /// turns it off. At 1 m it never engages in seed 000's section 6.1 flights, whose UAVs keep
+    /// more than 1.1 m from every trunk's surface and 1.3 m from each other.
+    #[serde(default = "one")]
+    pub barrier_m: f64,
 }
 
 /// How K21's separation terms combine (seed 000 eq. 4.9).
@@ -779,6 +787,7 @@ impl Default for K21Params {
             separation_all_around_m: d_sep_all(),
             separation_combine: SeparationCombine::ClippedSum,
             obstacle_priority: true,
+            barrier_m: one(),
         }
     }
 }

@@ -15,7 +15,7 @@
 //! Architecture invariant: an agent sees the world only through its own sensor messages and its
 //! neighbours' shares. Nothing here can reach ground truth.
 
-use crate::control::{Command, Controller, Controllers, LostContact, UnknownController, View};
+use crate::control::{Command, Controller, Controllers, Hops, LostContact, UnknownController, View};
 use crate::localization::{Estimate, Localizer, Share};
 use crate::perception::{self, Circle, Extracted};
 use crate::sensing::{FrameCollector, SensorFrame};
@@ -99,6 +99,8 @@ pub struct Agent {
     pilot: Box<dyn Controller>,
     /// Where the swarm was last estimated, and whether the agent has lost it.
     lost: LostContact,
+    /// The hop counts to the nearest informed UAV heard in shares.
+    hops: Hops,
 }
 
 impl Agent {
@@ -107,7 +109,7 @@ impl Agent {
     pub fn new(id: u32, sc: Scenario, controllers: &Controllers) -> Result<Agent, UnknownController> {
         let localizer = Localizer::new(id, &sc);
         let pilot = controllers.make(&sc)?;
-        Ok(Agent { id, sc, localizer, pilot, lost: LostContact::new() })
+        Ok(Agent { id, sc, localizer, pilot, lost: LostContact::new(), hops: Hops::default() })
     }
 
     /// The UAV this agent flies.
@@ -124,6 +126,9 @@ impl Agent {
     /// reference: on an agent host every listener gets the same decoded share, and the localizer
     /// keeps only what it needs of it.
     pub fn on_share(&mut self, share: &Share) {
+        if share.from() != self.id {
+            self.hops.hear(share.from(), share.hops(), share.t_secs());
+        }
         self.localizer.receive(share);
     }
 
@@ -149,8 +154,12 @@ impl Agent {
     /// The second half of a step: the controller's `command` (replaced by the lost-contact
     /// layer while the swarm is lost), the share, and the report.
     pub fn finish(&mut self, frame: &SensorFrame, seen: Perceived, command: Command) -> StepOutput {
-        let command = self.lost.steer(&self.sc, &seen.view(self.id, frame), command);
-        let share = self.localizer.share(frame, &seen.seen.circles);
+        let hops = self.hops.own(frame.odom.goal.is_some(), frame.scan.t_secs, self.sc.lost_contact.max_hops);
+        // Each estimate's count, by the sender of the share it came from (anonymous to the
+        // layer: it sees counts, not ids).
+        let counts: Vec<u8> = seen.localized.estimates.iter().map(|e| e.id.map_or(swarm_wire::NO_PATH, |id| self.hops.of(id))).collect();
+        let command = self.lost.steer(&self.sc, &seen.view(self.id, frame), hops, &counts, command);
+        let share = self.localizer.share(frame, &seen.seen.circles).map(|s| s.with_hops(hops));
         let report = StepReport {
             id: self.id,
             tick: frame.tick(),
@@ -276,8 +285,8 @@ mod tests {
     #[test]
     fn own_pose_is_ignored() {
         let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
-        a.on_share(&Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
-        a.on_share(&Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }));
+        a.on_share(&Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0 }));
+        a.on_share(&Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0 }));
         let out = a.step(&frame(None, Some(fix())));
         assert_eq!(out.report.neighbours.len(), 1, "own echo ignored");
         assert_eq!(out.report.neighbours[0].id, Some(2));

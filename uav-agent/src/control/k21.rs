@@ -233,6 +233,36 @@ pub fn avoidance(p: &K21Params, obstacles: &[Vector2<f64>], desired: Vector2<f64
     clip_unit(v_dir * (p.avoidance_gain_m / dist))
 }
 
+/// `v` without its component towards any obstacle centre closer than `radius_m` (body frame):
+/// our extension of seed 000 section 4.4, whose avoidance (eq. 4.10–4.13) looks at the closest
+/// obstacle only and so may push a UAV squeezing between two obstacles into the farther one.
+/// Each close obstacle is a half-plane constraint v·ŷ ≤ 0; the constraints are applied in turn
+/// until none is violated (a few rounds: in 2D at most two are active at once). Where they leave
+/// no direction at all (hemmed in on every side), the UAV stops.
+pub fn barrier(v: Vector2<f64>, obstacles: &[Vector2<f64>], radius_m: f64) -> Vector2<f64> {
+    let close: Vec<Vector2<f64>> =
+        obstacles.iter().copied().filter(is_finite).filter(|y| y.norm() > EPS && y.norm() < radius_m).map(|y| y / y.norm()).collect();
+    let mut v = v;
+    for _ in 0..8 {
+        let mut changed = false;
+        for y in &close {
+            let towards = v.dot(y);
+            if towards > EPS {
+                v -= towards * y;
+                changed = true;
+            }
+        }
+        if !changed {
+            return v;
+        }
+    }
+    if close.iter().any(|y| v.dot(y) > 1e-6) {
+        Vector2::zeros()
+    } else {
+        v
+    }
+}
+
 /// Navigation vector v_n (seed 000, section 4.5, eq. 4.16–4.17).
 ///
 /// k_n = |v_c| + |v_s| + |v_o|; v_n = (1 − k_n)·(1, 0) if k_n ≤ 1, else 0. The parameters are not
@@ -308,7 +338,9 @@ pub fn not_towards(v: Vector2<f64>, y: Vector2<f64>) -> Vector2<f64> {
 /// its direction; with `p.obstacle_priority` v_c and v_s then lose their component towards it
 /// ([`not_towards`]). Separation uses the body x axis as the desired direction. Then p = v_c + v_s + v_n1 with v_n1 = navigation(v_c, v_s, 0), v_o = avoidance(p),
 /// v_n = navigation(v_c, v_s, v_o), v = kc·v_c + ks·v_s + ko·v_o + kn·v_n, normalised if |v| > 1,
-/// times kf. yaw_rate = heading_gain·α. A non-finite velocity or yaw rate (only possible with
+/// times kf, then with no component towards an obstacle or a neighbour closer than
+/// `p.barrier_m` ([`barrier`]).
+/// yaw_rate = heading_gain·α. A non-finite velocity or yaw rate (only possible with
 /// non-finite parameters) is replaced by zero.
 pub fn step(p: &K21Params, input: &Input) -> Output {
     let nearest = nearest_obstacle(input.obstacles);
@@ -331,7 +363,9 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     // seed 000, eq. 4.1: v = kc·v_c + ks·v_s + ko·v_o + kn·v_n.
     let v = p.kc * vc + p.ks * vs + p.ko * vo + p.kn * vn;
     // seed 000, eq. 4.2: v_f = v/|v|·kf if |v| > 1, else v·kf.
-    let mut velocity = clip_unit(v) * p.kf;
+    // Our extension: every obstacle, and every neighbour, closer than barrier_m is a barrier.
+    let close: Vec<Vector2<f64>> = input.obstacles.iter().copied().chain(input.neighbours.iter().map(|n| n.pos)).collect();
+    let mut velocity = barrier(clip_unit(v) * p.kf, &close, p.barrier_m);
     if !is_finite(&velocity) {
         velocity = Vector2::zeros();
     }
@@ -630,6 +664,24 @@ mod tests {
         close(avoidance(&p, &[v(3.0, -1.0), v(2.0, 1.0)], x), v(0.4, -0.8), 1e-12);
         // (−1,0) is closer but 180° behind: ignored first, so (2,1) is still avoided.
         close(avoidance(&p, &[v(-1.0, 0.0), v(2.0, 1.0)], x), v(0.4, -0.8), 1e-12);
+    }
+
+    #[test]
+    fn barrier_keeps_a_uav_off_both_obstacles_it_squeezes_between() {
+        // A frozen UAV 0.8 m to the left, a trunk 0.85 m to the right: it slides on between them.
+        let beside = [v(0.0, 0.8), v(0.0, -0.85)];
+        close(barrier(v(0.2, -0.3), &beside, 1.0), v(0.2, 0.0), 1e-12);
+        // The trunk a little ahead on the right: no component towards either is left.
+        let ahead = [v(0.0, 0.8), v(0.3, -0.85)];
+        let out = barrier(v(0.2, -0.3), &ahead, 1.0);
+        for y in &ahead {
+            assert!(out.dot(&(y / y.norm())) <= 1e-9, "{out} moves towards {y}");
+        }
+        close(barrier(v(0.2, -0.3), &ahead, 0.0), v(0.2, -0.3), 1e-12);
+        close(barrier(v(0.4, 0.0), &[v(3.0, 0.0)], 1.0), v(0.4, 0.0), 1e-12);
+        // Hemmed in on three sides with the velocity into the corner: it stops.
+        let corner = [v(0.5, 0.0), v(-0.25, 0.45), v(-0.25, -0.45)];
+        close(barrier(v(0.3, 0.1), &corner, 1.0), Vector2::zeros(), 1e-9);
     }
 
     #[test]

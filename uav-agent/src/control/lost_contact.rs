@@ -29,6 +29,13 @@ pub enum Phase {
     Return(Vector2<f64>),
     /// Lost and back where the swarm was: hover and wait.
     Hold,
+    /// In contact, but the group has had no path to an informed UAV for a while: fly back to
+    /// where this UAV last had one (odometry frame) [m], flocking, at the flock's speed.
+    Regroup(Vector2<f64>),
+    /// A path, but every neighbour closer to the informed (a lower hop count) is beyond the
+    /// controller's reach, and has been for `after_s`: fly, flocking, towards the nearest of
+    /// them (odometry frame) [m].
+    Follow(Vector2<f64>),
 }
 
 /// The layer's memory between steps.
@@ -41,6 +48,15 @@ pub struct LostContact {
     /// Reached the place: hover until contact is back (sticky, so a hover's drift does not
     /// start a new flight).
     holding: bool,
+    /// Sim time of the last step with a path to an informed UAV [s].
+    last_path_s: Option<f64>,
+    /// Where this UAV last had a path to an informed UAV, odometry frame [m].
+    path_odom: Option<Vector2<f64>>,
+    /// Back where the group last had a path: hover until it has one again (sticky).
+    regroup_holding: bool,
+    /// Sim time of the last step with a neighbour closer to the informed within reach, or with
+    /// no path at all [s].
+    led_s: Option<f64>,
 }
 
 /// The distance within which a neighbour estimate is contact: the scenario's, or the reach of
@@ -59,10 +75,16 @@ impl LostContact {
         LostContact::default()
     }
 
-    /// Notes this step's neighbour estimates and decides the phase.
-    pub fn phase(&mut self, sc: &Scenario, v: &View) -> Phase {
+    /// Notes this step's neighbour estimates and hop count (see [`crate::control::hops`]) and
+    /// decides the phase.
+    /// `counts` are the hop counts of `v.neighbours`, in order (missing ones: none).
+    pub fn phase(&mut self, sc: &Scenario, v: &View, hops: u8, counts: &[u8]) -> Phase {
         let p = &sc.lost_contact;
         let p0 = Vector2::new(v.odom.x, v.odom.y);
+        if hops < p.max_hops {
+            self.last_path_s = Some(v.t_secs);
+            self.path_odom = Some(p0);
+        }
         if !v.neighbours.is_empty() {
             let n = v.neighbours.len() as f64;
             let centroid_body = v.neighbours.iter().map(|e| e.pos_in_body).sum::<Vector2<f64>>() / n;
@@ -71,7 +93,7 @@ impl LostContact {
             let reach = contact_radius_m(sc);
             if v.neighbours.iter().any(|e| e.pos_in_body.norm() <= reach) {
                 self.last_contact_s = Some(v.t_secs);
-                return Phase::Flock;
+                return self.group_phase(sc, v, p0, hops, counts);
             }
         }
         let (Some(since), Some(target)) = (self.last_contact_s, self.swarm_odom) else { return Phase::Flock };
@@ -90,10 +112,53 @@ impl LostContact {
         }
     }
 
-    /// The command of this step: the controller's (`flock`) unless the agent is lost.
-    pub fn steer(&mut self, sc: &Scenario, v: &View, flock: Command) -> Command {
-        match self.phase(sc, v) {
+    /// In contact: flock, unless the group has had no path to an informed UAV for
+    /// `regroup_after_s` (and this UAV is uninformed and once had one); then back to where it
+    /// last had one, and hover there (sticky) until a path is back. With a path but no
+    /// neighbour closer to the informed within reach for `after_s`, follow the nearest such
+    /// neighbour beyond reach ([`Phase::Follow`]): flocking alone follows nobody out of reach.
+    fn group_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, counts: &[u8]) -> Phase {
+        let p = &sc.lost_contact;
+        let (Some(since), Some(target)) = (self.last_path_s, self.path_odom) else { return Phase::Flock };
+        if !p.enabled || p.regroup_after_s <= 0.0 || v.odom.goal.is_some() {
+            return Phase::Flock;
+        }
+        if v.t_secs - since < p.regroup_after_s - 1e-9 {
+            self.regroup_holding = false;
+            return self.follow_phase(sc, v, p0, hops, counts);
+        }
+        self.regroup_holding |= (target - p0).norm() <= p.hold_radius_m;
+        if self.regroup_holding {
+            Phase::Hold
+        } else {
+            Phase::Regroup(target)
+        }
+    }
+
+    /// With a path: flock while a neighbour with a lower count is within reach (or none is
+    /// localized, or not for `after_s` yet); else towards the nearest one beyond reach.
+    fn follow_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, counts: &[u8]) -> Phase {
+        let reach = contact_radius_m(sc);
+        let closer = v.neighbours.iter().enumerate().filter(|(i, _)| counts.get(*i).is_some_and(|&c| c < hops)).map(|(_, e)| e.pos_in_body);
+        let nearest = closer.min_by(|a, b| a.norm().total_cmp(&b.norm()));
+        let led = hops >= sc.lost_contact.max_hops || nearest.is_none_or(|n| n.norm() <= reach);
+        if led || self.led_s.is_none() {
+            self.led_s = Some(v.t_secs);
+        }
+        match nearest {
+            Some(n) if !led && v.t_secs - self.led_s.unwrap_or(v.t_secs) >= sc.lost_contact.after_s - 1e-9 => {
+                Phase::Follow(p0 + Rotation2::new(v.odom.yaw) * n)
+            }
+            _ => Phase::Flock,
+        }
+    }
+
+    /// The command of this step: the controller's (`flock`) unless the agent, or its group,
+    /// is lost; `hops` is this step's hop count to the nearest informed UAV.
+    pub fn steer(&mut self, sc: &Scenario, v: &View, hops: u8, counts: &[u8], flock: Command) -> Command {
+        match self.phase(sc, v, hops, counts) {
             Phase::Flock => flock,
+            Phase::Regroup(target) | Phase::Follow(target) => regroup(sc, v, target),
             Phase::Hold => {
                 Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
             }
@@ -117,6 +182,14 @@ fn fly_to(sc: &Scenario, v: &View, target_odom: Vector2<f64>, speed_mps: f64) ->
     c
 }
 
+/// The group's flight back: K21 with the neighbours and the place as its goal, as an informed
+/// UAV of seed 000 flies to its goal (eq. 4.1–4.17), at K21's speed.
+fn regroup(sc: &Scenario, v: &View, target_odom: Vector2<f64>) -> Command {
+    let to_target = target_odom - Vector2::new(v.odom.x, v.odom.y);
+    let heading = wrap_angle(to_target.y.atan2(to_target.x) - v.odom.yaw);
+    k21_command(&sc.controller.k21, v, v.neighbours, Some(heading), &wall_points(v))
+}
+
 /// The point of each wall face nearest the UAV, body frame [m].
 fn wall_points(v: &View) -> Vec<Vector2<f64>> {
     v.walls
@@ -135,7 +208,7 @@ mod tests {
     use crate::localization::Estimate;
     use crate::perception::Circle;
     use nalgebra::Point2;
-    use swarm_wire::Odom;
+    use swarm_wire::{Odom, NO_PATH};
 
     fn scenario() -> Scenario {
         swarm_config::builtin("forest-5").expect("builtin")
@@ -164,21 +237,45 @@ mod tests {
         let mut l = LostContact::new();
         // Heading +y at (0, 0), neighbours 2 m ahead and 2 m left-ahead: centroid (−1, 2) in odometry.
         let o = odom(0.0, 0.0, std::f64::consts::FRAC_PI_2, None);
-        assert_eq!(l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0), neighbour(2.0, 2.0)], &[])), Phase::Flock);
+        assert_eq!(l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0), neighbour(2.0, 2.0)], &[]), NO_PATH, &[]), Phase::Flock);
         let far = odom(0.0, 10.0, std::f64::consts::FRAC_PI_2, None);
-        assert_eq!(l.phase(&sc, &view(after - 0.1, &far, &[], &[])), Phase::Flock, "not lost yet");
-        match l.phase(&sc, &view(after, &far, &[], &[])) {
+        assert_eq!(l.phase(&sc, &view(after - 0.1, &far, &[], &[]), NO_PATH, &[]), Phase::Flock, "not lost yet");
+        match l.phase(&sc, &view(after, &far, &[], &[]), NO_PATH, &[]) {
             Phase::Return(t) => assert!((t - Vector2::new(-1.0, 2.0)).norm() < 1e-9, "{t}"),
             other => panic!("{other:?}"),
         }
-        let c = l.steer(&sc, &view(after + 0.1, &far, &[], &[]), flock());
+        let c = l.steer(&sc, &view(after + 0.1, &far, &[], &[]), NO_PATH, &[], flock());
         assert!(c.xy.norm() <= sc.lost_contact.speed_mps + 1e-9 && c.yaw_rate.abs() > 0.0, "turns back, slowly: {c:?}");
         let there = odom(-1.0, 2.5, 0.0, None);
-        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &[], &[])), Phase::Hold);
-        let c = l.steer(&sc, &view(after + 20.1, &odom(-1.0, 4.0, 0.0, None), &[], &[]), flock());
+        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &[], &[]), NO_PATH, &[]), Phase::Hold);
+        let c = l.steer(&sc, &view(after + 20.1, &odom(-1.0, 4.0, 0.0, None), &[], &[]), NO_PATH, &[], flock());
         assert_eq!(c.kind, CmdKind::Hover, "holding is sticky");
-        let back = l.steer(&sc, &view(after + 21.0, &there, &[neighbour(3.0, 0.0)], &[]), flock());
+        let back = l.steer(&sc, &view(after + 21.0, &there, &[neighbour(3.0, 0.0)], &[]), NO_PATH, &[], flock());
         assert_eq!(back, flock(), "contact again: the controller flies");
+    }
+
+    #[test]
+    fn a_group_without_a_path_to_the_informed_flies_back_flocking_and_holds() {
+        let sc = scenario();
+        let after = sc.lost_contact.regroup_after_s;
+        let mut l = LostContact::new();
+        let mates = [neighbour(2.0, 0.0), neighbour(0.0, 2.0)];
+        assert_eq!(l.phase(&sc, &view(0.0, &odom(3.0, 0.0, 0.0, None), &mates, &[]), 4, &[]), Phase::Flock, "a path: flock");
+        let on = odom(8.0, 0.0, 0.0, None);
+        assert_eq!(l.phase(&sc, &view(after - 0.1, &on, &mates, &[]), NO_PATH, &[]), Phase::Flock, "not for long enough");
+        assert_eq!(l.phase(&sc, &view(after, &on, &mates, &[]), NO_PATH, &[]), Phase::Regroup(Vector2::new(3.0, 0.0)));
+        let c = l.steer(&sc, &view(after, &on, &mates, &[]), NO_PATH, &[], flock());
+        assert!(c.yaw_rate.abs() > 0.0 && c.vectors.cohesion + c.vectors.separation > 0.0, "turns back, still flocking: {c:?}");
+        let there = odom(3.5, 0.0, 0.0, None);
+        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &mates, &[]), NO_PATH, &[]), Phase::Hold);
+        assert_eq!(l.phase(&sc, &view(after + 21.0, &odom(5.0, 0.0, 0.0, None), &mates, &[]), NO_PATH, &[]), Phase::Hold, "sticky");
+        assert_eq!(l.phase(&sc, &view(after + 22.0, &there, &mates, &[]), 3, &[]), Phase::Flock, "a path again: flock");
+        let informed = odom(8.0, 0.0, 0.0, Some([30.0, 0.0]));
+        let mut i = LostContact::new();
+        i.phase(&sc, &view(0.0, &informed, &mates, &[]), 0, &[]);
+        assert_eq!(i.phase(&sc, &view(100.0, &informed, &mates, &[]), NO_PATH, &[]), Phase::Flock, "the informed fly on");
+        let mut never = LostContact::new();
+        assert_eq!(never.phase(&sc, &view(100.0, &on, &mates, &[]), NO_PATH, &[]), Phase::Flock, "never had a path: nowhere to go");
     }
 
     #[test]
@@ -187,11 +284,11 @@ mod tests {
         let reach = sc.controller.k21.neighbour_radius_m;
         let mut l = LostContact::new();
         let o = odom(0.0, 0.0, 0.0, None);
-        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]));
+        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &[]);
         let heard = [neighbour(reach + 3.0, 0.0)];
-        assert_eq!(l.phase(&sc, &view(1.0, &o, &heard, &[])), Phase::Flock, "not lost yet");
-        assert_eq!(l.phase(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[])), Phase::Approach(Vector2::new(reach + 3.0, 0.0)));
-        let c = l.steer(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), flock());
+        assert_eq!(l.phase(&sc, &view(1.0, &o, &heard, &[]), NO_PATH, &[]), Phase::Flock, "not lost yet");
+        assert_eq!(l.phase(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &[]), Phase::Approach(Vector2::new(reach + 3.0, 0.0)));
+        let c = l.steer(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &[], flock());
         assert!(c.xy.x > sc.lost_contact.speed_mps, "at the flock's speed: {c:?}");
     }
 
@@ -200,15 +297,15 @@ mod tests {
         let mut sc = scenario();
         let mut never = LostContact::new();
         let o = odom(0.0, 0.0, 0.0, None);
-        assert_eq!(never.phase(&sc, &view(100.0, &o, &[], &[])), Phase::Flock);
+        assert_eq!(never.phase(&sc, &view(100.0, &o, &[], &[]), NO_PATH, &[]), Phase::Flock);
         let mut informed = LostContact::new();
         let g = odom(0.0, 0.0, 0.0, Some([30.0, 0.0]));
-        informed.phase(&sc, &view(0.0, &g, &[neighbour(2.0, 0.0)], &[]));
-        assert_eq!(informed.phase(&sc, &view(100.0, &g, &[], &[])), Phase::Flock);
+        informed.phase(&sc, &view(0.0, &g, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &[]);
+        assert_eq!(informed.phase(&sc, &view(100.0, &g, &[], &[]), NO_PATH, &[]), Phase::Flock);
         sc.lost_contact.enabled = false;
         let mut l = LostContact::new();
-        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]));
-        assert_eq!(l.phase(&sc, &view(100.0, &o, &[], &[])), Phase::Flock);
+        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &[]);
+        assert_eq!(l.phase(&sc, &view(100.0, &o, &[], &[]), NO_PATH, &[]), Phase::Flock);
     }
 
     #[test]

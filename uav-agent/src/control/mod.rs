@@ -11,13 +11,16 @@
 //! - `m23`: the formation layer of seed 004 (topology goals, the leader's wait, the tracker).
 //! - `neighbour_velocity`: each neighbour's velocity from its positions, for P17 and M23.
 //! - [`lost_contact`]: what every controller's UAV does once it has lost its swarm (flies back
-//!   to where it last estimated it, then hovers), a layer over the pilot's command.
+//!   to where it last estimated it, then hovers), or its group every informed UAV (flies back,
+//!   flocking, to where it last had a path to one), a layer over the pilot's command.
+//! - [`hops`]: the hop count to the nearest informed UAV that every share carries.
 //!
 //! The controllers are pure functions of their seeds' inputs. A21 and M23 plan on maps from
 //! [`crate::planning`]; nothing here reaches back up to the agent or the node.
 
 mod a21;
 pub(crate) mod controller;
+pub(crate) mod hops;
 mod k21;
 pub(crate) mod lost_contact;
 // Seed API kept whole and tested, partly unused by the pilot (see `lib.rs`).
@@ -28,6 +31,7 @@ mod neighbour_velocity;
 mod p17;
 pub(crate) mod pilot;
 
+pub use hops::Hops;
 pub use lost_contact::LostContact;
 pub use controller::{Controller, Controllers, MakeController, UnknownController};
 pub use pilot::{Command, View};

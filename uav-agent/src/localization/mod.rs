@@ -68,6 +68,21 @@ impl Share {
             Share::Obstacles(o) => o.t_secs,
         }
     }
+    /// The sender's hop count to the nearest informed UAV ([`swarm_wire::NO_PATH`]: none).
+    pub fn hops(&self) -> u8 {
+        match self {
+            Share::Pose(p) => p.hops,
+            Share::Obstacles(o) => o.hops,
+        }
+    }
+    /// The share with our hop count.
+    pub fn with_hops(mut self, hops: u8) -> Share {
+        match &mut self {
+            Share::Pose(p) => p.hops = hops,
+            Share::Obstacles(o) => o.hops = hops,
+        }
+        self
+    }
     /// The wire message.
     pub fn into_msg(self) -> Msg {
         match self {

@@ -930,6 +930,7 @@ impl IcpLocalizer {
             tick: frame.scan.tick,
             t_secs: frame.scan.t_secs,
             centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
+            hops: swarm_wire::NO_PATH,
         })
     }
 }

@@ -1,0 +1,66 @@
+//! End to end over real Zenoh and real processes: issue 24's half-swarm cut off from whoever knew
+//! the goal comes back.
+//!
+//! `forest-9-cut-off`: nine UAVs, two informed, through 10 trees/100 m² over burst loss; a halves
+//! partition from 15 s to 45 s cuts UAVs 5-9 off both informed UAVs, and informed UAV 1 freezes
+//! among the trees at 30 s. With the group behaviour (hop counts in every share; the cut-off half
+//! flies back to where it last had a path, then follows the UAVs closer to an informed one) and
+//! K21's barrier, nobody touches anything, the flying UAVs end together and the goal rule is met.
+//! With the group behaviour off, the half flies on with nobody steering it and ends far from the
+//! rest. Lockstep, so both outcomes repeat exactly.
+
+mod common;
+
+use common::{run_id, summary, swarm_run};
+use std::path::Path;
+
+/// The scenario shipped in `scenarios/`.
+const CUT_OFF: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-9-cut-off.toml"));
+
+/// The UAV that freezes (the hub's goal rule leaves it out; it cannot move).
+const FROZEN: u32 = 1;
+
+/// Flies a scenario (text) to its end; returns the summary and, per flying UAV, its distance to
+/// the nearest other flying UAV at the last tick [m].
+fn fly(toml: &str, tag: &str) -> (serde_json::Value, Vec<(u32, f64)>) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("scenario.toml");
+    std::fs::write(&path, toml).expect("write scenario");
+    let out_dir = dir.path().join("run");
+    let out = swarm_run(&[path.to_str().expect("utf8"), "--out", out_dir.to_str().expect("utf8"), "--run", &run_id(tag), "--no-mcap"]);
+    assert!(out.status.success(), "{tag}: {}", String::from_utf8_lossy(&out.stderr));
+    (summary(&out_dir), nearest_at_end(&out_dir))
+}
+
+/// Each flying UAV's distance to its nearest other flying UAV at the last tick of the run.
+fn nearest_at_end(dir: &Path) -> Vec<(u32, f64)> {
+    let text = std::fs::read_to_string(dir.join("trajectories.csv")).expect("trajectories.csv");
+    let rows: Vec<(u64, u32, f64, f64)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[0].parse().expect("tick"), f[2].parse().expect("id"), f[3].parse().expect("x"), f[4].parse().expect("y"))
+        })
+        .collect();
+    let last = rows.iter().map(|r| r.0).max().expect("rows");
+    let end: Vec<_> = rows.iter().filter(|r| r.0 == last && r.1 != FROZEN).collect();
+    end.iter()
+        .map(|a| (a.1, end.iter().filter(|b| b.1 != a.1).map(|b| (a.2 - b.2).hypot(a.3 - b.3)).fold(f64::INFINITY, f64::min)))
+        .collect()
+}
+
+#[test]
+fn a_half_cut_off_from_the_informed_comes_back_and_the_swarm_meets_its_goal() {
+    let (s, nearest) = fly(CUT_OFF, "cutoff");
+    assert_eq!(s["collisions"], 0, "no contact: {:#}", s["collision_events"]);
+    assert_eq!(s["reached_goal"], true, "the goal rule is met: {}", s["end_reason"]);
+    let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
+    assert!(apart.is_empty(), "every flying UAV ends within 10 m of another: {apart:?}");
+
+    let off = CUT_OFF.replace("[[netem]]                        # burst loss", "[lost_contact]\nregroup_after_s = 0.0\n\n[[netem]]                        # burst loss");
+    assert_ne!(off, CUT_OFF, "the group behaviour is turned off");
+    let (s, nearest) = fly(&off, "cutoff-off");
+    let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
+    assert!(s["reached_goal"] == false && !apart.is_empty(), "without it the half flies off: goal {}, {nearest:?}", s["reached_goal"]);
+}
