@@ -104,12 +104,7 @@ impl LostContact {
         if !v.neighbours.is_empty() {
             return Phase::Approach(target);
         }
-        self.holding |= (target - p0).norm() <= p.hold_radius_m;
-        if self.holding {
-            Phase::Hold
-        } else {
-            Phase::Return(target)
-        }
+        hold_at(&mut self.holding, target, p0, p.hold_radius_m, Phase::Return(target))
     }
 
     /// In contact: flock, unless the group has had no path to an informed UAV for
@@ -127,12 +122,7 @@ impl LostContact {
             self.regroup_holding = false;
             return self.follow_phase(sc, v, p0, hops, counts);
         }
-        self.regroup_holding |= (target - p0).norm() <= p.hold_radius_m;
-        if self.regroup_holding {
-            Phase::Hold
-        } else {
-            Phase::Regroup(target)
-        }
+        hold_at(&mut self.regroup_holding, target, p0, p.hold_radius_m, Phase::Regroup(target))
     }
 
     /// With a path: flock while a neighbour with a lower count is within reach (or none is
@@ -165,6 +155,17 @@ impl LostContact {
             Phase::Approach(target) => fly_to(sc, v, target, sc.controller.k21.kf),
             Phase::Return(target) => fly_to(sc, v, target, sc.lost_contact.speed_mps),
         }
+    }
+}
+
+/// Hover once within `radius_m` of `target` (sticky through `holding`, so a hover's drift
+/// does not start a new flight), else `going` (`p0`: where the UAV is, odometry frame).
+fn hold_at(holding: &mut bool, target: Vector2<f64>, p0: Vector2<f64>, radius_m: f64, going: Phase) -> Phase {
+    *holding |= (target - p0).norm() <= radius_m;
+    if *holding {
+        Phase::Hold
+    } else {
+        going
     }
 }
 
