@@ -72,15 +72,19 @@ def main():
         run = f"wirebytes-{os.getpid()}"
         out = os.path.join(tmp, "run")
         p = subprocess.Popen([a.bin, "run", a.scenario, "--run", run, "--out", out, "--agents-per-process", "1", "--no-mcap", "--quiet"],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        endpoint = None
-        for line in p.stderr:
-            m = re.search(r'hub up locators=\["(tcp/127\.0\.0\.1:(\d+))"', line)
-            if m:
-                endpoint, port = m.group(1), m.group(2)
-                break
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        # The run folder's hub.txt holds the hub's locators, one a line, once the hub is up.
+        endpoint, deadline = None, time.time() + 120
+        while endpoint is None and time.time() < deadline and p.poll() is None:
+            try:
+                with open(os.path.join(out, "hub.txt")) as f:
+                    m = next((re.fullmatch(r"(tcp/127\.0\.0\.1:(\d+))", l.strip()) for l in f if l.startswith("tcp/")), None)
+                if m:
+                    endpoint, port = m.group(1), m.group(2)
+            except FileNotFoundError:
+                time.sleep(0.2)
         if endpoint is None:
-            sys.exit("the hub never said where it listens")
+            sys.exit("the hub never wrote where it listens (hub.txt)")
         creds = os.path.join(out, "credentials")
         while hub_tick(a.bin, run, endpoint, creds) < a.warmup:
             time.sleep(0.5)
