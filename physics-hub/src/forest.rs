@@ -68,15 +68,16 @@ pub fn scenario_trees(sc: &Scenario) -> Vec<Tree> {
 /// against every tree, explicit or generated, so a forest drawn over a start area is caught
 /// before any process starts. A start touching an obstacle would fly as a collision at tick 0.
 pub fn start_in_obstacle(sc: &Scenario) -> Option<(u32, String)> {
-    let trees = scenario_trees(sc);
-    let world = crate::world::World::new(trees.clone(), sc.world.walls.clone());
+    let world = crate::world::World::new(scenario_trees(sc), sc.world.walls.clone());
     let body = sc.body.radius_m;
     for (i, p) in start_positions(sc).iter().enumerate() {
         let clear = world.clearance(*p);
         if clear >= body {
             continue;
         }
-        let tree = trees.iter().find(|t| (t.x - p[0]).hypot(t.y - p[1]) - t.r < body);
+        // The trunk that gives this clearance (none: a wall does).
+        let surface = |t: &&Tree| (t.x - p[0]).hypot(t.y - p[1]) - t.r;
+        let tree = world.trees().iter().filter(|t| surface(t) <= clear + 1e-9).min_by(|a, b| surface(a).total_cmp(&surface(b)));
         let what = match tree {
             Some(t) => format!("{clear:.2} m from the tree at ({:.2}, {:.2}), r {:.2} m", t.x, t.y, t.r),
             None => format!("{clear:.2} m from a wall"),

@@ -155,10 +155,7 @@ impl Agent {
     /// layer while the swarm is lost), the share, and the report.
     pub fn finish(&mut self, frame: &SensorFrame, seen: Perceived, command: Command) -> StepOutput {
         let hops = self.hops.own(frame.odom.goal.is_some(), frame.scan.t_secs, self.sc.lost_contact.max_hops);
-        // Each estimate's count, by the sender of the share it came from (anonymous to the
-        // layer: it sees counts, not ids).
-        let counts: Vec<u8> = seen.localized.estimates.iter().map(|e| e.id.map_or(swarm_wire::NO_PATH, |id| self.hops.of(id))).collect();
-        let command = self.lost.steer(&self.sc, &seen.view(self.id, frame), hops, &counts, command);
+        let command = self.lost.steer(&self.sc, &seen.view(self.id, frame), hops, &self.hops, command);
         let share = self.localizer.share(frame, &seen.seen.circles).map(|s| s.with_hops(hops));
         let report = StepReport {
             id: self.id,

@@ -239,9 +239,19 @@ pub fn avoidance(p: &K21Params, obstacles: &[Vector2<f64>], desired: Vector2<f64
 /// Each close obstacle is a half-plane constraint v·ŷ ≤ 0; the constraints are applied in turn
 /// until none is violated (a few rounds: in 2D at most two are active at once). Where they leave
 /// no direction at all (hemmed in on every side), the UAV stops.
-pub fn barrier(v: Vector2<f64>, obstacles: &[Vector2<f64>], radius_m: f64) -> Vector2<f64> {
-    let close: Vec<Vector2<f64>> =
-        obstacles.iter().copied().filter(is_finite).filter(|y| y.norm() > EPS && y.norm() < radius_m).map(|y| y / y.norm()).collect();
+pub fn barrier(v: Vector2<f64>, obstacles: impl IntoIterator<Item = Vector2<f64>>, radius_m: f64) -> Vector2<f64> {
+    if radius_m <= 0.0 {
+        return v;
+    }
+    // Usually empty: no allocation unless something is this close.
+    let close: Vec<Vector2<f64>> = obstacles
+        .into_iter()
+        .filter(is_finite)
+        .filter_map(|y| {
+            let d = y.norm();
+            (d > EPS && d < radius_m).then(|| y / d)
+        })
+        .collect();
     let mut v = v;
     for _ in 0..8 {
         let mut changed = false;
@@ -364,8 +374,8 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     let v = p.kc * vc + p.ks * vs + p.ko * vo + p.kn * vn;
     // seed 000, eq. 4.2: v_f = v/|v|·kf if |v| > 1, else v·kf.
     // Our extension: every obstacle, and every neighbour, closer than barrier_m is a barrier.
-    let close: Vec<Vector2<f64>> = input.obstacles.iter().copied().chain(input.neighbours.iter().map(|n| n.pos)).collect();
-    let mut velocity = barrier(clip_unit(v) * p.kf, &close, p.barrier_m);
+    let close = input.obstacles.iter().copied().chain(input.neighbours.iter().map(|n| n.pos));
+    let mut velocity = barrier(clip_unit(v) * p.kf, close, p.barrier_m);
     if !is_finite(&velocity) {
         velocity = Vector2::zeros();
     }
@@ -670,18 +680,18 @@ mod tests {
     fn barrier_keeps_a_uav_off_both_obstacles_it_squeezes_between() {
         // A frozen UAV 0.8 m to the left, a trunk 0.85 m to the right: it slides on between them.
         let beside = [v(0.0, 0.8), v(0.0, -0.85)];
-        close(barrier(v(0.2, -0.3), &beside, 1.0), v(0.2, 0.0), 1e-12);
+        close(barrier(v(0.2, -0.3), beside, 1.0), v(0.2, 0.0), 1e-12);
         // The trunk a little ahead on the right: no component towards either is left.
         let ahead = [v(0.0, 0.8), v(0.3, -0.85)];
-        let out = barrier(v(0.2, -0.3), &ahead, 1.0);
+        let out = barrier(v(0.2, -0.3), ahead, 1.0);
         for y in &ahead {
             assert!(out.dot(&(y / y.norm())) <= 1e-9, "{out} moves towards {y}");
         }
-        close(barrier(v(0.2, -0.3), &ahead, 0.0), v(0.2, -0.3), 1e-12);
-        close(barrier(v(0.4, 0.0), &[v(3.0, 0.0)], 1.0), v(0.4, 0.0), 1e-12);
+        close(barrier(v(0.2, -0.3), ahead, 0.0), v(0.2, -0.3), 1e-12);
+        close(barrier(v(0.4, 0.0), [v(3.0, 0.0)], 1.0), v(0.4, 0.0), 1e-12);
         // Hemmed in on three sides with the velocity into the corner: it stops.
         let corner = [v(0.5, 0.0), v(-0.25, 0.45), v(-0.25, -0.45)];
-        close(barrier(v(0.3, 0.1), &corner, 1.0), Vector2::zeros(), 1e-9);
+        close(barrier(v(0.3, 0.1), corner, 1.0), Vector2::zeros(), 1e-9);
     }
 
     #[test]

@@ -10,11 +10,12 @@
 //! controller still runs every step, so its maps and memory stay current for when contact is
 //! back. Nothing here reads ground truth: odometry, the scan and the estimates only.
 
-use super::pilot::{k21_command, Command, View};
-use crate::geometry::wrap_angle;
+use super::hops::Hops;
+use super::pilot::{bearing_in_body, k21_command, Command, View};
+use crate::localization::Estimate;
 use nalgebra::{Rotation2, Vector2};
 use swarm_config::{ControllerKind, Scenario};
-use swarm_wire::{CmdKind, VectorMagnitudes};
+use swarm_wire::NO_PATH;
 
 /// What the layer does this step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,8 +78,8 @@ impl LostContact {
 
     /// Notes this step's neighbour estimates and hop count (see [`crate::control::hops`]) and
     /// decides the phase.
-    /// `counts` are the hop counts of `v.neighbours`, in order (missing ones: none).
-    pub fn phase(&mut self, sc: &Scenario, v: &View, hops: u8, counts: &[u8]) -> Phase {
+    /// `heard`: the counts heard in shares, by sender (each estimate's count is its sender's).
+    pub fn phase(&mut self, sc: &Scenario, v: &View, hops: u8, heard: &Hops) -> Phase {
         let p = &sc.lost_contact;
         let p0 = Vector2::new(v.odom.x, v.odom.y);
         if hops < p.max_hops {
@@ -93,7 +94,7 @@ impl LostContact {
             let reach = contact_radius_m(sc);
             if v.neighbours.iter().any(|e| e.pos_in_body.norm() <= reach) {
                 self.last_contact_s = Some(v.t_secs);
-                return self.group_phase(sc, v, p0, hops, counts);
+                return self.group_phase(sc, v, p0, hops, heard);
             }
         }
         let (Some(since), Some(target)) = (self.last_contact_s, self.swarm_odom) else { return Phase::Flock };
@@ -112,7 +113,7 @@ impl LostContact {
     /// last had one, and hover there (sticky) until a path is back. With a path but no
     /// neighbour closer to the informed within reach for `after_s`, follow the nearest such
     /// neighbour beyond reach ([`Phase::Follow`]): flocking alone follows nobody out of reach.
-    fn group_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, counts: &[u8]) -> Phase {
+    fn group_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, heard: &Hops) -> Phase {
         let p = &sc.lost_contact;
         let (Some(since), Some(target)) = (self.last_path_s, self.path_odom) else { return Phase::Flock };
         if !p.enabled || p.regroup_after_s <= 0.0 || v.odom.goal.is_some() {
@@ -120,16 +121,17 @@ impl LostContact {
         }
         if v.t_secs - since < p.regroup_after_s - 1e-9 {
             self.regroup_holding = false;
-            return self.follow_phase(sc, v, p0, hops, counts);
+            return self.follow_phase(sc, v, p0, hops, heard);
         }
         hold_at(&mut self.regroup_holding, target, p0, p.hold_radius_m, Phase::Regroup(target))
     }
 
     /// With a path: flock while a neighbour with a lower count is within reach (or none is
     /// localized, or not for `after_s` yet); else towards the nearest one beyond reach.
-    fn follow_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, counts: &[u8]) -> Phase {
+    fn follow_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, heard: &Hops) -> Phase {
         let reach = contact_radius_m(sc);
-        let closer = v.neighbours.iter().enumerate().filter(|(i, _)| counts.get(*i).is_some_and(|&c| c < hops)).map(|(_, e)| e.pos_in_body);
+        let count = |e: &&Estimate| e.id.map_or(NO_PATH, |id| heard.of(id));
+        let closer = v.neighbours.iter().filter(|e| count(e) < hops).map(|e| e.pos_in_body);
         let nearest = closer.min_by(|a, b| a.norm().total_cmp(&b.norm()));
         let led = hops >= sc.lost_contact.max_hops || nearest.is_none_or(|n| n.norm() <= reach);
         if led || self.led_s.is_none() {
@@ -145,13 +147,11 @@ impl LostContact {
 
     /// The command of this step: the controller's (`flock`) unless the agent, or its group,
     /// is lost; `hops` is this step's hop count to the nearest informed UAV.
-    pub fn steer(&mut self, sc: &Scenario, v: &View, hops: u8, counts: &[u8], flock: Command) -> Command {
-        match self.phase(sc, v, hops, counts) {
+    pub fn steer(&mut self, sc: &Scenario, v: &View, hops: u8, heard: &Hops, flock: Command) -> Command {
+        match self.phase(sc, v, hops, heard) {
             Phase::Flock => flock,
             Phase::Regroup(target) | Phase::Follow(target) => regroup(sc, v, target),
-            Phase::Hold => {
-                Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
-            }
+            Phase::Hold => Command::hover(),
             Phase::Approach(target) => fly_to(sc, v, target, sc.controller.k21.kf),
             Phase::Return(target) => fly_to(sc, v, target, sc.lost_contact.speed_mps),
         }
@@ -173,9 +173,7 @@ fn hold_at(holding: &mut bool, target: Vector2<f64>, p0: Vector2<f64>, radius_m:
 /// 4.14–4.17 turn the UAV towards it and avoid the closest obstacle, eq. 4.10–4.13), scaled from
 /// K21's speed `kf` to `speed_mps`. Wall faces count as obstacles at their point nearest the UAV.
 fn fly_to(sc: &Scenario, v: &View, target_odom: Vector2<f64>, speed_mps: f64) -> Command {
-    let p0 = Vector2::new(v.odom.x, v.odom.y);
-    let to_target = target_odom - p0;
-    let heading = wrap_angle(to_target.y.atan2(to_target.x) - v.odom.yaw);
+    let heading = bearing_in_body(v.odom, [target_odom.x, target_odom.y]);
     let mut c = k21_command(&sc.controller.k21, v, &[], Some(heading), &wall_points(v));
     let scale = speed_mps / sc.controller.k21.kf;
     c.xy *= scale;
@@ -186,8 +184,7 @@ fn fly_to(sc: &Scenario, v: &View, target_odom: Vector2<f64>, speed_mps: f64) ->
 /// The group's flight back: K21 with the neighbours and the place as its goal, as an informed
 /// UAV of seed 000 flies to its goal (eq. 4.1–4.17), at K21's speed.
 fn regroup(sc: &Scenario, v: &View, target_odom: Vector2<f64>) -> Command {
-    let to_target = target_odom - Vector2::new(v.odom.x, v.odom.y);
-    let heading = wrap_angle(to_target.y.atan2(to_target.x) - v.odom.yaw);
+    let heading = bearing_in_body(v.odom, [target_odom.x, target_odom.y]);
     k21_command(&sc.controller.k21, v, v.neighbours, Some(heading), &wall_points(v))
 }
 
@@ -209,7 +206,7 @@ mod tests {
     use crate::localization::Estimate;
     use crate::perception::Circle;
     use nalgebra::Point2;
-    use swarm_wire::{Odom, NO_PATH};
+    use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
     fn scenario() -> Scenario {
         swarm_config::builtin("forest-5").expect("builtin")
@@ -238,20 +235,20 @@ mod tests {
         let mut l = LostContact::new();
         // Heading +y at (0, 0), neighbours 2 m ahead and 2 m left-ahead: centroid (−1, 2) in odometry.
         let o = odom(0.0, 0.0, std::f64::consts::FRAC_PI_2, None);
-        assert_eq!(l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0), neighbour(2.0, 2.0)], &[]), NO_PATH, &[]), Phase::Flock);
+        assert_eq!(l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0), neighbour(2.0, 2.0)], &[]), NO_PATH, &Hops::default()), Phase::Flock);
         let far = odom(0.0, 10.0, std::f64::consts::FRAC_PI_2, None);
-        assert_eq!(l.phase(&sc, &view(after - 0.1, &far, &[], &[]), NO_PATH, &[]), Phase::Flock, "not lost yet");
-        match l.phase(&sc, &view(after, &far, &[], &[]), NO_PATH, &[]) {
+        assert_eq!(l.phase(&sc, &view(after - 0.1, &far, &[], &[]), NO_PATH, &Hops::default()), Phase::Flock, "not lost yet");
+        match l.phase(&sc, &view(after, &far, &[], &[]), NO_PATH, &Hops::default()) {
             Phase::Return(t) => assert!((t - Vector2::new(-1.0, 2.0)).norm() < 1e-9, "{t}"),
             other => panic!("{other:?}"),
         }
-        let c = l.steer(&sc, &view(after + 0.1, &far, &[], &[]), NO_PATH, &[], flock());
+        let c = l.steer(&sc, &view(after + 0.1, &far, &[], &[]), NO_PATH, &Hops::default(), flock());
         assert!(c.xy.norm() <= sc.lost_contact.speed_mps + 1e-9 && c.yaw_rate.abs() > 0.0, "turns back, slowly: {c:?}");
         let there = odom(-1.0, 2.5, 0.0, None);
-        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &[], &[]), NO_PATH, &[]), Phase::Hold);
-        let c = l.steer(&sc, &view(after + 20.1, &odom(-1.0, 4.0, 0.0, None), &[], &[]), NO_PATH, &[], flock());
+        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &[], &[]), NO_PATH, &Hops::default()), Phase::Hold);
+        let c = l.steer(&sc, &view(after + 20.1, &odom(-1.0, 4.0, 0.0, None), &[], &[]), NO_PATH, &Hops::default(), flock());
         assert_eq!(c.kind, CmdKind::Hover, "holding is sticky");
-        let back = l.steer(&sc, &view(after + 21.0, &there, &[neighbour(3.0, 0.0)], &[]), NO_PATH, &[], flock());
+        let back = l.steer(&sc, &view(after + 21.0, &there, &[neighbour(3.0, 0.0)], &[]), NO_PATH, &Hops::default(), flock());
         assert_eq!(back, flock(), "contact again: the controller flies");
     }
 
@@ -261,22 +258,22 @@ mod tests {
         let after = sc.lost_contact.regroup_after_s;
         let mut l = LostContact::new();
         let mates = [neighbour(2.0, 0.0), neighbour(0.0, 2.0)];
-        assert_eq!(l.phase(&sc, &view(0.0, &odom(3.0, 0.0, 0.0, None), &mates, &[]), 4, &[]), Phase::Flock, "a path: flock");
+        assert_eq!(l.phase(&sc, &view(0.0, &odom(3.0, 0.0, 0.0, None), &mates, &[]), 4, &Hops::default()), Phase::Flock, "a path: flock");
         let on = odom(8.0, 0.0, 0.0, None);
-        assert_eq!(l.phase(&sc, &view(after - 0.1, &on, &mates, &[]), NO_PATH, &[]), Phase::Flock, "not for long enough");
-        assert_eq!(l.phase(&sc, &view(after, &on, &mates, &[]), NO_PATH, &[]), Phase::Regroup(Vector2::new(3.0, 0.0)));
-        let c = l.steer(&sc, &view(after, &on, &mates, &[]), NO_PATH, &[], flock());
+        assert_eq!(l.phase(&sc, &view(after - 0.1, &on, &mates, &[]), NO_PATH, &Hops::default()), Phase::Flock, "not for long enough");
+        assert_eq!(l.phase(&sc, &view(after, &on, &mates, &[]), NO_PATH, &Hops::default()), Phase::Regroup(Vector2::new(3.0, 0.0)));
+        let c = l.steer(&sc, &view(after, &on, &mates, &[]), NO_PATH, &Hops::default(), flock());
         assert!(c.yaw_rate.abs() > 0.0 && c.vectors.cohesion + c.vectors.separation > 0.0, "turns back, still flocking: {c:?}");
         let there = odom(3.5, 0.0, 0.0, None);
-        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &mates, &[]), NO_PATH, &[]), Phase::Hold);
-        assert_eq!(l.phase(&sc, &view(after + 21.0, &odom(5.0, 0.0, 0.0, None), &mates, &[]), NO_PATH, &[]), Phase::Hold, "sticky");
-        assert_eq!(l.phase(&sc, &view(after + 22.0, &there, &mates, &[]), 3, &[]), Phase::Flock, "a path again: flock");
+        assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &mates, &[]), NO_PATH, &Hops::default()), Phase::Hold);
+        assert_eq!(l.phase(&sc, &view(after + 21.0, &odom(5.0, 0.0, 0.0, None), &mates, &[]), NO_PATH, &Hops::default()), Phase::Hold, "sticky");
+        assert_eq!(l.phase(&sc, &view(after + 22.0, &there, &mates, &[]), 3, &Hops::default()), Phase::Flock, "a path again: flock");
         let informed = odom(8.0, 0.0, 0.0, Some([30.0, 0.0]));
         let mut i = LostContact::new();
-        i.phase(&sc, &view(0.0, &informed, &mates, &[]), 0, &[]);
-        assert_eq!(i.phase(&sc, &view(100.0, &informed, &mates, &[]), NO_PATH, &[]), Phase::Flock, "the informed fly on");
+        i.phase(&sc, &view(0.0, &informed, &mates, &[]), 0, &Hops::default());
+        assert_eq!(i.phase(&sc, &view(100.0, &informed, &mates, &[]), NO_PATH, &Hops::default()), Phase::Flock, "the informed fly on");
         let mut never = LostContact::new();
-        assert_eq!(never.phase(&sc, &view(100.0, &on, &mates, &[]), NO_PATH, &[]), Phase::Flock, "never had a path: nowhere to go");
+        assert_eq!(never.phase(&sc, &view(100.0, &on, &mates, &[]), NO_PATH, &Hops::default()), Phase::Flock, "never had a path: nowhere to go");
     }
 
     #[test]
@@ -285,11 +282,11 @@ mod tests {
         let reach = sc.controller.k21.neighbour_radius_m;
         let mut l = LostContact::new();
         let o = odom(0.0, 0.0, 0.0, None);
-        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &[]);
+        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &Hops::default());
         let heard = [neighbour(reach + 3.0, 0.0)];
-        assert_eq!(l.phase(&sc, &view(1.0, &o, &heard, &[]), NO_PATH, &[]), Phase::Flock, "not lost yet");
-        assert_eq!(l.phase(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &[]), Phase::Approach(Vector2::new(reach + 3.0, 0.0)));
-        let c = l.steer(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &[], flock());
+        assert_eq!(l.phase(&sc, &view(1.0, &o, &heard, &[]), NO_PATH, &Hops::default()), Phase::Flock, "not lost yet");
+        assert_eq!(l.phase(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &Hops::default()), Phase::Approach(Vector2::new(reach + 3.0, 0.0)));
+        let c = l.steer(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &Hops::default(), flock());
         assert!(c.xy.x > sc.lost_contact.speed_mps, "at the flock's speed: {c:?}");
     }
 
@@ -298,15 +295,15 @@ mod tests {
         let mut sc = scenario();
         let mut never = LostContact::new();
         let o = odom(0.0, 0.0, 0.0, None);
-        assert_eq!(never.phase(&sc, &view(100.0, &o, &[], &[]), NO_PATH, &[]), Phase::Flock);
+        assert_eq!(never.phase(&sc, &view(100.0, &o, &[], &[]), NO_PATH, &Hops::default()), Phase::Flock);
         let mut informed = LostContact::new();
         let g = odom(0.0, 0.0, 0.0, Some([30.0, 0.0]));
-        informed.phase(&sc, &view(0.0, &g, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &[]);
-        assert_eq!(informed.phase(&sc, &view(100.0, &g, &[], &[]), NO_PATH, &[]), Phase::Flock);
+        informed.phase(&sc, &view(0.0, &g, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &Hops::default());
+        assert_eq!(informed.phase(&sc, &view(100.0, &g, &[], &[]), NO_PATH, &Hops::default()), Phase::Flock);
         sc.lost_contact.enabled = false;
         let mut l = LostContact::new();
-        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &[]);
-        assert_eq!(l.phase(&sc, &view(100.0, &o, &[], &[]), NO_PATH, &[]), Phase::Flock);
+        l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &Hops::default());
+        assert_eq!(l.phase(&sc, &view(100.0, &o, &[], &[]), NO_PATH, &Hops::default()), Phase::Flock);
     }
 
     #[test]

@@ -73,6 +73,13 @@ pub struct Command {
     pub vectors: VectorMagnitudes,
 }
 
+impl Command {
+    /// Hold position: for a tick nobody steered, or a UAV waiting where it should.
+    pub fn hover() -> Command {
+        Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+    }
+}
+
 /// K21 (seed 000 chapter 4): keeps nothing between steps.
 #[derive(Debug)]
 pub struct K21Pilot {
@@ -149,7 +156,12 @@ impl Controller for A21Pilot {
 
 /// The goal's bearing in the body frame (seed 000 eq. 4.15 minus own heading).
 fn goal_heading(odom: &Odom) -> Option<f64> {
-    odom.goal.map(|g| wrap_angle((g[1] - odom.y).atan2(g[0] - odom.x) - odom.yaw))
+    odom.goal.map(|g| bearing_in_body(odom, g))
+}
+
+/// The bearing of `target` (odometry frame) in the body frame [rad].
+pub(super) fn bearing_in_body(odom: &Odom, target: [f64; 2]) -> f64 {
+    wrap_angle((target[1] - odom.y).atan2(target[0] - odom.x) - odom.yaw)
 }
 
 /// One K21 step on `neighbours`, the view's trees plus `more_obstacles` (body frame), towards

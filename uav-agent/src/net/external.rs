@@ -88,7 +88,7 @@ impl ExternalLink {
             if self.missed == 1 || self.missed.is_power_of_two() {
                 warn!(tick, missed = self.missed, "the external controller is gone: hovering");
             }
-            return Ok(hover());
+            return Ok(Command::hover());
         }
         // serde_json writes a non-finite number as null; a view has none (see `finite`).
         let text = serde_json::to_vec(&ext_view(tick, view)).expect("a view serializes");
@@ -102,7 +102,7 @@ impl ExternalLink {
                 Ok(None) | Err(_) => {
                     self.missed += 1;
                     debug!(tick, "no external command in time: hovering");
-                    return Ok(hover());
+                    return Ok(Command::hover());
                 }
             }
         }
@@ -137,11 +137,6 @@ fn command_of(c: &ExtCmd) -> Command {
     let clamp = |v: f64| v.clamp(-1e6, 1e6);
     let xy = Vector2::new(clamp(c.x), clamp(c.y));
     Command { kind, xy, yaw_rate: clamp(c.yaw_rate), vectors: VectorMagnitudes { output: xy.norm() as f32, ..VectorMagnitudes::default() } }
-}
-
-/// A hover: what a UAV does for a tick its controller did not answer.
-fn hover() -> Command {
-    Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
 }
 
 /// `v`, or 0 where it is not a number a JSON reader can take.
