@@ -249,9 +249,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     };
     rec_cfg.extend(zenoh_cfg.iter().cloned());
     let mut rec = Recording::start(run_id, &locators, &rec_cfg, show.mcap.is_some()).await?;
-    if let Some(detail) = show.mcap {
-        rec.write_mcap(sc, out, detail)?;
-    }
+    rec.write_mcap(sc, out, show.mcap)?;
     if !show.journal {
         rec.without_journal();
     }

@@ -27,17 +27,6 @@ const STATE_TOPIC: &str = "/swarm/state";
 /// The channel metadata key of the run id.
 const RUN_ID: &str = "run_id";
 
-/// What a journal holds: the run id and every payload of its whole chunks, in order.
-#[derive(Debug, Default)]
-pub struct Journaled {
-    /// The run id (empty if not one message was kept).
-    pub run_id: String,
-    /// The payloads, in the order the recorder folded them.
-    pub payloads: Vec<(Kind, Vec<u8>)>,
-    /// Where reading stopped.
-    pub cut: salvage::Cut,
-}
-
 /// Which of the recorder's two subscriptions a payload came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
@@ -99,23 +88,25 @@ impl Journal {
     }
 }
 
-/// Every payload of the journal in `dir` that a whole chunk holds, in order.
-pub fn read(dir: &Path) -> Result<Journaled> {
+/// Calls `f` with every payload of the journal in `dir` that a whole chunk holds, in order,
+/// streaming (a long run's journal need not fit in memory); returns the run id (empty if not
+/// one message was kept) and where reading stopped.
+pub fn each(dir: &Path, mut f: impl FnMut(Kind, &[u8])) -> Result<(String, salvage::Cut)> {
     let path = dir.join(JOURNAL_FILE);
     let file = File::open(&path).with_context(|| format!("cannot open {}", path.display()))?;
-    let mut j = Journaled::default();
-    j.cut = salvage::each_message(BufReader::new(file), |m| {
+    let mut run_id = String::new();
+    let cut = salvage::each_message(BufReader::new(file), |m| {
         let kind = match m.channel.topic.as_str() {
             TRUTH_TOPIC => Kind::Truth,
             STATE_TOPIC => Kind::State,
             _ => return,
         };
-        if j.run_id.is_empty() {
-            j.run_id = m.channel.metadata.get(RUN_ID).cloned().unwrap_or_default();
+        if run_id.is_empty() {
+            run_id = m.channel.metadata.get(RUN_ID).cloned().unwrap_or_default();
         }
-        j.payloads.push((kind, m.data.into_owned()));
-    })?;
-    Ok(j)
+        f(kind, &m.data);
+    });
+    Ok((run_id, cut))
 }
 
 pub mod salvage {
@@ -137,7 +128,7 @@ pub mod salvage {
 
     /// Calls `f` with every message of `source` in file order until the end or the first record
     /// that cannot be read.
-    pub fn each_message(source: impl Read, mut f: impl FnMut(mcap::Message<'static>)) -> Result<Cut> {
+    pub fn each_message(source: impl Read, mut f: impl FnMut(mcap::Message<'static>)) -> Cut {
         let mut cut = Cut::default();
         for m in mcap::io::MessageReader::new(source) {
             match m {
@@ -151,7 +142,7 @@ pub mod salvage {
                 }
             }
         }
-        Ok(cut)
+        cut
     }
 
     /// Rewrites the MCAP file `path` with every message it still holds, as a whole file with a
@@ -166,7 +157,7 @@ pub mod salvage {
             if failed.is_none() {
                 failed = w.write(&m).err();
             }
-        })?;
+        });
         if let Some(e) = failed {
             return Err(e).with_context(|| format!("cannot write {}", tmp.display()));
         }
@@ -212,16 +203,23 @@ mod tests {
         flushed
     }
 
+    /// Every payload `each` gives back, with its kind, and the run id.
+    fn read(dir: &Path) -> (String, Vec<(Kind, Vec<u8>)>) {
+        let mut payloads = Vec::new();
+        let (run_id, _) = each(dir, |k, b| payloads.push((k, b.to_vec()))).expect("read");
+        (run_id, payloads)
+    }
+
     #[test]
     fn a_killed_journal_gives_back_every_flushed_payload_in_order() {
         let dir = folder("read");
         let flushed = killed_journal(&dir);
-        let j = read(&dir).expect("read");
-        assert_eq!(j.run_id, "run-x");
-        assert!(j.payloads.len() >= flushed.len(), "{} payloads", j.payloads.len());
-        let got: Vec<&Vec<u8>> = j.payloads.iter().map(|(_, b)| b).take(flushed.len()).collect();
+        let (run_id, payloads) = read(&dir);
+        assert_eq!(run_id, "run-x");
+        assert!(payloads.len() >= flushed.len(), "{} payloads", payloads.len());
+        let got: Vec<&Vec<u8>> = payloads.iter().map(|(_, b)| b).take(flushed.len()).collect();
         assert_eq!(got, flushed.iter().collect::<Vec<_>>());
-        assert_eq!(j.payloads[1].0, Kind::State);
+        assert_eq!(payloads[1].0, Kind::State);
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -230,14 +228,14 @@ mod tests {
         let dir = folder("rewrite");
         killed_journal(&dir);
         let path = dir.join(JOURNAL_FILE);
-        let before = read(&dir).expect("read").payloads.len() as u64;
+        let before = read(&dir).1.len() as u64;
         assert!(!matches!(mcap::Summary::read(&std::fs::read(&path).expect("bytes")), Ok(Some(_))), "a cut file has no summary");
         let cut = salvage::rewrite(&path).expect("rewrite");
         assert_eq!(cut.messages, before);
         let bytes = std::fs::read(&path).expect("bytes");
         let summary = mcap::Summary::read(&bytes).expect("readable").expect("a summary section");
         assert_eq!(summary.stats.expect("statistics").message_count, before);
-        assert_eq!(salvage::each_message(&bytes[..], |_| ()).expect("read").stopped, None, "read to its end");
+        assert_eq!(salvage::each_message(&bytes[..], |_| ()).stopped, None, "read to its end");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

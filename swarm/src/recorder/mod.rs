@@ -95,10 +95,11 @@ pub async fn record(a: RecordArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "the recorder needs --connect <hub endpoint>");
     std::fs::create_dir_all(&a.out).with_context(|| format!("cannot create {}", a.out.display()))?;
     let mut rec = Recording::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?, !a.mcap.no_mcap).await?;
-    let sc = rec.fetch_scenario().await?;
-    if let Some(detail) = a.mcap.detail(sc.count()) {
-        rec.write_mcap(&sc, &a.out, detail)?;
-    }
+    let (sc, text) = rec.fetch_scenario().await?;
+    // What `swarm recover` reads, as `swarm run` leaves it.
+    let scenario_path = a.out.join("scenario.toml");
+    std::fs::write(&scenario_path, text).with_context(|| format!("cannot write {}", scenario_path.display()))?;
+    rec.write_mcap(&sc, &a.out, a.mcap.detail(sc.count()))?;
     if a.mcap.no_journal {
         rec.without_journal();
     }

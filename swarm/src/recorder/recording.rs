@@ -94,10 +94,10 @@ impl<'a> Sink<'a> {
     }
 
     /// Closes the files and writes the summary, `world.json`, `connectivity.csv` and the
-    /// figures into `out`; hands back the journal, for the caller to discard once content.
-    /// `recovered`: folded again from a killed run's journal (see [`replay`]).
-    fn finish(self, run_id: &str, out: &Path, recovered: bool) -> Result<(Summary, Option<Journal>)> {
-        let Sink { mut files, m, checks, malformed, scene, sc, journal, .. } = self;
+    /// figures into `out`. `recovered`: folded again from a killed run's journal (see
+    /// [`replay`]).
+    fn finish(self, run_id: &str, out: &Path, recovered: bool) -> Result<Summary> {
+        let Sink { mut files, m, checks, malformed, scene, sc, .. } = self;
         files.flush()?;
         if let Some(mut scene) = scene {
             scene.finish()?;
@@ -111,7 +111,7 @@ impl<'a> Sink<'a> {
         if malformed > 0 {
             warn!(malformed, "recorder dropped malformed messages");
         }
-        Ok((summary, journal))
+        Ok(summary)
     }
 
     /// Takes one truth payload; returns true on the run's last step.
@@ -199,10 +199,10 @@ impl Recording {
         })
     }
 
-    /// Starts `run.mcap` in `out` with `detail`, for a recording started with `mcap` (else
-    /// does nothing).
-    pub fn write_mcap(&mut self, sc: &Scenario, out: &Path, detail: crate::scene::Detail) -> Result<()> {
-        if self.feed.is_some() {
+    /// Starts `run.mcap` in `out` with `detail`, for a recording started with `mcap` (with no
+    /// detail, or no feed, does nothing).
+    pub fn write_mcap(&mut self, sc: &Scenario, out: &Path, detail: Option<crate::scene::Detail>) -> Result<()> {
+        if let (Some(detail), Some(_)) = (detail, &self.feed) {
             let mut scene = Scene::new(sc)?;
             scene.set_detail(detail);
             scene.write_mcap(&out.join("run.mcap"))?;
@@ -216,10 +216,10 @@ impl Recording {
         self.journal = false;
     }
 
-    /// The scenario the hub serves.
-    pub async fn fetch_scenario(&self) -> Result<Scenario> {
+    /// The scenario the hub serves, and its text.
+    pub async fn fetch_scenario(&self) -> Result<(Scenario, String)> {
         let text = plumbing::fetch_scenario_text(&self.session, &self.keys, ASK_WAIT).await?;
-        Ok(Scenario::from_toml_str(&text, "hub")?)
+        Ok((Scenario::from_toml_str(&text, "hub")?, text))
     }
 
     /// Records until the hub marks the last step, the hub goes away, or a Ctrl-C (after which it
@@ -246,7 +246,8 @@ impl Recording {
         }
         self.follow(&mut sink, feed.as_mut(), hub, on_tick).await?;
         self.drain(&mut sink, feed.as_mut()).await?;
-        let (summary, journal) = sink.finish(&self.run_id, out, false)?;
+        let journal = sink.journal.take();
+        let summary = sink.finish(&self.run_id, out, false)?;
         if let Some(j) = journal {
             j.discard(out)?;
         }
@@ -351,18 +352,19 @@ pub const CUT_SHORT: &str = "cut_short";
 /// summary and figures a clean end at its last journaled tick would have written; the summary's
 /// end reason is [`CUT_SHORT`] unless the journal holds the hub's last step.
 pub fn replay(out: &Path, sc: &Scenario) -> Result<(Summary, journal::salvage::Cut)> {
-    let journal::Journaled { run_id, payloads, cut } = journal::read(out)?;
     let pb = ProgressBar::hidden();
     let mut sink = Sink::new(out, sc, &pb, None, None)?;
-    for (kind, b) in &payloads {
-        match kind {
-            Kind::Truth => {
-                sink.truth(b)?;
-            }
-            Kind::State => sink.state(b)?,
+    let mut folded = Ok(());
+    let (run_id, cut) = journal::each(out, |kind, b| {
+        if folded.is_ok() {
+            folded = match kind {
+                Kind::Truth => sink.truth(b).map(|_| ()),
+                Kind::State => sink.state(b),
+            };
         }
-    }
-    let (summary, _) = sink.finish(&run_id, out, true)?;
+    })?;
+    folded?;
+    let summary = sink.finish(&run_id, out, true)?;
     Ok((summary, cut))
 }
 

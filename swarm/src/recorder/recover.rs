@@ -30,12 +30,19 @@ pub fn cut_short(dir: &Path) -> bool {
 /// Runs `swarm recover`.
 pub fn recover(a: RecoverArgs) -> Result<ExitCode> {
     let dir = &a.run;
+    let mcap_path = dir.join("run.mcap");
     if !cut_short(dir) {
         if dir.join("summary.json").is_file() {
             println!("nothing to recover: {} ended with its summary written", dir.display());
             return Ok(ExitCode::SUCCESS);
         }
-        bail!("{} has no {JOURNAL_FILE} and no summary.json: not the folder of a `swarm run` (or `swarm record`)", dir.display());
+        if mcap_path.is_file() {
+            // Flown with --no-journal: only the recording can be made whole.
+            let m = salvage::rewrite(&mcap_path)?;
+            println!("no journal (--no-journal): no summary rebuilt; run.mcap rewritten with {} messages and a summary section{}", m.messages, stopped(&m));
+            return Ok(ExitCode::SUCCESS);
+        }
+        bail!("{} has no {JOURNAL_FILE}, run.mcap or summary.json: not the folder of a `swarm run` (or `swarm record`)", dir.display());
     }
     let (summary, journal, mcap) = recover_dir(dir)?;
     println!("{}", summary.human());
@@ -49,10 +56,8 @@ pub fn recover(a: RecoverArgs) -> Result<ExitCode> {
 
 /// Recovers the run folder `dir`: the summary, what the journal held, and what `run.mcap` held
 /// (if the run wrote one).
-pub fn recover_dir(dir: &Path) -> Result<(Summary, salvage::Cut, Option<salvage::Cut>)> {
-    let scenario_path = dir.join("scenario.toml");
-    let text = std::fs::read_to_string(&scenario_path).with_context(|| format!("cannot read {}", scenario_path.display()))?;
-    let sc = Scenario::from_toml_str(&text, &scenario_path.display().to_string())?;
+fn recover_dir(dir: &Path) -> Result<(Summary, salvage::Cut, Option<salvage::Cut>)> {
+    let sc = Scenario::from_file(&dir.join("scenario.toml"))?;
     let (summary, journal) = super::replay(dir, &sc)?;
     let mcap_path = dir.join("run.mcap");
     let mcap = if mcap_path.is_file() { Some(salvage::rewrite(&mcap_path)?) } else { None };
