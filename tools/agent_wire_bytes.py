@@ -82,6 +82,8 @@ def main():
                 if m:
                     endpoint, port = m.group(1), m.group(2)
             except FileNotFoundError:
+                pass
+            if endpoint is None:
                 time.sleep(0.2)
         if endpoint is None:
             sys.exit("the hub never wrote where it listens (hub.txt)")

@@ -53,11 +53,11 @@ def main():
     settings = a.settings.split(";")
     rows = {}
     with tempfile.TemporaryDirectory() as tmp:
+        files = {sc: scenario_file(sc, a.time_limit, tmp) for sc in a.scenarios.split(",")}
         for r in range(a.repeat):
-            for sc in a.scenarios.split(","):
+            for sc, file in files.items():
                 for i, st in enumerate(settings):
                     out = pathlib.Path(tmp) / f"{sc}-{i}-{r}"
-                    file = scenario_file(sc, a.time_limit, tmp)
                     rows.setdefault((sc, st), []).append(fly(a.bin, file, st, out))
                     print(f"# {sc} [{st or 'default'}] round {r + 1}: {rows[(sc, st)][-1][0]:.1f}x", flush=True)
     print("| scenario | recording | x real time | vs the first | run.mcap MB per UAV-min | journal MB per UAV-min (peak, removed at the end) |")

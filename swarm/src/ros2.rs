@@ -23,7 +23,7 @@ use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::ros2::msgs::{laser_scan, odometry, Twist};
 use swarm_wire::ros2::{attachment, data_key, Entity, Kind, RosType, LASER_SCAN, ODOMETRY, QOS_DEFAULT, QOS_SENSOR, TWIST};
 use swarm_wire::session::{self, Role};
-use swarm_wire::{Keys, Msg};
+use swarm_wire::{Keys, Msg, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 use zenoh::liveliness::LivelinessToken;
@@ -93,9 +93,8 @@ impl Bridge {
         let sc = Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?;
         let (tx, rx) = mpsc::unbounded_channel();
         let mut subs = Vec::new();
-        for topic in ["scan", "odom"] {
+        for key in [keys.scan_any(), keys.odom_any()] {
             let keys2 = keys.clone();
-            let key = format!("{}/uav/*/sense/{topic}", keys.prefix());
             subs.push(plumbing::subscribe(&s, key, tx.clone(), move |sample| sense_event(&keys2, sample)).await?);
         }
         let mut tokens = graph(&s, &sc, domain).await?;
@@ -103,7 +102,7 @@ impl Bridge {
             subs.push(plumbing::subscribe(&s, keys.ext_view(id), tx.clone(), move |x| Some(Event::View(id, plumbing::payload(x)))).await?);
             let cmd_vel = data_key(domain, &format!("/uav{id}/cmd_vel"), &TWIST);
             subs.push(plumbing::subscribe(&s, cmd_vel, tx.clone(), move |x| Some(Event::CmdVel(id, plumbing::payload(x)))).await?);
-            tokens.push(s.liveliness().declare_token(keys.alive_ext(id)).await.map_err(|e| anyhow::anyhow!("{e}"))?);
+            tokens.push(s.liveliness().declare_token(keys.alive_ext(id)).await.map_err(WireError::zenoh)?);
         }
         let (hub_alive, hub_sub) = plumbing::watch_token(&s, keys.alive_hub()).await?;
         subs.push(hub_sub);
@@ -177,7 +176,7 @@ impl Bridge {
         let att = attachment(*seq, stamp_ns, &gid(id, topic));
         let key = data_key(self.domain, &format!("/uav{id}/{topic}"), &t);
         let put = self.session.put(key, payload).attachment(att.to_vec()).congestion_control(CongestionControl::Drop);
-        put.await.map_err(|e| anyhow::anyhow!("{e}"))
+        Ok(put.await.map_err(WireError::zenoh)?)
     }
 
     /// Answers the view of `tick` of external UAV `id` with its newest Twist, or zero when none
@@ -188,7 +187,7 @@ impl Bridge {
         let t = fresh.map(|(t, _)| *t).unwrap_or_default();
         let cmd = ExtCmd { tick, kind: ExtCmdKind::Velocity, x: t.linear[0], y: t.linear[1], yaw_rate: t.angular[2] };
         let json = serde_json::to_vec(&cmd)?;
-        self.session.put(self.keys.ext_cmd(id), json).await.map_err(|e| anyhow::anyhow!("{e}"))
+        Ok(self.session.put(self.keys.ext_cmd(id), json).await.map_err(WireError::zenoh)?)
     }
 }
 
@@ -238,7 +237,7 @@ async fn graph(s: &zenoh::Session, sc: &Scenario, domain: u32) -> Result<Vec<Liv
             entities.push(Entity { entity_id: 1_000_002 + 3 * id, kind: Kind::Subscription, topic: Some((&cmd_vel, TWIST, QOS_DEFAULT)), ..node });
         }
         for e in entities {
-            tokens.push(s.liveliness().declare_token(e.token_key()).await.map_err(|e| anyhow::anyhow!("{e}"))?);
+            tokens.push(s.liveliness().declare_token(e.token_key()).await.map_err(WireError::zenoh)?);
         }
     }
     Ok(tokens)

@@ -39,7 +39,7 @@ fn rosbags_reads_our_scan_odometry_and_twist_and_we_read_its_twist() {
     assert_eq!(s["header"]["frame_id"], "uav3/base_link");
     assert!(close(&s["angle_min"], -3.0) && close(&s["angle_max"], -2.0) && close(&s["angle_increment"], 0.5), "{s}");
     assert!(close(&s["range_max"], 12.0) && close(&s["scan_time"], 0.1), "{s}");
-    assert_eq!(s["ranges"], serde_json::json!([1.5, null, 3.25]), "no hit is +inf");
+    assert_eq!(s["ranges"], serde_json::json!([1.5, "inf", 3.25]), "no hit is +inf");
     assert_eq!(s["intensities"], serde_json::json!([]));
 
     let d = &r["odom"];

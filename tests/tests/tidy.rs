@@ -212,6 +212,7 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("radio", Key(|k: &Keys, id| k.radio(id))),
         ("radio_any", Wildcard(|k: &Keys, _| k.radio_any())),
         ("scan_any", Wildcard(|k: &Keys, _| k.scan_any())),
+        ("odom_any", Wildcard(|k: &Keys, _| k.odom_any())),
         ("netem_rules", Key(|k: &Keys, _| k.netem_rules())),
         ("netem_add", Key(|k: &Keys, _| k.netem_add())),
         ("netem_ack", Key(|k: &Keys, _| k.netem_ack())),

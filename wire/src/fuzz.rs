@@ -111,8 +111,8 @@ fn structured() -> impl Strategy<Value = Msg> {
             vy: v[5],
             hops: (tick % 256) as u8,
         })),
-        (any::<u32>(), any::<u64>(), f64s(), prop::collection::vec(any::<[i16; 2]>(), 0..40))
-            .prop_map(|(from, tick, t_secs, centres_cm)| Msg::Obstacles(ObstacleShare { from, tick, t_secs, centres_cm, hops: 0 })),
+        (any::<u32>(), any::<u64>(), f64s(), prop::collection::vec(any::<[i16; 2]>(), 0..40), any::<u8>())
+            .prop_map(|(from, tick, t_secs, centres_cm, hops)| Msg::Obstacles(ObstacleShare { from, tick, t_secs, centres_cm, hops })),
         (any::<u64>(), any::<u32>(), prop::collection::vec(any::<u32>(), 0..20), prop::collection::vec(f32s(), 0..20))
             .prop_map(|(tick, id, in_range, loss)| Msg::Radio(RadioSet { tick, id, in_range, loss })),
         (any::<u64>(), prop::array::uniform4(f32s()), prop::collection::vec(f32s(), 0..100)).prop_map(|(tick, a, r)| {

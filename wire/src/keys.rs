@@ -108,6 +108,10 @@ impl Keys {
     pub fn scan_any(&self) -> String {
         format!("{}/uav/*/sense/scan", self.prefix)
     }
+    /// `swarm/{run}/uav/*/sense/odom`
+    pub fn odom_any(&self) -> String {
+        format!("{}/uav/*/sense/odom", self.prefix)
+    }
     /// `swarm/{run}/uav/*/share/pose`: every UAV's broadcast pose.
     pub fn share_pose_any(&self) -> String {
         format!("{}/uav/*/share/pose", self.prefix)

@@ -19,13 +19,18 @@ ts = get_typestore(Stores.ROS2_JAZZY)
 types = {"scan": "sensor_msgs/msg/LaserScan", "odom": "nav_msgs/msg/Odometry", "twist": "geometry_msgs/msg/Twist"}
 
 
+def number(x):
+    """A float as JSON can carry it: a non-finite one by name ("inf", "-inf", "nan")."""
+    return float(x) if np.isfinite(x) else str(float(x))
+
+
 def plain(v):
     if isinstance(v, np.ndarray):
-        return [None if not np.isfinite(x) else float(x) for x in v.tolist()]
+        return [number(x) for x in v.tolist()]
     if hasattr(v, "__dataclass_fields__"):
         return {k: plain(getattr(v, k)) for k in v.__dataclass_fields__ if k != "__msgtype__"}
-    if isinstance(v, float) and not np.isfinite(v):
-        return None
+    if isinstance(v, float):
+        return number(v)
     return v
 
 

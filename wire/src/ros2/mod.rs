@@ -66,8 +66,10 @@ pub fn attachment(seq: i64, stamp_ns: i64, gid: &[u8; 16]) -> [u8; 33] {
     a
 }
 
-/// Reads an attachment: `(seq, stamp_ns, gid)`; `None` unless it has rmw_zenoh's layout.
-pub fn parse_attachment(a: &[u8]) -> Option<(i64, i64, [u8; 16])> {
+/// Reads an attachment: `(seq, stamp_ns, gid)`; `None` unless it has rmw_zenoh's layout (the
+/// round trip of [`attachment`] is tested; readers of ours are the Python tests').
+#[cfg(test)]
+fn parse_attachment(a: &[u8]) -> Option<(i64, i64, [u8; 16])> {
     if a.len() != 33 || a[16] != 16 {
         return None;
     }
@@ -77,7 +79,7 @@ pub fn parse_attachment(a: &[u8]) -> Option<(i64, i64, [u8; 16])> {
 }
 
 /// A field of a liveliness token: every `/` written `%`.
-pub fn mangle(s: &str) -> String {
+fn mangle(s: &str) -> String {
     s.replace('/', "%")
 }
 
