@@ -253,6 +253,27 @@ mod tests {
     }
 
     #[test]
+    fn a_uav_whose_way_to_the_informed_is_beyond_reach_follows_it_after_the_delay() {
+        let sc = scenario();
+        let after = sc.lost_contact.after_s;
+        let reach = sc.controller.k21.neighbour_radius_m;
+        // UAV 3 within reach has our count; UAV 2, one hop nearer an informed UAV, is beyond reach.
+        let mate = Estimate { id: Some(3), ..neighbour(2.0, 0.0) };
+        let ahead = Estimate { id: Some(2), ..neighbour(reach + 3.0, 1.0) };
+        let mut heard = Hops::default();
+        heard.hear(3, 2, 0.0);
+        heard.hear(2, 1, 0.0);
+        let o = odom(0.0, 0.0, 0.0, None);
+        let mut l = LostContact::new();
+        assert_eq!(l.phase(&sc, &view(0.0, &o, &[mate, ahead], &[]), 2, &heard), Phase::Flock, "not for after_s yet");
+        assert_eq!(l.phase(&sc, &view(after, &o, &[mate, ahead], &[]), 2, &heard), Phase::Follow(Vector2::new(reach + 3.0, 1.0)));
+        let near = Estimate { id: Some(2), ..neighbour(3.0, 1.0) };
+        assert_eq!(l.phase(&sc, &view(after + 0.1, &o, &[mate, near], &[]), 2, &heard), Phase::Flock, "within reach: flock");
+        heard.hear(2, 2, 0.1);
+        assert_eq!(l.phase(&sc, &view(2.0 * after + 1.0, &o, &[mate, ahead], &[]), 2, &heard), Phase::Flock, "nobody nearer the informed");
+    }
+
+    #[test]
     fn a_group_without_a_path_to_the_informed_flies_back_flocking_and_holds() {
         let sc = scenario();
         let after = sc.lost_contact.regroup_after_s;
