@@ -6,8 +6,8 @@
 //!
 //! Choices where seed 003 is silent (each is documented at its field):
 //! - maximum speed and acceleration: the seed gives none (its MPC tracker enforces the platform's
-//!   limits, section IV-B); the scenario's `body.max_speed_mps` / `body.max_accel_mps2` apply, so
-//!   they are not repeated here;
+//!   limits, section IV-B); the scenario's `body.max_speed_mps` / `body.max_accel_mps2` apply
+//!   unless `max_speed_mps` caps A21 lower (to fly it at K21's top speed beside it, seed 000 6.5);
 //! - `phi_alone` (φ when no agent is observed): 0, continuous with φ = 0 beyond d_max;
 //! - occupancy grid resolution 0.1 m, inflation 0.7 m, replanning period 1 s and path lookahead
 //!   1 m for the A* path of the navigation vector (section IV-C gives no numbers).
@@ -63,7 +63,9 @@ pub struct A21Params {
     /// φ used when the informed agent observes no agent at all, in [0, 1] (seed 003 eq. 8 leaves
     /// μ_d undefined then). Default 0: an agent that sees nobody behaves as one whose agents are
     /// beyond d_max (seed 003: d_max is chosen so agents within it are still detectable), i.e. it
-    /// waits for the flock instead of leaving it. 1 lets a lone informed UAV fly its path.
+    /// waits for the flock instead of leaving it. 1 lets a lone informed UAV fly its path. A
+    /// scenario of a single UAV has no flock to wait for and flies with 1 whatever this says
+    /// (issue 25: `scenarios/found/found-2026-31.toml` waited for ever).
     #[serde(default)]
     pub phi_alone: f64,
     /// Cell size of the occupancy grid A* plans on [m] (seed 003 IV-C uses the Hector SLAM map,
@@ -96,6 +98,12 @@ pub struct A21Params {
     /// eq. 1).
     #[serde(default = "d_damping")]
     pub damping_per_s: f64,
+    /// The fastest A21 commands [m/s], below the body's limit (default: none, the body's
+    /// `max_speed_mps` alone). Seed 003 gives no speed; seed 000 section 6.5 compares K21, whose
+    /// final vector is capped at 0.4 m/s (`kf`), with this controller on one world, and a
+    /// comparison of controllers wants one top speed (`compare-4` sets 0.4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_speed_mps: Option<f64>,
 }
 fn d_damping() -> f64 {
     0.5
@@ -158,6 +166,7 @@ impl Default for A21Params {
             replan_period_s: d_replan(),
             path_lookahead_m: d_lookahead(),
             damping_per_s: d_damping(),
+            max_speed_mps: None,
         }
     }
 }
@@ -189,6 +198,9 @@ impl A21Params {
             crate::non_negative(&format!("{at}.{name}"), v)?;
         }
         crate::within(&format!("{at}.phi_alone"), self.phi_alone, 0.0, 1.0)?;
+        if let Some(v) = self.max_speed_mps {
+            crate::positive(&format!("{at}.max_speed_mps"), v)?;
+        }
         // seed 003 eq. 6: λβ divides by √d_0 − √d_c, and eq. 5 orders its branches d_c < d_0.
         if self.dc_m >= self.d0_m {
             return Err((

@@ -11,12 +11,17 @@
 //!   inter-agent links, in the shape of its Table 8 with the seed's numbers beside ours.
 //!
 //! Each run is a full `swarm run` (hub, agent processes, recorder) with its own run id and folder
-//! under the study's folder, so any of them can be looked at afterwards.
+//! under the study's folder, so any of them can be looked at afterwards. `swarm compare` and
+//! `swarm formations` fly each variant once at the scenario's own seed, or once per master seed
+//! with `--seeds` ([`Trials`]), and then print every number as a mean with its 95 % interval
+//! (the `sweep-seeds` statistics); such a study is resumable like `sweep-seeds`.
 
 use crate::args::{default_run_id, scenario_value, unix_secs};
 use crate::launch::{agents_per_process, execute, How};
 use crate::plot::{line_chart, Series};
 use crate::summary::{f, Summary};
+use crate::sweep_seeds::stats::{mean_ci, wilson};
+use crate::sweep_seeds::{mean_pm, parse_seeds};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::fmt::Write as _;
@@ -33,15 +38,32 @@ pub struct CompareArgs {
     /// Scenario file or built-in name (its controller is replaced by each of `--controllers`).
     #[arg(default_value = "compare-4")]
     pub scenario: String,
-    /// Controllers to fly, comma-separated.
+    /// Controllers to fly, comma-separated; `kind@mode` flies that one with its own localization
+    /// (`k21@icp,a21@uvdar`: seed 000 6.5's K21 against its older method as it sensed).
     #[arg(long, default_value = "k21,a21,p17")]
     pub controllers: String,
-    /// Override the localization mode for every run (`broadcast`, `icp`, `uvdar`).
+    /// Override the localization mode of every run without its own `@mode` (`broadcast`, `icp`,
+    /// `uvdar`).
     #[arg(long)]
     pub localization: Option<String>,
     /// Study folder (default: runs/compare-<time>).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub trials: Trials,
+}
+
+/// How many times a study flies each variant.
+#[derive(Args, Debug, Clone, Default)]
+pub struct Trials {
+    /// Fly every variant once per master seed (`A..B`, a list, or both: `1..10,15`; each seed its
+    /// own forest, noise and link draws) and print each number as a mean ± 95 % CI. Default: once,
+    /// at the scenario's own seed. Runs already in `--out` are read back, not flown again.
+    #[arg(long)]
+    pub seeds: Option<String>,
+    /// Runs flown at once (default: one, or one per core with `--seeds`).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub jobs: Option<u32>,
 }
 
 /// `swarm formations`.
@@ -56,6 +78,8 @@ pub struct FormationsArgs {
     /// Study folder (default: runs/formations-<time>).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub trials: Trials,
 }
 
 /// `swarm sweep-error`.
@@ -88,7 +112,7 @@ pub(crate) struct VariantRun {
 pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: VariantRun) -> Result<Summary> {
     let text = toml::to_string(sc).context("cannot serialize the scenario")?;
     let sc = Scenario::from_toml_str(&text, &format!("{} ({tag})", sc.name))?;
-    let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace('.', "_");
+    let run_id = default_run_id(&format!("{}-{tag}", sc.name)).replace(['.', '/'], "_");
     eprintln!("{tag}: running");
     let per_process = agents_per_process(sc.count(), how.per_process);
     // A study's runs are for its table: no MCAP recording each, and no journal (a killed
@@ -131,42 +155,139 @@ pub(crate) async fn run_bounded<I, F: Future>(items: impl IntoIterator<Item = I>
     }
 }
 
-fn opt(v: Option<f64>) -> String {
-    v.map_or("-".into(), |v| format!("{v:.1}"))
+/// The runs of one study variant (a controller, a topology), in seed order.
+pub(crate) struct Variant {
+    /// Its tag: the row label and the folder under the study's.
+    pub tag: String,
+    /// The scenario it flies.
+    pub scenario: Scenario,
+    /// Its runs' summaries.
+    pub runs: Vec<Summary>,
+}
+
+impl Variant {
+    /// A variant not flown yet.
+    pub fn new(tag: &str, scenario: Scenario) -> Variant {
+        Variant { tag: tag.to_string(), scenario, runs: Vec::new() }
+    }
+
+    /// `value` over the runs: the value of a single run, or mean ± 95 % CI (`-` when undefined).
+    pub fn cell(&self, value: impl Fn(&Summary) -> f64) -> String {
+        mean_pm(&mean_ci(&self.runs.iter().map(value).collect::<Vec<_>>()))
+    }
+
+    /// A count summed over the runs, with how many runs had any: `0`, `3`, `3 (2 of 10 runs)`.
+    pub fn count_cell(&self, value: impl Fn(&Summary) -> u64) -> String {
+        let counts: Vec<u64> = self.runs.iter().map(value).collect();
+        let (total, with) = (counts.iter().sum::<u64>(), counts.iter().filter(|&&c| c > 0).count());
+        if self.runs.len() <= 1 || total == 0 {
+            total.to_string()
+        } else {
+            format!("{total} ({with} of {} runs)", self.runs.len())
+        }
+    }
+
+    /// Goal reached: `yes`/`no` for a single run, else `k/n` with the Wilson interval.
+    pub fn goal_cell(&self) -> String {
+        let k = self.runs.iter().filter(|s| s.reached_goal).count();
+        match self.runs.len() {
+            1 => (if k == 1 { "yes" } else { "no" }).to_string(),
+            n => {
+                let r = wilson(k, n);
+                format!("{k}/{n} ({:.0}–{:.0} %)", 100.0 * r.lo, 100.0 * r.hi)
+            }
+        }
+    }
+}
+
+/// The summary of a finished run in `dir`, if there is one (an interrupted study resumes).
+pub(crate) fn finished(dir: &Path) -> Option<Summary> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+/// Flies every variant as `trials` says: once at its own seed in `<out>/<tag>`, or once per seed
+/// in `<out>/<tag>/seed-NNN` (read back when already there), `--jobs` at a time. Fails, after
+/// the others have flown, when a run fails.
+pub(crate) async fn fly_trials(variants: &mut [Variant], out: &Path, trials: &Trials) -> Result<()> {
+    let seeds = trials.seeds.as_deref().map(parse_seeds).transpose()?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = trials.jobs.map_or(if seeds.is_some() { cores } else { 1 }, |j| j as usize);
+    let mut todo = Vec::new();
+    let mut done: Vec<Vec<(u64, Summary)>> = vec![Vec::new(); variants.len()];
+    for (i, v) in variants.iter().enumerate() {
+        for seed in seeds.clone().unwrap_or_else(|| vec![v.scenario.seed]) {
+            let tag = if seeds.is_some() { format!("{}/seed-{seed:03}", v.tag) } else { v.tag.clone() };
+            match seeds.as_ref().and_then(|_| finished(&out.join(&tag))) {
+                Some(s) => done[i].push((seed, s)),
+                None => todo.push((i, seed, tag)),
+            }
+        }
+    }
+    let mut failed = Vec::new();
+    let start = |(i, seed, tag): (usize, u64, String)| {
+        let mut sc = variants[i].scenario.clone();
+        sc.seed = seed;
+        async move { (i, seed, run_variant(&sc, out, &tag, VariantRun::default()).await.with_context(|| format!("{tag} failed"))) }
+    };
+    run_bounded(todo, jobs, start, |(i, seed, result)| match result {
+        Ok(s) => done[i].push((seed, s)),
+        Err(e) => failed.push(e),
+    })
+    .await;
+    if let Some(e) = failed.into_iter().next() {
+        return Err(e);
+    }
+    for (v, mut runs) in variants.iter_mut().zip(done) {
+        runs.sort_by_key(|(seed, _)| *seed);
+        v.runs = runs.into_iter().map(|(_, s)| s).collect();
+    }
+    Ok(())
+}
+
+/// The line under a study's title: how many seeds each number is over.
+fn over_seeds(variants: &[Variant]) -> String {
+    match variants.first().map_or(0, |v| v.runs.len()) {
+        0 | 1 => String::new(),
+        n => format!(", each number the mean ± 95 % CI (Student t) over {n} seeds"),
+    }
 }
 
 /// Runs `swarm compare`.
 pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
     let (base, _) = Scenario::from_arg(&a.scenario)?;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("compare-{}", unix_secs())));
-    let mut rows = Vec::new();
     // Every value is checked before the first run starts.
-    let kinds: Vec<(&str, ControllerKind)> =
-        a.controllers.split(',').map(|n| Ok((n.trim(), scenario_value("--controllers", n)?))).collect::<Result<_>>()?;
     let mode: Option<LocalizationMode> = a.localization.as_deref().map(|l| scenario_value("--localization", l)).transpose()?;
-    for (name, kind) in kinds {
+    let mut variants = Vec::new();
+    for spec in a.controllers.split(',').map(str::trim) {
+        let (kind, own) = match spec.split_once('@') {
+            Some((k, m)) => (k, Some(scenario_value::<LocalizationMode>("--controllers", m)?)),
+            None => (spec, None),
+        };
         let mut sc = base.clone();
-        sc.controller.kind = kind;
-        if let Some(m) = mode {
+        sc.controller.kind = scenario_value::<ControllerKind>("--controllers", kind)?;
+        if let Some(m) = own.or(mode) {
             sc.localization.mode = m;
         }
-        let s = run_variant(&sc, &out, name, VariantRun::default()).await?;
-        rows.push((name.to_string(), s));
+        variants.push(Variant::new(&spec.replace('@', "-"), sc));
     }
+    fly_trials(&mut variants, &out, &a.trials).await?;
     let mut t = String::new();
-    let _ = writeln!(t, "# {} — same world and start, one controller per run\n", base.name);
-    let _ = writeln!(t, "| controller | goal | time to goal s | collisions | min obstacle m | min UAV m | mean path m |");
+    let _ = writeln!(t, "# {} — same world and start, one controller per run{}\n", base.name, over_seeds(&variants));
+    let _ = writeln!(t, "| controller | goal | time to goal s (runs that arrived) | collisions | min obstacle m | min UAV m | mean path m |");
     let _ = writeln!(t, "|---|---|---|---|---|---|---|");
-    for (name, s) in &rows {
-        let path = s.agents.iter().map(|a| a.path_length_m).sum::<f64>() / s.agents.len().max(1) as f64;
+    for v in &variants {
         let _ = writeln!(
             t,
-            "| {name} | {} | {} | {} | {} | {} | {path:.1} |",
-            if s.reached_goal { "yes" } else { "no" },
-            opt(s.time_to_goal_s),
-            s.collisions,
-            f(s.min_obstacle_distance_m),
-            f(s.min_agent_distance_m)
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            v.tag,
+            v.goal_cell(),
+            v.cell(|s| s.time_to_goal_s.unwrap_or(f64::NAN)),
+            v.count_cell(|s| s.collisions as u64),
+            v.cell(|s| s.min_obstacle_distance_m),
+            v.cell(|s| s.min_agent_distance_m),
+            v.cell(|s| s.agents.iter().map(|a| a.path_length_m).sum::<f64>() / s.agents.len().max(1) as f64),
         );
     }
     let _ = writeln!(t, "\nseed 000 section 6.5 (4 UAVs, one informed): its method 147 s to the goal, the older one 340 s (2.3x).");
@@ -186,7 +307,7 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
         bail!("--loss: a percentage in [0, 100], got {}", a.loss);
     }
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("formations-{}", unix_secs())));
-    let mut rows = Vec::new();
+    let mut variants = Vec::new();
     for pair in a.scenarios.split(',') {
         let (topology, name) = pair.split_once('=').with_context(|| format!("`{pair}`: expected topology=scenario"))?;
         let (mut sc, _) = Scenario::from_arg(name.trim())?;
@@ -197,30 +318,30 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
             };
             sc.netem.push(swarm_config::NetemRule::link(0.0, UavSet::default(), UavSet::default(), rule));
         }
-        let s = run_variant(&sc, &out, topology.trim(), VariantRun::default()).await?;
-        rows.push((topology.trim().to_string(), s));
+        variants.push(Variant::new(topology.trim(), sc));
     }
+    fly_trials(&mut variants, &out, &a.trials).await?;
     let mut t = String::new();
     let loss = if a.loss > 0.0 { format!(", {} % inter-agent loss", a.loss) } else { String::new() };
-    let _ = writeln!(t, "# seed 004 Table 8, ours beside the seed's (seed values in brackets){loss}\n");
+    let _ = writeln!(t, "# seed 004 Table 8, ours beside the seed's (seed values in brackets){loss}{}\n", over_seeds(&variants));
     let _ = writeln!(t, "| topology | collisions | goal s | obstacle distance m | trajectory m | deviation from neighbours m | blocking s |");
     let _ = writeln!(t, "|---|---|---|---|---|---|---|");
-    for (topology, s) in &rows {
-        let f = &s.formation;
-        let seed = TABLE_8.iter().find(|(n, _)| n == topology).map(|(_, v)| *v);
-        let with = |ours: f64, i: usize| match seed {
-            Some(v) => format!("{ours:.2} ({:.2})", v[i]),
-            None => format!("{ours:.2}"),
+    for v in &variants {
+        let seed = TABLE_8.iter().find(|(n, _)| *n == v.tag).map(|(_, v)| *v);
+        let with = |value: fn(&Summary) -> f64, i: usize| match seed {
+            Some(s) => format!("{} ({:.2})", v.cell(value), s[i]),
+            None => v.cell(value),
         };
         let _ = writeln!(
             t,
-            "| {topology} | {} | {} | {} | {} | {} | {:.1} |",
-            s.collisions,
-            opt(s.time_to_goal_s),
-            with(f.mean_obstacle_distance_m, 0),
-            with(f.mean_trajectory_length_m, 1),
-            with(f.neighbour_distance_deviation_m, 2),
-            f.mean_blocking_time_s
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            v.tag,
+            v.count_cell(|s| s.collisions as u64),
+            v.cell(|s| s.time_to_goal_s.unwrap_or(f64::NAN)),
+            with(|s| s.formation.mean_obstacle_distance_m, 0),
+            with(|s| s.formation.mean_trajectory_length_m, 1),
+            with(|s| s.formation.neighbour_distance_deviation_m, 2),
+            v.cell(|s| s.formation.mean_blocking_time_s)
         );
     }
     let _ = writeln!(t, "\nseed 004: PF and TNPF keep the formation far better than LF (deviation 0.09 / 0.08 m vs 0.89 m).");

@@ -318,6 +318,21 @@ fn p17_found_2026_8_reaches_the_goal() {
     assert!(!checks.is_empty() && checks.iter().all(|c| c["passed"] == true), "{checks:#?}");
 }
 
+/// Issue 25 item 5, two `swarm fuzz` findings on A21 that now pass every check:
+/// `found-2026-31` (one informed UAV alone, which waited for a flock it does not have:
+/// `phi_alone` = 0; a swarm of one now flies its path) and `found-2026-36` (an A21/UVDAR pair
+/// that was apart 20 s after a delay fault ended; it reaches the goal together since issue 24).
+#[test]
+fn a21_found_cases_reach_the_goal() {
+    for (name, tag) in [("found-2026-31", "found31"), ("found-2026-36", "found36")] {
+        let file = format!("{}/../scenarios/found/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+        let (_dir, s) = fly(&[&file, "--check"], tag);
+        assert_safe_arrival(&s);
+        let checks = s["checks"].as_array().expect("checks");
+        assert!(!checks.is_empty() && checks.iter().all(|c| c["passed"] == true), "{name}: {checks:#?}");
+    }
+}
+
 /// Issue 5, A21 with no communication (seed 003 section V): four UAVs through forest-5's forest,
 /// only UAV 1 informed, localized by UVDAR. No message is sent between agents, no collision, and
 /// the whole group reaches the goal with the informed UAV.

@@ -239,8 +239,7 @@ fn tag(seed: u64) -> String {
 
 /// The summary left by an earlier sweep in `out`, if that run finished.
 fn flown(out: &Path, seed: u64) -> Option<Summary> {
-    let text = std::fs::read_to_string(out.join(tag(seed)).join("summary.json")).ok()?;
-    serde_json::from_str(&text).ok()
+    crate::study::finished(&out.join(tag(seed)))
 }
 
 /// A run kept in the sweep's folder must be of the same scenario and localization mode as the

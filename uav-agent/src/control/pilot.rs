@@ -134,19 +134,28 @@ pub struct A21Pilot {
     path: Vec<Point2<f64>>,
     /// When it was planned [s].
     planned_at: Option<f64>,
+    /// The control period [s]: how long a command lasts.
+    period_s: f64,
 }
 
 impl A21Pilot {
     pub(super) fn new(sc: &Scenario) -> A21Pilot {
         let a = &sc.controller.a21;
         let grid = GridParams { resolution_m: a.grid_resolution_m, max_range_m: sc.lidar.max_range_m, ..GridParams::default() };
-        A21Pilot { params: a.clone(), grid: Box::new(OccupancyGrid::new(grid)), path: Vec::new(), planned_at: None }
+        let period_s = 1.0 / sc.time.control_hz;
+        // A swarm of one has no flock to wait for (`phi_alone`'s reason): it flies its path.
+        let params = if sc.count() == 1 { swarm_config::A21Params { phi_alone: 1.0, ..a.clone() } } else { a.clone() };
+        A21Pilot { params, grid: Box::new(OccupancyGrid::new(grid)), path: Vec::new(), planned_at: None, period_s }
     }
 }
 
 impl Controller for A21Pilot {
     fn step(&mut self, v: &View) -> Command {
-        fly_a21(&self.params, v, &mut self.grid, &mut self.path, &mut self.planned_at)
+        let cmd = fly_a21(&self.params, v, &mut self.grid, &mut self.path, &mut self.planned_at);
+        match self.params.max_speed_mps {
+            Some(cap) => capped(cmd, v.odom, cap, self.period_s),
+            None => cmd,
+        }
     }
 
     fn wants_scan_points(&self) -> bool {
@@ -285,6 +294,19 @@ fn fly_a21(
             output: acceleration.norm() as f32,
         },
     }
+}
+
+/// `cmd` (an acceleration) cut so that the velocity it reaches by the end of the control period
+/// is at most `cap` [m/s]: a' = (clamp(v + a·T, cap) − v) / T, body frame.
+fn capped(mut cmd: Command, odom: &Odom, cap: f64, period_s: f64) -> Command {
+    let (_, rot) = pose(odom);
+    let v = rot.inverse() * Vector2::new(odom.vx, odom.vy);
+    let reached = v + cmd.xy * period_s;
+    if reached.norm() > cap {
+        cmd.xy = (reached * (cap / reached.norm()) - v) / period_s;
+        cmd.vectors.output = cmd.xy.norm() as f32;
+    }
+    cmd
 }
 
 /// M23 (seed 004 chapter 3): a costmap from the agent's own scans with its neighbours as social
