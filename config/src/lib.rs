@@ -75,6 +75,8 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-9-cut-off", include_str!("../../scenarios/forest-9-cut-off.toml")),
     ("forest-40", include_str!("../../scenarios/forest-40.toml")),
     ("forest-100", include_str!("../../scenarios/forest-100.toml")),
+    ("forest-40-arrive", include_str!("../../scenarios/forest-40-arrive.toml")),
+    ("forest-100-arrive", include_str!("../../scenarios/forest-100-arrive.toml")),
     ("forest-40-icp", include_str!("../../scenarios/forest-40-icp.toml")),
     ("forest-100-icp", include_str!("../../scenarios/forest-100-icp.toml")),
     ("m23-indoor-lf", include_str!("../../scenarios/m23-indoor-lf.toml")),
@@ -362,6 +364,7 @@ impl Scenario {
         self.validate_expect()?;
         positive("end.goal_radius_m", self.end.goal_radius_m)?;
         positive("end.time_limit_s", self.end.time_limit_s)?;
+        non_negative("end.hold_s", self.end.hold_s)?;
         Ok(())
     }
 
@@ -592,6 +595,9 @@ impl K21Params {
         }
         non_negative(&format!("{at}.separation_all_around_m"), self.separation_all_around_m)?;
         non_negative(&format!("{at}.barrier_m"), self.barrier_m)?;
+        if let Some(r) = self.arrival_radius_m {
+            non_negative(&format!("{at}.arrival_radius_m"), r)?;
+        }
         for (name, v) in [
             ("kf", self.kf),
             ("cohesion_radius_m", self.cohesion_radius_m),

@@ -717,6 +717,15 @@ pub struct K21Params {
     /// more than 1.1 m from every trunk's surface and 1.3 m from each other.
     #[serde(default = "one")]
     pub barrier_m: f64,
+    /// Arrival, our extension (seed 000 is silent on it): an informed UAV within this distance
+    /// of its goal [m] has arrived, and slows towards the goal's centre. Once one has, every UAV
+    /// with a path of shares to it turns to what is closer to the arrival (an informed UAV to the
+    /// goal, the others to their nearest neighbour with a lower arrival count, stopping within
+    /// `cohesion_radius_m` of it), so the swarm settles around the goal instead of flying on past
+    /// it (`uav-agent/src/control/arrival.rs`). Default (none): the scenario's
+    /// `end.goal_radius_m`; 0 turns it off (the swarm orbits its goal, as before issue 25).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arrival_radius_m: Option<f64>,
 }
 
 /// How K21's separation terms combine (seed 000 eq. 4.9).
@@ -788,6 +797,7 @@ impl Default for K21Params {
             separation_combine: SeparationCombine::ClippedSum,
             obstacle_priority: true,
             barrier_m: one(),
+            arrival_radius_m: None,
         }
     }
 }
@@ -1056,6 +1066,14 @@ pub struct End {
     /// Sim-time limit [s].
     #[serde(default = "d_limit")]
     pub time_limit_s: f64,
+    /// The goal rule must hold this long without a break before the run ends with the goal [s]
+    /// (0: as soon as it holds); the time to goal is the start of that streak. A swarm that
+    /// reaches its goal and flies on past it does not count as arrived.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub hold_s: f64,
+}
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 fn d_goal_r() -> f64 {
     4.0
@@ -1068,6 +1086,6 @@ fn d_limit() -> f64 {
 }
 impl Default for End {
     fn default() -> Self {
-        End { goal_radius_m: d_goal_r(), goal_rule: d_goal_rule(), time_limit_s: d_limit() }
+        End { goal_radius_m: d_goal_r(), goal_rule: d_goal_rule(), time_limit_s: d_limit(), hold_s: 0.0 }
     }
 }

@@ -81,6 +81,8 @@ pub struct Sim {
     tick: u64,
     dt: f64,
     goal_reached_at: Option<f64>,
+    /// Since when the goal rule has held without a break [s].
+    goal_since: Option<f64>,
 }
 
 impl Sim {
@@ -121,6 +123,7 @@ impl Sim {
             tick: 0,
             dt: sc.dt_secs(),
             goal_reached_at: None,
+            goal_since: None,
             timeline: netem::Timeline::from_scenario(sc),
             sc: sc.clone(),
         }
@@ -366,8 +369,11 @@ impl Sim {
         self.grid = Grid::new(&positions, grid_cell_m(&self.sc));
         self.radio.update_with(&self.grid);
         let collisions = self.detect_collisions();
-        if self.goal_reached_at.is_none() && self.goal_met() {
-            self.goal_reached_at = Some(t_secs);
+        self.goal_since = if self.goal_met() { self.goal_since.or(Some(t_secs)) } else { None };
+        // The goal counts once its rule has held for `end.hold_s` (0: at once), from the start
+        // of that streak.
+        if self.goal_reached_at.is_none() && self.goal_since.is_some_and(|s| t_secs - s >= self.sc.end.hold_s - 1e-9) {
+            self.goal_reached_at = self.goal_since;
         }
         let mut step = self.observe(cmds, alive, collisions, wall_secs);
         step.ended = if self.goal_reached_at.is_some() {

@@ -74,7 +74,7 @@ fn bench_step(c: &mut Criterion) {
             b.iter(|| {
                 for j in 0..n {
                     let a = f64::from(j) * 0.8;
-                    agent.on_share(&Share::Pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0, hops: 0 }));
+                    agent.on_share(&Share::Pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0, hops: 0, arrival: 0 }));
                 }
                 black_box(agent.step(black_box(&frame)))
             })
@@ -94,7 +94,7 @@ fn share_in(trees: &[(f64, f64, f64)], j: u32, pose: (f64, f64, f64), tick: u64)
         let (dx, dy) = (t.0 - pose.0, t.1 - pose.1);
         [c * dx + s * dy, -s * dx + c * dy]
     });
-    Share::Obstacles(ObstacleShare { from: j, tick, t_secs: tick as f64 * 0.1, centres_cm: ObstacleShare::quantize(pts), hops: 0 })
+    Share::Obstacles(ObstacleShare { from: j, tick, t_secs: tick as f64 * 0.1, centres_cm: ObstacleShare::quantize(pts), hops: 0, arrival: 0 })
 }
 
 fn bench_icp_step(c: &mut Criterion) {

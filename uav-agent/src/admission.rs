@@ -288,7 +288,7 @@ mod tests {
     }
 
     fn share(from: u32, tick: u64) -> Arrived {
-        let pose = PoseShare { from, tick, t_secs: tick as f64 * DT, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0 };
+        let pose = PoseShare { from, tick, t_secs: tick as f64 * DT, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0, arrival: 0 };
         let share = Share::from_msg(Msg::Pose(pose), from).expect("a share");
         Arrived { from, share: Some(Arc::new(share)), len: 50 }
     }

@@ -15,7 +15,7 @@
 //! Architecture invariant: an agent sees the world only through its own sensor messages and its
 //! neighbours' shares. Nothing here can reach ground truth.
 
-use crate::control::{Command, Controller, Controllers, Hops, LostContact, UnknownController, View};
+use crate::control::{Arrival, Command, Controller, Controllers, Hops, LostContact, UnknownController, View};
 use crate::localization::{Estimate, Localizer, Share};
 use crate::perception::{self, Circle, Extracted};
 use crate::sensing::{FrameCollector, SensorFrame};
@@ -101,6 +101,8 @@ pub struct Agent {
     lost: LostContact,
     /// The hop counts to the nearest informed UAV heard in shares.
     hops: Hops,
+    /// The hop counts to the nearest arrived UAV heard in shares.
+    arrival: Arrival,
 }
 
 impl Agent {
@@ -109,7 +111,7 @@ impl Agent {
     pub fn new(id: u32, sc: Scenario, controllers: &Controllers) -> Result<Agent, UnknownController> {
         let localizer = Localizer::new(id, &sc);
         let pilot = controllers.make(&sc)?;
-        Ok(Agent { id, sc, localizer, pilot, lost: LostContact::new(), hops: Hops::default() })
+        Ok(Agent { id, sc, localizer, pilot, lost: LostContact::new(), hops: Hops::default(), arrival: Arrival::default() })
     }
 
     /// The UAV this agent flies.
@@ -128,6 +130,7 @@ impl Agent {
     pub fn on_share(&mut self, share: &Share) {
         if share.from() != self.id {
             self.hops.hear(share.from(), share.hops(), share.t_secs());
+            self.arrival.hear(share.from(), share.arrival(), share.t_secs());
         }
         self.localizer.receive(share);
     }
@@ -151,12 +154,17 @@ impl Agent {
         Perceived { started, seen, localized, around }
     }
 
-    /// The second half of a step: the controller's `command` (replaced by the lost-contact
-    /// layer while the swarm is lost), the share, and the report.
+    /// The second half of a step: the controller's `command` (replaced by the arrival layer
+    /// once the swarm has a path to an arrived UAV, and by the lost-contact layer while the
+    /// swarm is lost), the share, and the report.
     pub fn finish(&mut self, frame: &SensorFrame, seen: Perceived, command: Command) -> StepOutput {
-        let hops = self.hops.own(frame.odom.goal.is_some(), frame.scan.t_secs, self.sc.lost_contact.max_hops);
-        let command = self.lost.steer(&self.sc, &seen.view(self.id, frame), hops, &self.hops, command);
-        let share = self.localizer.share(frame, &seen.seen.circles).map(|s| s.with_hops(hops));
+        let view = seen.view(self.id, frame);
+        let now = frame.scan.t_secs;
+        let hops = self.hops.own(frame.odom.goal.is_some(), now, self.sc.lost_contact.max_hops);
+        let arrival = self.arrival.own(&self.sc, &view, now);
+        let command = self.arrival.steer(&self.sc, &view, arrival, command);
+        let command = self.lost.steer(&self.sc, &view, hops, &self.hops, command);
+        let share = self.localizer.share(frame, &seen.seen.circles).map(|s| s.with_counts(hops, arrival));
         let report = StepReport {
             id: self.id,
             tick: frame.tick(),
@@ -282,8 +290,8 @@ mod tests {
     #[test]
     fn own_pose_is_ignored() {
         let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
-        a.on_share(&Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0 }));
-        a.on_share(&Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0 }));
+        a.on_share(&Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0, arrival: 0 }));
+        a.on_share(&Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0, arrival: 0 }));
         let out = a.step(&frame(None, Some(fix())));
         assert_eq!(out.report.neighbours.len(), 1, "own echo ignored");
         assert_eq!(out.report.neighbours[0].id, Some(2));

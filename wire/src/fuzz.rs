@@ -110,9 +110,12 @@ fn structured() -> impl Strategy<Value = Msg> {
             vx: v[4],
             vy: v[5],
             hops: (tick % 256) as u8,
+            arrival: (tick / 256 % 256) as u8,
         })),
-        (any::<u32>(), any::<u64>(), f64s(), prop::collection::vec(any::<[i16; 2]>(), 0..40), any::<u8>())
-            .prop_map(|(from, tick, t_secs, centres_cm, hops)| Msg::Obstacles(ObstacleShare { from, tick, t_secs, centres_cm, hops })),
+        (any::<u32>(), any::<u64>(), f64s(), prop::collection::vec(any::<[i16; 2]>(), 0..40), any::<[u8; 2]>())
+            .prop_map(|(from, tick, t_secs, centres_cm, [hops, arrival])| {
+                Msg::Obstacles(ObstacleShare { from, tick, t_secs, centres_cm, hops, arrival })
+            }),
         (any::<u64>(), any::<u32>(), prop::collection::vec(any::<u32>(), 0..20), prop::collection::vec(f32s(), 0..20))
             .prop_map(|(tick, id, in_range, loss)| Msg::Radio(RadioSet { tick, id, in_range, loss })),
         (any::<u64>(), prop::array::uniform4(f32s()), prop::collection::vec(f32s(), 0..100)).prop_map(|(tick, a, r)| {

@@ -238,6 +238,10 @@ pub struct PoseShare {
     /// The sender's hop count to the nearest informed UAV (0: it is informed; [`NO_PATH`]: it
     /// knows of none). Carries no id: see `swarm_config::LostContactParams`.
     pub hops: u8,
+    /// The sender's hop count to the nearest UAV that has arrived at the goal (0: it is an
+    /// informed UAV inside the arrival disc; [`NO_PATH`]: it knows of none): how a K21 swarm
+    /// learns to settle (see `swarm_config::K21Params::arrival_radius_m`).
+    pub arrival: u8,
 }
 
 /// The hop count of a sender that knows of no path to an informed UAV.
@@ -258,6 +262,8 @@ pub struct ObstacleShare {
     pub centres_cm: Vec<[i16; 2]>,
     /// The sender's hop count to the nearest informed UAV (see [`PoseShare::hops`]).
     pub hops: u8,
+    /// The sender's hop count to the nearest arrived UAV (see [`PoseShare::arrival`]).
+    pub arrival: u8,
 }
 
 impl ObstacleShare {
@@ -691,8 +697,8 @@ pub(crate) mod tests {
             (Msg::Radio(RadioSet { tick: 4, id: 2, in_range: vec![1, 3], loss: vec![0.0, 0.25] }), "04040202010302000000000000803e"),
             (Msg::Cmd(Cmd { tick: 2, kind: CmdKind::Velocity, x: 0.25, y: -0.5, yaw_rate: 0.0 }), "0502000000803e000000bf00000000"),
             (
-                Msg::Pose(PoseShare { from: 3, tick: 5, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125, hops: 0 }),
-                "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf00",
+                Msg::Pose(PoseShare { from: 3, tick: 5, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125, hops: 0, arrival: 7 }),
+                "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf0007",
             ),
             (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a"),
             (
@@ -718,7 +724,7 @@ pub(crate) mod tests {
                 }),
                 "0909000000000000f03f0201000000000000f03f000000000000f0bf000000000000e03f000000000000d03f00000000000000000101000000000000004000000000000010400002000000000000f03f000000000000f0bf000000000000e03f000000000000d03f000000000000000001000000000000000040000000000000104001010200000000000000f03f000000000000f0bf01000000000000e03f01000000000000000040ac0202010000c03f",
             ),
-            (Msg::Obstacles(ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: vec![[150, -200], [-1, 0]], hops: 0 }), "0a0364000000000000244002ac028f03010000"),
+            (Msg::Obstacles(ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: vec![[150, -200], [-1, 0]], hops: 0, arrival: 7 }), "0a0364000000000000244002ac028f0301000007"),
             (Msg::NetemRules(r#"{"netem":[],"failures":[]}"#.to_string()), "0b1a7b226e6574656d223a5b5d2c226661696c75726573223a5b5d7d"),
             (
                 Msg::Uvdar(Uvdar { tick: 6, t_secs: 0.5, seen: vec![UvdarSeen { id: 4, range_m: 2.5, bearing_rad: -0.5 }] }),
@@ -767,7 +773,7 @@ pub(crate) mod tests {
     #[test]
     fn obstacle_shares_are_compact_and_round_to_centimetres() {
         let pts: Vec<[f64; 2]> = (0..20).map(|i| [f64::from(i) * 0.5 - 5.0, 7.123 - f64::from(i) * 0.3]).collect();
-        let share = ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: ObstacleShare::quantize(pts.clone()), hops: 0 };
+        let share = ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: ObstacleShare::quantize(pts.clone()), hops: 0, arrival: 0 };
         let bytes = Msg::Obstacles(share.clone()).encode().expect("encodes");
         assert!(bytes.len() < 110, "20 centres in {} bytes", bytes.len());
         for (a, b) in share.centres_m().zip(&pts) {

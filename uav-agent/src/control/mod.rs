@@ -14,11 +14,14 @@
 //!   to where it last estimated it, then hovers), or its group every informed UAV (flies back,
 //!   flocking, to where it last had a path to one), a layer over the pilot's command.
 //! - [`hops`]: the hop count to the nearest informed UAV that every share carries.
+//! - [`arrival`]: how a K21 swarm settles at its goal (a second count, to the nearest arrived
+//!   UAV, and K21 with its navigation faded towards it), a layer over the pilot's command.
 //!
 //! The controllers are pure functions of their seeds' inputs. A21 and M23 plan on maps from
 //! [`crate::planning`]; nothing here reaches back up to the agent or the node.
 
 mod a21;
+pub(crate) mod arrival;
 pub(crate) mod controller;
 pub(crate) mod hops;
 mod k21;
@@ -31,6 +34,7 @@ mod neighbour_velocity;
 mod p17;
 pub(crate) mod pilot;
 
+pub use arrival::Arrival;
 pub use hops::Hops;
 pub use lost_contact::LostContact;
 pub use controller::{Controller, Controllers, MakeController, UnknownController};

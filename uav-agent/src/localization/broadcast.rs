@@ -50,7 +50,7 @@ impl Broadcast {
 
 /// What UAV `from` tells its neighbours of its fix `g`: the same pose, signed.
 pub(crate) fn pose_share(from: u32, g: &Gnss) -> PoseShare {
-    PoseShare { from, tick: g.tick, t_secs: g.t_secs, x: g.x, y: g.y, yaw: g.yaw, vx: g.vx, vy: g.vy, hops: swarm_wire::NO_PATH }
+    PoseShare { from, tick: g.tick, t_secs: g.t_secs, x: g.x, y: g.y, yaw: g.yaw, vx: g.vx, vy: g.vy, hops: swarm_wire::NO_PATH, arrival: swarm_wire::NO_PATH }
 }
 
 /// Newest broadcast pose per neighbour.
@@ -99,7 +99,7 @@ mod tests {
     }
 
     fn pose(from: u32, t: f64, x: f64, y: f64, yaw: f64, vx: f64) -> PoseShare {
-        PoseShare { from, tick: 0, t_secs: t, x, y, yaw, vx, vy: 0.0, hops: 0 }
+        PoseShare { from, tick: 0, t_secs: t, x, y, yaw, vx, vy: 0.0, hops: 0, arrival: 0 }
     }
 
     #[test]
@@ -127,7 +127,7 @@ mod tests {
     fn the_share_is_the_fix_signed_by_its_sender() {
         let g = Gnss { tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1 };
         let p = pose_share(4, &g);
-        assert_eq!(p, PoseShare { from: 4, tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1, hops: swarm_wire::NO_PATH });
+        assert_eq!(p, PoseShare { from: 4, tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1, hops: swarm_wire::NO_PATH, arrival: swarm_wire::NO_PATH });
     }
 
     #[test]

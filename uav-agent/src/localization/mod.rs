@@ -75,11 +75,18 @@ impl Share {
             Share::Obstacles(o) => o.hops,
         }
     }
-    /// The share with our hop count.
-    pub fn with_hops(mut self, hops: u8) -> Share {
+    /// The sender's hop count to the nearest arrived UAV ([`swarm_wire::NO_PATH`]: none).
+    pub fn arrival(&self) -> u8 {
+        match self {
+            Share::Pose(p) => p.arrival,
+            Share::Obstacles(o) => o.arrival,
+        }
+    }
+    /// The share with our hop counts to the nearest informed and the nearest arrived UAV.
+    pub fn with_counts(mut self, hops: u8, arrival: u8) -> Share {
         match &mut self {
-            Share::Pose(p) => p.hops = hops,
-            Share::Obstacles(o) => o.hops = hops,
+            Share::Pose(p) => (p.hops, p.arrival) = (hops, arrival),
+            Share::Obstacles(o) => (o.hops, o.arrival) = (hops, arrival),
         }
         self
     }

@@ -931,6 +931,7 @@ impl IcpLocalizer {
             t_secs: frame.scan.t_secs,
             centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
             hops: swarm_wire::NO_PATH,
+            arrival: swarm_wire::NO_PATH,
         })
     }
 }

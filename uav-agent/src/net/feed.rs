@@ -448,6 +448,6 @@ mod tests {
     }
 
     fn pose(from: u32) -> swarm_wire::PoseShare {
-        swarm_wire::PoseShare { from, tick: 4, t_secs: 0.4, x: 1.0, y: 2.0, yaw: 0.3, vx: 0.1, vy: 0.0, hops: 0 }
+        swarm_wire::PoseShare { from, tick: 4, t_secs: 0.4, x: 1.0, y: 2.0, yaw: 0.3, vx: 0.1, vy: 0.0, hops: 0, arrival: 0 }
     }
 }

@@ -1,0 +1,164 @@
+//! Arrival: how a K21 swarm settles at its goal (the behaviour and its parameter:
+//! `swarm_config::K21Params::arrival_radius_m`).
+//!
+//! Why a layer of its own: seed 000 is silent on arrival, and its K21 never stops. Every UAV
+//! flies its body x axis at the speed eq. 4.16–4.17 leave to navigation, and the informed pull
+//! their neighbours' headings round through the goal, so a swarm that reaches its goal orbits
+//! it; a large one swings its centroid 20 m past the goal and back for minutes (issue 25). The
+//! uninformed cannot see the goal, so arrival has to travel the way the informed UAV's existence
+//! does (`hops`): a second hop count in every share, to the nearest *arrived* UAV (an informed UAV
+//! inside the arrival disc). A UAV with such a path turns to what is closer to the arrival than
+//! itself, and lets its navigation fade as it closes on it: an informed UAV to the goal (at full
+//! speed until it is inside the disc, then slowing towards the centre), the others to their
+//! nearest neighbour with a lower count, within `cohesion_radius_m` of which they stop.
+//! Cohesion, separation, avoidance and the barrier stay as they are. Until an informed
+//! UAV arrives every count is "none" and K21 flies exactly as before, so the seed's in-flight
+//! figures are untouched. Nothing here reads ground truth: odometry, the estimates and the
+//! counts heard.
+
+use super::hops::Hops;
+use super::pilot::{bearing_in_body, k21_command, Command, View};
+use crate::localization::Estimate;
+use nalgebra::Vector2;
+use swarm_config::{ControllerKind, K21Params, Scenario};
+use swarm_wire::NO_PATH;
+
+/// The arrival counts heard in shares, and this UAV's own.
+#[derive(Debug, Default)]
+pub struct Arrival {
+    heard: Hops,
+}
+
+/// The arrival radius the scenario gives K21 [m]; 0 (off) for the other controllers.
+fn radius_m(sc: &Scenario) -> f64 {
+    match sc.controller.kind {
+        ControllerKind::K21 => sc.controller.k21.arrival_radius_m.unwrap_or(sc.end.goal_radius_m),
+        _ => 0.0,
+    }
+}
+
+impl Arrival {
+    /// Notes sender `from`'s arrival count, sent at sim time `t_secs`.
+    pub fn hear(&mut self, from: u32, count: u8, t_secs: f64) {
+        self.heard.hear(from, count, t_secs);
+    }
+
+    /// Our own count at sim time `now`: 0 for an informed UAV within the arrival radius of its
+    /// goal, else one more than the smallest count heard (see [`Hops::own`]).
+    pub fn own(&mut self, sc: &Scenario, v: &View, now: f64) -> u8 {
+        let r = radius_m(sc);
+        let arrived = r > 0.0 && v.odom.goal.is_some_and(|g| (g[0] - v.odom.x).hypot(g[1] - v.odom.y) <= r);
+        self.heard.own(arrived, now, sc.lost_contact.max_hops)
+    }
+
+    /// The command of this step: `flock` (the controller's) unless this UAV has a path to an
+    /// arrived one; then K21 with its heading turned to what is closer to the arrival (the goal,
+    /// or the nearest neighbour with a lower count) and its navigation faded as it closes on it
+    /// (see the module doc).
+    pub fn steer(&self, sc: &Scenario, v: &View, own: u8, flock: Command) -> Command {
+        let r = radius_m(sc);
+        if r <= 0.0 || own == NO_PATH {
+            return flock;
+        }
+        let p = &sc.controller.k21;
+        let (heading, fade) = match v.odom.goal {
+            // An informed UAV: to the goal, at full speed until it is inside the disc, then
+            // slowing towards the centre. Its heading no longer follows the swarm's (eq. 4.14
+            // gives the goal one vote among its neighbours', which carries a large swarm past).
+            Some(g) => {
+                let d = (g[0] - v.odom.x).hypot(g[1] - v.odom.y);
+                (bearing_in_body(v.odom, g), if own == 0 { d / r } else { 1.0 })
+            }
+            None => {
+                let Some(next) = nearer(v.neighbours, &self.heard, own) else { return flock };
+                (next.y.atan2(next.x), (next.norm() - p.cohesion_radius_m) / p.cohesion_radius_m)
+            }
+        };
+        // An arrived UAV makes room: every neighbour closer than the separation radius pushes it,
+        // not only those ahead (eq. 4.7-4.9 look ahead only, so a hovering cluster would never
+        // yield to the UAVs arriving behind it).
+        let all_around = if own == 0 { p.separation_radius_m.max(p.separation_all_around_m) } else { p.separation_all_around_m };
+        let faded = K21Params { kn: p.kn * fade.clamp(0.0, 1.0), separation_all_around_m: all_around, ..p.clone() };
+        let mut c = k21_command(&faded, v, v.neighbours, None, &[]);
+        // seed 000 eq. 4.14 with the target as the only heading.
+        c.yaw_rate = p.heading_gain * heading;
+        c
+    }
+}
+
+/// The nearest neighbour estimate whose sender has a lower arrival count than `own`, body frame
+/// (anonymous estimates carry no count).
+fn nearer(neighbours: &[Estimate], heard: &Hops, own: u8) -> Option<Vector2<f64>> {
+    neighbours
+        .iter()
+        .filter(|e| e.id.is_some_and(|id| heard.of(id) < own))
+        .map(|e| e.pos_in_body)
+        .min_by(|a, b| a.norm().total_cmp(&b.norm()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
+
+    fn scenario() -> Scenario {
+        Scenario::from_arg("forest-5").expect("built in").0
+    }
+
+    fn odom(x: f64, goal: Option<[f64; 2]>) -> Odom {
+        Odom { tick: 0, t_secs: 0.0, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None }
+    }
+
+    fn view<'a>(o: &'a Odom, n: &'a [Estimate]) -> View<'a> {
+        View { id: 1, t_secs: 1.0, odom: o, neighbours: n, trees: &[], walls: &[], static_points: &[] }
+    }
+
+    fn flock() -> Command {
+        Command { kind: CmdKind::Velocity, xy: Vector2::new(0.4, 0.0), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+    }
+
+    fn neighbour(id: u32, x: f64) -> Estimate {
+        Estimate { id: Some(id), pos_in_body: Vector2::new(x, 0.0), heading: 0.0, age_secs: 0.0 }
+    }
+
+    #[test]
+    fn an_informed_uav_arrives_inside_the_disc_and_slows_towards_the_centre() {
+        let sc = scenario();
+        let r = sc.end.goal_radius_m;
+        let goal = sc.swarm.goal;
+        let mut a = Arrival::default();
+        let far = odom(goal[0] - r - 1.0, Some(goal));
+        assert_eq!(a.own(&sc, &view(&far, &[]), 1.0), NO_PATH, "outside the disc: not arrived");
+        assert_eq!(a.steer(&sc, &view(&far, &[]), NO_PATH, flock()), flock(), "nobody arrived: K21 as it is");
+        let behind = odom(goal[0] + r + 1.0, Some(goal));
+        let back = a.steer(&sc, &view(&behind, &[]), 1, flock());
+        assert!(back.yaw_rate.abs() > 1.0, "someone arrived: an informed UAV past the goal turns to it: {back:?}");
+        let edge = odom(goal[0] - 0.9 * r, Some(goal));
+        assert_eq!(a.own(&sc, &view(&edge, &[]), 1.0), 0);
+        let centre = odom(goal[0] - 0.05 * r, Some(goal));
+        let (at_edge, near_centre) = (a.steer(&sc, &view(&edge, &[]), 0, flock()), a.steer(&sc, &view(&centre, &[]), 0, flock()));
+        assert!(at_edge.xy.x > 0.0 && near_centre.xy.x > 0.0, "towards the goal: {at_edge:?} {near_centre:?}");
+        assert!(near_centre.xy.norm() < 0.1 * at_edge.xy.norm(), "slower near the centre: {at_edge:?} {near_centre:?}");
+    }
+
+    #[test]
+    fn an_uninformed_uav_closes_on_a_lower_count_and_stops_within_cohesion_radius() {
+        let sc = scenario();
+        let mut a = Arrival::default();
+        let o = odom(0.0, None);
+        a.hear(2, 0, 1.0);
+        a.hear(3, 4, 1.0);
+        assert_eq!(a.own(&sc, &view(&o, &[]), 1.0), 1);
+        // The neighbour with count 0 is 6 m ahead, the one with count 4 closer behind.
+        let far = [neighbour(2, 6.0), neighbour(3, -3.0)];
+        let c = a.steer(&sc, &view(&o, &far), 1, flock());
+        assert!(c.xy.x > 0.0, "towards the lower count: {c:?}");
+        let close = [neighbour(2, sc.controller.k21.cohesion_radius_m - 0.1)];
+        let stopped = a.steer(&sc, &view(&o, &close), 1, flock());
+        assert!(stopped.xy.norm() < 1e-9, "within the cohesion radius (and beyond separation's): it stops: {stopped:?}");
+        assert_eq!(a.steer(&sc, &view(&o, &far), NO_PATH, flock()), flock(), "no arrival heard: K21 as it is");
+        let mut off = sc.clone();
+        off.controller.k21.arrival_radius_m = Some(0.0);
+        assert_eq!(a.steer(&off, &view(&o, &far), 1, flock()), flock(), "0 turns it off");
+    }
+}
