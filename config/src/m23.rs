@@ -92,8 +92,10 @@ pub struct M23Params {
     /// for a cheap cell. Not printed; chosen 2 m, one formation spacing.
     #[serde(default = "d_spacing")]
     pub searching_radius_m: f64,
-    /// A follower recomputes its formation goal this often [s]. Not printed; chosen 1 s, the
-    /// global costmap's update_frequency 1.0 Hz (Fig. 30b) the goal is validated against.
+    /// A follower recomputes its formation goal (and plans to it) this often [s]. Fig. 42a
+    /// recomputes and republishes the goal on every pass of its loop; 0.1 s is every control step
+    /// at 10 Hz. (Until issue 25: 1 s, the global costmap's update_frequency of Fig. 30b, which
+    /// left a follower chasing a goal up to 1 m old and doubled PF's deviation.)
     #[serde(default = "d_goal_period")]
     pub goal_period_s: f64,
     /// Once the leader is this close to its goal the followers fly to their own final goals
@@ -149,7 +151,7 @@ fn d_costmap_thres() -> u8 {
     50
 }
 fn d_goal_period() -> f64 {
-    1.0
+    0.1
 }
 fn d_max_speed() -> f64 {
     1.5

@@ -368,7 +368,7 @@ impl M23Pilot {
         // The tracker sees the neighbours where they are now as lethal discs, as seed 004's local
         // planner saw them in its LIDAR's obstacle layer.
         let others: Vec<Point2<f64>> = social.iter().map(|a| a.position).collect();
-        let costs = WithNeighbours { map: &self.costmap, others: &others, radius_m: 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M };
+        let costs = WithNeighbours::new(&self.costmap, &others, Point2::from(p0), 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M);
         let out = m23::track(path, Point2::from(p0), vel_odom, sc.dt_secs(), &costs, p);
         let speed = out.velocity.norm() as f32;
         odom_velocity(rot, out.velocity, VectorMagnitudes { navigation: speed, output: speed, ..VectorMagnitudes::default() })
@@ -427,15 +427,25 @@ impl Controller for M23Pilot {
 const NEIGHBOUR_MARGIN_M: f64 = 0.2;
 
 /// The costmap with each neighbour's disc lethal: what the M23 tracker must not step into.
+/// A UAV already inside a neighbour's disc (the neighbour came to it) may leave it but not go
+/// deeper: for that neighbour the lethal disc shrinks to the present distance. (A disc lethal
+/// throughout made the UAV's own cell lethal, and the tracker, which lets a UAV on a lethal cell
+/// move to any cell no costlier so that it can back out, then let two UAVs close to 0.3 m.)
 struct WithNeighbours<'a> {
     map: &'a Costmap,
-    others: &'a [Point2<f64>],
-    radius_m: f64,
+    /// Each neighbour and the distance within which it is lethal.
+    others: Vec<(Point2<f64>, f64)>,
+}
+
+impl<'a> WithNeighbours<'a> {
+    fn new(map: &'a Costmap, others: &[Point2<f64>], me: Point2<f64>, radius_m: f64) -> WithNeighbours<'a> {
+        WithNeighbours { map, others: others.iter().map(|o| (*o, radius_m.min((o - me).norm()))).collect() }
+    }
 }
 
 impl CostQuery for WithNeighbours<'_> {
     fn cost_at(&self, p: Point2<f64>) -> Option<u8> {
-        if self.others.iter().any(|o| (o - p).norm() < self.radius_m) {
+        if self.others.iter().any(|(o, r)| (o - p).norm() < *r) {
             return Some(LETHAL_OBSTACLE);
         }
         CostQuery::cost_at(self.map, p)
