@@ -6,8 +6,9 @@
 //! among the trees at 30 s. With the group behaviour (hop counts in every share; the cut-off half
 //! flies back to where it last had a path, then follows the UAVs closer to an informed one) and
 //! K21's barrier, nobody touches anything, the flying UAVs end together and the goal rule is met.
-//! With the group behaviour off, the half flies on with nobody steering it and ends far from the
-//! rest. Lockstep, so both outcomes repeat exactly.
+//! With the group behaviour and arrival (issue 25, which also leads the half back once it hears
+//! the swarm) both off, the half flies on with nobody steering it and ends far from the rest.
+//! Lockstep, so both outcomes repeat exactly.
 
 mod common;
 
@@ -58,8 +59,12 @@ fn a_half_cut_off_from_the_informed_comes_back_and_the_swarm_meets_its_goal() {
     let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
     assert!(apart.is_empty(), "every flying UAV ends within 10 m of another: {apart:?}");
 
-    let off = CUT_OFF.replace("[[netem]]                        # burst loss", "[lost_contact]\nregroup_after_s = 0.0\n\n[[netem]]                        # burst loss");
-    assert_ne!(off, CUT_OFF, "the group behaviour is turned off");
+    // Both ways back off: the group behaviour, and arrival (issue 25), whose second hop count
+    // also leads a half that hears the swarm again to the informed UAV at the goal.
+    let off = CUT_OFF
+        .replace("[[netem]]                        # burst loss", "[lost_contact]\nregroup_after_s = 0.0\n\n[[netem]]                        # burst loss")
+        .replace("[localization]", "[controller.k21]\narrival_radius_m = 0.0\n\n[localization]");
+    assert_eq!(off.matches("regroup_after_s = 0.0").count() + off.matches("arrival_radius_m = 0.0").count(), 2, "both are turned off");
     let (s, nearest) = fly(&off, "cutoff-off");
     let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
     assert!(s["reached_goal"] == false && !apart.is_empty(), "without it the half flies off: goal {}, {nearest:?}", s["reached_goal"]);

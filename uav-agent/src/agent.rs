@@ -154,16 +154,17 @@ impl Agent {
         Perceived { started, seen, localized, around }
     }
 
-    /// The second half of a step: the controller's `command` (replaced by the arrival layer
-    /// once the swarm has a path to an arrived UAV, and by the lost-contact layer while the
-    /// swarm is lost), the share, and the report.
+    /// The second half of a step: the controller's `command` (replaced by the lost-contact
+    /// layer while the swarm is lost, then by the arrival layer once this UAV has a path to an
+    /// arrived one: that gradient leads to the goal, where a lost-contact flight back leads to
+    /// where the swarm was), the share, and the report.
     pub fn finish(&mut self, frame: &SensorFrame, seen: Perceived, command: Command) -> StepOutput {
         let view = seen.view(self.id, frame);
         let now = frame.scan.t_secs;
         let hops = self.hops.own(frame.odom.goal.is_some(), now, self.sc.lost_contact.max_hops);
         let arrival = self.arrival.own(&self.sc, &view, now);
-        let command = self.arrival.steer(&self.sc, &view, arrival, command);
         let command = self.lost.steer(&self.sc, &view, hops, &self.hops, command);
+        let command = self.arrival.steer(&self.sc, &view, arrival, command);
         let share = self.localizer.share(frame, &seen.seen.circles).map(|s| s.with_counts(hops, arrival));
         let report = StepReport {
             id: self.id,
