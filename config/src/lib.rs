@@ -365,6 +365,9 @@ impl Scenario {
         positive("end.goal_radius_m", self.end.goal_radius_m)?;
         positive("end.time_limit_s", self.end.time_limit_s)?;
         non_negative("end.hold_s", self.end.hold_s)?;
+        if self.end.hold_s >= self.end.time_limit_s {
+            return Err(("end.hold_s".into(), format!("{} s: must be shorter than end.time_limit_s ({} s), or no run could end with the goal", self.end.hold_s, self.end.time_limit_s)));
+        }
         Ok(())
     }
 

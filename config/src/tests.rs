@@ -229,3 +229,11 @@ fn a_moving_mission_goal_moves_from_its_start_time() {
     assert_eq!(sc.goal_motion_of(1, 14.0), ([3.0, -2.0], [0.5, -1.0]));
     assert_eq!(sc.goal_of(2, 14.0), [3.0, -2.0]);
 }
+
+#[test]
+fn a_hold_as_long_as_the_run_is_refused_with_its_field() {
+    let ok = Scenario::from_toml_str(&format!("{MINIMAL}\n[end]\ntime_limit_s = 100.0\nhold_s = 60.0\n"), "h.toml").expect("valid");
+    assert_eq!(ok.end.hold_s, 60.0);
+    let e = Scenario::from_toml_str(&format!("{MINIMAL}\n[end]\ntime_limit_s = 100.0\nhold_s = 100.0\n"), "h.toml").expect_err("hold too long");
+    assert!(e.to_string().contains("end.hold_s") && e.message.contains("time_limit_s"), "{e}");
+}

@@ -206,6 +206,22 @@ pub(crate) fn finished(dir: &Path) -> Option<Summary> {
     serde_json::from_str(&text).ok()
 }
 
+/// A run read back from a study's folder must be of the variant's scenario and localization mode,
+/// or one row would mix two experiments.
+fn same_variant(dir: &Path, s: &Summary, sc: &Scenario) -> Result<()> {
+    let mode = format!("{:?}", sc.localization.mode).to_lowercase();
+    if s.scenario != sc.name || s.localization.mode != mode {
+        bail!(
+            "{} was flown as {} ({}), not {} ({mode}): give another --out, or remove the folder to fly it again",
+            dir.display(),
+            s.scenario,
+            s.localization.mode,
+            sc.name
+        );
+    }
+    Ok(())
+}
+
 /// Flies every variant as `trials` says: once at its own seed in `<out>/<tag>`, or once per seed
 /// in `<out>/<tag>/seed-NNN` (read back when already there), `--jobs` at a time. Fails, after
 /// the others have flown, when a run fails.
@@ -219,7 +235,10 @@ pub(crate) async fn fly_trials(variants: &mut [Variant], out: &Path, trials: &Tr
         for seed in seeds.clone().unwrap_or_else(|| vec![v.scenario.seed]) {
             let tag = if seeds.is_some() { format!("{}/seed-{seed:03}", v.tag) } else { v.tag.clone() };
             match seeds.as_ref().and_then(|_| finished(&out.join(&tag))) {
-                Some(s) => done[i].push((seed, s)),
+                Some(s) => {
+                    same_variant(&out.join(&tag), &s, &v.scenario)?;
+                    done[i].push((seed, s))
+                }
                 None => todo.push((i, seed, tag)),
             }
         }

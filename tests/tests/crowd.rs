@@ -91,16 +91,19 @@ fn forty_uavs_settle_at_their_goal() {
     let arrived = s["time_to_goal_s"].as_f64().expect("time to goal");
     let ended = s["sim_time_s"].as_f64().expect("sim time");
     assert!(ended - arrived >= 60.0 - 1e-6, "held for 60 s: arrived {arrived} s, ended {ended} s");
-    // The last tick's positions, from trajectories.csv (tick,t_s,id,x_m,y_m,...).
+    // What the recorder saw, read independently of the hub's goal rule (trajectories.csv:
+    // tick,t_s,id,x_m,y_m,...): from the moment the hub says the swarm arrived, every UAV is
+    // inside 8 m at every tick, and at the last tick the centroid is within 2 m of the goal.
     let csv = std::fs::read_to_string(dir.path().join("trajectories.csv")).expect("trajectories.csv");
     let rows: Vec<Vec<f64>> =
         csv.lines().skip(1).map(|l| l.split(',').take(5).map(|v| v.parse().unwrap_or(f64::NAN)).collect()).collect();
+    let goal = (45.0, 0.0);
+    let outside: Vec<&Vec<f64>> =
+        rows.iter().filter(|r| r[1] >= arrived - 1e-6 && (r[3] - goal.0).hypot(r[4] - goal.1) > 8.0).collect();
+    assert!(outside.is_empty(), "outside the disc after arriving: {:?}", &outside[..outside.len().min(5)]);
     let last = rows.iter().map(|r| r[0]).fold(f64::MIN, f64::max);
     let ends: Vec<(f64, f64)> = rows.iter().filter(|r| r[0] == last).map(|r| (r[3], r[4])).collect();
     assert_eq!(ends.len(), 40, "one row per UAV at the last tick");
-    let goal = (45.0, 0.0);
-    let far = ends.iter().map(|p| (p.0 - goal.0).hypot(p.1 - goal.1)).fold(0.0, f64::max);
     let centroid = ends.iter().fold((0.0, 0.0), |c, p| (c.0 + p.0 / 40.0, c.1 + p.1 / 40.0));
-    assert!(far <= 8.0, "every UAV inside 8 m at the end: farthest {far:.2} m");
     assert!((centroid.0 - goal.0).hypot(centroid.1 - goal.1) <= 2.0, "centroid {centroid:?}");
 }

@@ -59,6 +59,13 @@ fn a_half_cut_off_from_the_informed_comes_back_and_the_swarm_meets_its_goal() {
     let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
     assert!(apart.is_empty(), "every flying UAV ends within 10 m of another: {apart:?}");
 
+    // The group behaviour alone (arrival off) brings the half back too.
+    let group_only = CUT_OFF.replace("[localization]", "[controller.k21]\narrival_radius_m = 0.0\n\n[localization]");
+    assert_ne!(group_only, CUT_OFF, "arrival is turned off");
+    let (s, nearest) = fly(&group_only, "cutoff-group");
+    let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
+    assert!(s["reached_goal"] == true && apart.is_empty(), "the group behaviour alone: goal {}, {nearest:?}", s["reached_goal"]);
+
     // Both ways back off: the group behaviour, and arrival (issue 25), whose second hop count
     // also leads a half that hears the swarm again to the informed UAV at the goal.
     let off = CUT_OFF

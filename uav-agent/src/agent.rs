@@ -164,7 +164,9 @@ impl Agent {
         let hops = self.hops.own(frame.odom.goal.is_some(), now, self.sc.lost_contact.max_hops);
         let arrival = self.arrival.own(&self.sc, &view, now);
         let command = self.lost.steer(&self.sc, &view, hops, &self.hops, command);
-        let command = self.arrival.steer(&self.sc, &view, arrival, command);
+        // An external controller's command is its own; only the built-in K21 gets the arrival.
+        let external = self.sc.controller.external.contains(&self.id);
+        let command = if external { command } else { self.arrival.steer(&self.sc, &view, arrival, command) };
         let share = self.localizer.share(frame, &seen.seen.circles).map(|s| s.with_counts(hops, arrival));
         let report = StepReport {
             id: self.id,

@@ -174,6 +174,10 @@ mod tests {
         assert!((aim[0] - goal[0]).abs() < 1e-9 && (aim[1] - (goal[1] + 1.5)).abs() < 1e-9, "{aim:?}");
         let c = Arrival::default().steer(&sc, &view(&o, &right), 0, flock());
         assert!((c.yaw_rate - sc.controller.k21.heading_gain * std::f64::consts::FRAC_PI_2).abs() < 1e-9, "turns north: {c:?}");
+        // Facing north (yaw π/2), the same neighbours on its right lie east: it aims west.
+        let north = Odom { yaw: std::f64::consts::FRAC_PI_2, ..odom(goal[0], Some(goal)) };
+        let aim = centred(&view(&north, &right), goal);
+        assert!((aim[0] - (goal[0] - 1.5)).abs() < 1e-9 && (aim[1] - goal[1]).abs() < 1e-9, "{aim:?}");
     }
 
     #[test]

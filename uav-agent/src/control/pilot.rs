@@ -400,9 +400,9 @@ impl M23Pilot {
             me: *me,
             leader,
             neighbours: known,
-            // Every UAV of an M23 scenario flies to the common goal; with per-UAV goals
-            // (`goals`, topology none) nobody looks at the leader's.
-            leader_goal: own,
+            // The leader's own goal (Table 7's per-UAV goals when given): every UAV reads it from
+            // the scenario, as Fig. 42a line 601 reads `leader_goal`.
+            leader_goal: Point2::from(sc.goal_of(p.leader_id, t)),
             own_goal: own,
             previous_goal: self.goal,
         };
