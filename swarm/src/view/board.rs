@@ -18,19 +18,21 @@ pub struct Board {
     states: BTreeMap<u32, AgentState>,
     collisions: Vec<CollisionEvent>,
     lost: BTreeMap<u32, f64>,
+    /// The scenario's goal radius [m], drawn around the goal.
+    goal_radius_m: f64,
 }
 
 impl Board {
     /// A board for `sc` (its netem timeline until the hub says otherwise).
     pub fn new(sc: &swarm_config::Scenario) -> Board {
-        Board { timeline: netem::Timeline::from_scenario(sc), ..Board::default() }
+        Board { timeline: netem::Timeline::from_scenario(sc), goal_radius_m: sc.end.goal_radius_m, ..Board::default() }
     }
 
     /// The world frame the page draws first.
     pub fn on_world(&mut self, run: &str, w: &TruthWorld) {
         self.world = Some(json!({
             "kind": "world", "run": run, "trees": w.trees, "walls": w.walls, "goal": w.goal,
-            "starts": w.starts, "body_radius_m": w.body_radius_m,
+            "starts": w.starts, "body_radius_m": w.body_radius_m, "goal_radius_m": self.goal_radius_m,
         }));
     }
 
@@ -105,6 +107,16 @@ mod tests {
 
     fn body(id: u32, x: f64, alive: bool) -> TruthBody {
         TruthBody { id, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, alive, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false }
+    }
+
+    #[test]
+    fn the_world_carries_the_scenarios_goal_radius() {
+        let sc = swarm_config::Scenario::from_arg("forest-5").expect("built-in").0;
+        let mut b = Board::new(&sc);
+        let w = TruthWorld { trees: vec![], walls: vec![], starts: vec![], goal: [30.0, 0.0], body_radius_m: 0.3 };
+        b.on_world("r", &w);
+        assert_eq!(b.world().expect("world")["goal_radius_m"], sc.end.goal_radius_m);
+        assert_ne!(sc.end.goal_radius_m, 1.0, "forest-5's disc is not the 1 m the page drew before");
     }
 
     #[test]
