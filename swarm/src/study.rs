@@ -191,6 +191,7 @@ impl Variant {
     pub fn goal_cell(&self) -> String {
         let k = self.runs.iter().filter(|s| s.reached_goal).count();
         match self.runs.len() {
+            0 => "-".to_string(),
             1 => (if k == 1 { "yes" } else { "no" }).to_string(),
             n => {
                 let r = wilson(k, n);
@@ -223,9 +224,14 @@ fn same_variant(dir: &Path, s: &Summary, sc: &Scenario) -> Result<()> {
 }
 
 /// Flies every variant as `trials` says: once at its own seed in `<out>/<tag>`, or once per seed
-/// in `<out>/<tag>/seed-NNN` (read back when already there), `--jobs` at a time. Fails, after
-/// the others have flown, when a run fails.
-pub(crate) async fn fly_trials(variants: &mut [Variant], out: &Path, trials: &Trials) -> Result<()> {
+/// in `<out>/<tag>/seed-NNN` (read back when already there), `--jobs` at a time. Returns the
+/// runs that failed: the others are in the variants, for a table of what flew.
+pub(crate) async fn fly_trials(variants: &mut [Variant], out: &Path, trials: &Trials) -> Result<Vec<anyhow::Error>> {
+    let mut tags: Vec<&str> = variants.iter().map(|v| v.tag.as_str()).collect();
+    tags.sort_unstable();
+    if let Some(w) = tags.windows(2).find(|w| w[0] == w[1]) {
+        bail!("`{}` is named twice: each variant flies into its own folder", w[0]);
+    }
     let seeds = trials.seeds.as_deref().map(parse_seeds).transpose()?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let jobs = trials.jobs.map_or(if seeds.is_some() { cores } else { 1 }, |j| j as usize);
@@ -254,14 +260,22 @@ pub(crate) async fn fly_trials(variants: &mut [Variant], out: &Path, trials: &Tr
         Err(e) => failed.push(e),
     })
     .await;
-    if let Some(e) = failed.into_iter().next() {
-        return Err(e);
-    }
     for (v, mut runs) in variants.iter_mut().zip(done) {
         runs.sort_by_key(|(seed, _)| *seed);
         v.runs = runs.into_iter().map(|(_, s)| s).collect();
     }
-    Ok(())
+    Ok(failed)
+}
+
+/// After the table: every failed run, then the study's error.
+fn fail_after_table(failed: Vec<anyhow::Error>) -> Result<ExitCode> {
+    if failed.is_empty() {
+        return Ok(ExitCode::SUCCESS);
+    }
+    for e in &failed {
+        eprintln!("{e:#}");
+    }
+    bail!("{} run(s) failed, left out of the table (with --seeds, the same command and --out flies only those again)", failed.len())
 }
 
 /// The line under a study's title: how many seeds each number is over.
@@ -291,7 +305,7 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
         }
         variants.push(Variant::new(&spec.replace('@', "-"), sc));
     }
-    fly_trials(&mut variants, &out, &a.trials).await?;
+    let failed = fly_trials(&mut variants, &out, &a.trials).await?;
     let mut t = String::new();
     let _ = writeln!(t, "# {} — same world and start, one controller per run{}\n", base.name, over_seeds(&variants));
     let _ = writeln!(t, "| controller | goal | time to goal s (runs that arrived) | collisions | min obstacle m | min UAV m | mean path m |");
@@ -314,7 +328,7 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("compare.md"), &t)?;
     println!("study folder: {}", out.display());
-    Ok(ExitCode::SUCCESS)
+    fail_after_table(failed)
 }
 
 /// Seed 004 Table 8: LF, PF, TNPF (obstacle distance, trajectory length, deviation) [m].
@@ -339,7 +353,7 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
         }
         variants.push(Variant::new(topology.trim(), sc));
     }
-    fly_trials(&mut variants, &out, &a.trials).await?;
+    let failed = fly_trials(&mut variants, &out, &a.trials).await?;
     let mut t = String::new();
     let loss = if a.loss > 0.0 { format!(", {} % inter-agent loss", a.loss) } else { String::new() };
     let _ = writeln!(t, "# seed 004 Table 8, ours beside the seed's (seed values in brackets){loss}{}\n", over_seeds(&variants));
@@ -368,7 +382,7 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("formations.md"), &t)?;
     println!("study folder: {}", out.display());
-    Ok(ExitCode::SUCCESS)
+    fail_after_table(failed)
 }
 
 /// One point of the sweep.
