@@ -209,7 +209,7 @@ pub(crate) fn finished(dir: &Path) -> Option<Summary> {
 
 /// A run read back from a study's folder must be of the variant's scenario and localization mode,
 /// or one row would mix two experiments.
-fn same_variant(dir: &Path, s: &Summary, sc: &Scenario) -> Result<()> {
+pub(crate) fn same_variant(dir: &Path, s: &Summary, sc: &Scenario) -> Result<()> {
     let mode = format!("{:?}", sc.localization.mode).to_lowercase();
     if s.scenario != sc.name || s.localization.mode != mode {
         bail!(

@@ -242,20 +242,6 @@ fn flown(out: &Path, seed: u64) -> Option<Summary> {
     crate::study::finished(&out.join(tag(seed)))
 }
 
-/// A run kept in the sweep's folder must be of the same scenario and localization mode as the
-/// sweep, or the table would mix two experiments under one name.
-fn same_sweep(out: &Path, seed: u64, s: &Summary, scenario: &str, mode: &str) -> Result<()> {
-    if s.scenario != scenario || s.localization.mode != mode {
-        bail!(
-            "{} was flown as {} ({}), not {scenario} ({mode}): give another --out, or remove the folder to fly it again",
-            out.join(tag(seed)).display(),
-            s.scenario,
-            s.localization.mode
-        );
-    }
-    Ok(())
-}
-
 /// Runs `swarm sweep-seeds`.
 pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
     let seeds = parse_seeds(&a.seeds)?;
@@ -281,7 +267,9 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
     let (mut runs, todo): (Vec<_>, Vec<_>) = seeds.iter().map(|&s| (s, flown(&out, s))).partition(|(_, s)| s.is_some());
     let mut runs: Vec<(u64, Summary)> = runs.drain(..).filter_map(|(seed, s)| s.map(|s| (seed, s))).collect();
     for (seed, s) in &runs {
-        same_sweep(&out, *seed, s, &base.name, &mode)?;
+        // A run kept in the folder must be of this scenario and mode, or the table would mix
+        // two experiments under one name.
+        crate::study::same_variant(&out.join(tag(*seed)), s, &base)?;
     }
     pb.inc(runs.len() as u64);
     if !runs.is_empty() {

@@ -19,7 +19,6 @@
 
 use super::hops::Hops;
 use super::pilot::{bearing_in_body, k21_command, Command, View};
-use crate::localization::Estimate;
 use nalgebra::Vector2;
 use swarm_config::{ControllerKind, K21Params, Scenario};
 use swarm_wire::NO_PATH;
@@ -75,7 +74,7 @@ impl Arrival {
                 (bearing_in_body(v.odom, aim), d / r)
             }
             None => {
-                let Some(next) = nearer(v.neighbours, &self.heard, own) else { return flock };
+                let Some(next) = self.heard.nearest_lower(v.neighbours, own) else { return flock };
                 (next.y.atan2(next.x), (next.norm() - p.cohesion_radius_m) / p.cohesion_radius_m)
             }
         };
@@ -106,19 +105,10 @@ fn centred(v: &View, goal: [f64; 2]) -> [f64; 2] {
     [goal[0] - offset.x, goal[1] - offset.y]
 }
 
-/// The nearest neighbour estimate whose sender has a lower arrival count than `own`, body frame
-/// (anonymous estimates carry no count).
-fn nearer(neighbours: &[Estimate], heard: &Hops, own: u8) -> Option<Vector2<f64>> {
-    neighbours
-        .iter()
-        .filter(|e| e.id.is_some_and(|id| heard.of(id) < own))
-        .map(|e| e.pos_in_body)
-        .min_by(|a, b| a.norm().total_cmp(&b.norm()))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::localization::Estimate;
     use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
     fn scenario() -> Scenario {

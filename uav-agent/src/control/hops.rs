@@ -7,6 +7,8 @@
 //! reaches `max_hops`. Once the informed are gone a group's counts rise by one a round (the
 //! classic count to infinity), which `max_hops` cuts short.
 
+use crate::localization::Estimate;
+use nalgebra::Vector2;
 use std::collections::BTreeMap;
 use swarm_wire::NO_PATH;
 
@@ -33,6 +35,16 @@ impl Hops {
     /// [`Hops::own`]).
     pub fn of(&self, from: u32) -> u8 {
         self.heard.get(&from).map_or(NO_PATH, |(h, _)| *h)
+    }
+
+    /// The nearest of `neighbours` whose sender's count is below `own`, body frame (anonymous
+    /// estimates carry no count): whom to follow towards the UAV the counts lead to.
+    pub fn nearest_lower(&self, neighbours: &[Estimate], own: u8) -> Option<Vector2<f64>> {
+        neighbours
+            .iter()
+            .filter(|e| e.id.map_or(NO_PATH, |id| self.of(id)) < own)
+            .map(|e| e.pos_in_body)
+            .min_by(|a, b| a.norm().total_cmp(&b.norm()))
     }
 
     /// Our own count at sim time `now`: 0 if `informed`, else one more than the smallest count

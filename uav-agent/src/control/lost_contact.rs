@@ -12,10 +12,8 @@
 
 use super::hops::Hops;
 use super::pilot::{bearing_in_body, k21_command, Command, View};
-use crate::localization::Estimate;
 use nalgebra::{Rotation2, Vector2};
 use swarm_config::{ControllerKind, Scenario};
-use swarm_wire::NO_PATH;
 
 /// What the layer does this step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -130,9 +128,7 @@ impl LostContact {
     /// localized, or not for `after_s` yet); else towards the nearest one beyond reach.
     fn follow_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, heard: &Hops) -> Phase {
         let reach = contact_radius_m(sc);
-        let count = |e: &&Estimate| e.id.map_or(NO_PATH, |id| heard.of(id));
-        let closer = v.neighbours.iter().filter(|e| count(e) < hops).map(|e| e.pos_in_body);
-        let nearest = closer.min_by(|a, b| a.norm().total_cmp(&b.norm()));
+        let nearest = heard.nearest_lower(v.neighbours, hops);
         let led = hops >= sc.lost_contact.max_hops || nearest.is_none_or(|n| n.norm() <= reach);
         if led || self.led_s.is_none() {
             self.led_s = Some(v.t_secs);
@@ -205,6 +201,7 @@ mod tests {
     use super::*;
     use crate::localization::Estimate;
     use crate::perception::Circle;
+    use swarm_wire::NO_PATH;
     use nalgebra::Point2;
     use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
