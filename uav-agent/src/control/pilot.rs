@@ -367,8 +367,8 @@ impl M23Pilot {
         let vel_odom = Vector2::new(v.odom.vx, v.odom.vy);
         // The tracker sees the neighbours where they are now as lethal discs, as seed 004's local
         // planner saw them in its LIDAR's obstacle layer.
-        let others: Vec<Point2<f64>> = social.iter().map(|a| a.position).collect();
-        let costs = WithNeighbours::new(&self.costmap, &others, Point2::from(p0), 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M);
+        let others = social.iter().map(|a| a.position);
+        let costs = WithNeighbours::new(&self.costmap, others, Point2::from(p0), 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M);
         let out = m23::track(path, Point2::from(p0), vel_odom, sc.dt_secs(), &costs, p);
         let speed = out.velocity.norm() as f32;
         odom_velocity(rot, out.velocity, VectorMagnitudes { navigation: speed, output: speed, ..VectorMagnitudes::default() })
@@ -438,8 +438,8 @@ struct WithNeighbours<'a> {
 }
 
 impl<'a> WithNeighbours<'a> {
-    fn new(map: &'a Costmap, others: &[Point2<f64>], me: Point2<f64>, radius_m: f64) -> WithNeighbours<'a> {
-        WithNeighbours { map, others: others.iter().map(|o| (*o, radius_m.min((o - me).norm()))).collect() }
+    fn new(map: &'a Costmap, others: impl Iterator<Item = Point2<f64>>, me: Point2<f64>, radius_m: f64) -> WithNeighbours<'a> {
+        WithNeighbours { map, others: others.map(|o| (o, radius_m.min((o - me).norm()))).collect() }
     }
 }
 
