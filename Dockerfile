@@ -1,5 +1,5 @@
-# A swarm in containers: `docker compose up --build` with compose.yaml beside this file (see the
-# README, "Containers").
+# A swarm in containers: `docker compose up --build` with compose.yaml beside this file (see
+# docs/hosts-and-containers.md, "Containers").
 #
 # The users' path is the default target, `runtime`: stage `build` compiles `swarm` in the Rust
 # image of the workspace's `rust-version` (the first build takes minutes: Zenoh), and `runtime`

@@ -11,7 +11,7 @@ Needs `ss` (iproute2) and a Linux machine; the run is local, on loopback.
     python3 tools/agent_wire_bytes.py --bin target/release/swarm SCENARIO [--window 10] [--warmup 30]
 
 This is how issue 22's "each agent process received a median of about 13.4 kB per tick" was
-measured, and how the scoped subscriptions are compared with it (README, "Traffic").
+measured, and how the scoped subscriptions are compared with it (docs/watching-and-recording.md, "What crosses the wire").
 """
 import argparse
 import json

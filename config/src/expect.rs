@@ -1,7 +1,7 @@
 //! `[expect]`: what a scenario promises about its own run, the invariants `swarm run --check` and
 //! `swarm fuzz` evaluate after every run (issue 15, after Jepsen's checkers). Every check applies
 //! unless `skip` names it; every bound has a default derived from the rest of the scenario, so
-//! most scenarios need no `[expect]` table at all (the defaults are listed in the README).
+//! most scenarios need no `[expect]` table at all (the defaults are listed in docs/faults-and-experiments.md, "Invariants and `swarm fuzz`").
 
 use serde::{Deserialize, Serialize};
 

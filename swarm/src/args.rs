@@ -17,8 +17,8 @@ pub struct ZenohArgs {
     /// Zenoh config override `KEY:JSON5`, e.g. `transport/link/tx/lease:3000` (repeatable).
     #[arg(long = "cfg")]
     pub cfg: Vec<String>,
-    /// User to log in to the hub as (`uav3`, `uavs1-20`, `observer`, `operator`; see README
-    /// "Security"), with `--password-file`.
+    /// User to log in to the hub as (`uav3`, `uavs1-20`, `observer`, `operator`; see
+    /// docs/security.md), with `--password-file`.
     #[arg(long, requires = "password_file")]
     pub user: Option<String>,
     /// File whose first line is the password of `--user` (`swarm run` writes one per user in

@@ -11,7 +11,7 @@
 //! - `uavs{ids}` (`uavs1-20`, `uavs1-4,7`, the `--ids` syntax): an agent host, one session for
 //!   several UAVs, allowed exactly what each of those UAVs is. The same user serves a second
 //!   router that relays a group of agents to the hub.
-//! - `ext{id}`: UAV `id`'s external controller (README "Fly your own controller"). It may
+//! - `ext{id}`: UAV `id`'s external controller (docs/own-controller.md). It may
 //!   subscribe to `uav/{id}/ext/view`, put only `uav/{id}/ext/cmd`, hold only `alive/ext/{id}`,
 //!   watch `alive/hub` (to know the run is over); nothing else of the run (not even the scenario).
 //! - `bridge`: the ROS 2 bridge (`swarm ros2`): an observer that also puts the UAVs' ROS 2
@@ -37,7 +37,7 @@
 //! UAV's `radio/{id}` too: tested in `tests/tests/security.rs`), and data reaches a client only through its subscribers, so a
 //! user's ingress list already bounds what it receives. The per-user egress list cost the
 //! router a walk of two keys per UAV of a host for every share it forwarded to that host (those
-//! decisions are not cached): 18–35 % of the hub's CPU on open-1000 (README, Performance).
+//! decisions are not cached): 18–35 % of the hub's CPU on open-1000 (docs/performance.md).
 //!
 //! [`Credentials`] makes fresh users and passwords: `swarm run` for each run (in the run folder,
 //! readable by its owner only), `swarm credentials` for pieces started by hand.

@@ -70,7 +70,7 @@ pub enum Cmd {
     /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
     /// SVG and PNG.
     Plot(crate::plot::PlotArgs),
-    /// Make fresh users and passwords for a hub and pieces started by hand (README "Security").
+    /// Make fresh users and passwords for a hub and pieces started by hand (docs/security.md).
     Credentials(crate::auth::CredentialsArgs),
     /// Generate scenarios with nemesis schedules from a seed, fly them, check the invariants,
     /// and shrink each failure to a minimal scenario file.

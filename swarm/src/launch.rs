@@ -56,8 +56,8 @@ pub struct RunArgs {
     /// scenario's own timeline.
     #[arg(long)]
     pub experiment: Option<PathBuf>,
-    /// Fly these UAVs (`3`, `1-4,7`) with an external controller (README "Fly your own
-    /// controller"), added to the scenario's `[controller] external`.
+    /// Fly these UAVs (`3`, `1-4,7`) with an external controller (docs/own-controller.md),
+    /// added to the scenario's `[controller] external`.
     #[arg(long, value_parser = crate::args::parse_ids)]
     pub external: Option<crate::args::UavIds>,
     /// Zenoh config override `KEY:JSON5` for every piece of the run (repeatable).
@@ -88,7 +88,7 @@ pub struct RunArgs {
     pub check: bool,
     /// Also show the UAVs to ROS 2 (`swarm ros2` in the run: /uav{id}/scan, /uav{id}/odom,
     /// /uav{id}/cmd_vel of external UAVs), in this ROS domain (0 when given without a value);
-    /// a ROS machine logs in as `ros` (README "ROS 2").
+    /// a ROS machine logs in as `ros` (docs/own-controller.md, "ROS 2 over rmw_zenoh").
     #[arg(long, num_args = 0..=1, default_missing_value = "0", value_name = "DOMAIN")]
     pub ros2: Option<u32>,
 }

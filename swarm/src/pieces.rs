@@ -27,7 +27,7 @@ pub struct HubArgs {
     #[arg(long, hide = true)]
     pub exit_with_stdin: bool,
     /// The users who may connect: a file of `user:password` lines (`swarm credentials` makes
-    /// one); each user's role, read from its name, sets what it may touch (README "Security").
+    /// one); each user's role, read from its name, sets what it may touch (docs/security.md).
     #[arg(long, required_unless_present = "insecure")]
     pub users: Option<std::path::PathBuf>,
     /// Let anyone connect and touch any key (no authentication, no access control).

@@ -6,7 +6,7 @@
 //! Why a bridge and not the agents themselves: the run's own keys stay compact (postcard, one
 //! key family per concern) and ROS's cost is paid only when someone asks for it; the bridge is
 //! one more client of the router, logged in as `bridge`. For each external UAV it is the external
-//! controller (README "Fly your own controller"): it answers every view with the newest Twist
+//! controller (docs/own-controller.md): it answers every view with the newest Twist
 //! from ROS (linear x, y in the body frame, angular z as the yaw rate), zero before the first
 //! and once the newest is older than half a second.
 //! Formats: `swarm_wire::ros2`.

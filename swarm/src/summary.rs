@@ -1,5 +1,5 @@
 //! `summary.json`, schema `swarm.summary.v1`. Fields are only ever added, never renamed or
-//! removed; README.md documents each one. Distances are in metres, times in sim seconds unless
+//! removed; docs/watching-and-recording.md documents each one. Distances are in metres, times in sim seconds unless
 //! a name says wall.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};

@@ -4,7 +4,7 @@
 //! and broadcast localization, in lockstep (so the outcome does not depend on the machine's
 //! load). `forest-40-icp` flies the same swarm on the full stack: every UAV placing its
 //! neighbours by ICP on shared obstacle sets. `forest-40-arrive` asks the swarm to settle at its
-//! goal (issue 25). forest-100 is measured, not tested here (CI time; README gives its numbers).
+//! goal (issue 25). forest-100 is measured, not tested here (CI time; docs/results.md gives its numbers).
 
 mod common;
 

@@ -48,7 +48,7 @@ fn group_changes(s: &serde_json::Value) -> Vec<(f64, u64)> {
     changes.iter().map(|c| (number(&c["t_s"]), c["components"].as_u64().expect("components"))).collect()
 }
 
-/// The bound stated in the README: the isolated UAV never strays out of radio range of the swarm
+/// The bound stated in docs/results.md: the isolated UAV never strays out of radio range of the swarm
 /// (its nearest other UAV is always within 10 m), has a neighbour estimate again within 10 s of
 /// the heal, and every UAV of the swarm is within the 10 m goal disc within 300 s, with no
 /// collision; any UAV that was out of radio range of all others came back.

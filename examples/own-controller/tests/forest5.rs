@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 /// The example's binary.
 const OWN: &str = env!("CARGO_BIN_EXE_own-controller");
 
-/// The scenario the README runs.
+/// The scenario docs/own-controller.md runs.
 const SCENARIO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/forest-5-own.toml");
 
 /// A run id no other test process uses.

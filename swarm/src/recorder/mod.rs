@@ -56,7 +56,7 @@ pub struct RecordArgs {
     pub mcap: McapArgs,
 }
 
-/// What `run.mcap` keeps (`swarm run`, `swarm record`; README "Recording size").
+/// What `run.mcap` keeps (`swarm run`, `swarm record`; docs/watching-and-recording.md).
 #[derive(Args, Debug, Clone, Default)]
 pub struct McapArgs {
     /// Do not write `run.mcap` (the Foxglove recording of the run).

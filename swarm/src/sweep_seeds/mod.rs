@@ -70,7 +70,7 @@ pub struct Metric {
     pub value: fn(&Summary) -> f64,
 }
 
-/// Every headline metric of the README's results table.
+/// Every headline metric of the results table in docs/results.md.
 pub const METRICS: &[Metric] = &[
     Metric { key: "time_to_goal_s", label: "time to goal s (runs that arrived)", value: |s| s.time_to_goal_s.unwrap_or(f64::NAN) },
     Metric { key: "collisions", label: "collisions", value: |s| s.collisions as f64 },

@@ -13,7 +13,7 @@
 //!
 //! The formats are rmw_zenoh's documented ones (its `docs/design.md` and source); the type hashes
 //! are those of ROS 2 Jazzy's messages, checked against PyPI `rosbags`' `hash_rihs01` in the
-//! end-to-end test. Nothing here was tried against a real ROS 2 installation (README, "ROS 2").
+//! end-to-end test. Nothing here was tried against a real ROS 2 installation (docs/own-controller.md, "ROS 2 over rmw_zenoh").
 
 pub mod cdr;
 pub mod msgs;
