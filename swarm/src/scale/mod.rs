@@ -38,6 +38,7 @@ use std::time::Duration;
 use swarm_config::Scenario;
 
 mod chart;
+pub mod peer;
 
 /// The default series: seed 000's 5, its section 6.4's 40 (controller alone and full ICP stack),
 /// 100, and 1000 on the controller alone.
@@ -72,6 +73,18 @@ pub struct ScaleArgs {
     /// Study folder (default: runs/scale-<time>).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Fly this peer simulator at each row's size right after our run, and print its x real time
+    /// and ours divided by it (see `--peer-cmd`).
+    #[arg(long, value_enum, requires = "peer_cmd")]
+    pub peer: Option<peer::Peer>,
+    /// The peer's command: a Python and the script that drives it, e.g.
+    /// `"/opt/vmas/bin/python vmas_flocking.py"` (docs/performance.md says how to install it).
+    #[arg(long)]
+    pub peer_cmd: Option<String>,
+    /// Wall seconds a peer run may take: its steps are as many as fit, and a size whose probe
+    /// overruns this is reported as out of the peer's reach.
+    #[arg(long, default_value_t = 120.0)]
+    pub peer_budget_s: f64,
 }
 
 /// One row of the table: one run.
@@ -119,6 +132,9 @@ pub struct ScaleRow {
     /// Payload kB an agent received per tick (its sensors, radio sets, rules and shares).
     #[serde(default)]
     pub kb_received_per_tick: f64,
+    /// The peer flown at this row's size right after it (`--peer`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peer: Option<peer::PeerRow>,
 }
 
 impl ScaleRow {
@@ -146,6 +162,7 @@ impl ScaleRow {
             shares_arrived_per_tick: s.traffic.shares_arrived_per_agent_tick,
             shares_counted_per_tick: s.traffic.shares_counted_per_agent_tick,
             kb_received_per_tick: s.traffic.bytes_per_agent_tick / 1000.0,
+            peer: None,
         }
     }
 }
@@ -153,6 +170,8 @@ impl ScaleRow {
 /// Runs `swarm scale`.
 pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
     let plan = plan(&a)?;
+    let peer_cmd = a.peer.and(a.peer_cmd.as_deref()).map(peer::PeerCmd::parse).transpose()?;
+    anyhow::ensure!(a.peer_budget_s > 0.0, "--peer-budget-s must be positive");
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("scale-{}", unix_secs())));
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut rows = Vec::new();
@@ -161,9 +180,16 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
         eprintln!("[{}/{}] {}: {} UAVs, {mode}, {:.0} s of sim time", i + 1, plan.len(), sc.name, sc.count(), sc.end.time_limit_s);
         let sampler = MemorySampler::start();
         let how = VariantRun { per_process: a.agents_per_process, progress: true };
-        let summary = run_variant(sc, &out, &format!("{:02}-{}", i + 1, sc.name), how).await;
+        let tag = format!("{:02}-{}", i + 1, sc.name);
+        let summary = run_variant(sc, &out, &tag, how).await;
         let mem = sampler.stop().await;
-        rows.push(ScaleRow::new(&summary?, &mode, mem));
+        let mut row = ScaleRow::new(&summary?, &mode, mem);
+        if let Some(cmd) = &peer_cmd {
+            let size = peer::PeerSize { agents: sc.count(), obstacles: peer::obstacles_in(&out.join(&tag))?, rays: sc.lidar.beams };
+            eprintln!("{tag}: peer at {} agents, {} obstacles, {} rays", size.agents, size.obstacles, size.rays);
+            row.peer = Some(peer::fly(cmd, size, Duration::from_secs_f64(a.peer_budget_s)).await?);
+        }
+        rows.push(row);
     }
     let table = table(&rows);
     std::fs::write(out.join("scale.md"), &table)?;
@@ -266,11 +292,34 @@ pub fn table(rows: &[ScaleRow]) -> String {
             r.goal_s.map_or_else(|| format!("no ({:.0} s flown)", r.sim_time_s), |g| format!("{g:.1}")),
         );
     }
+    peer_table(&mut t, rows);
     let _ = writeln!(
         t,
         "\nPeers: gym-pybullet-drones reports 10 drones at about 2x real time; MRS's lightweight simulator claims hundreds of UAVs in real time with no localization; Crazyswarm2's simulator runs 5 drones at 0.15x (its issue #890)."
     );
     t
+}
+
+/// The side-by-side table of the rows flown with `--peer`: each peer run came right after ours.
+fn peer_table(t: &mut String, rows: &[ScaleRow]) {
+    let with: Vec<(&ScaleRow, &peer::PeerRow)> = rows.iter().filter_map(|r| Some((r, r.peer.as_ref()?))).collect();
+    if with.is_empty() {
+        return;
+    }
+    let _ = writeln!(t, "\n## Side by side: a peer at each size, flown right after our run\n");
+    let _ = writeln!(t, "| scenario | UAVs | obstacles | rays | ours x real time | peer | peer x real time | ours / peer | peer steps |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|");
+    for (r, p) in with {
+        let (px, ratio) = match p.x_real_time {
+            Some(x) if x > 0.0 => (format!("{x:.4}"), format!("{:.0}x", r.x_real_time / x)),
+            _ => (format!("out of reach ({})", p.note.as_deref().unwrap_or("no figure")), "-".into()),
+        };
+        let _ = writeln!(
+            t,
+            "| {} | {} | {} | {} | {:.2} | {} | {px} | {ratio} | {} |",
+            r.scenario, r.uavs, p.obstacles, p.rays, r.x_real_time, p.peer, p.steps
+        );
+    }
 }
 
 /// The peak resident memory of a run's processes.
@@ -396,6 +445,7 @@ pub(crate) fn test_row(uavs: usize, mode: &str) -> ScaleRow {
         shares_arrived_per_tick: 3.0,
         shares_counted_per_tick: 2.5,
         kb_received_per_tick: 3.25,
+        peer: None,
     }
 }
 
@@ -415,6 +465,18 @@ mod tests {
         assert!(lines[1].ends_with("| 0 | no (60 s flown) |"), "{}", lines[1]);
         let header_cells = t.lines().find(|l| l.starts_with("| scenario")).map(|l| l.matches('|').count());
         assert_eq!(header_cells, Some(lines[0].matches('|').count()), "header and rows have as many cells");
+    }
+
+    #[test]
+    fn peer_rows_get_a_side_by_side_table_with_the_ratio() {
+        assert!(!table(&[row(5, "icp")]).contains("Side by side"), "no peer, no table");
+        let mut a = row(40, "icp");
+        a.peer = Some(peer::PeerRow { peer: "vmas 1.5.2".into(), x_real_time: Some(0.5), steps: 100, obstacles: 51, rays: 750, note: None });
+        let mut b = row(1000, "icp");
+        b.peer = Some(peer::PeerRow { peer: "vmas 1.5.2".into(), x_real_time: None, steps: 0, obstacles: 700, rays: 750, note: Some("slow".into()) });
+        let t = table(&[a, b]);
+        assert!(t.contains("| s40 | 40 | 51 | 750 | 12.50 | vmas 1.5.2 | 0.5000 | 25x | 100 |"), "{t}");
+        assert!(t.contains("| s1000 | 1000 | 700 | 750 | 12.50 | vmas 1.5.2 | out of reach (slow) | - | 0 |"), "{t}");
     }
 
     #[test]
