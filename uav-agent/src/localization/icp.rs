@@ -236,6 +236,7 @@ fn apply(t: &AgentFromNeighbour, source: &[Point2<f64>], moved: &mut Vec<Point2<
 
 /// Pairs every moved source point with its nearest reference point and sorts the pairs by
 /// distance (seed 000, Algorithm 1 `pairing`, Algorithm 3 `QuickSort(D)`).
+#[multiversion::multiversion(targets("x86_64+avx2"))]
 fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &mut Vec<Pair>) {
     out.clear();
     // Source points in blocks of BLOCK lanes (the last block padded with copies of the last
@@ -463,7 +464,10 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
 /// points): a block's running minima stay in registers while every reference point is visited
 /// once, and its lanes are independent, so the compiler turns the loop into packed SIMD (SSE2's
 /// two lanes on the baseline x86-64 target; the first pass 1.5× faster than start by start on a
-/// crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`).
+/// crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`). Both functions are also
+/// compiled for AVX2 (four lanes) and pick that version at run time where the CPU has it
+/// (`multiversion`): the same operations in the same order per lane (no fused multiply-add is
+/// enabled), so the distances are bit for bit those of the baseline build.
 const BLOCK: usize = 8;
 
 /// The shifts of the grid of seed 000 5.1 and Figure 5.1: cell (i, j) shifts by
@@ -486,6 +490,7 @@ fn block_shifts(cells: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>) {
 /// start-by-start loop would, operation for operation, so the scores are bit-identical; only
 /// the loops are turned around (cells in blocks of [`BLOCK`], innermost). `cx`/`cy` are padded
 /// to whole blocks; padded cells are computed and dropped.
+#[multiversion::multiversion(targets("x86_64+avx2"))]
 fn nearest_by_cell(reference: &[Point2<f64>], rotated: &[Vector2<f64>], cx: &[f64], cy: &[f64], out: &mut [f64]) {
     let n = rotated.len();
     for (b, (bx, by)) in cx.chunks_exact(BLOCK).zip(cy.chunks_exact(BLOCK)).enumerate() {
