@@ -19,7 +19,8 @@
 //!
 //! Writes `scale.md` (the table), `scale.json` (the rows), and `scale.svg` / `scale.png` (x real
 //! time and RSS per UAV against the UAV count: [`chart`], drawn with plotters and an embedded
-//! font, so no system font is needed). [`proc_fs`] reads `/proc`. Speeds depend on the machine and its load: this is a measurement,
+//! font, so no system font is needed). [`proc_fs`] reads `/proc`. With `--peer vmas`, [`peer`]
+//! flies a peer simulator at each row's size right after it, for a ratio measured side by side. Speeds depend on the machine and its load: this is a measurement,
 //! never a test assertion.
 
 use crate::args::{scenario_value, unix_secs};
