@@ -37,7 +37,7 @@ WALL_CLOCK_SCENARIOS = {"open-field-5-restart"}
 # Scale scenarios: lockstep and repeatable, but minutes each on the development machine, so left
 # out of the default set; `--only open-1000` fingerprints it (forest-100-arrive: a 1100 s flight of
 # 100 UAVs).
-SCALE_SCENARIOS = {"open-1000", "forest-100-arrive"}
+SCALE_SCENARIOS = {"open-1000", "forest-100-arrive", "forest-1000-icp"}
 
 
 def strip_wall(value, drop=WALL_FIELDS):

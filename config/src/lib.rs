@@ -79,6 +79,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-100-arrive", include_str!("../../scenarios/forest-100-arrive.toml")),
     ("forest-40-icp", include_str!("../../scenarios/forest-40-icp.toml")),
     ("forest-100-icp", include_str!("../../scenarios/forest-100-icp.toml")),
+    ("forest-1000-icp", include_str!("../../scenarios/forest-1000-icp.toml")),
     ("m23-indoor-lf", include_str!("../../scenarios/m23-indoor-lf.toml")),
     ("m23-indoor-none", include_str!("../../scenarios/m23-indoor-none.toml")),
     ("m23-indoor-pf", include_str!("../../scenarios/m23-indoor-pf.toml")),
