@@ -12,24 +12,11 @@
 
 mod common;
 
-use common::{output_within, SWARM, TOOL_LIMIT};
+use common::{output_within, read, rel, root, SWARM, TOOL_LIMIT};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
 use std::process::Command;
 
-/// The workspace root (this crate is one of its members).
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate lives in the workspace").to_path_buf()
-}
-
-fn read(path: &Path) -> String {
-    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
-}
-
-/// `path` relative to the workspace root, for messages.
-fn rel(path: &Path) -> String {
-    path.strip_prefix(root()).unwrap_or(path).display().to_string()
-}
 
 /// Every `.md` file under `dir`, recursively.
 fn markdown_files(dir: &Path) -> Vec<PathBuf> {

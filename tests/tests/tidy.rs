@@ -21,22 +21,11 @@
 //! Pure file reading, but for the last check, which asks `cargo metadata --locked` for the locked
 //! graph (nothing is built).
 
+mod common;
+
+use common::{read, rel, root};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-
-/// The workspace root (this crate is one of its members).
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the tests crate lives in the workspace").to_path_buf()
-}
-
-fn read(path: &Path) -> String {
-    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
-}
-
-/// `path` relative to the workspace root, for messages.
-fn rel(path: &Path) -> String {
-    path.strip_prefix(root()).unwrap_or(path).display().to_string()
-}
 
 /// One workspace member: its folder (relative to the root) and its package name.
 struct Member {
