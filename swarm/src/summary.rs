@@ -170,6 +170,9 @@ pub struct CheckFailure {
     pub uavs: Vec<UavAt>,
 }
 
+/// UAVs of a failed check named in the terminal summary; summary.json keeps them all.
+pub const SHOWN_UAVS: usize = 8;
+
 /// A UAV and where it was.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct UavAt {
@@ -474,15 +477,19 @@ impl Summary {
         self.checks.iter().filter(|c| !c.passed)
     }
 
-    /// The checks in a few lines: a count, then one line per failure with its first moment.
+    /// The checks in a few lines: a count, then one line per failure with its first moment and
+    /// the first [`SHOWN_UAVS`] UAVs involved (a thousand-UAV run would print them all on one line).
     pub fn checks_human(&self) -> String {
         let failed = self.failed_checks().count();
         let mut s = format!("checks: {} passed, {failed} failed", self.checks.len() - failed);
         for c in self.failed_checks() {
             let _ = write!(s, "\n  FAIL {}: {}", c.name, c.detail);
             if let Some(f) = &c.first_failure {
-                let at: Vec<String> = f.uavs.iter().map(|u| format!("{} at ({:.2}, {:.2})", u.id, u.x_m, u.y_m)).collect();
-                let _ = write!(s, "\n       first at t={:.1} s: {}; UAVs {}", f.t_s, f.what, at.join(", "));
+                let at: Vec<String> =
+                    f.uavs.iter().take(SHOWN_UAVS).map(|u| format!("{} at ({:.2}, {:.2})", u.id, u.x_m, u.y_m)).collect();
+                let more = f.uavs.len().saturating_sub(SHOWN_UAVS);
+                let more = if more > 0 { format!(" and {more} more (summary.json lists every one)") } else { String::new() };
+                let _ = write!(s, "\n       first at t={:.1} s: {}; UAVs {}{more}", f.t_s, f.what, at.join(", "));
             }
         }
         s
@@ -579,6 +586,25 @@ impl Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_failed_check_names_a_few_uavs_and_counts_the_rest() {
+        let uavs = |n: u32| (1..=n).map(|id| UavAt { id, x_m: 1.0, y_m: -2.0 }).collect::<Vec<_>>();
+        let sc = swarm_config::builtin("forest-5").expect("builtin");
+        let mut s = crate::recorder::metrics::Metrics::default().summary("r", &sc);
+        for n in [3, 1000] {
+            s.checks = vec![CheckResult {
+                name: "goal".into(),
+                passed: false,
+                detail: "the centroid within 4.0 m of the goal by 60 s".into(),
+                first_failure: Some(CheckFailure { t_s: 60.0, what: "goal not reached".into(), uavs: uavs(n) }),
+            }];
+            let text = s.checks_human();
+            let named = text.matches(" at (1.00, -2.00)").count();
+            assert_eq!(named, (n as usize).min(SHOWN_UAVS), "{text}");
+            assert_eq!(text.contains("and 992 more (summary.json lists every one)"), n == 1000, "{text}");
+        }
+    }
 
     #[test]
     fn infinite_distances_are_null_and_read_back() {
