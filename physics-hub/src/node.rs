@@ -19,7 +19,7 @@
 //! `swarm_wire::session::Writer`).
 
 use crate::lateness::Lateness;
-use crate::sim::{Sensors, Sim};
+use crate::sim::{Sensors, Sim, Stepped};
 use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 use swarm_config::{Scenario, TimeMode};
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::session::{self, Role, Writer};
-use swarm_wire::{Cmd, CmdKind, EndReason, Keys, Msg, TruthStep, WireError};
+use swarm_wire::{Cmd, CmdKind, EndReason, HubTiming, Keys, Msg, TruthStep, WireError};
 use tokio::sync::{mpsc, Notify};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
 use zenoh::qos::CongestionControl;
@@ -428,10 +428,10 @@ impl Net {
             };
             let integrate_from = Instant::now();
             self.lateness.close(sim.tick(), integrate_from);
-            let mut step = self.integrate(sc, sim, &got, started);
-            *step.timing = self.lateness.take(sensors + integrate_from.elapsed());
+            let step = self.integrate(sc, sim, &got, started);
             let ended = step.ended;
-            self.publish_step(step).await?;
+            let timing = self.lateness.take(sensors + integrate_from.elapsed());
+            self.publish_step(step.with_timing(timing)).await?;
             if let Some(end) = ended {
                 return self.report(sim, end);
             }
@@ -450,7 +450,7 @@ impl Net {
     }
 
     /// Step 3 of a tick: integrate the commands `got` (a UAV without one keeps its last).
-    fn integrate(&self, sc: &Scenario, sim: &mut Sim, got: &BTreeMap<u32, Cmd>, started: Instant) -> TruthStep {
+    fn integrate(&self, sc: &Scenario, sim: &mut Sim, got: &BTreeMap<u32, Cmd>, started: Instant) -> Stepped {
         let cmds: Vec<Option<Cmd>> = sc.uav_ids().map(|id| got.get(&id).copied()).collect();
         let alive = self.alive_now();
         let alive_flags: Vec<bool> = sc.uav_ids().map(|id| alive.contains(&id)).collect();
@@ -618,9 +618,8 @@ impl Net {
     async fn finish(&self, sim: &mut Sim, end: EndReason, started: Instant) -> Result<HubReport, HubError> {
         let alive = self.alive_now();
         let alive_flags: Vec<bool> = (1..=sim.bodies().len() as u32).map(|id| alive.contains(&id)).collect();
-        let mut step = sim.observe(&[], &alive_flags, Vec::new(), started.elapsed().as_secs_f64());
-        step.ended = Some(end);
-        self.publish_step(step).await?;
+        let step = sim.observe(&[], &alive_flags, Vec::new(), Some(end), started.elapsed().as_secs_f64());
+        self.publish_step(step.with_timing(HubTiming::default())).await?;
         self.report(sim, end)
     }
 

@@ -20,7 +20,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{GoalRule, LocalizationMode, OnCollision, Scenario};
 use swarm_wire::{
-    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld, Uvdar,
+    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, HubTiming, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld,
+    Uvdar,
     UvdarSeen,
 };
 
@@ -57,6 +58,35 @@ const CHUNK_UAVS: usize = 25;
 
 /// A chunk of a pipelined tick: its number, and its UAVs with their streams.
 type Chunk<'s, 'r> = (usize, &'s mut [(u32, &'r mut UavRngs)]);
+
+/// One tick's ground truth as the simulation knows it: every part of `truth/step` but the hub's
+/// wall-clock timing of the tick, which only the node measures ([`Stepped::with_timing`] joins
+/// the two into the message).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stepped {
+    /// Tick just integrated.
+    pub tick: u64,
+    /// Sim time at the end of the tick [s].
+    pub t_secs: f64,
+    /// Every body.
+    pub bodies: Vec<TruthBody>,
+    /// Collisions that began this tick.
+    pub collisions: Vec<CollisionEvent>,
+    /// Sim time the goal rule was first met, if it was.
+    pub goal_reached_at: Option<f64>,
+    /// Why the run ends here, on its last step.
+    pub ended: Option<EndReason>,
+    /// Wall seconds since tick 0.
+    pub wall_secs: f64,
+}
+
+impl Stepped {
+    /// The `truth/step` message: this tick's truth and what it cost the hub.
+    pub fn with_timing(self, timing: HubTiming) -> TruthStep {
+        let Stepped { tick, t_secs, bodies, collisions, goal_reached_at, ended, wall_secs } = self;
+        TruthStep { tick, t_secs, bodies, collisions, goal_reached_at, ended, wall_secs, timing: Box::new(timing) }
+    }
+}
 
 /// The whole simulated world.
 pub struct Sim {
@@ -350,7 +380,7 @@ impl Sim {
     /// liveliness token: a UAV whose agent lost it (killed, or cut off by the network) hovers where
     /// it is, as the agent itself commands when it loses the hub, a command that cannot cross a
     /// cut link.
-    pub fn step(&mut self, cmds: &[Option<Cmd>], alive: &[bool], wall_secs: f64) -> TruthStep {
+    pub fn step(&mut self, cmds: &[Option<Cmd>], alive: &[bool], wall_secs: f64) -> Stepped {
         let t_now = self.t_secs();
         for (i, b) in self.bodies.iter_mut().enumerate() {
             if self.timeline.frozen_at(i as u32 + 1, t_now) {
@@ -375,29 +405,34 @@ impl Sim {
         if self.goal_reached_at.is_none() && self.goal_since.is_some_and(|s| t_secs - s >= self.sc.end.hold_s - 1e-9) {
             self.goal_reached_at = self.goal_since;
         }
-        let mut step = self.observe(cmds, alive, collisions, wall_secs);
-        step.ended = if self.goal_reached_at.is_some() {
+        let ended = if self.goal_reached_at.is_some() {
             Some(EndReason::Goal)
         } else if t_secs >= self.sc.end.time_limit_s - 1e-9 {
             Some(EndReason::TimeLimit)
         } else {
             None
         };
-        step
+        self.observe(cmds, alive, collisions, ended, wall_secs)
     }
 
-    /// Ground truth of the current state, without integrating (the hub's last word when a run is
-    /// stopped). `ended` is left for the caller.
-    pub fn observe(&self, cmds: &[Option<Cmd>], alive: &[bool], collisions: Vec<CollisionEvent>, wall_secs: f64) -> TruthStep {
-        TruthStep {
+    /// Ground truth of the current state, without integrating (also the hub's last word when a
+    /// run is stopped, with the reason it ended).
+    pub fn observe(
+        &self,
+        cmds: &[Option<Cmd>],
+        alive: &[bool],
+        collisions: Vec<CollisionEvent>,
+        ended: Option<EndReason>,
+        wall_secs: f64,
+    ) -> Stepped {
+        Stepped {
             tick: self.tick,
             t_secs: self.t_secs(),
             bodies: self.truth_bodies(cmds, alive),
             collisions,
             goal_reached_at: self.goal_reached_at,
-            ended: None,
+            ended,
             wall_secs,
-            timing: Box::default(),
         }
     }
 
