@@ -4,7 +4,7 @@
 //! 000 6.1 reports both: mean error 0.052 m, the neighbour count stable 89 % of the time).
 
 use super::data::Run;
-use super::style::{color, legend, time_chart, y_top, DrawResult, Figure, FAMILY};
+use super::style::{beside_legend, color, legend_strip, segments, time_chart, y_top, DrawResult, Figure, FAMILY};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
@@ -41,22 +41,22 @@ fn mean_by_time(series: &BTreeMap<u32, Vec<(f64, f64)>>) -> Vec<(f64, f64)> {
     at.values().map(|&(t, sum, n)| (t, sum / f64::from(n))).collect()
 }
 
-/// One thin line per agent and the swarm's mean in black.
+/// One thin line per agent and the swarm's mean in black, the legend beside the plot.
 fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run, caption: &str, y_label: &str, series: &BTreeMap<u32, Vec<(f64, f64)>>) -> DrawResult<DB> {
+    let (plot, strip) = beside_legend(area);
     let y_hi = y_top(series.values().flatten().map(|p| p.1), 0.1);
-    let mut chart = time_chart(area, caption, y_label, run.t_end(), y_hi)?;
+    let mut chart = time_chart(&plot, caption, y_label, run.t_end(), y_hi)?;
+    let mut entries = Vec::new();
     for (i, (id, pts)) in series.iter().enumerate() {
         let c = color(i);
-        let s = chart.draw_series(LineSeries::new(pts.iter().copied().filter(|p| p.1.is_finite()), c.mix(0.7).stroke_width(1)))?;
+        chart.draw_series(LineSeries::new(pts.iter().copied().filter(|p| p.1.is_finite()), c.mix(0.7).stroke_width(1)))?;
         if series.len() <= 10 {
-            s.label(format!("UAV {id}")).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(1)));
+            entries.push((format!("UAV {id}"), c.stroke_width(1)));
         }
     }
-    chart
-        .draw_series(LineSeries::new(mean_by_time(series), BLACK.stroke_width(2)))?
-        .label("mean over the swarm")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    legend(&mut chart)
+    chart.draw_series(segments(mean_by_time(series), BLACK.stroke_width(2)))?;
+    entries.push(("mean over the swarm".to_string(), BLACK.stroke_width(2)));
+    legend_strip(&strip, &entries)
 }
 
 #[cfg(test)]

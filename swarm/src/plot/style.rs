@@ -139,6 +139,35 @@ pub fn time_chart<'a, DB: DrawingBackend>(
     Ok(chart)
 }
 
+/// Width of the legend strip beside a chart whose legend would cover its data [px].
+const LEGEND_STRIP_PX: u32 = 170;
+
+/// A thick polyline as separate two-point segments. Why: plotters joins a thick polyline's
+/// segments with miters, and at a sharp reversal (a value that jumps 0 → 1 → 0 between ticks)
+/// the miter shoots far out of the plot, across the captions and the other panel.
+pub fn segments(points: Vec<(f64, f64)>, style: ShapeStyle) -> impl Iterator<Item = PathElement<(f64, f64)>> {
+    let pairs: Vec<[(f64, f64); 2]> = points.windows(2).map(|w| [w[0], w[1]]).collect();
+    pairs.into_iter().map(move |[a, b]| PathElement::new(vec![a, b], style))
+}
+
+/// `area` split into the chart's part and a strip on its right for [`legend_strip`], so a legend
+/// never covers the lines (time series that fill the whole plot: localization, vectors).
+pub fn beside_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>) -> (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>) {
+    let width = area.dim_in_pixel().0;
+    area.split_horizontally(width.saturating_sub(LEGEND_STRIP_PX))
+}
+
+/// Draws a legend of `entries` (label, line style) down `strip`, from the height of the chart's
+/// plotting area.
+pub fn legend_strip<DB: DrawingBackend>(strip: &DrawingArea<DB, Shift>, entries: &[(String, ShapeStyle)]) -> DrawResult<DB> {
+    for (i, (label, style)) in entries.iter().enumerate() {
+        let y = 44 + 16 * i32::try_from(i).unwrap_or(i32::MAX / 32);
+        strip.draw(&PathElement::new(vec![(4, y), (24, y)], *style))?;
+        strip.draw(&Text::new(label.clone(), (30, y - 6), (FAMILY, 12)))?;
+    }
+    Ok(())
+}
+
 /// Draws the legend of `chart`'s labelled series in its upper right corner.
 pub fn legend<'a, DB: DrawingBackend + 'a, X: Ranged, Y: Ranged>(chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>) -> DrawResult<DB> {
     chart
@@ -153,6 +182,14 @@ pub fn legend<'a, DB: DrawingBackend + 'a, X: Ranged, Y: Ranged>(chart: &mut Cha
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_thick_line_is_drawn_as_joinless_segments() {
+        let pts = vec![(0.0, 0.0), (0.1, 1.0), (0.2, 0.0), (0.3, 1.0)];
+        let segs: Vec<_> = segments(pts, BLACK.stroke_width(2)).collect();
+        assert_eq!(segs.len(), 3, "one two-point segment per pair of neighbours, so no miter joins");
+        assert_eq!(segments(vec![(0.0, 1.0)], BLACK.into()).count(), 0, "a single point draws nothing");
+    }
 
     #[test]
     fn thinning_keeps_each_runs_minimum() {

@@ -3,7 +3,7 @@
 //! each clipped to unit length); below, the command's speed, capped by the speed scale kf.
 
 use super::data::{Run, VECTORS};
-use super::style::{color, legend, time_chart, y_top, DrawResult, Figure, FAMILY};
+use super::style::{beside_legend, color, legend_strip, segments, time_chart, y_top, DrawResult, Figure, FAMILY};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -36,16 +36,16 @@ impl VectorsFigure<'_> {
     /// One panel with the vectors `which` (indices into [`VECTORS`]).
     fn panel<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>, caption: &str, y_label: &str, which: std::ops::Range<usize>) -> DrawResult<DB> {
         let states = self.run.states.get(&self.uav).map(Vec::as_slice).unwrap_or_default();
+        let (plot, strip) = beside_legend(area);
         let y_hi = y_top(states.iter().flat_map(|s| s.vectors[which.clone()].to_vec()), 0.5);
-        let mut chart = time_chart(area, caption, y_label, self.run.t_end(), y_hi)?;
+        let mut chart = time_chart(&plot, caption, y_label, self.run.t_end(), y_hi)?;
+        let mut entries = Vec::new();
         for k in which {
             let c = color(k);
-            let pts = states.iter().filter(|s| s.vectors[k].is_finite()).map(|s| (s.t_s, s.vectors[k]));
-            chart
-                .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
-                .label(VECTORS[k].1)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            let pts = states.iter().filter(|s| s.vectors[k].is_finite()).map(|s| (s.t_s, s.vectors[k])).collect();
+            chart.draw_series(segments(pts, c.stroke_width(2)))?;
+            entries.push((VECTORS[k].1.to_string(), c.stroke_width(2)));
         }
-        legend(&mut chart)
+        legend_strip(&strip, &entries)
     }
 }
