@@ -1,5 +1,5 @@
 //! Argument parsing and dispatch, and nothing else: each subcommand's args live beside the
-//! command (the shared [`ZenohArgs`](crate::args::ZenohArgs) in [`crate::args`]), and doc
+//! command (the shared [`ZenohArgs`](swarm_node::args::ZenohArgs) in [`swarm_node::args`]), and doc
 //! comments are the help text.
 
 use clap::{Parser, Subcommand};
@@ -22,11 +22,11 @@ pub enum Cmd {
     /// the run folder.
     Run(crate::launch::RunArgs),
     /// Start the physics hub (a Zenoh router) by hand.
-    Hub(crate::pieces::HubArgs),
+    Hub(swarm_node::pieces::HubArgs),
     /// Start one UAV agent (`--id`) or an agent host (`--ids`) by hand (a Zenoh client of the hub).
-    Agent(crate::pieces::AgentArgs),
+    Agent(swarm_node::pieces::AgentArgs),
     /// Start a bare Zenoh router that agents connect to and that connects to the hub.
-    Router(crate::router::RouterArgs),
+    Router(swarm_node::router::RouterArgs),
     /// Record a run started by hand: write the run folder when the hub ends the run.
     Record(crate::recorder::RecordArgs),
     /// Make a killed run's folder whole: summary, CSVs and figures from its journal, run.mcap
@@ -71,7 +71,7 @@ pub enum Cmd {
     /// SVG and PNG.
     Plot(crate::plot::PlotArgs),
     /// Make fresh users and passwords for a hub and pieces started by hand (docs/security.md).
-    Credentials(crate::auth::CredentialsArgs),
+    Credentials(swarm_node::auth::CredentialsArgs),
     /// Generate scenarios with nemesis schedules from a seed, fly them, check the invariants,
     /// and shrink each failure to a minimal scenario file.
     Fuzz(crate::fuzz::FuzzArgs),
@@ -94,43 +94,15 @@ pub fn main() -> ExitCode {
 /// starts are this same executable, so they know the same controllers.
 pub fn main_with(controllers: Controllers) -> ExitCode {
     let cli = Cli::parse();
-    init_tracing();
-    let rt = match tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build() {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("error: cannot start the async runtime: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    let code = match rt.block_on(dispatch(cli, controllers)) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
-    };
-    // Do not wait for the blocking thread that may still be reading stdin.
-    rt.shutdown_timeout(std::time::Duration::from_millis(200));
-    code
-}
-
-fn init_tracing() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn,zenoh_transport=warn"));
-    use std::io::IsTerminal;
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .try_init();
+    swarm_node::process::run(dispatch(cli, controllers))
 }
 
 async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode> {
     match cli.cmd {
         Cmd::Run(a) => crate::launch::run(a, &controllers).await,
-        Cmd::Hub(a) => crate::pieces::hub(a).await,
-        Cmd::Agent(a) => crate::pieces::agent(a, controllers).await,
-        Cmd::Router(a) => crate::router::router(a).await,
+        Cmd::Hub(a) => swarm_node::pieces::hub(a).await,
+        Cmd::Agent(a) => swarm_node::pieces::agent(a, controllers).await,
+        Cmd::Router(a) => swarm_node::router::router(a).await,
         Cmd::Record(a) => crate::recorder::record(a).await,
         Cmd::Recover(a) => crate::recorder::recover(a),
         Cmd::View(a) => crate::view::view(a).await,
@@ -148,7 +120,7 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Scale(a) => crate::scale::scale(a).await,
         Cmd::Mesh(a) => crate::mesh::mesh(a).await,
         Cmd::Plot(a) => crate::plot::plot(a),
-        Cmd::Credentials(a) => crate::auth::credentials(a),
+        Cmd::Credentials(a) => swarm_node::auth::credentials(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario, &controllers),

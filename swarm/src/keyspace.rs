@@ -35,7 +35,7 @@ pub struct KeysArgs {
     /// Endpoints and login (an observer's: `--user observer --password-file
     /// <run>/credentials/observer.password`).
     #[command(flatten)]
-    pub zenoh: crate::args::ZenohArgs,
+    pub zenoh: swarm_node::args::ZenohArgs,
     /// Seconds to listen for message rates and bandwidth (0: no rates, the graph only).
     #[arg(long, default_value_t = 2.0)]
     pub window: f64,
@@ -134,7 +134,7 @@ impl KeySpace {
         } else if !uavs.is_empty() {
             let mut ids = uavs;
             ids.sort_unstable();
-            crate::auth::host_user(&ids)
+            swarm_node::auth::host_user(&ids)
         } else {
             zid.chars().take(8).collect()
         }

@@ -6,13 +6,13 @@
 //! end. Children are this same executable; each gets a piped stdin and `--exit-with-stdin`, so
 //! they die with the launcher even if it is killed outright, and `kill_on_drop` covers the
 //! ordinary paths. Child logs go to `<run folder>/logs/`. Every run makes fresh credentials in
-//! `<run folder>/credentials/` ([`crate::auth`]): the hub gets the dictionary, each child its own
+//! `<run folder>/credentials/` ([`swarm_node::auth`]): the hub gets the dictionary, each child its own
 //! user (`uav{id}`, `uavs{ids}` for a host), the recording logs in as `observer`; `--insecure`
 //! skips all that.
 
-use crate::args::{default_run_id, scenario_value};
-use crate::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
-use crate::pieces::LISTENING_PREFIX;
+use swarm_node::args::{default_run_id, scenario_value};
+use swarm_node::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
+use swarm_node::pieces::LISTENING_PREFIX;
 use crate::proxy::{LinkProxy, LinkState};
 use crate::recorder::{progress_bar, Recording};
 use crate::summary::Summary;
@@ -58,8 +58,8 @@ pub struct RunArgs {
     pub experiment: Option<PathBuf>,
     /// Fly these UAVs (`3`, `1-4,7`) with an external controller (docs/own-controller.md),
     /// added to the scenario's `[controller] external`.
-    #[arg(long, value_parser = crate::args::parse_ids)]
-    pub external: Option<crate::args::UavIds>,
+    #[arg(long, value_parser = swarm_node::args::parse_ids)]
+    pub external: Option<swarm_node::args::UavIds>,
     /// Zenoh config override `KEY:JSON5` for every piece of the run (repeatable).
     #[arg(long)]
     pub cfg: Vec<String>,
@@ -666,7 +666,7 @@ mod tests {
         let host = AgentProcess::Host(&[1, 2, 3, 7]);
         assert_eq!(host.args(), ["--ids".to_string(), "1-3,7".to_string()]);
         assert_eq!(host.user(), "uavs1-3,7");
-        assert_eq!(crate::auth::Role::of(&host.user()).expect("a role"), crate::auth::Role::Agents(vec![1, 2, 3, 7]));
+        assert_eq!(swarm_node::auth::Role::of(&host.user()).expect("a role"), swarm_node::auth::Role::Agents(vec![1, 2, 3, 7]));
         let uav = AgentProcess::Uav(4);
         assert_eq!(uav.args(), ["--id".to_string(), "4".to_string()]);
         assert_eq!(uav.user(), "uav4");

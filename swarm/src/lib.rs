@@ -3,17 +3,9 @@
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
 //!   router | view | replay | tap | put | keys | netem | ros2 | compare | formations | sweep-error |
 //!   sweep-seeds | icp-eval | scale | mesh | plot | credentials | fuzz | scenarios | check`).
-//! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
-//!   `--cfg`, `--user` and `--password-file`), run ids, scenario values on the command line.
-//! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
-//!   every `swarm run`), and the access-control rules the hub's router enforces per role.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
 //!   swarms) and a recording, applies
 //!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
-//! - [`pieces`]: `swarm hub` and `swarm agent`, the processes the launcher starts (or a person,
-//!   by hand).
-//! - [`router`]: `swarm router`: a bare Zenoh router between a group of agents and the hub, for
-//!   swarms spread over several machines.
 //! - [`checks`]: the run's invariants (no collision, separation, no stale or phantom neighbour,
 //!   reconnection after heals, connected at the end, the goal), judged from what the recorder
 //!   sees, with the first failing moment of each; `summary.json`'s `checks[]`.
@@ -66,8 +58,6 @@
 //! lives in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of
 //! `truth/**` besides tools a person points at it.
 
-mod args;
-mod auth;
 mod checks;
 pub mod cli;
 mod fuzz;
@@ -76,12 +66,10 @@ mod keyspace;
 mod launch;
 mod mesh;
 mod netem_cli;
-mod pieces;
 mod plot;
 mod proxy;
 mod recorder;
 mod ros2;
-mod router;
 mod scale;
 mod scene;
 mod scenarios;

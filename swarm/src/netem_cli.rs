@@ -28,7 +28,7 @@ pub struct NetemArgs {
     pub wait: f64,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: crate::args::ZenohArgs,
+    pub zenoh: swarm_node::args::ZenohArgs,
 }
 
 /// Which links a rule is for.

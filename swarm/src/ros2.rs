@@ -11,7 +11,7 @@
 //! and once the newest is older than half a second.
 //! Formats: `swarm_wire::ros2`.
 
-use crate::args::ZenohArgs;
+use swarm_node::args::ZenohArgs;
 use anyhow::{Context, Result};
 use clap::Args;
 use std::collections::BTreeMap;

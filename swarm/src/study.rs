@@ -16,7 +16,7 @@
 //! with `--seeds` ([`Trials`]), and then print every number as a mean with its 95 % interval
 //! (the `sweep-seeds` statistics); such a study is resumable like `sweep-seeds`.
 
-use crate::args::{default_run_id, scenario_value, unix_secs};
+use swarm_node::args::{default_run_id, scenario_value, unix_secs};
 use crate::launch::{agents_per_process, execute, How};
 use crate::plot::{line_chart, Series};
 use crate::summary::{f, Summary};

@@ -1,10 +1,10 @@
 //! End to end: the pieces started by hand, as on several machines (hub with `--listen`, agents
-//! and recorder with `--connect`), `swarm tap` on the key space, and agents that outlive their
-//! hub exiting cleanly.
+//! (the lean `swarm-node` binary) and recorder with `--connect`), `swarm tap` on the key space,
+//! and agents that outlive their hub exiting cleanly.
 
 mod common;
 
-use common::{output_within, run_id, start_hub, start_recorder, tap, wait_output, Proc, SWARM, TOOL_LIMIT};
+use common::{output_within, run_id, start_hub, start_recorder, tap, wait_output, Proc, NODE, SWARM, TOOL_LIMIT};
 use std::process::Command;
 use std::time::Duration;
 
@@ -19,7 +19,8 @@ fn pieces_by_hand_fly_and_tap_decodes_the_key_space() {
     let v: serde_json::Value = serde_json::from_str(got.lines().next().expect("a line")).expect("json line");
     assert!(v["text"].as_str().expect("text").contains("open-field-5"), "{v}");
 
-    // Recorder first (it must see the whole run), then the five agents, each with only --connect.
+    // Recorder first (it must see the whole run), then the five agents, each with only --connect,
+    // from the lean `swarm-node` binary an agent host would carry.
     let out = dir.path().join("rec");
     let mut rec = start_recorder(&run, &loc, &out, dir.path());
     // A tap on the truth of the run, decoding postcard into JSON lines, while the swarm flies.
@@ -31,7 +32,8 @@ fn pieces_by_hand_fly_and_tap_decodes_the_key_space() {
     std::thread::sleep(Duration::from_millis(300));
     let mut agents: Vec<Proc> = (1..=5)
         .map(|id| {
-            Proc::start(
+            Proc::start_program(
+                NODE,
                 &["agent", "--run", &run, "--id", &id.to_string(), "--connect", &loc, "--exit-with-stdin"],
                 &dir.path().join(format!("agent-{id}.log")),
             )

@@ -13,7 +13,7 @@
 mod case;
 mod shrink;
 
-use crate::args::unix_secs;
+use swarm_node::args::unix_secs;
 use crate::study::{run_bounded, run_variant, VariantRun};
 use crate::summary::{CheckResult, Summary};
 use anyhow::{Context, Result};
@@ -119,12 +119,12 @@ fn first_failed(s: &Summary) -> Option<Failure> {
 
 fn space(a: &FuzzArgs) -> Result<Space> {
     let controllers: Vec<ControllerKind> =
-        a.controllers.split(',').map(|c| crate::args::scenario_value("--controllers", c)).collect::<Result<_>>()?;
+        a.controllers.split(',').map(|c| swarm_node::args::scenario_value("--controllers", c)).collect::<Result<_>>()?;
     let nemesis: Vec<NemesisKind> = a
         .nemesis
         .split(',')
         .filter(|n| !n.trim().is_empty())
-        .map(|n| crate::args::scenario_value("--nemesis", n))
+        .map(|n| swarm_node::args::scenario_value("--nemesis", n))
         .collect::<Result<_>>()?;
     anyhow::ensure!(!controllers.is_empty(), "--controllers: none given");
     if let Some(own) = controllers.iter().find(|k| matches!(k, ControllerKind::Own(_))) {

@@ -23,8 +23,8 @@
 pub mod net;
 pub mod report;
 
-use crate::args::{default_run_id, scenario_value, unix_secs};
-use crate::auth::{host_user, ids_text, Credentials};
+use swarm_node::args::{default_run_id, scenario_value, unix_secs};
+use swarm_node::auth::{host_user, ids_text, Credentials};
 use crate::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -143,7 +143,7 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
 
     let dict = creds.dictionary().to_string_lossy().into_owned();
     let mut hub = start("hub", strings(&["hub", &scenario_file.to_string_lossy(), "--run", &run, "--listen", &hub_ep, "--users", &dict, "--exit-with-stdin"]), "hub.log")?;
-    wait_line(&mut hub, crate::pieces::LISTENING_PREFIX, "the hub").await?;
+    wait_line(&mut hub, swarm_node::pieces::LISTENING_PREFIX, "the hub").await?;
     let observer = creds.client_args("observer");
     let mut rec_args = strings(&["record", "--run", &run, "--out", &out.join("run").to_string_lossy(), "--connect", &hub_ep]);
     rec_args.extend(observer.iter().cloned());
@@ -167,7 +167,7 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
         let mut r_args = strings(&["router", "--listen", &ep, "--connect", &hub_ep, "--users", &relay_users, "--exit-with-stdin"]);
         r_args.extend(creds.client_args(&user));
         let mut router = start(host, r_args, &format!("router-{host}.log"))?;
-        wait_line(&mut router, crate::router::ROUTER_LISTENING_PREFIX, &format!("the router of {host}")).await?;
+        wait_line(&mut router, swarm_node::router::ROUTER_LISTENING_PREFIX, &format!("the router of {host}")).await?;
         pieces.push(router);
     }
     let before = counters(net)?;

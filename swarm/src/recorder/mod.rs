@@ -30,7 +30,7 @@ pub mod solitude;
 pub use recording::{replay, Recording};
 pub use recover::{cut_short, recover, RecoverArgs};
 
-use crate::args::ZenohArgs;
+use swarm_node::args::ZenohArgs;
 use crate::scene::Detail;
 use anyhow::{Context, Result};
 use clap::Args;
@@ -67,8 +67,8 @@ pub struct McapArgs {
     #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..))]
     pub mcap_every: Option<u64>,
     /// Keep scans, estimates and numbers of these UAVs only, e.g. `1-4,9` (default: all).
-    #[arg(long, value_parser = crate::args::parse_ids, value_name = "IDS")]
-    pub mcap_uavs: Option<crate::args::UavIds>,
+    #[arg(long, value_parser = swarm_node::args::parse_ids, value_name = "IDS")]
+    pub mcap_uavs: Option<swarm_node::args::UavIds>,
     /// Keep no journal (`journal.mcap`, removed at a clean end): a killed run's summary, CSVs
     /// and figures then cannot be rebuilt by `swarm recover` (its run.mcap still can).
     #[arg(long)]

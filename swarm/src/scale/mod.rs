@@ -23,7 +23,7 @@
 //! flies a peer simulator at each row's size right after it, for a ratio measured side by side. Speeds depend on the machine and its load: this is a measurement,
 //! never a test assertion.
 
-use crate::args::{scenario_value, unix_secs};
+use swarm_node::args::{scenario_value, unix_secs};
 use crate::study::{run_variant, VariantRun};
 use crate::summary::Summary;
 use anyhow::{Context, Result};

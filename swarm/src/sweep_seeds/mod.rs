@@ -19,7 +19,7 @@
 //! outcomes repeat byte for byte; x real time is a wall-clock measurement and depends on how many
 //! runs share the machine.
 
-use crate::args::scenario_value;
+use swarm_node::args::scenario_value;
 use crate::study::{run_bounded, run_variant, VariantRun};
 use crate::summary::Summary;
 use anyhow::{bail, Context, Result};

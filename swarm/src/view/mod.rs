@@ -22,7 +22,7 @@ mod scans;
 
 pub use replay::{replay, ReplayArgs};
 
-use crate::args::ZenohArgs;
+use swarm_node::args::ZenohArgs;
 use crate::scene::{Extra, Scene};
 use anyhow::{Context as _, Result};
 use board::Board;

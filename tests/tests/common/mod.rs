@@ -16,6 +16,8 @@ use std::time::{Duration, Instant};
 
 /// The binary under test (the same code as the shipped `swarm`).
 pub const SWARM: &str = env!("CARGO_BIN_EXE_swarm-e2e");
+/// The `swarm-node` binary (hub, agent, router, credentials only), built in this package.
+pub const NODE: &str = env!("CARGO_BIN_EXE_swarm-node-e2e");
 
 /// A run id no other test (or test process) uses: keys never cross-talk.
 pub fn run_id(tag: &str) -> String {
@@ -107,8 +109,13 @@ impl Drop for Proc {
 impl Proc {
     /// Starts `swarm <args>` with piped stdin and stdout, stderr to `log`.
     pub fn start(args: &[&str], log: &Path) -> Proc {
+        Proc::start_program(SWARM, args, log)
+    }
+
+    /// Starts `program <args>` (`SWARM` or `NODE`) with piped stdin and stdout, stderr to `log`.
+    pub fn start_program(program: &str, args: &[&str], log: &Path) -> Proc {
         let err = std::fs::File::create(log).expect("log file");
-        let mut child = Command::new(SWARM)
+        let mut child = Command::new(program)
             .args(args)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())

@@ -55,7 +55,7 @@ impl ZenohArgs {
 }
 
 /// The first line of a password file, trimmed; an empty one is an error.
-pub(crate) fn read_password(file: &std::path::Path) -> Result<String> {
+pub fn read_password(file: &std::path::Path) -> Result<String> {
     let text = std::fs::read_to_string(file).map_err(|e| anyhow::anyhow!("cannot read password file {}: {e}", file.display()))?;
     let password = text.lines().next().unwrap_or_default().trim().to_string();
     anyhow::ensure!(!password.is_empty(), "password file {} is empty", file.display());
@@ -63,18 +63,18 @@ pub(crate) fn read_password(file: &std::path::Path) -> Result<String> {
 }
 
 /// The `--cfg` overrides that log a client session in as `user` (Zenoh's usrpwd).
-pub(crate) fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
+pub fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
     let quote = |s: &str| serde_json::Value::String(s.to_string()).to_string();
     vec![format!("transport/auth/usrpwd/user:{}", quote(user)), format!("transport/auth/usrpwd/password:{}", quote(password))]
 }
 
 /// Seconds since the Unix epoch (run ids and study folders).
-pub(crate) fn unix_secs() -> u64 {
+pub fn unix_secs() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
 }
 
 /// `<name>-<unix seconds>-<pid>`: unique per run on a machine.
-pub(crate) fn default_run_id(name: &str) -> String {
+pub fn default_run_id(name: &str) -> String {
     format!("{name}-{}-{}", unix_secs(), std::process::id())
 }
 

@@ -1,0 +1,28 @@
+//! The processes a run is made of, and what every command shares below them: the `swarm hub`,
+//! `swarm agent` and `swarm router` commands, the arguments they and every other command take,
+//! and who may touch what. It links neither the recorder, the live view nor the figures, so the
+//! `swarm-node` binary built from it is what an agent host or a container needs and no more
+//! (docs/hosts-and-containers.md); the `swarm` command dispatches the same three commands here.
+//!
+//! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
+//!   `--cfg`, `--user` and `--password-file`), run ids, UAV id lists, scenario values on the
+//!   command line.
+//! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
+//!   every `swarm run`), and the access-control rules the hub's router enforces per role.
+//! - [`pieces`]: `swarm hub` and `swarm agent`, the processes the launcher starts (or a person,
+//!   by hand).
+//! - [`router`]: `swarm router`: a bare Zenoh router between a group of agents and the hub, for
+//!   swarms spread over several machines.
+//! - [`command`]: the `swarm-node` command line: `hub`, `agent`, `router` and `credentials`.
+//! - [`process`]: what every binary of the workspace does around its command: logging to
+//!   standard error and the async runtime.
+//!
+//! Dependencies run one way: `command` → `router` → `pieces` → `auth` → `args`; `process` imports
+//! nothing of the crate.
+
+pub mod args;
+pub mod auth;
+pub mod command;
+pub mod pieces;
+pub mod process;
+pub mod router;
