@@ -69,7 +69,7 @@ pub enum Cmd {
     Scale(crate::scale::ScaleArgs),
     /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
     /// SVG and PNG.
-    Plot(crate::plot::PlotArgs),
+    Plot(swarm_plot::PlotArgs),
     /// Make fresh users and passwords for a hub and pieces started by hand (docs/security.md).
     Credentials(swarm_node::auth::CredentialsArgs),
     /// Generate scenarios with nemesis schedules from a seed, fly them, check the invariants,
@@ -119,7 +119,7 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::IcpEval(a) => crate::icp_eval::icp_eval(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
         Cmd::Mesh(a) => crate::mesh::mesh(a).await,
-        Cmd::Plot(a) => crate::plot::plot(a),
+        Cmd::Plot(a) => swarm_plot::plot(a),
         Cmd::Credentials(a) => swarm_node::auth::credentials(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),

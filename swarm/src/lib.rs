@@ -38,9 +38,6 @@
 //!   `study` runner, judged by [`checks`], each failure shrunk to a minimal scenario file.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
-//! - [`plot`]: `swarm plot`, the figures of a run folder as SVG and PNG (the map and distances
-//!   in `run.svg`, K21 vectors, localization, connectivity; written at the end of every run too),
-//!   and the studies' charts, all drawn with plotters.
 //! - [`scene`]: the run as a Foxglove scene (the SDK's schemas on an explicit context): what the
 //!   recorder writes to `run.mcap`.
 //! - [`view`]: `swarm view` (and `swarm run --view`): a live web page and the Foxglove
@@ -66,7 +63,6 @@ mod keyspace;
 mod launch;
 mod mesh;
 mod netem_cli;
-mod plot;
 mod proxy;
 mod recorder;
 mod ros2;

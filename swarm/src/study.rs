@@ -18,7 +18,7 @@
 
 use swarm_node::args::{default_run_id, scenario_value, unix_secs};
 use crate::launch::{agents_per_process, execute, How};
-use crate::plot::{line_chart, Series};
+use swarm_plot::{line_chart, Series};
 use crate::summary::{f, Summary};
 use crate::sweep_seeds::stats::{mean_ci, wilson};
 use crate::sweep_seeds::{mean_pm, parse_seeds};

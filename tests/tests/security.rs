@@ -123,7 +123,7 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     assert_eq!(f.tap_as("uav3", "uav/3/sense/scan", &["--count", "3", "--duration", "30"]).lines().count(), 3);
     assert_eq!(f.tap_as("uav3", "uav/2/sense/scan", &["--duration", "3"]).lines().count(), 0, "UAV 2's scan is not UAV 3's");
     assert_eq!(f.tap_as("uav3", "**", &["--duration", "3"]).lines().count(), 0, "a subscription to everything is refused");
-    // The router forwards every agent's sensor data under one wildcard rule (swarm/src/auth.rs):
+    // The router forwards every agent's sensor data under one wildcard rule (node/src/auth.rs):
     // what keeps UAV 2's scan from UAV 3 is that a subscription broader than UAV 3's own keys is
     // refused.
     assert_eq!(

@@ -3,7 +3,7 @@
 //! [`crate::scene`], unless `--no-mcap`), and
 //! folds everything into the run's [`Summary`](crate::summary::Summary) (`summary.json`) when
 //! the hub marks the last step; then it writes `world.json`, `connectivity.csv` and the figures
-//! of [`crate::plot`].
+//! of [`swarm_plot`].
 //!
 //! - [`metrics`]: the pure folding, [`Metrics`](metrics::Metrics), fed message by message and
 //!   tested without a network.

@@ -1,6 +1,6 @@
 //! The recorder's Zenoh side: a client session subscribed to `truth/**`, every agent's `state`
 //! and the hub's liveliness token, feeding [`Metrics`] and [`Files`] until the run ends, then
-//! writing `summary.json` and the figures of [`crate::plot`].
+//! writing `summary.json` and the figures of [`swarm_plot`].
 
 use super::files::{decode, write_connectivity, write_world, Files};
 use super::journal::{self, Journal, Kind};
@@ -377,7 +377,7 @@ fn write_outputs(out: &Path, summary: &Summary, m: &Metrics) -> Result<()> {
         write_world(out, w)?;
     }
     write_connectivity(out, &m.components_series())?;
-    if let Err(e) = crate::plot::write_all(out, None) {
+    if let Err(e) = swarm_plot::write_all(out, None) {
         warn!("the run's figures were not drawn: {e:#}");
     }
     Ok(())

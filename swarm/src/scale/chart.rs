@@ -1,12 +1,12 @@
 //! The `swarm scale` picture: x real time (left) and resident memory per UAV (right) against the
 //! UAV count on a log axis, one line per localization mode, as SVG and PNG, drawn like every
-//! figure of [`crate::plot`] (plotters, the embedded font).
+//! figure of [`swarm_plot`] (plotters, the embedded font).
 
 use super::ScaleRow;
-use crate::plot::{color, write_pair, DrawResult, Figure, FAMILY};
+use swarm_plot::{color, write_pair, DrawResult, Figure, FAMILY};
 use anyhow::Result;
-use plotters::coord::Shift;
-use plotters::prelude::*;
+use swarm_plot::plotters::coord::Shift;
+use swarm_plot::plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -1,13 +1,13 @@
 //! The `swarm sweep-seeds` picture: one panel per headline metric, each run a dot (spread along
 //! x in seed order so none hides another), the mean as a line and its 95 % interval as a band;
 //! the success rate's Wilson interval in the title. SVG and PNG, drawn with plotters and the
-//! embedded font, like every figure of [`crate::plot`] (no system font needed).
+//! embedded font, like every figure of [`swarm_plot`] (no system font needed).
 
 use super::{mean_pm, Report, METRICS};
-use crate::plot::{write_pair, DrawResult, Figure, FAMILY};
+use swarm_plot::{write_pair, DrawResult, Figure, FAMILY};
 use anyhow::Result;
-use plotters::coord::Shift;
-use plotters::prelude::*;
+use swarm_plot::plotters::coord::Shift;
+use swarm_plot::plotters::prelude::*;
 use std::path::Path;
 
 /// Picture size [px]: five panels a row.

@@ -141,7 +141,7 @@ fn distances<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run, capti
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plot::data::synthetic_run_folder;
+    use crate::data::synthetic_run_folder;
 
     #[test]
     fn bounds_have_equal_scales_and_hold_every_path() {

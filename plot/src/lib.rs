@@ -1,3 +1,6 @@
+//! The figures of a run and of the studies, in a crate of their own so only the command that
+//! draws links plotters and its font (the `swarm-node` binary does not).
+//!
 //! `swarm plot RUN`: the figures of a run folder, each as SVG and as PNG (to drop into a paper or
 //! a chat), drawn with plotters and the embedded DejaVu Sans (no system font). The recorder
 //! writes them at the end of every run; `swarm plot` draws them again from the folder alone
@@ -22,6 +25,9 @@ mod style;
 mod vectors;
 
 pub use lines::{line_chart, Series};
+/// The plotting library itself, so charts drawn elsewhere (`swarm scale`, `swarm sweep-seeds`)
+/// use the same pinned version through [`Figure`].
+pub use plotters;
 pub use style::{color, write_pair, DrawResult, Figure, FAMILY};
 
 use anyhow::Result;
