@@ -28,10 +28,10 @@ pub enum Cmd {
     /// Start a bare Zenoh router that agents connect to and that connects to the hub.
     Router(swarm_node::router::RouterArgs),
     /// Record a run started by hand: write the run folder when the hub ends the run.
-    Record(crate::recorder::RecordArgs),
+    Record(swarm_record::recorder::RecordArgs),
     /// Make a killed run's folder whole: summary, CSVs and figures from its journal, run.mcap
     /// rewritten from its whole chunks (at most the last sim second is lost).
-    Recover(crate::recorder::RecoverArgs),
+    Recover(swarm_record::recorder::RecoverArgs),
     /// Watch a running swarm: a web page and the Foxglove WebSocket, on loopback.
     View(crate::view::ViewArgs),
     /// Replay a recorded run (`run.mcap` or its run folder) on the view's page and the Foxglove
@@ -103,8 +103,8 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Hub(a) => swarm_node::pieces::hub(a).await,
         Cmd::Agent(a) => swarm_node::pieces::agent(a, controllers).await,
         Cmd::Router(a) => swarm_node::router::router(a).await,
-        Cmd::Record(a) => crate::recorder::record(a).await,
-        Cmd::Recover(a) => crate::recorder::recover(a),
+        Cmd::Record(a) => swarm_record::recorder::record(a).await,
+        Cmd::Recover(a) => swarm_record::recorder::recover(a),
         Cmd::View(a) => crate::view::view(a).await,
         Cmd::Replay(a) => crate::view::replay(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,

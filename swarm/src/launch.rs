@@ -14,8 +14,8 @@ use swarm_node::args::{default_run_id, scenario_value};
 use swarm_node::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
 use swarm_node::pieces::LISTENING_PREFIX;
 use crate::proxy::{LinkProxy, LinkState};
-use crate::recorder::{progress_bar, Recording};
-use crate::summary::Summary;
+use swarm_record::recorder::{progress_bar, Recording};
+use swarm_record::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::collections::BTreeMap;
@@ -71,7 +71,7 @@ pub struct RunArgs {
     pub insecure: bool,
     /// What `run.mcap` keeps.
     #[command(flatten)]
-    pub mcap: crate::recorder::McapArgs,
+    pub mcap: swarm_record::recorder::McapArgs,
     /// Watch the run live: serve `swarm view`'s page on this port of 127.0.0.1 (default 8765;
     /// 0 = any free port) and the Foxglove WebSocket beside it; prints the addresses, and keeps
     /// serving after the run until Ctrl-C.
@@ -140,11 +140,11 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
 /// the other cut-short runs beside it are named, with the command that recovers them.
 fn refuse_cut_short(out: &Path) -> Result<()> {
     let recover = |d: &Path| format!("swarm recover {}", d.display());
-    if crate::recorder::cut_short(out) {
+    if swarm_record::recorder::cut_short(out) {
         anyhow::bail!("{} holds a run that was cut short and not recovered: run `{}`, or choose another --out", out.display(), recover(out));
     }
     let siblings = out.parent().and_then(|p| std::fs::read_dir(p).ok()).into_iter().flatten().flatten();
-    for d in siblings.map(|e| e.path()).filter(|d| crate::recorder::cut_short(d)) {
+    for d in siblings.map(|e| e.path()).filter(|d| swarm_record::recorder::cut_short(d)) {
         eprintln!("note: {} was cut short; `{}` rebuilds its summary and run.mcap", d.display(), recover(&d));
     }
     Ok(())
@@ -205,7 +205,7 @@ pub struct Show {
     /// No progress bar.
     pub quiet: bool,
     /// Write `run.mcap`, with this much of each UAV.
-    pub mcap: Option<crate::scene::Detail>,
+    pub mcap: Option<swarm_record::scene::Detail>,
     /// Keep the recorder's journal while the run goes (for `swarm recover`).
     pub journal: bool,
     /// Serve the live view on this page port (see `RunArgs::view`).

@@ -1,4 +1,8 @@
-//! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run.
+//! The `swarm` command: run a scenario end to end, start the pieces by hand, inspect a run. The
+//! top floor of the workspace: it holds the command line, the launcher, the studies and the tools,
+//! and reaches down to the crates below it for the rest: `swarm-node` (the hub, agent and router
+//! commands, shared arguments, access control), `swarm-record` (the recorder, checks, summary,
+//! Foxglove scene), `swarm-plot` (figures) and `swarm-view` (the live page and replay).
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
 //!   router | view | replay | tap | put | keys | netem | ros2 | compare | formations | sweep-error |
@@ -6,11 +10,6 @@
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
 //!   swarms) and a recording, applies
 //!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
-//! - [`checks`]: the run's invariants (no collision, separation, no stale or phantom neighbour,
-//!   reconnection after heals, connected at the end, the goal), judged from what the recorder
-//!   sees, with the first failing moment of each; `summary.json`'s `checks[]`.
-//! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV), folds
-//!   the metrics of [`summary`] (pure, in `recorder::metrics`); `swarm record` runs it alone.
 //! - [`proxy`]: the TCP proxy `swarm run` puts between an agent and the hub for link-level faults
 //!   (stall, close, restore) that Zenoh itself sees.
 //! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
@@ -35,27 +34,22 @@
 //!   one and agent hosts behind their own routers on others; each host's link bytes as the
 //!   kernel counts them, and the shares that crossed into it beside its radio neighbours across.
 //! - [`fuzz`]: `swarm fuzz`: generated scenarios with nemesis schedules flown through the
-//!   `study` runner, judged by [`checks`], each failure shrunk to a minimal scenario file.
+//!   `study` runner, judged by `swarm_record::checks`, each failure shrunk to a minimal scenario file.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
-//! - [`scene`]: the run as a Foxglove scene (the SDK's schemas on an explicit context): what the
-//!   recorder writes to `run.mcap`.
 //! - [`view`]: `swarm view` (and `swarm run --view`): a live web page and the Foxglove
 //!   WebSocket of a running swarm.
-//! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering.
 //!
 //! Public surface: [`cli::main`] (what the `swarm` binary and the end-to-end tests' copy of it
 //! call) and [`summary`] (the `summary.json` schema, for programs that read run folders); every
 //! other module is private.
 //!
-//! Dependencies run one way: `cli` → the commands → what they share (`recorder`, `proxy`,
-//! `summary`, `plot`, `args`); no command imports `cli`, and `args` imports nothing of the crate.
+//! Dependencies run one way: `cli` → the commands → what they share (`proxy`, and the crates
+//! below); no command imports `cli`.
 //!
 //! Architecture invariant: the launcher only starts processes and watches them; all simulation
-//! lives in `physics-hub`, all onboard logic in `uav-agent`. The recorder is the only reader of
-//! `truth/**` besides tools a person points at it.
+//! lives in `physics-hub`, all onboard logic in `uav-agent`.
 
-mod checks;
 pub mod cli;
 mod fuzz;
 mod icp_eval;
@@ -64,13 +58,12 @@ mod launch;
 mod mesh;
 mod netem_cli;
 mod proxy;
-mod recorder;
 mod ros2;
 mod scale;
-mod scene;
 mod scenarios;
 mod study;
 mod sweep_seeds;
-pub mod summary;
+/// The `summary.json` schema, for programs that read run folders (it lives in `swarm-record`).
+pub use swarm_record::summary;
 mod tap;
 mod view;

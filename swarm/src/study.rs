@@ -19,7 +19,7 @@
 use swarm_node::args::{default_run_id, scenario_value, unix_secs};
 use crate::launch::{agents_per_process, execute, How};
 use swarm_plot::{line_chart, Series};
-use crate::summary::{f, Summary};
+use swarm_record::summary::{f, Summary};
 use crate::sweep_seeds::stats::{mean_ci, wilson};
 use crate::sweep_seeds::{mean_pm, parse_seeds};
 use anyhow::{bail, Context, Result};

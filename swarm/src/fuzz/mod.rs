@@ -15,7 +15,7 @@ mod shrink;
 
 use swarm_node::args::unix_secs;
 use crate::study::{run_bounded, run_variant, VariantRun};
-use crate::summary::{CheckResult, Summary};
+use swarm_record::summary::{CheckResult, Summary};
 use anyhow::{Context, Result};
 use case::{Case, Space, Weaken};
 use clap::Args;

@@ -25,7 +25,7 @@ pub mod report;
 
 use swarm_node::args::{default_run_id, scenario_value, unix_secs};
 use swarm_node::auth::{host_user, ids_text, Credentials};
-use crate::summary::Summary;
+use swarm_record::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use net::Net;
@@ -232,7 +232,7 @@ fn counters(net: &Net) -> Result<Vec<(u64, u64)>> {
 /// moment after its last step, while the recorder still writes the run folder and its figures:
 /// a minute or more at 1000 UAVs); fails if the recorder or the hub fails.
 async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piece) -> Result<()> {
-    let bar = crate::recorder::progress_bar(sc, false);
+    let bar = swarm_record::recorder::progress_bar(sc, false);
     let stdout = clock.child.stdout.take().context("piped stdout")?;
     let mut lines = BufReader::new(stdout).lines();
     let ticks = async {

@@ -25,7 +25,7 @@
 
 use swarm_node::args::{scenario_value, unix_secs};
 use crate::study::{run_variant, VariantRun};
-use crate::summary::Summary;
+use swarm_record::summary::Summary;
 use anyhow::{Context, Result};
 use clap::Args;
 use serde::{Deserialize, Serialize};
@@ -483,7 +483,7 @@ mod tests {
     #[test]
     fn a_row_takes_the_summary_and_divides_memory_by_the_uavs() {
         let sc = swarm_config::builtin("forest-5").expect("builtin");
-        let mut s = crate::recorder::metrics::Metrics::default().summary("r", &sc);
+        let mut s = swarm_record::recorder::metrics::Metrics::default().summary("r", &sc);
         (s.sim_speed, s.time_to_goal_s) = (10.0, Some(40.0));
         (s.timing.agent_step_p99_ms, s.timing.late_share) = (0.4, 0.1);
         let r = ScaleRow::new(&s, "broadcast", MemoryPeak { rss_kib: 10 * 1024, processes: 6 });

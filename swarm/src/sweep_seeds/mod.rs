@@ -21,7 +21,7 @@
 
 use swarm_node::args::scenario_value;
 use crate::study::{run_bounded, run_variant, VariantRun};
-use crate::summary::Summary;
+use swarm_record::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};

@@ -2,7 +2,7 @@
 //! the radio graph, the estimates, the collisions and failures so far, and each agent's numbers.
 //! Pure: fed message by message like the recorder, tested without a network.
 
-use crate::scene;
+use swarm_record::scene;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::sync::Arc;

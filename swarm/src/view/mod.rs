@@ -23,7 +23,7 @@ mod scans;
 pub use replay::{replay, ReplayArgs};
 
 use swarm_node::args::ZenohArgs;
-use crate::scene::{Extra, Scene};
+use swarm_record::scene::{Extra, Scene};
 use anyhow::{Context as _, Result};
 use board::Board;
 use clap::Args;

@@ -281,7 +281,7 @@ fn radio_links(u: &SceneUpdate) -> Vec<Value> {
         for l in &e.lines {
             for (k, c) in l.colors.iter().step_by(2).enumerate() {
                 let (Some(&i), Some(&j)) = (ids.get(2 * k), ids.get(2 * k + 1)) else { continue };
-                let class = crate::scene::class_of_color(c).name();
+                let class = swarm_record::scene::class_of_color(c).name();
                 out.push(json!([i, j, class]));
             }
         }

@@ -452,7 +452,7 @@ fn f3(v: f64) -> String {
 }
 
 /// Two decimals, or `-` for a value that is not finite.
-pub(crate) fn f(v: f64) -> String {
+pub fn f(v: f64) -> String {
     if v.is_finite() {
         format!("{v:.2}")
     } else {

@@ -370,7 +370,7 @@ impl Scene {
 
 /// The estimates of `st` in the world, placed by the agent's pose `[x, y, yaw]` (truth): what the
 /// scene and the page's board both draw.
-pub(crate) fn estimates_in_world(pose: [f64; 3], st: &AgentState) -> Vec<[f64; 2]> {
+pub fn estimates_in_world(pose: [f64; 3], st: &AgentState) -> Vec<[f64; 2]> {
     let [x, y, yaw] = pose;
     let (sin, cos) = yaw.sin_cos();
     // Body to world: p_w = p_me + R(yaw) p_b.
@@ -379,15 +379,18 @@ pub(crate) fn estimates_in_world(pose: [f64; 3], st: &AgentState) -> Vec<[f64; 2
 
 /// One radio link to draw: its ends' ids (`ids[0] < ids[1]`), their positions [m, world] and the
 /// worse netem class of its two directions.
-pub(crate) struct RadioLink {
+pub struct RadioLink {
+    /// The two UAVs, lower id first.
     pub ids: [u32; 2],
+    /// Their positions [m, world], in the order of `ids`.
     pub ends: [[f64; 2]; 2],
+    /// The worse netem class of the link's two directions.
     pub class: netem::LinkClass,
 }
 
 /// The links of the latest radio sets (`radio`: each UAV's ids in range) between UAVs whose
 /// position `at` knows, each once, classed by `timeline` at `t`.
-pub(crate) fn radio_links(radio: &BTreeMap<u32, Vec<u32>>, timeline: &netem::Timeline, t: f64, at: impl Fn(u32) -> Option<[f64; 2]>) -> Vec<RadioLink> {
+pub fn radio_links(radio: &BTreeMap<u32, Vec<u32>>, timeline: &netem::Timeline, t: f64, at: impl Fn(u32) -> Option<[f64; 2]>) -> Vec<RadioLink> {
     let mut links = Vec::new();
     for (&i, ids) in radio {
         for &j in ids.iter().filter(|&&j| j > i) {
@@ -400,7 +403,7 @@ pub(crate) fn radio_links(radio: &BTreeMap<u32, Vec<u32>>, timeline: &netem::Tim
 
 /// An agent's numbers (step time, neighbours, K21 vectors) as JSON fields: `/uav/{id}/numbers`
 /// adds its time and localization error, the page's board shows them as they are.
-pub(crate) fn numbers(st: &AgentState) -> serde_json::Map<String, serde_json::Value> {
+pub fn numbers(st: &AgentState) -> serde_json::Map<String, serde_json::Value> {
     let v = &st.vectors;
     let fields: [(&str, serde_json::Value); 8] = [
         ("step_time_ms", (f64::from(st.step_time_us) / 1000.0).into()),
@@ -416,7 +419,7 @@ pub(crate) fn numbers(st: &AgentState) -> serde_json::Map<String, serde_json::Va
 }
 
 /// The class a link colour of [`class_color`] stands for (unknown colours: clean).
-pub(crate) fn class_of_color(c: &foxglove::messages::Color) -> netem::LinkClass {
+pub fn class_of_color(c: &foxglove::messages::Color) -> netem::LinkClass {
     netem::LinkClass::ALL.into_iter().find(|&k| class_color(k) == *c).unwrap_or(netem::LinkClass::Clean)
 }
 
