@@ -11,7 +11,8 @@
 //!   every wildcard it builds matches some row of the table;
 //! - ARCHITECTURE.md's codemap has a section per crate, naming each of the crate's top-level
 //!   modules;
-//! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on;
+//! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on,
+//!   and its picture draws every member above each member it depends on;
 //! - no function in the agent's node, the hub's node or the launcher is over 60 lines;
 //! - in `uav-agent`, only the modules under `src/net/` name `zenoh`: the onboard stages stay pure;
 //! - every member declares the workspace's `rust-version`, the `Dockerfile` builds with that
@@ -359,6 +360,50 @@ fn crate_dependency_list_matches_the_manifests() {
         wrong.push(format!("ARCHITECTURE.md: `{package}` in `## Crate dependencies` is not a workspace member"));
     }
     assert!(wrong.is_empty(), "the crate dependencies and ARCHITECTURE.md disagree:\n{}", wrong.join("\n"));
+}
+
+/// The picture of `## Crate dependencies` (its first fenced block): the line each crate's name
+/// first stands on, as package -> line number. Names are whole words (`swarm` is not found in
+/// `swarm-node`), so a crate's description must not name another crate.
+fn picture_rows(text: &str, packages: &BTreeSet<String>) -> BTreeMap<String, usize> {
+    let lines = section(text, "Crate dependencies");
+    let block = lines.iter().skip_while(|l| !l.starts_with("```")).skip(1).take_while(|l| !l.starts_with("```"));
+    let mut rows = BTreeMap::new();
+    for (row, line) in block.enumerate() {
+        for word in line.split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '_')) {
+            if packages.contains(word) {
+                rows.entry(word.to_string()).or_insert(row);
+            }
+        }
+    }
+    rows
+}
+
+#[test]
+fn crate_dependency_picture_draws_every_crate_above_what_it_uses() {
+    let actual = manifest_dependencies();
+    let packages: BTreeSet<String> = actual.keys().cloned().collect();
+    let rows = picture_rows(&architecture(), &packages);
+    let mut wrong: Vec<String> = packages.iter().filter(|p| !rows.contains_key(*p)).map(|p| format!("ARCHITECTURE.md: draw `{p}` in the crate-dependency picture")).collect();
+    for (package, deps) in &actual {
+        for dep in deps {
+            if let (Some(a), Some(b)) = (rows.get(package), rows.get(dep)) {
+                if a >= b {
+                    wrong.push(format!("ARCHITECTURE.md: the picture must draw `{package}` above `{dep}`, which it depends on"));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "the crate-dependency picture is wrong:\n{}", wrong.join("\n"));
+}
+
+#[test]
+fn picture_rows_finds_whole_names_on_their_first_line() {
+    let packages: BTreeSet<String> = ["swarm", "swarm-node"].iter().map(|s| s.to_string()).collect();
+    let text = "## Crate dependencies\n\n```\n  swarm-node   the pieces\n  swarm  (swarm-node)\n```\n";
+    let rows = picture_rows(text, &packages);
+    assert_eq!(rows.get("swarm-node"), Some(&0));
+    assert_eq!(rows.get("swarm"), Some(&1));
 }
 
 /// The files whose functions must stay short: the three places where Zenoh plumbing and control
