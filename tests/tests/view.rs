@@ -2,11 +2,16 @@
 //! WebSocket: two Foxglove clients (Python `websockets`, speaking the Foxglove WebSocket
 //! protocol) receive UAV poses during the run, one offering the protocol's current name
 //! `foxglove.sdk.v1`, one offering only the old name `foxglove.websocket.v1` as Lichtblick does;
-//! headless Chromium (Debian's, driven by playwright) sees the drawn UAVs move and sit where the
-//! run's truth puts them, and, with the scan toggle on, UAV 1's scan drawn at UAV 1's true pose
-//! of the scan's tick with its returns on the trees. `swarm replay` of a run folder seeks to a
-//! tick and draws that tick's positions and scan. Screenshots are kept under the tests' target
-//! temporary folder (`target/tmp/view/`).
+//! headless Chromium (Debian's, driven by playwright) opens the page 5 sim seconds into the run
+//! and finds every UAV's trail back to the run's start on the truth at its first frame, sees the
+//! drawn UAVs move and sit where the run's truth puts them, the legend, a scale bar as long as
+//! its metres, units in the panels, UAV 1 selected by a click where the map draws it (its
+//! estimates drawn as rings above the arrows, near the other UAVs), and, with the scan toggle on,
+//! UAV 1's scan drawn at UAV 1's true pose of the scan's tick with its returns on the trees.
+//! `swarm replay` of a run folder seeks to a tick and draws that tick's positions, the trails up
+//! to it, the seek bar's times (current / total, and under the cursor), the legend with the
+//! scenario's goal radius, and the scan of a UAV clicked on the map. Screenshots are kept under the tests' target temporary folder
+//! (`target/tmp/view/`).
 
 mod common;
 
@@ -67,6 +72,114 @@ fn truth(run: &Path) -> BTreeMap<(u64, u64), (f64, f64)> {
             ((num(0) as u64, num(2) as u64), (num(3), num(4)))
         })
         .collect()
+}
+
+/// The tick length of a run [s], from `trajectories.csv` (a row past tick 0: t_s / tick).
+fn tick_length(run: &Path) -> f64 {
+    let text = std::fs::read_to_string(run.join("trajectories.csv")).expect("trajectories.csv");
+    let row = text.lines().skip(1).map(|l| l.split(',').collect::<Vec<_>>()).find(|c| c[0] != "0").expect("a row past tick 0");
+    row[1].parse::<f64>().expect("t_s") / row[0].parse::<f64>().expect("tick")
+}
+
+/// The trails a page holds (`{id: [[x, y, t], ...]}`): one per UAV, each reaching from at most
+/// `from_s` to at least `to_s` with no gap over 0.5 s, and every point on the run's truth at its
+/// time (within 1 cm).
+fn assert_trails_on_truth(trails: &Value, from_s: f64, to_s: f64, truth: &BTreeMap<(u64, u64), (f64, f64)>, dt: f64) {
+    let trails = trails.as_object().unwrap_or_else(|| panic!("trails: {trails}"));
+    assert_eq!(trails.len(), 5, "a trail per UAV: {trails:?}");
+    for (id, points) in trails {
+        let id: u64 = id.parse().expect("UAV id");
+        let points: Vec<[f64; 3]> = points.as_array().expect("points").iter().map(|p| [0, 1, 2].map(|i| p[i].as_f64().expect("number"))).collect();
+        let (first, last) = (points.first().expect("a point")[2], points.last().expect("a point")[2]);
+        assert!(first <= from_s && last >= to_s, "UAV {id}'s trail spans {first} to {last} s, not {from_s} to {to_s} s");
+        assert!(points.windows(2).all(|w| w[1][2] > w[0][2] && w[1][2] - w[0][2] <= 0.5 + 1e-9), "UAV {id}'s trail has a gap: {points:?}");
+        for [x, y, t] in points {
+            let tick = (t / dt).round() as u64;
+            let (tx, ty) = truth.get(&(tick, id)).unwrap_or_else(|| panic!("no truth for tick {tick} UAV {id}"));
+            assert!((x - tx).hypot(y - ty) < 0.01, "UAV {id}'s trail at {t} s: ({x}, {y}), truth ({tx}, {ty})");
+        }
+    }
+}
+
+/// The number after `label` in `text` that carries `unit` (glued to it, like `12°`, or as the
+/// next word, like `0.39 m/s`), if any.
+fn value_with_unit(text: &str, label: &str, unit: &str) -> Option<f64> {
+    let words: Vec<&str> = text.split_whitespace().collect();
+    words.windows(3).filter(|w| w[0] == label).find_map(|w| match w[1].strip_suffix(unit).filter(|n| !n.is_empty()) {
+        Some(n) => n.parse().ok(),
+        None => (w[2] == unit).then(|| w[1].parse().ok()).flatten(),
+    })
+}
+
+/// A UAV's panel gives each number its unit: speed and command in m/s, position in m, heading
+/// in degrees, step time in ms.
+fn assert_units(panel: &str) {
+    for (label, unit) in [("speed", "m/s"), ("x", "m"), ("y", "m"), ("heading", "°"), ("step", "ms"), ("command", "m/s")] {
+        assert!(value_with_unit(panel, label, unit).is_some_and(f64::is_finite), "'{label} <number> {unit}' in the panel: {panel}");
+    }
+}
+
+/// The legend names every mark the map draws.
+fn assert_legend(legend: &str) {
+    for key in ["UAV, its heading", "selected UAV", "tree", "goal (4 m radius)", "trail: last 20 s", "neighbour estimate", "radio link", "collision", "lost UAV"] {
+        assert!(legend.contains(key), "'{key}' in the legend: {legend}");
+    }
+}
+
+/// The scale bar says a round length (1, 2 or 5 times a power of ten metres) and is that long on
+/// the map: its width is its metres times the pixels per metre between two drawn UAVs (within
+/// 2 %).
+fn assert_scale(seen: &Value) {
+    let state = &seen["selected"];
+    let m = state["scale"]["m"].as_f64().expect("scale metres");
+    let mantissa = m / 10f64.powf(m.log10().floor());
+    assert!([1.0, 2.0, 5.0].iter().any(|k| (mantissa - k).abs() < 1e-9), "a round length: {m} m");
+    assert_eq!(seen["scale_text"], format!("{m} m"), "{seen}");
+    let uavs = state["uavs"].as_array().expect("uavs");
+    let num = |u: &Value, k: &str| u[k].as_f64().expect("number");
+    let (a, b) = uavs
+        .iter()
+        .flat_map(|a| uavs.iter().map(move |b| (a, b)))
+        .find(|(a, b)| (num(a, "x") - num(b, "x")).hypot(num(a, "y") - num(b, "y")) > 1.0)
+        .expect("two UAVs a metre apart");
+    let px_per_m = (num(a, "px") - num(b, "px")).hypot(num(a, "py") - num(b, "py")) / (num(a, "x") - num(b, "x")).hypot(num(a, "y") - num(b, "y"));
+    let css = seen["scale_css_px"].as_f64().expect("bar width") * seen["dpr"].as_f64().expect("dpr");
+    assert!((css / (m * px_per_m) - 1.0).abs() < 0.02, "a {m} m bar {css} px long at {px_per_m} px/m");
+}
+
+/// UAV 1, clicked where the map drew it, is selected (its panel too), and its estimates are drawn
+/// as rings of at least 5 px above the arrows, most within 1 m of another UAV.
+fn assert_selected_on_map(seen: &Value) {
+    let state = &seen["selected"];
+    assert_eq!(state["selected"], 1, "{state}");
+    assert_eq!(seen["panel_selected"], "1", "{seen}");
+    let layers: Vec<&str> = state["layers"].as_array().expect("layers").iter().filter_map(Value::as_str).collect();
+    let at = |name: &str| layers.iter().position(|l| *l == name).unwrap_or_else(|| panic!("no {name} layer: {layers:?}"));
+    assert!(at("estimates") > at("uavs"), "estimates above the arrows: {layers:?}");
+    let marks = state["estimates"].as_array().expect("estimates");
+    assert!(!marks.is_empty(), "UAV 1's estimates drawn: {state}");
+    assert!(marks.iter().all(|e| e["of"] == 1 && e["r"].as_f64().unwrap_or(0.0) >= 5.0), "rings of UAV 1's, 5 px or more: {marks:?}");
+    let others: Vec<(f64, f64)> = state["uavs"].as_array().expect("uavs").iter().filter(|u| u["id"] != 1).map(|u| (u["x"].as_f64().unwrap_or(f64::NAN), u["y"].as_f64().unwrap_or(f64::NAN))).collect();
+    let near = marks.iter().filter(|e| others.iter().any(|&(x, y)| (e["x"].as_f64().unwrap_or(f64::NAN) - x).hypot(e["y"].as_f64().unwrap_or(f64::NAN) - y) < 1.0)).count();
+    assert!(near * 4 >= marks.len() * 3, "{near} of {} estimates near a UAV: {marks:?}", marks.len());
+}
+
+/// Seconds in a text like `4.2 s`.
+fn seconds(text: &str) -> f64 {
+    text.trim().strip_suffix(" s").and_then(|n| n.parse().ok()).unwrap_or_else(|| panic!("not a time in seconds: {text:?}"))
+}
+
+/// The replay's seek bar shows the sought time and the total, its ends' times, and with the
+/// cursor over its middle the time there (within 8 % of the run).
+fn assert_seek_times(seen: &Value, tick: u64, dt: f64, truth: &BTreeMap<(u64, u64), (f64, f64)>) {
+    let last_t = truth.keys().map(|(t, _)| *t).max().expect("ticks") as f64 * dt;
+    let first_t = truth.keys().map(|(t, _)| *t).min().expect("ticks") as f64 * dt;
+    let text = |k: &str| seen[k].as_str().unwrap_or_else(|| panic!("{k}: {seen}")).to_string();
+    assert_eq!(text("seek_time"), format!("{:.1} s / {:.1} s", tick as f64 * dt, last_t), "{seen}");
+    assert_eq!(text("seek_end"), format!("{last_t:.1} s"), "{seen}");
+    assert!((seconds(&text("seek_start")) - first_t).abs() < 0.051, "{seen}");
+    let mid = (first_t + last_t) / 2.0;
+    assert!((seconds(&text("seek_hover")) - mid).abs() <= 0.08 * (last_t - first_t), "the bar's middle is about {mid} s: {seen}");
 }
 
 /// Every UAV drawn in `state` (a `window.viewState`) sits at the truth of its tick, within 1 cm
@@ -168,6 +281,15 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     assert_drawn_at_truth(first, &truth);
     assert_drawn_at_truth(second, &truth);
     assert_scan_drawn(&scanned["scan"], 1, &out, &truth);
+    // Opened 5 s or more into the run, the page has at its first frame every trail back to the
+    // start (or the 20 s a trail keeps) and up to that frame.
+    let first_t = seen["first_trails"]["t"].as_f64().expect("first frame's t");
+    assert!(first_t >= 5.0, "the page was opened late: {}", seen["first_trails"]);
+    assert_trails_on_truth(&seen["first_trails"]["trails"], (first_t - 19.5).max(0.5), first_t - 1e-6, &truth, tick_length(&out));
+    assert_legend(seen["legend"].as_str().expect("legend"));
+    assert_scale(&seen);
+    assert_selected_on_map(&seen);
+    assert_units(seen["panel"].as_str().expect("panel"));
 }
 
 #[test]
@@ -187,4 +309,9 @@ fn replay_seeks_to_a_tick_and_draws_its_positions() {
     assert_drawn_at_truth(state, &truth);
     assert_eq!(seen["scan"]["scan"]["tick"], 42, "the scan of the sought tick: {}", seen["scan"]["scan"]);
     assert_scan_drawn(&seen["scan"], 2, &out, &truth);
+    assert_eq!(seen["panel_selected"], "2", "UAV 2 clicked on the map: {seen}");
+    let dt = tick_length(&out);
+    assert_trails_on_truth(&seen["trails"], 0.5, 42.0 * dt - 1e-6, &truth, dt);
+    assert_seek_times(&seen, 42, dt, &truth);
+    assert_legend(seen["legend"].as_str().expect("legend"));
 }

@@ -76,7 +76,7 @@ impl Board {
         let uavs: Vec<Value> = s
             .bodies
             .iter()
-            .map(|b| json!({"id": b.id, "x": b.x, "y": b.y, "yaw": b.yaw, "alive": b.alive, "colliding": b.colliding}))
+            .map(|b| json!({"id": b.id, "x": b.x, "y": b.y, "yaw": b.yaw, "v": b.vx.hypot(b.vy), "alive": b.alive, "colliding": b.colliding}))
             .collect();
         let pos: BTreeMap<u32, [f64; 3]> = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
         let links: Vec<Value> = scene::radio_links(&self.radio, &self.timeline, s.t_secs, |id| pos.get(&id).map(|p| [p[0], p[1]]))
@@ -106,7 +106,7 @@ mod tests {
     use swarm_wire::msg::TruthBody;
 
     fn body(id: u32, x: f64, alive: bool) -> TruthBody {
-        TruthBody { id, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, alive, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false }
+        TruthBody { id, x, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.4, alive, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false }
     }
 
     #[test]
@@ -131,6 +131,7 @@ mod tests {
         let f = b.frame().expect("frame");
         assert_eq!(f["tick"], 2);
         assert_eq!(f["uavs"][1]["x"], 2.0);
+        assert!((f["uavs"][1]["v"].as_f64().expect("speed [m/s]") - 0.5).abs() < 1e-9, "the true speed |(vx, vy)|");
         assert_eq!(f["links"][0], json!([1, 2, "clean"]));
         assert_eq!(f["lost"]["2"], 0.2);
         assert!((f["speed"].as_f64().expect("speed") - 20.0).abs() < 1e-9);

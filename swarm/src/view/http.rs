@@ -1,15 +1,18 @@
-//! The page's HTTP side: a small HTTP/1.1 server on tokio, five routes and no framework, so the
+//! The page's HTTP side: a small HTTP/1.1 server on tokio, six routes and no framework, so the
 //! page needs no build step and the binary no web stack:
 //!
 //! - `/`: the page (HTML, JS and canvas, embedded in the binary);
-//! - `/events`: Server-Sent Events: the world (`event: world`), then the latest frame whenever it
+//! - `/events`: Server-Sent Events: the world (`event: world`), the recent trails (`event:
+//!   trails`, see `trails`; again after each replay seek), then the latest frame whenever it
 //!   changes (a slow browser skips frames; it never slows the producer);
 //! - `/state`: the world and the latest frame as one JSON object (scripts, tests);
+//! - `/trails`: the recent trails, as the `trails` event carries them (scripts);
 //! - `/scan?id=N`: UAV N's latest scan in the world (scans on demand, see `scans`; 404 before
 //!   the first);
 //! - `/control?cmd=...`: replay's play, pause, seek and speed (404 on a live view).
 
 use super::scans::ScanSource;
+use super::trails::TrailSource;
 use std::sync::Arc;
 use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpStream};
@@ -26,13 +29,16 @@ pub struct Snapshot {
     pub world: Option<Arc<str>>,
     /// The latest step frame.
     pub frame: Option<Arc<str>>,
+    /// Changed when the trails a page holds no longer lead to the frame (a replay's seek): the
+    /// page is sent the trails again before that frame.
+    pub trails_epoch: u64,
 }
 
 /// A replay command: the query pairs of `/control`.
 pub type Command = Vec<(String, String)>;
 
 /// What the page's server answers from: the snapshots, the replay's controls (none on a live
-/// view) and the scans.
+/// view), the scans and the trails.
 #[derive(Clone)]
 pub struct Sources {
     /// The world and the latest frame.
@@ -41,6 +47,8 @@ pub struct Sources {
     pub control: Option<mpsc::UnboundedSender<Command>>,
     /// Where `/scan` answers come from.
     pub scans: Arc<dyn ScanSource>,
+    /// Where the trails a page starts with come from.
+    pub trails: Arc<dyn TrailSource>,
 }
 
 /// Serves the page on `listener` until the process ends.
@@ -56,7 +64,7 @@ pub async fn serve(listener: TcpListener, sources: Sources) {
     }
 }
 
-async fn handle(mut s: TcpStream, Sources { snap, control, scans }: Sources) -> std::io::Result<()> {
+async fn handle(mut s: TcpStream, Sources { snap, control, scans, trails }: Sources) -> std::io::Result<()> {
     let Some(target) = read_target(&mut s).await? else { return Ok(()) };
     let (path, query) = target.split_once('?').unwrap_or((&target, ""));
     match path {
@@ -66,7 +74,8 @@ async fn handle(mut s: TcpStream, Sources { snap, control, scans }: Sources) -> 
             let body = format!("{{\"world\":{},\"frame\":{}}}", now.world.as_deref().unwrap_or("null"), now.frame.as_deref().unwrap_or("null"));
             respond(&mut s, "200 OK", "application/json", body.as_bytes()).await
         }
-        "/events" => events(s, snap).await,
+        "/events" => events(s, snap, trails).await,
+        "/trails" => respond(&mut s, "200 OK", "application/json", trails.trails().to_string().as_bytes()).await,
         "/scan" => {
             let id = parse_query(query).into_iter().find(|(k, _)| k == "id").and_then(|(_, v)| v.parse::<u32>().ok());
             match id.and_then(|id| scans.scan(id)) {
@@ -103,14 +112,20 @@ async fn respond(s: &mut TcpStream, status: &str, ctype: &str, body: &[u8]) -> s
     s.flush().await
 }
 
-/// Streams the world and then every new frame as Server-Sent Events.
-async fn events(mut s: TcpStream, mut snap: watch::Receiver<Snapshot>) -> std::io::Result<()> {
+/// Streams the world, the trails so far and then every new frame as Server-Sent Events (the
+/// trails again, before its frame, whenever their epoch changes).
+async fn events(mut s: TcpStream, mut snap: watch::Receiver<Snapshot>, trails: Arc<dyn TrailSource>) -> std::io::Result<()> {
     s.write_all(b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\nConnection: keep-alive\r\n\r\n").await?;
     let mut sent = Snapshot::default();
+    let mut trails_sent = None;
     loop {
         let now = snap.borrow_and_update().clone();
         if now.world.is_some() && !same(&now.world, &sent.world) {
             s.write_all(format!("event: world\ndata: {}\n\n", now.world.as_deref().unwrap_or("null")).as_bytes()).await?;
+        }
+        if trails_sent != Some(now.trails_epoch) {
+            s.write_all(format!("event: trails\ndata: {}\n\n", trails.trails()).as_bytes()).await?;
+            trails_sent = Some(now.trails_epoch);
         }
         if now.frame.is_some() && !same(&now.frame, &sent.frame) {
             s.write_all(format!("data: {}\n\n", now.frame.as_deref().unwrap_or("null")).as_bytes()).await?;

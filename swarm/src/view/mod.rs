@@ -9,7 +9,9 @@
 //!   topics as `run.mcap`), for Foxglove or Lichtblick, behind `front`, which lets clients that
 //!   offer only the protocol's old name (`foxglove.websocket.v1`) in.
 //!
-//! The page asks for the selected UAV's scan only while its toggle is on (`scans`).
+//! The page asks for the selected UAV's scan only while its toggle is on (`scans`), and is
+//! handed the last seconds of every path as it connects (`trails`), so a page opened late draws
+//! the trails at once.
 //!
 //! `swarm run --view` starts the same [`Live`] view inside the run ([`Live::start`]);
 //! `replay` is `swarm replay`: the same page and WebSocket over a recorded `run.mcap`.
@@ -19,6 +21,7 @@ mod front;
 mod http;
 mod replay;
 mod scans;
+mod trails;
 
 pub use replay::{replay, ReplayArgs};
 
@@ -29,6 +32,7 @@ use board::Board;
 use clap::Args;
 use front::Front;
 use scans::LiveScans;
+use trails::LiveTrails;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
@@ -113,6 +117,7 @@ struct Shown {
     scene: Scene,
     board: Board,
     scans: Arc<LiveScans>,
+    trails: Arc<LiveTrails>,
     snap: watch::Sender<http::Snapshot>,
 }
 
@@ -138,8 +143,9 @@ impl Live {
         let page_port = listener.local_addr()?.port();
         let (snap, rx) = watch::channel(http::Snapshot::default());
         let scans = Arc::new(LiveScans::default());
-        tokio::spawn(http::serve(listener, http::Sources { snap: rx, control: None, scans: scans.clone() }));
-        let mut shown = Shown { keys, run_id: run_id.to_string(), scene, board: Board::new(&sc), scans, snap };
+        let trails = Arc::new(LiveTrails::default());
+        tokio::spawn(http::serve(listener, http::Sources { snap: rx, control: None, scans: scans.clone(), trails: trails.clone() }));
+        let mut shown = Shown { keys, run_id: run_id.to_string(), scene, board: Board::new(&sc), scans, trails, snap };
         match plumbing::fetch(&session, &shown.keys.truth_world(), ASK_WAIT).await {
             Ok(b) => shown.truth(&b),
             Err(e) => tracing::warn!("no world from the hub yet: {e}"),
@@ -207,6 +213,7 @@ impl Shown {
             Ok(Msg::TruthStep(s)) => {
                 let s = Arc::new(s);
                 self.scene.on_step(&s);
+                self.trails.on_step(&s);
                 self.scans.on_step(s.clone());
                 self.board.on_step(s);
             }

@@ -4,12 +4,18 @@
 //!
 //! The page's frames are read back from the recording's own topics: `/swarm/world` (the world,
 //! the tick length), `/tf` (every UAV's pose per tick), `/radio` (links, their class by colour),
-//! `/uav/{id}/estimates`, `/uav/{id}/numbers` and `/events` (collisions, lost UAVs). The
-//! selected UAV's scan, when the page asks, is `/uav/{id}/scan` at the shown frame's time, placed
-//! by that UAV's `/tf` of the same time.
+//! `/uav/{id}/estimates`, `/uav/{id}/numbers` and `/events` (collisions, lost UAVs); each UAV's
+//! speed is its `/tf` displacement over the time since its previous one. The selected UAV's scan,
+//! when the page asks, is `/uav/{id}/scan` at the shown frame's time, placed by that UAV's `/tf`
+//! of the same time; the trails a page starts with (as it connects, and after each seek) are the
+//! frames' positions over the last seconds before the shown frame. The world tells the page the
+//! first and last tick and the tick length, so the seek bar shows sim times, and the goal radius
+//! of the `scenario.toml` beside the recording (the recording has none).
 
 use super::http::{self, Command, Snapshot};
 use super::scans::{ScanPicture, ScanSource};
+use super::trails::{TrailSource, Trails};
+use swarm_record::scene::TRAIL_S;
 use anyhow::{Context as _, Result};
 use foxglove::messages::{FrameTransforms, LaserScan, Log, SceneUpdate};
 use foxglove::{Decode, PartialMetadata, RawChannel, Schema};
@@ -53,14 +59,15 @@ struct Recording {
     scans: BTreeMap<u32, Vec<usize>>,
 }
 
-/// The replay's scans: each UAV's latest scan at the shown frame's time.
-struct ReplayScans {
+/// What the replay shows now, for the page's server: each UAV's latest scan and its recent trail
+/// at the shown frame's time.
+struct ReplayShown {
     rec: Arc<Recording>,
     /// The shown frame's log time [ns].
     shown_ns: AtomicU64,
 }
 
-impl ScanSource for ReplayScans {
+impl ScanSource for ReplayShown {
     fn scan(&self, id: u32) -> Option<ScanPicture> {
         let rec = &self.rec;
         let t_ns = self.shown_ns.load(Ordering::Relaxed);
@@ -73,6 +80,25 @@ impl ScanSource for ReplayScans {
         let n = l.ranges.len().max(2) as f64;
         let angle_increment = (l.end_angle - l.start_angle) / (n - 1.0);
         Some(ScanPicture { id, tick: *tick, t_s: m.log_time_ns as f64 * 1e-9, pose, angle_min: l.start_angle, angle_increment, ranges: l.ranges })
+    }
+}
+
+impl TrailSource for ReplayShown {
+    fn trails(&self) -> Value {
+        let rec = &self.rec;
+        let t_ns = self.shown_ns.load(Ordering::Relaxed);
+        let from_ns = t_ns.saturating_sub((TRAIL_S * 1e9) as u64);
+        let frames = &rec.frames[rec.frames.partition_point(|f| f.1 < from_ns)..rec.frames.partition_point(|f| f.1 <= t_ns)];
+        let mut trails = Trails::default();
+        for (_, ns, frame) in frames {
+            for u in frame["uavs"].as_array().into_iter().flatten() {
+                let id = u["id"].as_u64().and_then(|id| u32::try_from(id).ok());
+                if let (Some(id), Some(x), Some(y)) = (id, u["x"].as_f64(), u["y"].as_f64()) {
+                    trails.push(id, *ns as f64 * 1e-9, x, y);
+                }
+            }
+        }
+        trails.to_json()
     }
 }
 
@@ -96,10 +122,10 @@ pub async fn replay(a: ReplayArgs) -> Result<ExitCode> {
     let _ = std::io::stdout().flush();
     let (snap, snap_rx) = watch::channel(Snapshot::default());
     let (ctl_tx, ctl) = mpsc::unbounded_channel();
-    let scans = Arc::new(ReplayScans { rec: rec.clone(), shown_ns: AtomicU64::new(rec.frames[0].1) });
-    tokio::spawn(http::serve(listener, http::Sources { snap: snap_rx, control: Some(ctl_tx), scans: scans.clone() }));
+    let shown = Arc::new(ReplayShown { rec: rec.clone(), shown_ns: AtomicU64::new(rec.frames[0].1) });
+    tokio::spawn(http::serve(listener, http::Sources { snap: snap_rx, control: Some(ctl_tx), scans: shown.clone(), trails: shown.clone() }));
     tokio::select! {
-        () = play(&rec, &raw, &snap, &scans.shown_ns, ctl, !a.paused) => {}
+        () = play(&rec, &raw, &snap, &shown.shown_ns, ctl, !a.paused) => {}
         _ = tokio::signal::ctrl_c() => {}
     }
     Ok(ExitCode::SUCCESS)
@@ -114,6 +140,7 @@ async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Sna
     let mut t_ns = first_ns;
     let mut sent = 0usize; // messages logged to the Foxglove side so far
     let mut shown = usize::MAX;
+    let mut sought = false; // the next frame follows a seek: the page needs the trails again
     let mut every = tokio::time::interval(super::FRAME_EVERY);
     loop {
         tokio::select! {
@@ -129,6 +156,7 @@ async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Sna
                         sent = rec.messages.partition_point(|m| m.log_time_ns < t_ns);
                         relog_world(rec, raw);
                         shown = usize::MAX;
+                        sought = true;
                     },
                     _ => {}
                 }
@@ -146,7 +174,11 @@ async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Sna
                     shown = i;
                     shown_ns.store(rec.frames[i].1, Ordering::Relaxed);
                     let frame: Arc<str> = Arc::from(rec.frames[i].2.to_string());
-                    snap.send_modify(|s| { s.world = Some(world.clone()); s.frame = Some(frame); });
+                    snap.send_modify(|s| {
+                        s.world = Some(world.clone());
+                        s.frame = Some(frame);
+                        s.trails_epoch += u64::from(std::mem::take(&mut sought));
+                    });
                 }
                 if i + 1 == rec.frames.len() && playing {
                     playing = false;
@@ -190,8 +222,11 @@ fn load(path: &Path) -> Result<Recording> {
     let mut world = head["world"].clone();
     world["kind"] = json!("world");
     world["run"] = json!(path.display().to_string());
+    if let Some(r) = goal_radius_beside(path) {
+        world["goal_radius_m"] = json!(r);
+    }
     let frames = frames(&messages, &|m| topic(m), dt);
-    world["replay"] = json!({ "last_tick": frames.last().map_or(0, |f| f.0) });
+    world["replay"] = replay_span(&frames, dt);
     let mut scans: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
     for (i, m) in messages.iter().enumerate() {
         let id = topic(m).strip_prefix("/uav/").and_then(|r| r.strip_suffix("/scan")).and_then(|id| id.parse().ok());
@@ -200,6 +235,27 @@ fn load(path: &Path) -> Result<Recording> {
         }
     }
     Ok(Recording { channels, messages, world, frames, scans })
+}
+
+/// The goal radius [m] of the scenario beside the recording (`scenario.toml` in its run folder):
+/// `/swarm/world` holds the hub's world, which has none. `None`, with a warning, when no readable
+/// scenario is there (the page then draws a 1 m disc and says the radius is unknown).
+fn goal_radius_beside(mcap: &Path) -> Option<f64> {
+    let file = mcap.parent()?.join("scenario.toml");
+    match swarm_config::Scenario::from_file(&file) {
+        Ok(sc) => Some(sc.end.goal_radius_m),
+        Err(e) => {
+            tracing::warn!("the page draws the goal without its radius: {e}");
+            None
+        }
+    }
+}
+
+/// What the seek bar needs: the first and last tick, their sim times [s] and the tick length [s].
+fn replay_span(frames: &[(u64, u64, Value)], dt: f64) -> Value {
+    let tick_t = |f: Option<&(u64, u64, Value)>| f.map_or((0, 0.0), |f| (f.0, f.1 as f64 * 1e-9));
+    let ((first_tick, first_t), (last_tick, last_t)) = (tick_t(frames.first()), tick_t(frames.last()));
+    json!({ "first_tick": first_tick, "last_tick": last_tick, "first_t": first_t, "last_t": last_t, "dt_s": dt })
 }
 
 /// Builds the page's frame for every `/tf` message, from it and the topics logged at or before
@@ -212,6 +268,7 @@ fn frames<'a>(messages: &'a [Rec], topic: &dyn Fn(&'a Rec) -> &'a str, dt: f64) 
     let mut collisions: Vec<Value> = Vec::new();
     let mut lost = serde_json::Map::new();
     let mut pending_tf: Option<&Rec> = None;
+    let mut speeds = Speeds::default();
     let mut emit = |tf: &Rec, links: &[Value], est: &serde_json::Map<String, Value>, num: &serde_json::Map<String, Value>, col: &[Value], lost: &serde_json::Map<String, Value>| {
         let Ok(f) = FrameTransforms::decode(tf.data.as_slice()) else { return };
         let t = tf.log_time_ns as f64 * 1e-9;
@@ -225,7 +282,8 @@ fn frames<'a>(messages: &'a [Rec], topic: &dyn Fn(&'a Rec) -> &'a str, dt: f64) 
                 let q = x.rotation?;
                 // yaw = 2 atan2(z, w) for a rotation about z.
                 let yaw = 2.0 * q.z.atan2(q.w);
-                Some(json!({"id": id, "x": p.x, "y": p.y, "yaw": yaw, "alive": !lost.contains_key(&id.to_string()), "colliding": false}))
+                let v = speeds.at(id, t, p.x, p.y);
+                Some(json!({"id": id, "x": p.x, "y": p.y, "yaw": yaw, "v": v, "alive": !lost.contains_key(&id.to_string()), "colliding": false}))
             })
             .collect();
         let frame = json!({"kind": "step", "tick": tick, "t": t, "speed": null, "ended": null, "uavs": uavs, "links": links,
@@ -269,6 +327,22 @@ fn frames<'a>(messages: &'a [Rec], topic: &dyn Fn(&'a Rec) -> &'a str, dt: f64) 
         emit(tf, &links, &estimates, &numbers, &collisions, &lost);
     }
     out
+}
+
+/// Each UAV's speed from its recorded positions: the distance from its previous position over
+/// the time between [m/s] (`/tf` holds no velocity), null at its first.
+#[derive(Default)]
+struct Speeds {
+    last: BTreeMap<u32, (f64, f64, f64)>,
+}
+
+impl Speeds {
+    /// UAV `id` at (`x`, `y`) at `t` [s]: its speed since its previous position, if any.
+    fn at(&mut self, id: u32, t: f64, x: f64, y: f64) -> Option<f64> {
+        let v = self.last.get(&id).filter(|(t0, ..)| t > *t0).map(|&(t0, x0, y0)| (x - x0).hypot(y - y0) / (t - t0));
+        self.last.insert(id, (t, x, y));
+        v
+    }
 }
 
 /// The radio graph's links as `[i, j, class]`: each segment's ends are two UAVs' exact
@@ -320,5 +394,14 @@ mod tests {
         event(&log("UAV 4 lost (no longer alive)"), &mut c, &mut lost, 2.0);
         assert_eq!(c, vec![json!([3, 1.5, -2.25, null])]);
         assert_eq!(lost["4"], json!(2.0));
+    }
+
+    #[test]
+    fn speeds_come_from_successive_positions() {
+        let mut s = Speeds::default();
+        assert_eq!(s.at(1, 0.0, 0.0, 0.0), None);
+        assert_eq!(s.at(1, 0.5, 3.0, 4.0), Some(10.0));
+        assert_eq!(s.at(2, 0.5, 1.0, 1.0), None, "each UAV its own");
+        assert_eq!(s.at(1, 0.5, 9.0, 9.0), None, "no time between: no speed");
     }
 }
