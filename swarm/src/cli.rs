@@ -33,10 +33,10 @@ pub enum Cmd {
     /// rewritten from its whole chunks (at most the last sim second is lost).
     Recover(swarm_record::recorder::RecoverArgs),
     /// Watch a running swarm: a web page and the Foxglove WebSocket, on loopback.
-    View(crate::view::ViewArgs),
+    View(swarm_view::ViewArgs),
     /// Replay a recorded run (`run.mcap` or its run folder) on the view's page and the Foxglove
     /// WebSocket, with play, pause, seek and speed.
-    Replay(crate::view::ReplayArgs),
+    Replay(swarm_view::ReplayArgs),
     /// Print every message on a key expression as JSON lines.
     Tap(crate::tap::TapArgs),
     /// Publish one message (as JSON, or raw hex) on a key.
@@ -105,8 +105,8 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Router(a) => swarm_node::router::router(a).await,
         Cmd::Record(a) => swarm_record::recorder::record(a).await,
         Cmd::Recover(a) => swarm_record::recorder::recover(a),
-        Cmd::View(a) => crate::view::view(a).await,
-        Cmd::Replay(a) => crate::view::replay(a).await,
+        Cmd::View(a) => swarm_view::view(a).await,
+        Cmd::Replay(a) => swarm_view::replay(a).await,
         Cmd::Tap(a) => crate::tap::tap(a).await,
         Cmd::Put(a) => crate::tap::put(a).await,
         Cmd::Keys(a) => crate::keyspace::keys(a).await,

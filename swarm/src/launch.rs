@@ -254,7 +254,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         rec.without_journal();
     }
     if let Some(port) = show.view {
-        let live = crate::view::Live::start(run_id, &locators, &rec_cfg, port).await?;
+        let live = swarm_view::Live::start(run_id, &locators, &rec_cfg, port).await?;
         // Stdout, flushed at once: scripts (and tests) read the address while the run goes.
         println!("{}", live.addresses());
         use std::io::Write as _;

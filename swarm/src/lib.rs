@@ -37,8 +37,6 @@
 //!   `study` runner, judged by `swarm_record::checks`, each failure shrunk to a minimal scenario file.
 //! - [`scenarios`]: `swarm scenarios` and `swarm check`: the built-in scenarios, and what a file
 //!   resolves to.
-//! - [`view`]: `swarm view` (and `swarm run --view`): a live web page and the Foxglove
-//!   WebSocket of a running swarm.
 //!
 //! Public surface: [`cli::main`] (what the `swarm` binary and the end-to-end tests' copy of it
 //! call) and [`summary`] (the `summary.json` schema, for programs that read run folders); every
@@ -66,4 +64,3 @@ mod sweep_seeds;
 /// The `summary.json` schema, for programs that read run folders (it lives in `swarm-record`).
 pub use swarm_record::summary;
 mod tap;
-mod view;

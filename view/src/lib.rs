@@ -1,3 +1,6 @@
+//! Watching a swarm, live or recorded, in a crate of its own so the processes that fly
+//! (`swarm-node`) link no web or Foxglove server.
+//!
 //! `swarm view`: watch a running swarm. An observer that joins the run's key space, drains
 //! every subscription into a ring buffer (like `swarm tap`: a slow viewer drops its oldest
 //! samples, it never holds a lockstep run back), and serves two things on loopback:
