@@ -222,7 +222,7 @@ fn load(path: &Path) -> Result<Recording> {
     let mut world = head["world"].clone();
     world["kind"] = json!("world");
     world["run"] = json!(path.display().to_string());
-    if let Some(r) = goal_radius_beside(path) {
+    if let Some(r) = head["goal_radius_m"].as_f64().or_else(|| goal_radius_beside(path)) {
         world["goal_radius_m"] = json!(r);
     }
     let frames = frames(&messages, &|m| topic(m), dt);
@@ -237,9 +237,10 @@ fn load(path: &Path) -> Result<Recording> {
     Ok(Recording { channels, messages, world, frames, scans })
 }
 
-/// The goal radius [m] of the scenario beside the recording (`scenario.toml` in its run folder):
-/// `/swarm/world` holds the hub's world, which has none. `None`, with a warning, when no readable
-/// scenario is there (the page then draws a 1 m disc and says the radius is unknown).
+/// The goal radius [m] of the scenario beside the recording (`scenario.toml` in its run folder),
+/// for recordings whose `/swarm/world` does not carry `goal_radius_m` (made before it did).
+/// `None`, with a warning, when no readable scenario is there (the page then draws a 1 m disc and
+/// says the radius is unknown).
 fn goal_radius_beside(mcap: &Path) -> Option<f64> {
     let file = mcap.parent()?.join("scenario.toml");
     match swarm_config::Scenario::from_file(&file) {

@@ -57,7 +57,7 @@ pub const TRAIL_S: f64 = 20.0;
 const NUMBERS_SCHEMA: &str = r#"{"type":"object","properties":{"t_s":{"type":"number"},"step_time_ms":{"type":"number"},"neighbours":{"type":"integer"},"in_radio_range":{"type":"integer"},"cohesion":{"type":"number"},"separation":{"type":"number"},"avoidance":{"type":"number"},"navigation":{"type":"number"},"output":{"type":"number"},"localization_error_m":{"type":["number","null"]}}}"#;
 
 /// The JSON schema of `/swarm/world`.
-const WORLD_SCHEMA: &str = r#"{"type":"object","properties":{"world":{"type":"object"},"dt_s":{"type":"number"},"name":{"type":"string"}}}"#;
+const WORLD_SCHEMA: &str = r#"{"type":"object","properties":{"world":{"type":"object"},"dt_s":{"type":"number"},"name":{"type":"string"},"goal_radius_m":{"type":"number"}}}"#;
 
 /// One UAV's channels.
 struct UavChannels {
@@ -74,6 +74,8 @@ pub struct Scene {
     world_update: Option<SceneUpdate>,
     world_json: Arc<RawChannel>,
     dt_s: f64,
+    /// The scenario's goal radius [m]: the hub's world does not carry it.
+    goal_radius_m: f64,
     name: String,
     tf: Channel<FrameTransforms>,
     trails_ch: Channel<SceneUpdate>,
@@ -162,6 +164,7 @@ impl Scene {
                 .build_raw()
                 .context("cannot make the world channel")?,
             dt_s: sc.dt_secs(),
+            goal_radius_m: sc.end.goal_radius_m,
             name: sc.name.clone(),
             tf: ctx.channel_builder("/tf").build(),
             trails_ch: ctx.channel_builder("/trails").build(),
@@ -219,10 +222,10 @@ impl Scene {
 
     /// The world, at sim time 0.
     pub fn on_world(&mut self, w: &TruthWorld) {
-        let update = shapes::world(w);
+        let update = shapes::world(w, self.goal_radius_m);
         self.world.log_with_time(&update, 0u64);
         self.world_update = Some(update);
-        let json = serde_json::json!({ "world": w, "dt_s": self.dt_s, "name": self.name });
+        let json = serde_json::json!({ "world": w, "dt_s": self.dt_s, "name": self.name, "goal_radius_m": self.goal_radius_m });
         self.world_json.log_with_meta(json.to_string().as_bytes(), PartialMetadata::with_log_time(0u64));
     }
 

@@ -46,8 +46,9 @@ fn at(x: f64, y: f64, z: f64, yaw: f64) -> Option<Pose> {
     Some(Pose { position: Some(Vector3 { x, y, z }), orientation: Some(yaw_quat(yaw)) })
 }
 
-/// The world as one scene: trees as cylinders, walls as boxes, the goal as a flat disc.
-pub fn world(w: &TruthWorld) -> SceneUpdate {
+/// The world as one scene: trees as cylinders, walls as boxes, the goal as a flat disc of the
+/// scenario's `goal_radius_m` (the hub's world does not carry it).
+pub fn world(w: &TruthWorld, goal_radius_m: f64) -> SceneUpdate {
     let h = OBSTACLE_HEIGHT_M;
     let cylinders = w
         .trees
@@ -61,7 +62,7 @@ pub fn world(w: &TruthWorld) -> SceneUpdate {
         })
         .chain(std::iter::once(CylinderPrimitive {
             pose: at(w.goal[0], w.goal[1], 0.01, 0.0),
-            size: Some(Vector3 { x: 2.0, y: 2.0, z: 0.02 }),
+            size: Some(Vector3 { x: 2.0 * goal_radius_m, y: 2.0 * goal_radius_m, z: 0.02 }),
             bottom_scale: 1.0,
             top_scale: 1.0,
             color: Some(Color { r: 0.9, g: 0.75, b: 0.1, a: 0.6 }),
@@ -183,9 +184,11 @@ mod tests {
     #[test]
     fn walls_are_boxes_along_their_segment() {
         let w = TruthWorld { trees: vec![[1.0, 2.0, 0.3]], walls: vec![[0.0, 0.0, 0.0, 4.0, 0.2]], starts: vec![], goal: [9.0, 9.0], body_radius_m: 0.2 };
-        let u = world(&w);
+        let u = world(&w, 4.0);
         let e = &u.entities[0];
         assert_eq!(e.cylinders.len(), 2, "the tree and the goal");
+        let goal = e.cylinders[1].size.expect("goal size");
+        assert!((goal.x - 8.0).abs() < 1e-12 && (goal.y - 8.0).abs() < 1e-12, "the goal disc is 2 x 4 m across: {goal:?}");
         let size = e.cubes[0].size.expect("size");
         assert!((size.x - 4.0).abs() < 1e-12 && (size.y - 0.2).abs() < 1e-12);
     }
