@@ -13,7 +13,7 @@
 //!
 //! Agents are anonymous (seed 000 5.2): an entry is identified by the obstacle set its neighbour
 //! sent last (its "ID"), not by a number. `identify = Key` uses the sender id instead, for
-//! comparison only. The sender id is otherwise kept for metrics ([`Estimate::id`]).
+//! comparison only. The sender id is otherwise kept for metrics ([`EntryEstimate::id`]).
 //!
 //! The ICP itself is not here: the database calls a [`Matcher`], so it is tested with scripted
 //! matchers and driven by the real ICP (`super::icp`) in [`IcpLocalizer`], the `icp` mode's localizer.
@@ -162,9 +162,10 @@ pub struct Received {
     pub points: Vec<Point2<f64>>,
 }
 
-/// One neighbour as the database places it.
+/// One neighbour as the database places it: the localization [`super::Estimate`] (what it
+/// becomes, by `From`) with the entry it comes from and the FRMSD of the ICP that placed it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
+pub struct EntryEstimate {
     /// Internal entry number (stable while the entry lives; metrics and debugging only).
     pub entry: u64,
     /// Sender id of the last set matched to the entry (metrics only). Always `Some` today.
@@ -179,8 +180,8 @@ pub struct Estimate {
     pub frmsd: f64,
 }
 
-impl From<Estimate> for super::Estimate {
-    fn from(e: Estimate) -> Self {
+impl From<EntryEstimate> for super::Estimate {
+    fn from(e: EntryEstimate) -> Self {
         super::Estimate {
             id: e.id,
             pos_in_body: e.pos_in_body,
@@ -411,13 +412,13 @@ impl Database {
 
     /// Current estimates of the entries that are chosen (got a set in the last step), placed and
     /// not suspended, for the controller; in entry order.
-    pub fn estimates(&self, now: f64) -> Vec<Estimate> {
+    pub fn estimates(&self, now: f64) -> Vec<EntryEstimate> {
         self.entries
             .iter()
             .filter(|e| e.chosen && !e.suspended)
             .filter_map(|e| {
                 let t = e.agent_from_neighbour?;
-                Some(Estimate {
+                Some(EntryEstimate {
                     entry: e.key,
                     id: Some(e.sender),
                     pos_in_body: t.translation_m,
