@@ -3,7 +3,7 @@
 //!
 //! Why a module of its own: the alignment ([`super::alignment`]) says how well each place fits;
 //! whether that is enough to place a neighbour is a decision with its own measured thresholds,
-//! taken in two places that must agree: the neighbour database and
+//! taken in two places that must agree: the neighbour database ([`super::database`]) and
 //! `swarm icp-eval`, which measures it on generated pairs of views.
 //!
 //! - [`judge_initial`]: the decision on a neighbour not placed yet, from its full-grid ICP with
