@@ -39,7 +39,7 @@
 //!   seed 003 IV-C: unknown is free), where global_planner would charge them 252. The heuristic is
 //!   neutral × octile distance, admissible since no step costs less than neutral; global_planner's
 //!   A* uses Manhattan distance, which overestimates on an 8-connected grid.
-//! - **Search limits, escape, window**: those of [`super::grid::astar`] and
+//! - **Search limits, escape, window**: those of [`super::astar::astar`] and
 //!   [`super::grid::OccupancyGrid::plan`]: the search stops after `max_expanded_cells` with a
 //!   partial path, and a start inside the inscribed zone first escapes through non-lethal cells.
 
@@ -47,9 +47,9 @@ use nalgebra::{Point2, Vector2};
 use swarm_config::CostmapParams;
 
 use crate::geometry::Pose2;
-use super::grid::{
-    octile_cells, Cell, CellSearch, CellSet, CellState, GridChanges, GridParams, OccupancyGrid, Path, TileMap,
-};
+use super::astar::{octile_cells, CellSearch, Path};
+use super::cells::{Cell, CellSet, TileMap};
+use super::grid::{CellState, GridChanges, GridParams, OccupancyGrid};
 
 /// costmap_2d: no cost.
 pub const FREE_SPACE: u8 = 0;
