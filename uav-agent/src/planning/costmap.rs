@@ -303,7 +303,7 @@ impl Costmap {
                 break;
             }
             for c in ring(center, k).filter(|&c| accept(self.cost(c))) {
-                let d2 = dist2(center, c);
+                let d2 = center.dist2(c);
                 if best.is_none_or(|(b2, bc)| (d2, (c.iy, c.ix)) < (b2, (bc.iy, bc.ix))) {
                     best = Some((d2, c));
                 }
@@ -383,13 +383,6 @@ fn ring(c: Cell, k: i32) -> impl Iterator<Item = Cell> {
     let sides = (-k + 1..k).flat_map(move |d| [c.offset(-k, d), c.offset(k, d)]);
     let all: Vec<Cell> = if k == 0 { vec![c] } else { edges.chain(sides).collect() };
     all.into_iter()
-}
-
-/// Squared distance between two cells [cells²].
-fn dist2(a: Cell, b: Cell) -> f64 {
-    let dx = f64::from(a.ix) - f64::from(b.ix);
-    let dy = f64::from(a.iy) - f64::from(b.iy);
-    dx * dx + dy * dy
 }
 
 /// Costs on the ROS scale (0 free … 253 inscribed, 254 lethal), as the formation layer and the
@@ -548,7 +541,7 @@ mod tests {
             .map(|x| {
                 let cost = occupied
                     .iter()
-                    .map(|o| inflation_cost(dist2(x, *o).sqrt() * res, m.params()))
+                    .map(|o| inflation_cost(x.dist2(*o).sqrt() * res, m.params()))
                     .max()
                     .unwrap_or(0);
                 (x, cost)
