@@ -15,25 +15,11 @@ mod broadcast;
 pub mod icp;
 mod uvdar;
 
-use crate::perception::Circle;
 use crate::sensing::{Needs, SensorFrame};
-use nalgebra::Vector2;
+use crate::world_model::{Circle, Estimate};
 use std::time::Instant;
 use swarm_config::{LocalizationMode, Scenario, TimeMode};
 use swarm_wire::{IcpCounts, Keys, Msg, ObstacleShare, PoseShare};
-
-/// One neighbour as this agent believes it to be.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
-    /// Sender id where known (metrics only).
-    pub id: Option<u32>,
-    /// Relative position, body frame [m].
-    pub pos_in_body: Vector2<f64>,
-    /// Relative heading [rad].
-    pub heading: f64,
-    /// Age of the information [s].
-    pub age_secs: f64,
-}
 
 /// What agents tell their neighbours: a pose (`broadcast`) or an obstacle set (`icp`).
 #[derive(Debug, Clone, PartialEq)]

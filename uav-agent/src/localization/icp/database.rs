@@ -128,7 +128,7 @@ use super::alignment::{AgentFromNeighbour, Match, Ranked};
 use super::gate::Gate;
 use super::placement::{judge_initial, judge_long, Placement, Recheck};
 use crate::geometry::wrap_angle;
-use crate::localization::Estimate;
+use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;

@@ -10,9 +10,9 @@
 
 use super::alignment::{icp, initial_icp, initial_icp_ranked, AgentFromNeighbour, Match, Ranked};
 use super::database::{Database, Matcher, Received};
-use crate::localization::{Estimate, Share};
-use crate::perception::Circle;
+use crate::localization::Share;
 use crate::sensing::SensorFrame;
+use crate::world_model::{Circle, Estimate};
 use nalgebra::Point2;
 use std::time::Instant;
 use swarm_config::IcpParams;
