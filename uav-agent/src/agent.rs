@@ -16,9 +16,10 @@
 //! neighbours' shares. Nothing here can reach ground truth.
 
 use crate::control::{Arrival, Command, Controller, Controllers, Hops, LostContact, UnknownController, View};
-use crate::localization::{Estimate, Localizer, Share};
-use crate::perception::{self, Circle, Extracted};
+use crate::localization::{Localizer, Share};
+use crate::perception::{self, Extracted};
 use crate::sensing::{FrameCollector, SensorFrame};
+use crate::world_model::{Circle, Estimate};
 use nalgebra::Point2;
 use std::time::Instant;
 use swarm_config::Scenario;

@@ -15,6 +15,9 @@
 //!   controllers K21, P17, A21 and M23, from a view of the neighbours and obstacles to a command.
 //! - `planning`: the occupancy grid with A* (A21) and the seed 004 costmap (M23) that control
 //!   plans on.
+//! - `world_model`: what the stages hand one another about the surroundings, in the body frame:
+//!   obstacle [`Circle`]s and wall [`Segment`]s from perception, neighbour [`Estimate`]s from
+//!   localization, which control steers by.
 //! - `geometry`: what every stage shares: the odometry pose, the one angle-wrap convention,
 //!   small vector helpers.
 //! - `agent`: [`Agent::step`], the pipeline of one tick with no IO.
@@ -26,7 +29,9 @@
 //!   its agents listen to).
 //!
 //! Dependencies run one way: net → admission → agent → control → planning → geometry, agent →
-//! localization → geometry; nothing below points back up to the agent or the node. Architecture invariant: an
+//! localization → sensing, agent → perception; the stages reach one another's types only below
+//! themselves, in `world_model` and `geometry`, which import nothing of the crate, never sideways;
+//! nothing below points back up to the agent or the node. Architecture invariant: an
 //! agent sees the world only through its own sensor keys and its neighbours' shares; it never
 //! reads `truth/**`.
 
@@ -43,12 +48,12 @@ mod perception;
 #[cfg_attr(not(test), allow(dead_code))]
 mod planning;
 mod sensing;
+mod world_model;
 
 pub use agent::{Agent, LinkReport, Perceived, StepOutput, StepReport};
 pub use control::{Command, Controller, Controllers, MakeController, UnknownController, View};
-pub use localization::Estimate;
-pub use perception::{Circle, Segment};
 pub use localization::icp;
 pub use localization::Share;
 pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions};
 pub use sensing::{FrameCollector, Needs, SensorFrame};
+pub use world_model::{Circle, Estimate, Segment};

@@ -60,14 +60,7 @@ use nalgebra::{Matrix3, Point2, Vector2, Vector3};
 use swarm_config::PerceptionParams;
 use swarm_wire::Scan;
 
-/// A circular obstacle (a trunk cut by the plane of flight), body frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Circle {
-    /// Centre [m], body frame.
-    pub center: Point2<f64>,
-    /// Radius [m].
-    pub radius: f64,
-}
+use crate::world_model::{Circle, Segment};
 
 /// Smallest accepted ratio of the smallest to the largest eigenvalue of the (centred, scaled)
 /// normal matrix AᵀA; below it the fit is ill-conditioned (e.g. collinear points) and refused.
@@ -259,22 +252,6 @@ fn accepted_circle(group: &[Point2<f64>], params: &PerceptionParams) -> Option<C
     }
     // SPEC section 4.2: reject fits with an implausible radius.
     fit_circle(group).filter(|c| c.radius >= r_min && c.radius <= r_max)
-}
-
-/// A straight piece of wall: the face the scan sees, body frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Segment {
-    /// End point [m], body frame: the end of the lower beam indices (first in scan order).
-    pub a: Point2<f64>,
-    /// Other end point [m], body frame.
-    pub b: Point2<f64>,
-}
-
-impl Segment {
-    /// Length |b − a| [m].
-    pub fn length(&self) -> f64 {
-        (self.b - self.a).norm()
-    }
 }
 
 /// What one scan shows: trunks as circles, walls as segments (see [`extract`]), and every point

@@ -108,7 +108,7 @@ fn centred(v: &View, goal: [f64; 2]) -> [f64; 2] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::localization::Estimate;
+    use crate::world_model::Estimate;
     use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
     fn scenario() -> Scenario {

@@ -7,7 +7,7 @@
 //! reaches `max_hops`. Once the informed are gone a group's counts rise by one a round (the
 //! classic count to infinity), which `max_hops` cuts short.
 
-use crate::localization::Estimate;
+use crate::world_model::Estimate;
 use nalgebra::Vector2;
 use std::collections::BTreeMap;
 use swarm_wire::NO_PATH;

@@ -199,8 +199,7 @@ fn wall_points(v: &View) -> Vec<Vector2<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::localization::Estimate;
-    use crate::perception::Circle;
+    use crate::world_model::{Circle, Estimate};
     use swarm_wire::NO_PATH;
     use nalgebra::Point2;
     use swarm_wire::{CmdKind, Odom, VectorMagnitudes};

@@ -4,9 +4,10 @@
 //! velocity over its age, and dropped once older than `stale_after_s`. Without its own fix this
 //! tick an agent can place nobody, and shares nothing.
 
-use super::{Estimate, Share};
+use super::Share;
 use crate::geometry::wrap_angle;
 use crate::sensing::SensorFrame;
+use crate::world_model::Estimate;
 use nalgebra::{Rotation2, Vector2};
 use std::collections::BTreeMap;
 use swarm_wire::{Gnss, PoseShare};

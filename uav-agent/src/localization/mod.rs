@@ -3,8 +3,9 @@
 //!
 //! - `broadcast` (`broadcast`, SPEC section 5): share the own GNSS pose, subtract it from the
 //!   neighbours' poses.
-//! - `icp` ([`icp`], `neighbours`; seed 000 chapters 3 and 5): share the obstacle set, place each
-//!   neighbour by matching its set to our own, remembered in the neighbour database.
+//! - `icp` ([`icp`]: the alignment, the placement policy, the neighbour database and its gate,
+//!   the localizer; seed 000 chapters 3 and 5): share the obstacle set, place each neighbour by
+//!   matching its set to our own, remembered in the neighbour database.
 //! - `uvdar` (`uvdar`): onboard relative sensing, no communication.
 //!
 //! Each localizer says what share it sends, what it does with the shares it receives, and what it
@@ -12,30 +13,13 @@
 
 mod broadcast;
 pub mod icp;
-// Database API kept whole and tested, partly unused by the localizer (see `lib.rs`).
-#[cfg_attr(not(test), allow(dead_code))]
-mod neighbours;
 mod uvdar;
 
-use crate::perception::Circle;
 use crate::sensing::{Needs, SensorFrame};
-use nalgebra::Vector2;
+use crate::world_model::{Circle, Estimate};
 use std::time::Instant;
 use swarm_config::{LocalizationMode, Scenario, TimeMode};
 use swarm_wire::{IcpCounts, Keys, Msg, ObstacleShare, PoseShare};
-
-/// One neighbour as this agent believes it to be.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
-    /// Sender id where known (metrics only).
-    pub id: Option<u32>,
-    /// Relative position, body frame [m].
-    pub pos_in_body: Vector2<f64>,
-    /// Relative heading [rad].
-    pub heading: f64,
-    /// Age of the information [s].
-    pub age_secs: f64,
-}
 
 /// What agents tell their neighbours: a pose (`broadcast`) or an obstacle set (`icp`).
 #[derive(Debug, Clone, PartialEq)]
@@ -122,7 +106,7 @@ pub(crate) enum Localizer {
     /// `broadcast`.
     Broadcast(broadcast::Broadcast),
     /// `icp` (boxed: the database is large).
-    Icp(Box<neighbours::IcpLocalizer>),
+    Icp(Box<icp::IcpLocalizer>),
     /// `uvdar`: keeps nothing.
     Uvdar,
 }
@@ -144,7 +128,7 @@ impl Localizer {
             LocalizationMode::Broadcast => Localizer::Broadcast(broadcast::Broadcast::new(id, stale_after_s)),
             LocalizationMode::Icp => {
                 let realtime = sc.time.mode == TimeMode::Realtime;
-                let icp = neighbours::IcpLocalizer::new(id, sc.localization.icp.clone(), stale_after_s, realtime);
+                let icp = icp::IcpLocalizer::new(id, sc.localization.icp.clone(), stale_after_s, realtime);
                 Localizer::Icp(Box::new(icp))
             }
             LocalizationMode::Uvdar => Localizer::Uvdar,

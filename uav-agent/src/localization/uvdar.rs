@@ -2,8 +2,8 @@
 //! communication at all. Each tick's sensing, part of the sensor frame, gives range and bearing of
 //! every neighbour seen; there is no heading, and nothing is kept between ticks or shared.
 
-use super::Estimate;
 use crate::sensing::SensorFrame;
+use crate::world_model::Estimate;
 use nalgebra::Vector2;
 
 /// The neighbours this tick's UVDAR sensing saw, in the body frame (heading unknown: 0).

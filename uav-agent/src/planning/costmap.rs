@@ -39,7 +39,7 @@
 //!   seed 003 IV-C: unknown is free), where global_planner would charge them 252. The heuristic is
 //!   neutral × octile distance, admissible since no step costs less than neutral; global_planner's
 //!   A* uses Manhattan distance, which overestimates on an 8-connected grid.
-//! - **Search limits, escape, window**: those of [`super::grid::astar`] and
+//! - **Search limits, escape, window**: those of [`super::astar::astar`] and
 //!   [`super::grid::OccupancyGrid::plan`]: the search stops after `max_expanded_cells` with a
 //!   partial path, and a start inside the inscribed zone first escapes through non-lethal cells.
 
@@ -47,9 +47,9 @@ use nalgebra::{Point2, Vector2};
 use swarm_config::CostmapParams;
 
 use crate::geometry::Pose2;
-use super::grid::{
-    octile_cells, Cell, CellSearch, CellSet, CellState, GridChanges, GridParams, OccupancyGrid, Path, TileMap,
-};
+use super::astar::{octile_cells, CellSearch, Path};
+use super::cells::{Cell, CellSet, TileMap};
+use super::grid::{CellState, GridChanges, GridParams, OccupancyGrid};
 
 /// costmap_2d: no cost.
 pub const FREE_SPACE: u8 = 0;
@@ -303,7 +303,7 @@ impl Costmap {
                 break;
             }
             for c in ring(center, k).filter(|&c| accept(self.cost(c))) {
-                let d2 = dist2(center, c);
+                let d2 = center.dist2(c);
                 if best.is_none_or(|(b2, bc)| (d2, (c.iy, c.ix)) < (b2, (bc.iy, bc.ix))) {
                     best = Some((d2, c));
                 }
@@ -383,13 +383,6 @@ fn ring(c: Cell, k: i32) -> impl Iterator<Item = Cell> {
     let sides = (-k + 1..k).flat_map(move |d| [c.offset(-k, d), c.offset(k, d)]);
     let all: Vec<Cell> = if k == 0 { vec![c] } else { edges.chain(sides).collect() };
     all.into_iter()
-}
-
-/// Squared distance between two cells [cells²].
-fn dist2(a: Cell, b: Cell) -> f64 {
-    let dx = f64::from(a.ix) - f64::from(b.ix);
-    let dy = f64::from(a.iy) - f64::from(b.iy);
-    dx * dx + dy * dy
 }
 
 /// Costs on the ROS scale (0 free … 253 inscribed, 254 lethal), as the formation layer and the
@@ -548,7 +541,7 @@ mod tests {
             .map(|x| {
                 let cost = occupied
                     .iter()
-                    .map(|o| inflation_cost(dist2(x, *o).sqrt() * res, m.params()))
+                    .map(|o| inflation_cost(x.dist2(*o).sqrt() * res, m.params()))
                     .max()
                     .unwrap_or(0);
                 (x, cost)

@@ -13,10 +13,11 @@
 //!
 //! Agents are anonymous (seed 000 5.2): an entry is identified by the obstacle set its neighbour
 //! sent last (its "ID"), not by a number. `identify = Key` uses the sender id instead, for
-//! comparison only. The sender id is otherwise kept for metrics ([`Estimate::id`]).
+//! comparison only. The sender id is otherwise kept for metrics ([`EntryEstimate::id`]).
 //!
 //! The ICP itself is not here: the database calls a [`Matcher`], so it is tested with scripted
-//! matchers and driven by the real ICP (`super::icp`) in [`IcpLocalizer`], the `icp` mode's localizer.
+//! matchers and driven by the real ICP ([`super::alignment`]) in the `icp` mode's localizer
+//! (`super::localizer`). Which entries a set is matched against first is the [`Gate`]'s choice.
 //!
 //! # One control step ([`Database::step`])
 //!
@@ -63,15 +64,16 @@
 //! several alignments fit about equally well, and the lowest FRMSD is often a wrong one (40 UAVs:
 //! 6 % of estimates more than 1 m off on the full stack, 18 % in the crowd lab). So an unplaced
 //! entry is placed only by an unambiguous full-grid ICP: if the best alignment that puts the
-//! neighbour elsewhere (more than [`super::icp::DISTINCT_M`] away or turned more than
-//! [`super::icp::DISTINCT_RAD`]) has an FRMSD within [`super::icp::AMBIGUITY_RATIO`] of the best (the
-//! decision is [`super::icp::judge_initial`], shared with `swarm icp-eval`), the entry is
+//! neighbour elsewhere (more than [`super::alignment::DISTINCT_M`] away or turned more than
+//! [`super::alignment::DISTINCT_RAD`]) has an FRMSD within
+//! [`super::placement::AMBIGUITY_RATIO`] of the best (the decision is
+//! [`super::placement::judge_initial`], shared with `swarm icp-eval`), the entry is
 //! suspended as if out of range (5.3), and retried after `suspend_s`; a first placement also
-//! needs FRMSD ≤ [`super::icp::INITIAL_FRMSD_MAX_M`] (0.3 m; tracking keeps seed 000's
+//! needs FRMSD ≤ [`super::placement::INITIAL_FRMSD_MAX_M`] (0.3 m; tracking keeps seed 000's
 //! `match_frmsd`). A placement refused for its FRMSD is no estimate, like an ambiguous one.
 //!
 //! A tracked entry's lICP (seed 000's check against a short ICP locked onto a wrong place) is
-//! judged by [`super::icp::judge_long`]: a best alignment that agrees with the track (within
+//! judged by [`super::placement::judge_long`]: a best alignment that agrees with the track (within
 //! `DISTINCT_M` and `DISTINCT_RAD`) is taken as seed 000 takes it; one that moves the neighbour
 //! elsewhere is taken only when it would place an unknown neighbour (`judge_initial`:
 //! unambiguous, FRMSD ≤ 0.3 m). Otherwise the track stands: `last_long` is stamped (checked) and
@@ -122,17 +124,16 @@
 //! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
 //! suspended.
 
-use super::icp::{judge_initial, judge_long, AgentFromNeighbour, Match, Placement, Ranked, Recheck};
-use super::Share;
+use super::alignment::{AgentFromNeighbour, Match, Ranked};
+use super::gate::Gate;
+use super::placement::{judge_initial, judge_long, Placement, Recheck};
 use crate::geometry::wrap_angle;
-use crate::perception::Circle;
-use crate::sensing::SensorFrame;
+use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
-use std::time::Instant;
 use swarm_config::{IcpParams, Identify};
-use swarm_wire::{IcpCounts, ObstacleShare};
+
 /// The ICP variants the database needs (seed 000 5.1). Implemented by the real ICP, and by
 /// scripted matchers in tests. Both return a transform mapping `source` into `reference`'s frame.
 pub trait Matcher {
@@ -162,9 +163,10 @@ pub struct Received {
     pub points: Vec<Point2<f64>>,
 }
 
-/// One neighbour as the database places it.
+/// One neighbour as the database places it: the localization [`Estimate`] (what it
+/// becomes, by `From`) with the entry it comes from and the FRMSD of the ICP that placed it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Estimate {
+pub struct EntryEstimate {
     /// Internal entry number (stable while the entry lives; metrics and debugging only).
     pub entry: u64,
     /// Sender id of the last set matched to the entry (metrics only). Always `Some` today.
@@ -179,9 +181,9 @@ pub struct Estimate {
     pub frmsd: f64,
 }
 
-impl From<Estimate> for super::Estimate {
-    fn from(e: Estimate) -> Self {
-        super::Estimate {
+impl From<EntryEstimate> for Estimate {
+    fn from(e: EntryEstimate) -> Self {
+        Estimate {
             id: e.id,
             pos_in_body: e.pos_in_body,
             heading: e.heading,
@@ -212,10 +214,10 @@ pub struct StepCounts {
     /// Received sets ignored (too old, too few points, or superseded by a newer one).
     pub ignored: u32,
     /// Full-grid ICPs on an unplaced entry whose best alignment was ambiguous (a different one
-    /// fit within [`super::icp::AMBIGUITY_RATIO`]): the entry is suspended instead of placed.
+    /// fit within [`super::placement::AMBIGUITY_RATIO`]): the entry is suspended instead of placed.
     pub ambiguous: u32,
     /// lICPs on a tracked entry whose best alignment moved it elsewhere and passed
-    /// [`super::icp::judge_initial`]: the jump was taken.
+    /// [`super::placement::judge_initial`]: the jump was taken.
     pub jumped: u32,
     /// lICPs on a tracked entry whose best alignment moved it elsewhere but would not place an
     /// unknown neighbour: the tracked estimate was kept (updated by an sICP).
@@ -251,6 +253,13 @@ struct Entry {
     estimate_t: f64,
     /// Sender id of the set before the last one (trace only: a change is a re-identification).
     prev_sender: u32,
+}
+
+impl Entry {
+    /// Where its neighbour is, body frame [m]: placed and not suspended (what the [`Gate`] reads).
+    fn located(&self) -> Option<Vector2<f64>> {
+        self.agent_from_neighbour.filter(|_| !self.suspended).map(|t| t.translation_m)
+    }
 }
 
 /// What Algorithm 6 wants done for one entry in this step.
@@ -411,13 +420,13 @@ impl Database {
 
     /// Current estimates of the entries that are chosen (got a set in the last step), placed and
     /// not suspended, for the controller; in entry order.
-    pub fn estimates(&self, now: f64) -> Vec<Estimate> {
+    pub fn estimates(&self, now: f64) -> Vec<EntryEstimate> {
         self.entries
             .iter()
             .filter(|e| e.chosen && !e.suspended)
             .filter_map(|e| {
                 let t = e.agent_from_neighbour?;
-                Some(Estimate {
+                Some(EntryEstimate {
                     entry: e.key,
                     id: Some(e.sender),
                     pos_in_body: t.translation_m,
@@ -490,7 +499,7 @@ impl Database {
         // does not identify a neighbour. What does is the motion the alignment implies: its own
         // previous set is reached by a small shift and turn (its motion since), another's only by
         // their separation. So a match must also be plausible motion, and the smallest wins.
-        let gate = Gate::new(&self.entries, self.params.match_shift_m + GATE_MARGIN_M);
+        let gate = Gate::new(self.entries.iter().map(|e| (e.sender, e.located())), self.params.match_shift_m);
         let mut by_set = vec![None; sets.len()];
         let mut taken = vec![false; self.entries.len()];
         if crowd {
@@ -805,157 +814,6 @@ fn trace_full_grid(now: f64, entry: u64, set: &Received, ranked: Option<&Ranked>
     let runner_up = ranked.and_then(|r| r.runner_up).map(|u| (xy(&u), u.frmsd, u.pairs));
     tracing::trace!(target: "icp_provenance", now, entry, from = set.from, points = set.points.len(), ?best, ?runner_up, "full grid");
 }
-
-/// Slack of the [`Gate`] beyond `match_shift_m` [m]: what the two neighbours and this agent may
-/// have moved, and the placements may be off, between the estimates the gate compares (entries in
-/// use were placed at most `stale_after_s` = 0.5 s apart, at walking-pace speeds of about 1 m/s).
-const GATE_MARGIN_M: f64 = 2.0;
-
-/// Which entries a received set is matched against: the ones placed near where its sender should
-/// be, instead of every entry (which made identification quadratic in the neighbours).
-///
-/// Matching a set to an entry's ID set succeeds only by a plausible motion, a shift of at most
-/// `match_shift_m` (seed 000 5.2 as refined here). The shift that aligns neighbour a's new set
-/// with neighbour b's last one is |p_a − p_b|, their separation (a rigid alignment preserves
-/// distance), so an entry whose neighbour was placed farther than `match_shift_m` (plus the
-/// [`GATE_MARGIN_M`] slack) from where the set's sender is expected cannot be the match. Where the
-/// sender is expected: where the entry that took the last set on the same link was placed. The
-/// link only says where to look; the entry is still chosen by matching, so anonymity is kept. A
-/// set with no such located entry (a new link, or its entry is unplaced or suspended) is matched
-/// against every entry, and entries with no position (unplaced or suspended) are always tried.
-#[derive(Debug)]
-struct Gate {
-    /// Per entry, its neighbour's position in this agent's body frame [m], if placed and usable.
-    located: Vec<Option<Vector2<f64>>>,
-    /// Entries by the sender of the set they took last.
-    by_sender: BTreeMap<u32, Vec<usize>>,
-    /// Candidates lie within this distance of an expected position [m].
-    radius_m: f64,
-}
-
-impl Gate {
-    fn new(entries: &[Entry], radius_m: f64) -> Gate {
-        let located = entries
-            .iter()
-            .map(|e| e.agent_from_neighbour.filter(|_| !e.suspended).map(|t| t.translation_m))
-            .collect();
-        let mut by_sender: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
-        for (idx, e) in entries.iter().enumerate() {
-            by_sender.entry(e.sender).or_default().push(idx);
-        }
-        Gate { located, by_sender, radius_m }
-    }
-
-    /// The entries a set from `sender` is matched against first, in entry order: the entries that
-    /// took the link's last set, and the located entries near where they placed it.
-    fn candidates(&self, sender: u32) -> Vec<usize> {
-        let on_link: &[usize] = self.by_sender.get(&sender).map_or(&[], Vec::as_slice);
-        let all = 0..self.located.len();
-        if on_link.is_empty() {
-            return all.collect();
-        }
-        let expected: Vec<Vector2<f64>> = on_link.iter().filter_map(|&idx| self.located[idx]).collect();
-        all.filter(|idx| {
-            on_link.contains(idx)
-                || self.located[*idx].is_some_and(|p| expected.iter().any(|q| (p - q).norm() <= self.radius_m))
-        })
-        .collect()
-    }
-}
-
-/// The `icp` localizer (seed 000 3.2, chapter 5): it shares its obstacle set, keeps the newest set
-/// from each neighbour, and places the neighbours by matching those sets to its own through the
-/// [`Database`] and the real ICP.
-#[derive(Debug)]
-pub(crate) struct IcpLocalizer {
-    id: u32,
-    stale_after_s: f64,
-    params: IcpParams,
-    /// Whether a wall-clock step budget applies (realtime runs only, see [`Self::estimates`]).
-    realtime: bool,
-    db: Database,
-    /// The newest obstacle set from each neighbour (one per sender), handed to the database by
-    /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
-    received: Vec<Received>,
-}
-
-impl IcpLocalizer {
-    /// The localizer of UAV `id`.
-    pub(crate) fn new(id: u32, params: IcpParams, stale_after_s: f64, realtime: bool) -> IcpLocalizer {
-        let db = Database::new(params.clone(), stale_after_s);
-        IcpLocalizer { id, stale_after_s, params, realtime, db, received: Vec::new() }
-    }
-
-    /// Keeps a neighbour's obstacle set if it is newer than the one held (our own echo and poses
-    /// are ignored).
-    pub(crate) fn receive(&mut self, share: &Share) {
-        let Share::Obstacles(o) = share else { return };
-        if o.from == self.id {
-            return;
-        }
-        let held = self.received.iter().position(|r| r.from == o.from);
-        if held.is_none_or(|i| o.t_secs > self.received[i].t_secs) {
-            let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
-            let set = Received { from: o.from, t_secs: o.t_secs, points };
-            match held {
-                Some(i) => self.received[i] = set,
-                None => self.received.push(set),
-            }
-        }
-    }
-
-    /// The neighbours placed by matching their sets to our `circles` at sim time `now`, and the
-    /// ICP work it took; `started` is when the step began (wall clock).
-    pub(crate) fn estimates(&mut self, now: f64, circles: &[Circle], started: Instant) -> (Vec<super::Estimate>, IcpCounts) {
-        let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
-        let stale = self.stale_after_s;
-        self.received.retain(|r| now - r.t_secs <= stale + 1e-9);
-        // The step-time failsafe (seed 000 6.2) guards a realtime deadline. In lockstep the
-        // hub waits for us, so there is none; and a wall-clock decision would make the run
-        // depend on machine load instead of repeating exactly.
-        let realtime = self.realtime;
-        let mut elapsed_ms = || if realtime { started.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
-        let c = self.db.step(now, &own, &self.received, &mut IcpMatcher(&self.params), &mut elapsed_ms);
-        let estimates = self.db.estimates(now).into_iter().map(Into::into).collect();
-        let counts = IcpCounts {
-            short: c.short,
-            long: c.long,
-            initial: c.initial,
-            deferred: c.skipped_long,
-            entries: self.db.len() as u32,
-            suspended: self.db.suspended_len() as u32,
-        };
-        (estimates, counts)
-    }
-
-    /// seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
-    pub(crate) fn share(&self, frame: &SensorFrame, circles: &[Circle]) -> Share {
-        Share::Obstacles(ObstacleShare {
-            from: self.id,
-            tick: frame.scan.tick,
-            t_secs: frame.scan.t_secs,
-            centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
-            hops: swarm_wire::NO_PATH,
-            arrival: swarm_wire::NO_PATH,
-        })
-    }
-}
-
-/// The real ICP behind the neighbour database.
-struct IcpMatcher<'a>(&'a IcpParams);
-
-impl Matcher for IcpMatcher<'_> {
-    fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: AgentFromNeighbour) -> Option<Match> {
-        super::icp::icp(reference, source, initial, self.0).ok()
-    }
-    fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
-        super::icp::initial_icp(reference, source, self.0).ok()
-    }
-    fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
-        super::icp::initial_icp_ranked(reference, source, self.0).ok()
-    }
-}
-
 
 #[cfg(test)]
 mod tests {
@@ -1602,7 +1460,7 @@ mod tests {
         assert_eq!(e.pos_in_body, Vector2::new(1.0, 0.5));
         assert!((e.heading - 0.1).abs() < 1e-12);
         assert!((e.age_secs - 0.1).abs() < 1e-12);
-        let as_loc: super::super::Estimate = e.into();
+        let as_loc: Estimate = e.into();
         assert_eq!(as_loc.pos_in_body, e.pos_in_body);
     }
 

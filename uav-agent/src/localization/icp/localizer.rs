@@ -1,0 +1,112 @@
+//! The `icp` mode's localizer: the shares in and out, and the real ICP behind the neighbour
+//! database (seed 000 3.2 and chapter 5).
+//!
+//! Why a module of its own: the [`Database`] is pure bookkeeping over a [`Matcher`], tested with
+//! scripted matchers; this is the thin layer that joins it to the rest of the agent: it turns
+//! received [`Share`]s into obstacle sets, our circles into the reference set, the database's
+//! entries into the localization's [`Estimate`]s and its counts into the wire's [`IcpCounts`],
+//! and it implements [`Matcher`] with the ICP of [`super::alignment`]. It also decides the one
+//! thing that depends on the run's time mode: whether the wall clock may cut a step short.
+
+use super::alignment::{icp, initial_icp, initial_icp_ranked, AgentFromNeighbour, Match, Ranked};
+use super::database::{Database, Matcher, Received};
+use crate::localization::Share;
+use crate::sensing::SensorFrame;
+use crate::world_model::{Circle, Estimate};
+use nalgebra::Point2;
+use std::time::Instant;
+use swarm_config::IcpParams;
+use swarm_wire::{IcpCounts, ObstacleShare};
+
+/// The `icp` localizer (seed 000 3.2, chapter 5): it shares its obstacle set, keeps the newest set
+/// from each neighbour, and places the neighbours by matching those sets to its own through the
+/// [`Database`] and the real ICP.
+#[derive(Debug)]
+pub(crate) struct IcpLocalizer {
+    id: u32,
+    stale_after_s: f64,
+    params: IcpParams,
+    /// Whether a wall-clock step budget applies (realtime runs only, see [`Self::estimates`]).
+    realtime: bool,
+    db: Database,
+    /// The newest obstacle set from each neighbour (one per sender), handed to the database by
+    /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
+    received: Vec<Received>,
+}
+
+impl IcpLocalizer {
+    /// The localizer of UAV `id`.
+    pub(crate) fn new(id: u32, params: IcpParams, stale_after_s: f64, realtime: bool) -> IcpLocalizer {
+        let db = Database::new(params.clone(), stale_after_s);
+        IcpLocalizer { id, stale_after_s, params, realtime, db, received: Vec::new() }
+    }
+
+    /// Keeps a neighbour's obstacle set if it is newer than the one held (our own echo and poses
+    /// are ignored).
+    pub(crate) fn receive(&mut self, share: &Share) {
+        let Share::Obstacles(o) = share else { return };
+        if o.from == self.id {
+            return;
+        }
+        let held = self.received.iter().position(|r| r.from == o.from);
+        if held.is_none_or(|i| o.t_secs > self.received[i].t_secs) {
+            let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
+            let set = Received { from: o.from, t_secs: o.t_secs, points };
+            match held {
+                Some(i) => self.received[i] = set,
+                None => self.received.push(set),
+            }
+        }
+    }
+
+    /// The neighbours placed by matching their sets to our `circles` at sim time `now`, and the
+    /// ICP work it took; `started` is when the step began (wall clock).
+    pub(crate) fn estimates(&mut self, now: f64, circles: &[Circle], started: Instant) -> (Vec<Estimate>, IcpCounts) {
+        let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
+        let stale = self.stale_after_s;
+        self.received.retain(|r| now - r.t_secs <= stale + 1e-9);
+        // The step-time failsafe (seed 000 6.2) guards a realtime deadline. In lockstep the
+        // hub waits for us, so there is none; and a wall-clock decision would make the run
+        // depend on machine load instead of repeating exactly.
+        let realtime = self.realtime;
+        let mut elapsed_ms = || if realtime { started.elapsed().as_secs_f64() * 1e3 } else { 0.0 };
+        let c = self.db.step(now, &own, &self.received, &mut IcpMatcher(&self.params), &mut elapsed_ms);
+        let estimates = self.db.estimates(now).into_iter().map(Into::into).collect();
+        let counts = IcpCounts {
+            short: c.short,
+            long: c.long,
+            initial: c.initial,
+            deferred: c.skipped_long,
+            entries: self.db.len() as u32,
+            suspended: self.db.suspended_len() as u32,
+        };
+        (estimates, counts)
+    }
+
+    /// seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
+    pub(crate) fn share(&self, frame: &SensorFrame, circles: &[Circle]) -> Share {
+        Share::Obstacles(ObstacleShare {
+            from: self.id,
+            tick: frame.scan.tick,
+            t_secs: frame.scan.t_secs,
+            centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
+            hops: swarm_wire::NO_PATH,
+            arrival: swarm_wire::NO_PATH,
+        })
+    }
+}
+
+/// The real ICP behind the neighbour database.
+struct IcpMatcher<'a>(&'a IcpParams);
+
+impl Matcher for IcpMatcher<'_> {
+    fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: AgentFromNeighbour) -> Option<Match> {
+        icp(reference, source, initial, self.0).ok()
+    }
+    fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
+        initial_icp(reference, source, self.0).ok()
+    }
+    fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
+        initial_icp_ranked(reference, source, self.0).ok()
+    }
+}
