@@ -14,30 +14,35 @@ use uav_agent::Controllers;
 #[command(name = "swarm-node", version, about)]
 struct Cli {
     #[command(subcommand)]
-    cmd: Cmd,
+    cmd: NodeCmd,
 }
 
+/// The commands of this crate, the same in `swarm-node` and in `swarm` (which flattens them into
+/// its own command line).
 #[derive(Subcommand, Debug)]
-enum Cmd {
-    /// Start the physics hub (a Zenoh router).
+pub enum NodeCmd {
+    /// Start the physics hub (a Zenoh router) by hand.
     Hub(pieces::HubArgs),
-    /// Start one UAV agent (`--id`) or an agent host (`--ids`) (a Zenoh client of the hub).
+    /// Start one UAV agent (`--id`) or an agent host (`--ids`) by hand (a Zenoh client of the hub).
     Agent(pieces::AgentArgs),
     /// Start a bare Zenoh router that agents connect to and that connects to the hub.
     Router(router::RouterArgs),
-    /// Make fresh users and passwords for a hub and pieces started by hand.
+    /// Make fresh users and passwords for a hub and pieces started by hand (docs/security.md).
     Credentials(auth::CredentialsArgs),
+}
+
+/// Runs one of this crate's commands; agents know `controllers`.
+pub async fn dispatch(cmd: NodeCmd, controllers: Controllers) -> anyhow::Result<ExitCode> {
+    match cmd {
+        NodeCmd::Hub(a) => pieces::hub(a).await,
+        NodeCmd::Agent(a) => pieces::agent(a, controllers).await,
+        NodeCmd::Router(a) => router::router(a).await,
+        NodeCmd::Credentials(a) => auth::credentials(a),
+    }
 }
 
 /// Entry point of the `swarm-node` binary (and of the end-to-end tests' copy of it).
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    process::run(async move {
-        match cli.cmd {
-            Cmd::Hub(a) => pieces::hub(a).await,
-            Cmd::Agent(a) => pieces::agent(a, Controllers::builtin()).await,
-            Cmd::Router(a) => router::router(a).await,
-            Cmd::Credentials(a) => auth::credentials(a),
-        }
-    })
+    process::run(dispatch(cli.cmd, Controllers::builtin()))
 }

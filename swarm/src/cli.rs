@@ -21,12 +21,10 @@ pub enum Cmd {
     /// Run a scenario end to end: hub, agents (a process per UAV or agent hosts), recorder; write
     /// the run folder.
     Run(crate::launch::RunArgs),
-    /// Start the physics hub (a Zenoh router) by hand.
-    Hub(swarm_node::pieces::HubArgs),
-    /// Start one UAV agent (`--id`) or an agent host (`--ids`) by hand (a Zenoh client of the hub).
-    Agent(swarm_node::pieces::AgentArgs),
-    /// Start a bare Zenoh router that agents connect to and that connects to the hub.
-    Router(swarm_node::router::RouterArgs),
+    /// `hub`, `agent`, `router` and `credentials`: the processes a run is made of, the same
+    /// commands as the `swarm-node` binary's.
+    #[command(flatten)]
+    Node(swarm_node::command::NodeCmd),
     /// Record a run started by hand: write the run folder when the hub ends the run.
     Record(swarm_record::recorder::RecordArgs),
     /// Make a killed run's folder whole: summary, CSVs and figures from its journal, run.mcap
@@ -70,8 +68,6 @@ pub enum Cmd {
     /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
     /// SVG and PNG.
     Plot(swarm_plot::PlotArgs),
-    /// Make fresh users and passwords for a hub and pieces started by hand (docs/security.md).
-    Credentials(swarm_node::auth::CredentialsArgs),
     /// Generate scenarios with nemesis schedules from a seed, fly them, check the invariants,
     /// and shrink each failure to a minimal scenario file.
     Fuzz(crate::fuzz::FuzzArgs),
@@ -100,9 +96,7 @@ pub fn main_with(controllers: Controllers) -> ExitCode {
 async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode> {
     match cli.cmd {
         Cmd::Run(a) => crate::launch::run(a, &controllers).await,
-        Cmd::Hub(a) => swarm_node::pieces::hub(a).await,
-        Cmd::Agent(a) => swarm_node::pieces::agent(a, controllers).await,
-        Cmd::Router(a) => swarm_node::router::router(a).await,
+        Cmd::Node(c) => swarm_node::command::dispatch(c, controllers).await,
         Cmd::Record(a) => swarm_record::recorder::record(a).await,
         Cmd::Recover(a) => swarm_record::recorder::recover(a),
         Cmd::View(a) => swarm_view::view(a).await,
@@ -120,7 +114,6 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Scale(a) => crate::scale::scale(a).await,
         Cmd::Mesh(a) => crate::mesh::mesh(a).await,
         Cmd::Plot(a) => swarm_plot::plot(a),
-        Cmd::Credentials(a) => swarm_node::auth::credentials(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
         Cmd::Check { scenario } => crate::scenarios::check(&scenario, &controllers),

@@ -6,7 +6,8 @@
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
 //!   router | view | replay | tap | put | keys | netem | ros2 | compare | formations | sweep-error |
-//!   sweep-seeds | icp-eval | scale | mesh | plot | credentials | fuzz | scenarios | check`).
+//!   sweep-seeds | icp-eval | scale | mesh | plot | credentials | fuzz | scenarios | check`);
+//!   `hub`, `agent`, `router` and `credentials` are `swarm-node`'s commands, flattened in.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
 //!   swarms) and a recording, applies
 //!   the kills, restarts and link faults of `[[failures]]`, stops the children at the end.
