@@ -267,14 +267,8 @@ mod tests {
         assert_eq!(err_field(&A21Params { k_alpha: -0.1, ..d.clone() }), "c.a21.k_alpha");
         assert_eq!(err_field(&A21Params { ko: f64::INFINITY, ..d.clone() }), "c.a21.ko");
         assert_eq!(err_field(&A21Params { phi_alone: 1.5, ..d.clone() }), "c.a21.phi_alone");
-        assert_eq!(
-            err_field(&A21Params { grid_resolution_m: 0.0, ..d.clone() }),
-            "c.a21.grid_resolution_m"
-        );
-        assert_eq!(
-            err_field(&A21Params { path_lookahead_m: -1.0, ..d.clone() }),
-            "c.a21.path_lookahead_m"
-        );
+        assert_eq!(err_field(&A21Params { grid_resolution_m: 0.0, ..d.clone() }), "c.a21.grid_resolution_m");
+        assert_eq!(err_field(&A21Params { path_lookahead_m: -1.0, ..d.clone() }), "c.a21.path_lookahead_m");
         // Zero gains switch a term off and are allowed.
         let off = A21Params { k_alpha: 0.0, k_beta: 0.0, kn: 0.0, ko: 0.0, ..d };
         assert_eq!(off.validate("c.a21"), Ok(()));

@@ -115,7 +115,12 @@ const BAD_FLOATS: [f64; 8] = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -1.0, 
 const BAD_INTS: [i64; 6] = [-1, 0, i64::MAX, i64::MIN, 1 << 32, 1 << 40];
 
 fn change() -> impl Strategy<Value = Change> {
-    prop_oneof![Just(Change::WrongType), any::<usize>().prop_map(Change::OutOfRange), Just(Change::Remove), Just(Change::Unknown)]
+    prop_oneof![
+        Just(Change::WrongType),
+        any::<usize>().prop_map(Change::OutOfRange),
+        Just(Change::Remove),
+        Just(Change::Unknown)
+    ]
 }
 
 /// What a change did, for the assertion on the parser's answer.
@@ -134,7 +139,9 @@ fn apply(doc: &mut Value, c: &Change, pick: usize) -> Applied {
     let eligible: Vec<Vec<Seg>> = match c {
         Change::Unknown => all.into_iter().filter(|p| p.1).map(|p| p.0).collect(),
         Change::Remove => all.into_iter().filter(|p| matches!(p.0.last(), Some(Seg::Key(_)))).map(|p| p.0).collect(),
-        Change::WrongType | Change::OutOfRange(_) => all.into_iter().filter(|p| !p.1 && !p.0.is_empty()).map(|p| p.0).collect(),
+        Change::WrongType | Change::OutOfRange(_) => {
+            all.into_iter().filter(|p| !p.1 && !p.0.is_empty()).map(|p| p.0).collect()
+        }
     };
     let Some(path) = eligible.get(pick % eligible.len().max(1)).cloned() else { return Applied::Either };
     match c {
@@ -246,7 +253,10 @@ fn edited(text: &str, edits: &[(usize, u8, u8)]) -> Vec<u8> {
 
 #[test]
 fn arbitrary_text_is_refused_with_the_file_named() {
-    let text = prop_oneof![".{0,400}", prop::collection::vec(any::<u8>(), 0..400).prop_map(|b| String::from_utf8_lossy(&b).into_owned())];
+    let text = prop_oneof![
+        ".{0,400}",
+        prop::collection::vec(any::<u8>(), 0..400).prop_map(|b| String::from_utf8_lossy(&b).into_owned())
+    ];
     fuzz("scenario parser (arbitrary text)", text, |t| check_scenario(&Scenario::from_toml_str(&t, FILE)));
 }
 
@@ -271,8 +281,18 @@ fn builtins_with_one_field_changed() {
         let r = Scenario::from_toml_str(&text, FILE);
         check_scenario(&r)?;
         if let Applied::MustFailAt(path) = applied {
-            let e = r.as_ref().err().ok_or_else(|| TestCaseError::fail(format!("{} {c:?} at {} was accepted", docs[i].0, dotted(&path))))?;
-            prop_assert!(on_path(&e.field, &path), "{} {:?} at {}: the error names another field: {}", docs[i].0, c, dotted(&path), e);
+            let e = r
+                .as_ref()
+                .err()
+                .ok_or_else(|| TestCaseError::fail(format!("{} {c:?} at {} was accepted", docs[i].0, dotted(&path))))?;
+            prop_assert!(
+                on_path(&e.field, &path),
+                "{} {:?} at {}: the error names another field: {}",
+                docs[i].0,
+                c,
+                dotted(&path),
+                e
+            );
         }
         Ok(())
     });
@@ -293,7 +313,13 @@ fn experiment_files_with_one_field_changed() {
                 prop_assert_eq!(&e.source_name, FILE);
                 prop_assert!(!e.field.is_empty() && !e.message.is_empty(), "{}", e);
                 if let Applied::MustFailAt(path) = &applied {
-                    prop_assert!(on_path(&e.field, path), "{:?} at {}: the error names another field: {}", c, dotted(path), e);
+                    prop_assert!(
+                        on_path(&e.field, path),
+                        "{:?} at {}: the error names another field: {}",
+                        c,
+                        dotted(path),
+                        e
+                    );
                 }
             }
             Ok(t) => {

@@ -368,7 +368,8 @@ mod tests {
             "reorder.gap"
         );
         assert_eq!(bad(Impairment { rate_bytes_per_s: Some(0.0), ..Impairment::IDENTITY }), "rate_bytes_per_s");
-        let reordered = Impairment { delay_s: 0.1, reorder: Some(Reorder { probability: 0.1, gap: 3 }), ..Impairment::IDENTITY };
+        let reordered =
+            Impairment { delay_s: 0.1, reorder: Some(Reorder { probability: 0.1, gap: 3 }), ..Impairment::IDENTITY };
         assert!(reordered.validate().is_ok());
         assert!(Impairment::IDENTITY.validate().is_ok());
     }

@@ -143,7 +143,11 @@ fn apart(field: &str, p: &[[f64; 2]], min_m: f64) -> Check {
             if d < min_m {
                 return Err((
                     field.into(),
-                    format!("UAVs {} and {} start {d:.2} m apart, closer than two body radii ({min_m:.2} m)", i + 1, j + 1),
+                    format!(
+                        "UAVs {} and {} start {d:.2} m apart, closer than two body radii ({min_m:.2} m)",
+                        i + 1,
+                        j + 1
+                    ),
                 ));
             }
         }
@@ -367,7 +371,13 @@ impl Scenario {
         positive("end.time_limit_s", self.end.time_limit_s)?;
         non_negative("end.hold_s", self.end.hold_s)?;
         if self.end.hold_s >= self.end.time_limit_s {
-            return Err(("end.hold_s".into(), format!("{} s: must be shorter than end.time_limit_s ({} s), or no run could end with the goal", self.end.hold_s, self.end.time_limit_s)));
+            return Err((
+                "end.hold_s".into(),
+                format!(
+                    "{} s: must be shorter than end.time_limit_s ({} s), or no run could end with the goal",
+                    self.end.hold_s, self.end.time_limit_s
+                ),
+            ));
         }
         Ok(())
     }
@@ -405,7 +415,10 @@ impl Scenario {
         if f.kind.is_link() && self.time.mode != TimeMode::Realtime {
             // Zenoh leases are wall-clock: a stall of sim seconds in lockstep would last a
             // few milliseconds of wall time, or stop the run for a tick timeout per tick.
-            return Err((format!("failures[{i}].kind"), "link faults need time.mode = \"realtime\" (Zenoh leases run on wall time)".into()));
+            return Err((
+                format!("failures[{i}].kind"),
+                "link faults need time.mode = \"realtime\" (Zenoh leases run on wall time)".into(),
+            ));
         }
         Ok(())
     }
@@ -454,7 +467,10 @@ impl Scenario {
         r.rule.validate().map_err(|e| (format!("{at}rule.{}", e.field), e.reason))?;
         if let Some(p) = &r.partition {
             if r.from != UavSet::default() || r.to != UavSet::default() {
-                return Err((format!("{at}partition"), "a partition names its nodes itself: leave `from` and `to` out".into()));
+                return Err((
+                    format!("{at}partition"),
+                    "a partition names its nodes itself: leave `from` and `to` out".into(),
+                ));
             }
             let only_hold = Impairment { hold: r.rule.hold, ..Impairment::IDENTITY };
             if r.rule != only_hold {
@@ -480,7 +496,10 @@ impl Scenario {
             for (i, f) in t.failures.iter().enumerate() {
                 self.check_failure(i, f)?;
                 if running && f.kind != FailureKind::Freeze {
-                    return Err((format!("failures[{i}].kind"), "only `freeze` can be added to a running swarm".into()));
+                    return Err((
+                        format!("failures[{i}].kind"),
+                        "only `freeze` can be added to a running swarm".into(),
+                    ));
                 }
             }
             Ok(())
@@ -589,12 +608,7 @@ impl Scenario {
 
 impl K21Params {
     fn validate(&self, at: &str) -> Check {
-        for (name, v) in [
-            ("kc", self.kc),
-            ("ks", self.ks),
-            ("ko", self.ko),
-            ("kn", self.kn),
-        ] {
+        for (name, v) in [("kc", self.kc), ("ks", self.ks), ("ko", self.ko), ("kn", self.kn)] {
             non_negative(&format!("{at}.{name}"), v)?;
         }
         non_negative(&format!("{at}.separation_all_around_m"), self.separation_all_around_m)?;
@@ -639,16 +653,25 @@ impl IcpParams {
             positive(&format!("{at}.{name}"), v)?;
         }
         if self.max_iterations == 0 || self.max_iterations > 1000 {
-            return Err((format!("{at}.max_iterations"), format!("must be between 1 and 1000, got {}", self.max_iterations)));
+            return Err((
+                format!("{at}.max_iterations"),
+                format!("must be between 1 and 1000, got {}", self.max_iterations),
+            ));
         }
         if self.grid_half_cells > 50 {
             return Err((format!("{at}.grid_half_cells"), format!("must be at most 50, got {}", self.grid_half_cells)));
         }
         if self.grid_headings == 0 || self.grid_headings > 360 {
-            return Err((format!("{at}.grid_headings"), format!("must be between 1 and 360, got {}", self.grid_headings)));
+            return Err((
+                format!("{at}.grid_headings"),
+                format!("must be between 1 and 360, got {}", self.grid_headings),
+            ));
         }
         if self.min_points < 3 {
-            return Err((format!("{at}.min_points"), "must be at least 3 (a rigid 2D transform needs 3 points)".into()));
+            return Err((
+                format!("{at}.min_points"),
+                "must be at least 3 (a rigid 2D transform needs 3 points)".into(),
+            ));
         }
         Ok(())
     }

@@ -225,10 +225,7 @@ impl M23Params {
         if !(1..=254).contains(&self.costmap_thres) {
             return Err((
                 format!("{at}.costmap_thres"),
-                format!(
-                    "must be between 1 and 254 (goals need a cost below it), got {}",
-                    self.costmap_thres
-                ),
+                format!("must be between 1 and 254 (goals need a cost below it), got {}", self.costmap_thres),
             ));
         }
         all_finite(format!("{at}.lf_offsets_m"), &self.lf_offsets_m)?;
@@ -254,11 +251,7 @@ impl M23Params {
     /// The static goal of UAV `id`: `goals[id − 1]` when given, else `swarm_goal`.
     pub fn goal_of(&self, id: u32, swarm_goal: [f64; 2]) -> [f64; 2] {
         let index = (id as usize).checked_sub(1);
-        self.goals
-            .as_ref()
-            .and_then(|g| index.and_then(|i| g.get(i)))
-            .copied()
-            .unwrap_or(swarm_goal)
+        self.goals.as_ref().and_then(|g| index.and_then(|i| g.get(i))).copied().unwrap_or(swarm_goal)
     }
 }
 
@@ -309,8 +302,7 @@ mod tests {
         assert_eq!(p.validate("controller.m23").unwrap_err().0, "controller.m23.max_time_s");
         let p = M23Params { costmap_thres: 255, ..M23Params::default() };
         assert_eq!(p.validate("c").unwrap_err().0, "c.costmap_thres");
-        let p =
-            M23Params { goals: Some(vec![[0.0, 0.0], [f64::NAN, 1.0]]), ..M23Params::default() };
+        let p = M23Params { goals: Some(vec![[0.0, 0.0], [f64::NAN, 1.0]]), ..M23Params::default() };
         assert_eq!(p.validate("c").unwrap_err().0, "c.goals[1]");
         let p = M23Params { leader_id: 0, ..M23Params::default() };
         assert_eq!(p.validate("c").unwrap_err().0, "c.leader_id");
@@ -318,8 +310,7 @@ mod tests {
 
     #[test]
     fn toml_round_trip_and_unknown_fields() {
-        let p: M23Params =
-            toml::from_str("topology = \"tnpf\"\nlf_frame = \"leader_heading\"\n").unwrap();
+        let p: M23Params = toml::from_str("topology = \"tnpf\"\nlf_frame = \"leader_heading\"\n").unwrap();
         assert_eq!((p.topology, p.lf_frame), (Topology::Tnpf, LfFrame::LeaderHeading));
         assert_eq!(p.pf_distance_m, 2.0);
         assert!(toml::from_str::<M23Params>("max_speed = 3.0\n").is_err());

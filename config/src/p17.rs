@@ -129,46 +129,26 @@ impl P17Preset {
             // seed 001 Table 1, Fig. 33: r 15, k1 10, d 8, b1 10, b2 4 (k2, c1, c2, w: X).
             P17Preset::Boids7 => P17Values { r: 15.0, k1: 10.0, d: 8.0, ..x },
             // seed 001 Table 1, Fig. 36/38: r 15, k1 10, c1 0.25, c2 1.15, d 8 (k2, w: X).
-            P17Preset::Navigation => {
-                P17Values { r: 15.0, k1: 10.0, c1: 0.25, c2: 1.15, d: 8.0, ..x }
-            }
+            P17Preset::Navigation => P17Values { r: 15.0, k1: 10.0, c1: 0.25, c2: 1.15, d: 8.0, ..x },
             // seed 001 Table 1, Fig. 40/41/44/45: r 10, k1 12.5, k2 15, c1 0.25, c2 1.15, d 8, w 6.
-            P17Preset::Cylinder => {
-                P17Values { r: 10.0, k1: 12.5, k2: 15.0, c1: 0.25, c2: 1.15, d: 8.0, w: 6.0, ..x }
-            }
+            P17Preset::Cylinder => P17Values { r: 10.0, k1: 12.5, k2: 15.0, c1: 0.25, c2: 1.15, d: 8.0, w: 6.0, ..x },
             // seed 001 Table 1, Fig. 42: r 10, k1 15, k2 12.5, c1 0.15, c2 1.05, d 8, w 6.
-            P17Preset::Wall => {
-                P17Values { r: 10.0, k1: 15.0, k2: 12.5, c1: 0.15, c2: 1.05, d: 8.0, w: 6.0, ..x }
-            }
+            P17Preset::Wall => P17Values { r: 10.0, k1: 15.0, k2: 12.5, c1: 0.15, c2: 1.05, d: 8.0, w: 6.0, ..x },
             // seed 001 Table 1, Fig. 43: r 15, k1 10, k2 17.5, c1 0.15, c2 1.05, d 8, w 8.
-            P17Preset::Wall3d => {
-                P17Values { r: 15.0, k1: 10.0, k2: 17.5, c1: 0.15, c2: 1.05, d: 8.0, w: 8.0, ..x }
-            }
+            P17Preset::Wall3d => P17Values { r: 15.0, k1: 10.0, k2: 17.5, c1: 0.15, c2: 1.05, d: 8.0, w: 8.0, ..x },
             // seed 001 Table 1, Fig. 46: r 10, k1 10, k2 17.5, c1 0.25, c2 1.15, d 8, w 6.
             P17Preset::GapFormation => {
                 P17Values { r: 10.0, k1: 10.0, k2: 17.5, c1: 0.25, c2: 1.15, d: 8.0, w: 6.0, ..x }
             }
             // seed 001 Table 1, Fig. 48–51: r 10, k1 10, k2 12.5, c1 0.15, c2 1.05, d 8, w 6.
-            P17Preset::Forest => {
-                P17Values { r: 10.0, k1: 10.0, k2: 12.5, c1: 0.15, c2: 1.05, d: 8.0, w: 6.0, ..x }
-            }
+            P17Preset::Forest => P17Values { r: 10.0, k1: 10.0, k2: 12.5, c1: 0.15, c2: 1.05, d: 8.0, w: 6.0, ..x },
             P17Preset::Forest9 => forest_9,
             // seed 001 Table 2: r 15, k1 13.5, k2 16, c1 0.2, c2 0, d 8, w 8, b1 10 (b2: X).
-            P17Preset::Deployment => P17Values {
-                r: 15.0,
-                k1: 13.5,
-                k2: 16.0,
-                c1: 0.2,
-                c2: 0.0,
-                d: 8.0,
-                w: 8.0,
-                b1: 10.0,
-                ..x
-            },
-            // seed 001 section 6.1: d = w = 8 m, loop rate 30 Hz, loop distance 2 m.
-            P17Preset::LocalizationError => {
-                P17Values { d: 8.0, w: 8.0, loop_rate_hz: 30.0, loop_distance_m: 2.0, ..x }
+            P17Preset::Deployment => {
+                P17Values { r: 15.0, k1: 13.5, k2: 16.0, c1: 0.2, c2: 0.0, d: 8.0, w: 8.0, b1: 10.0, ..x }
             }
+            // seed 001 section 6.1: d = w = 8 m, loop rate 30 Hz, loop distance 2 m.
+            P17Preset::LocalizationError => P17Values { d: 8.0, w: 8.0, loop_rate_hz: 30.0, loop_distance_m: 2.0, ..x },
         }
     }
 }
@@ -392,19 +372,7 @@ mod tests {
         ];
         for (name, r) in rows {
             let v = parse(&format!("preset = {name:?}")).values();
-            let got = [
-                v.r,
-                v.k1,
-                v.k2,
-                v.c1,
-                v.c2,
-                v.d,
-                v.w,
-                v.b1,
-                v.b2,
-                v.loop_rate_hz,
-                v.loop_distance_m,
-            ];
+            let got = [v.r, v.k1, v.k2, v.c1, v.c2, v.d, v.w, v.b1, v.b2, v.loop_rate_hz, v.loop_distance_m];
             assert_eq!(got, r, "{name}");
             assert_eq!(P17Preset::from_name(name).map(P17Preset::name), Some(name));
         }
@@ -421,10 +389,7 @@ mod tests {
         assert!(p.validate("controller.p17").is_ok());
         // The lattice set with a faster loop: boids (d 4) at 20 Hz, 0.25 m.
         let v = parse("preset = \"boids\"\nloop_rate_hz = 20.0\nloop_distance_m = 0.25\n").values();
-        assert_eq!(
-            (v.d, v.k1, v.r, v.loop_rate_hz, v.loop_distance_m),
-            (4.0, 10.0, 10.0, 20.0, 0.25)
-        );
+        assert_eq!((v.d, v.k1, v.r, v.loop_rate_hz, v.loop_distance_m), (4.0, 10.0, 10.0, 20.0, 0.25));
         // An override without a preset applies to the default.
         let v = parse("w = 5.5").values();
         assert_eq!((v.w, v.k2, v.r), (5.5, 25.0, 7.5));

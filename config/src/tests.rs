@@ -75,7 +75,8 @@ fn wrong_type_names_field() {
 
 #[test]
 fn a_controller_name_a_program_could_register_is_accepted_and_round_trips() {
-    let sc = Scenario::from_toml_str(&format!("{MINIMAL}\n[controller]\nkind = \"potential-field\"\n"), "t.toml").expect("valid");
+    let sc = Scenario::from_toml_str(&format!("{MINIMAL}\n[controller]\nkind = \"potential-field\"\n"), "t.toml")
+        .expect("valid");
     assert_eq!(sc.controller.kind, ControllerKind::Own("potential-field".into()));
     assert_eq!(sc.controller.kind.name(), "potential-field");
     let back = toml::to_string(&sc).expect("serializes");
@@ -193,7 +194,9 @@ goal = [10.0, 0.0]
     assert_eq!(e.field, "netem[0].partition", "{e}");
     let e = err(&format!("{base}[[netem]]\nfrom = [1]\npartition = {{ scheme = \"isolate\", node = 1 }}\n"));
     assert_eq!(e.field, "netem[0].partition", "{e}");
-    let e = err(&format!("{base}[[netem]]\nrule = {{ delay_s = 1.0 }}\npartition = {{ scheme = \"isolate\", node = 1 }}\n"));
+    let e = err(&format!(
+        "{base}[[netem]]\nrule = {{ delay_s = 1.0 }}\npartition = {{ scheme = \"isolate\", node = 1 }}\n"
+    ));
     assert_eq!(e.field, "netem[0].rule", "{e}");
     let e = err(&format!("{base}[radio]\ndistance_loss = {{ from_m = 12.0, at_range = 0.5 }}\n"));
     assert_eq!(e.field, "radio.distance_loss.from_m", "{e}");
@@ -232,8 +235,10 @@ fn a_moving_mission_goal_moves_from_its_start_time() {
 
 #[test]
 fn a_hold_as_long_as_the_run_is_refused_with_its_field() {
-    let ok = Scenario::from_toml_str(&format!("{MINIMAL}\n[end]\ntime_limit_s = 100.0\nhold_s = 60.0\n"), "h.toml").expect("valid");
+    let ok = Scenario::from_toml_str(&format!("{MINIMAL}\n[end]\ntime_limit_s = 100.0\nhold_s = 60.0\n"), "h.toml")
+        .expect("valid");
     assert_eq!(ok.end.hold_s, 60.0);
-    let e = Scenario::from_toml_str(&format!("{MINIMAL}\n[end]\ntime_limit_s = 100.0\nhold_s = 100.0\n"), "h.toml").expect_err("hold too long");
+    let e = Scenario::from_toml_str(&format!("{MINIMAL}\n[end]\ntime_limit_s = 100.0\nhold_s = 100.0\n"), "h.toml")
+        .expect_err("hold too long");
     assert!(e.to_string().contains("end.hold_s") && e.message.contains("time_limit_s"), "{e}");
 }

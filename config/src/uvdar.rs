@@ -102,30 +102,12 @@ impl UvdarParams {
     pub fn validate(&self, at: &str) -> Result<(), (String, String)> {
         super::positive(&format!("{at}.max_range_m"), self.max_range_m)?;
         if !(self.fov_deg.is_finite() && self.fov_deg > 0.0 && self.fov_deg <= 360.0) {
-            return Err((
-                format!("{at}.fov_deg"),
-                format!("must be in (0, 360], got {}", self.fov_deg),
-            ));
+            return Err((format!("{at}.fov_deg"), format!("must be in (0, 360], got {}", self.fov_deg)));
         }
         // A relative σ above 1 would put most draws of a near neighbour at range 0.
-        super::within(
-            &format!("{at}.range_noise_rel"),
-            self.range_noise_rel,
-            0.0,
-            1.0,
-        )?;
-        super::within(
-            &format!("{at}.bearing_noise_deg"),
-            self.bearing_noise_deg,
-            0.0,
-            180.0,
-        )?;
-        super::within(
-            &format!("{at}.detection_probability"),
-            self.detection_probability,
-            0.0,
-            1.0,
-        )?;
+        super::within(&format!("{at}.range_noise_rel"), self.range_noise_rel, 0.0, 1.0)?;
+        super::within(&format!("{at}.bearing_noise_deg"), self.bearing_noise_deg, 0.0, 180.0)?;
+        super::within(&format!("{at}.detection_probability"), self.detection_probability, 0.0, 1.0)?;
         super::non_negative(&format!("{at}.uav_radius_m"), self.uav_radius_m)?;
         Ok(())
     }
@@ -152,8 +134,7 @@ mod tests {
     fn empty_toml_gives_the_defaults_and_unknown_fields_are_rejected() {
         let p: UvdarParams = toml::from_str("").expect("empty table parses");
         assert_eq!(format!("{p:?}"), format!("{:?}", UvdarParams::default()));
-        let p: UvdarParams =
-            toml::from_str("fov_deg = 120.0\noccluded_by_uavs = false").expect("two fields parse");
+        let p: UvdarParams = toml::from_str("fov_deg = 120.0\noccluded_by_uavs = false").expect("two fields parse");
         assert_eq!(p.fov_deg, 120.0);
         assert!(!p.occluded_by_uavs);
         assert_eq!(p.max_range_m, 8.0);
@@ -176,14 +157,8 @@ mod tests {
         assert_eq!(bad(|p| p.fov_deg = f64::NAN), at("fov_deg"));
         assert_eq!(bad(|p| p.range_noise_rel = -0.01), at("range_noise_rel"));
         assert_eq!(bad(|p| p.range_noise_rel = 1.5), at("range_noise_rel"));
-        assert_eq!(
-            bad(|p| p.bearing_noise_deg = f64::NAN),
-            at("bearing_noise_deg")
-        );
-        assert_eq!(
-            bad(|p| p.detection_probability = 1.01),
-            at("detection_probability")
-        );
+        assert_eq!(bad(|p| p.bearing_noise_deg = f64::NAN), at("bearing_noise_deg"));
+        assert_eq!(bad(|p| p.detection_probability = 1.01), at("detection_probability"));
         assert_eq!(bad(|p| p.uav_radius_m = -0.1), at("uav_radius_m"));
         // Edges that are allowed: a 360° view, no noise, never detected, point-sized UAVs.
         assert_eq!(bad(|p| p.fov_deg = 360.0), None);

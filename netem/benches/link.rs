@@ -68,7 +68,9 @@ fn per_message(c: &mut Criterion) {
     g.bench_function("agent_link_no_rule_per_message", |b| {
         b.iter(|| {
             let now = tick as f64 * dt;
-            if let Verdict::DeliverAt(at) = link.on_receive_with(None, 0.0, black_box(2), now, now, dt, black_box(BYTES)) {
+            if let Verdict::DeliverAt(at) =
+                link.on_receive_with(None, 0.0, black_box(2), now, now, dt, black_box(BYTES))
+            {
                 inbox.push(at, tick);
             }
             tick += 1;

@@ -257,7 +257,6 @@ pub fn expected_loss_rate(model: &LossModel) -> f64 {
     }
 }
 
-
 /// Why a message was not delivered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum LossCause {

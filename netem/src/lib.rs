@@ -213,7 +213,8 @@ impl Link {
     /// Counts one verdict under `class` and keeps the delays it applies.
     fn account(&mut self, class: LinkClass, sent_at: f64, verdict: Verdict) {
         let c = &mut self.counters.classes[class as usize];
-        let delay = |at: f64, delays: &mut Vec<AppliedDelay>| delays.push(AppliedDelay { class, delay_s: at - sent_at });
+        let delay =
+            |at: f64, delays: &mut Vec<AppliedDelay>| delays.push(AppliedDelay { class, delay_s: at - sent_at });
         match verdict {
             Verdict::Drop => {
                 c.add(Outcome::Dropped, 1);
@@ -422,7 +423,10 @@ mod tests {
         let mut b = Link::with_seed(7, 1);
         for i in 0..100 {
             let t = f64::from(i) * 0.1;
-            assert_eq!(a.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50), b.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50));
+            assert_eq!(
+                a.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50),
+                b.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50)
+            );
         }
     }
 

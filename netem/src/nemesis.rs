@@ -81,8 +81,14 @@ pub enum NemesisKind {
 
 impl NemesisKind {
     /// The kinds whose effect is decided in sim time alone, so a lockstep run repeats.
-    pub const DETERMINISTIC: [NemesisKind; 6] =
-        [NemesisKind::Partition, NemesisKind::Loss, NemesisKind::Burst, NemesisKind::Delay, NemesisKind::Duplicate, NemesisKind::Freeze];
+    pub const DETERMINISTIC: [NemesisKind; 6] = [
+        NemesisKind::Partition,
+        NemesisKind::Loss,
+        NemesisKind::Burst,
+        NemesisKind::Delay,
+        NemesisKind::Duplicate,
+        NemesisKind::Freeze,
+    ];
 }
 
 /// One fault: what, from when, for how long.
@@ -126,7 +132,11 @@ pub fn schedule(seed: u64, spec: &ScheduleSpec) -> Vec<Fault> {
         }
         let duration_s = rng.gen_range(spec.duration_s.0..=spec.duration_s.1);
         let kind = spec.kinds[rng.gen_range(0..spec.kinds.len())];
-        faults.push(Fault { start_s: round(t), duration_s: round(duration_s), nemesis: draw(&mut rng, kind, spec.uavs) });
+        faults.push(Fault {
+            start_s: round(t),
+            duration_s: round(duration_s),
+            nemesis: draw(&mut rng, kind, spec.uavs),
+        });
         t += duration_s + rng.gen_range(1.0..10.0);
     }
     faults
@@ -165,7 +175,13 @@ fn draw(rng: &mut ChaCha8Rng, kind: NemesisKind, uavs: u32) -> Nemesis {
         }
         NemesisKind::Burst => {
             let (p, r) = (round2(rng.gen_range(0.02..0.2)), round2(rng.gen_range(0.1..0.5)));
-            link(rng, Impairment { loss: LossModel::GilbertElliott { p, r, one_minus_h: 1.0, one_minus_k: 0.0 }, ..Impairment::IDENTITY })
+            link(
+                rng,
+                Impairment {
+                    loss: LossModel::GilbertElliott { p, r, one_minus_h: 1.0, one_minus_k: 0.0 },
+                    ..Impairment::IDENTITY
+                },
+            )
         }
         NemesisKind::Delay => {
             let delay_s = round2(rng.gen_range(0.05..0.8));
@@ -220,7 +236,9 @@ impl Nemesis {
                     Partition::Halves { nodes } => Partition::Halves { nodes: keep(nodes) },
                     Partition::Bridge { nodes } => Partition::Bridge { nodes: keep(nodes) },
                     Partition::MajoritiesRing { ring } => Partition::MajoritiesRing { ring: keep(ring) },
-                    Partition::Groups { groups } => Partition::Groups { groups: groups.iter().map(keep).filter(|g| !g.is_empty()).collect() },
+                    Partition::Groups { groups } => {
+                        Partition::Groups { groups: groups.iter().map(keep).filter(|g| !g.is_empty()).collect() }
+                    }
                     Partition::Isolate { node } if *node <= uavs => Partition::Isolate { node: *node },
                     Partition::OneWay { from, to } => Partition::OneWay { from: keep(from), to: keep(to) },
                     _ => return None,
@@ -237,7 +255,9 @@ impl Nemesis {
                 }
                 Nemesis::Link { from: f, rule: rule.clone() }
             }
-            Nemesis::Freeze { uav } | Nemesis::KillRestart { uav } | Nemesis::LinkStall { uav } if *uav > uavs => return None,
+            Nemesis::Freeze { uav } | Nemesis::KillRestart { uav } | Nemesis::LinkStall { uav } if *uav > uavs => {
+                return None
+            }
             other => other.clone(),
         };
         Some(n)
@@ -251,7 +271,10 @@ impl Fault {
         let failure = |at_s, uav, kind| Failure { at_s, uav, kind };
         match &self.nemesis {
             Nemesis::Partition { partition } => (
-                vec![NetemRule::partition(start, partition.clone(), false), NetemRule::partition(stop, Partition::Healed {}, false)],
+                vec![
+                    NetemRule::partition(start, partition.clone(), false),
+                    NetemRule::partition(stop, Partition::Healed {}, false),
+                ],
                 vec![],
             ),
             Nemesis::Link { from, rule } => {
@@ -268,9 +291,10 @@ impl Fault {
             Nemesis::KillRestart { uav } => {
                 (vec![], vec![failure(start, *uav, FailureKind::Kill), failure(stop, *uav, FailureKind::Restart)])
             }
-            Nemesis::LinkStall { uav } => {
-                (vec![], vec![failure(start, *uav, FailureKind::LinkStall), failure(stop, *uav, FailureKind::LinkRestore)])
-            }
+            Nemesis::LinkStall { uav } => (
+                vec![],
+                vec![failure(start, *uav, FailureKind::LinkStall), failure(stop, *uav, FailureKind::LinkRestore)],
+            ),
         }
     }
 }
@@ -323,6 +347,9 @@ mod tests {
         assert_eq!(Nemesis::Freeze { uav: 4 }.restricted(3), None);
         let l = Nemesis::Link { from: vec![4, 5], rule: Impairment::IDENTITY };
         assert_eq!(l.restricted(3), None);
-        assert_eq!(Nemesis::Partition { partition: Partition::Isolate { node: 2 } }.restricted(2).map(|n| n.uavs()), Some(vec![2]));
+        assert_eq!(
+            Nemesis::Partition { partition: Partition::Isolate { node: 2 } }.restricted(2).map(|n| n.uavs()),
+            Some(vec![2])
+        );
     }
 }

@@ -64,7 +64,8 @@ impl Timeline {
     /// The worse class of the link between `i` and `j` at `t_secs`, over both directions (cut
     /// beats impaired beats clean): what a picture of the link shows.
     pub fn class_between(&self, t_secs: f64, i: u32, j: u32) -> crate::LinkClass {
-        let (a, b) = (crate::LinkClass::of(self.rule_at(t_secs, i, j)), crate::LinkClass::of(self.rule_at(t_secs, j, i)));
+        let (a, b) =
+            (crate::LinkClass::of(self.rule_at(t_secs, i, j)), crate::LinkClass::of(self.rule_at(t_secs, j, i)));
         if (a as u8) >= (b as u8) {
             a
         } else {
@@ -162,7 +163,12 @@ partition = { scheme = "healed" }
     fn equal_times_go_to_the_later_in_list_order_and_additions_extend_the_list() {
         let mut tl = timeline("[[netem]]\nat_s = 1.0\nrule = { delay_s = 0.1 }\n");
         let added = |delay_s| swarm_config::Timeline {
-            netem: vec![NetemRule::link(1.0, Default::default(), Default::default(), Impairment { delay_s, ..Impairment::IDENTITY })],
+            netem: vec![NetemRule::link(
+                1.0,
+                Default::default(),
+                Default::default(),
+                Impairment { delay_s, ..Impairment::IDENTITY },
+            )],
             failures: vec![Failure { at_s: 2.0, uav: 1, kind: FailureKind::Freeze }],
         };
         tl.extend(added(0.3));

@@ -43,7 +43,9 @@ impl ZenohArgs {
     /// says so in our words, and without `--user` that the hub may want a login: a `swarm run`
     /// hub refuses anyone without one, which Zenoh reports only as refused handshakes.
     pub async fn open_tool_session(&self) -> Result<zenoh::Session> {
-        let opened = swarm_wire::session::open(swarm_wire::session::Role::Client, &[], &self.connect, &self.session_cfg()?).await;
+        let opened =
+            swarm_wire::session::open(swarm_wire::session::Role::Client, &[], &self.connect, &self.session_cfg()?)
+                .await;
         opened.map_err(|e| {
             let hint = match &self.user {
                 None => "; a hub started by `swarm run` wants a login: --user observer --password-file <run folder>/credentials/observer.password",
@@ -56,7 +58,8 @@ impl ZenohArgs {
 
 /// The first line of a password file, trimmed; an empty one is an error.
 pub fn read_password(file: &std::path::Path) -> Result<String> {
-    let text = std::fs::read_to_string(file).map_err(|e| anyhow::anyhow!("cannot read password file {}: {e}", file.display()))?;
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| anyhow::anyhow!("cannot read password file {}: {e}", file.display()))?;
     let password = text.lines().next().unwrap_or_default().trim().to_string();
     anyhow::ensure!(!password.is_empty(), "password file {} is empty", file.display());
     Ok(password)
@@ -65,7 +68,10 @@ pub fn read_password(file: &std::path::Path) -> Result<String> {
 /// The `--cfg` overrides that log a client session in as `user` (Zenoh's usrpwd).
 pub fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
     let quote = |s: &str| serde_json::Value::String(s.to_string()).to_string();
-    vec![format!("transport/auth/usrpwd/user:{}", quote(user)), format!("transport/auth/usrpwd/password:{}", quote(password))]
+    vec![
+        format!("transport/auth/usrpwd/user:{}", quote(user)),
+        format!("transport/auth/usrpwd/password:{}", quote(password)),
+    ]
 }
 
 /// Seconds since the Unix epoch (run ids and study folders).
@@ -82,7 +88,8 @@ pub fn default_run_id(name: &str) -> String {
 /// `"a21"`, …); the error lists the accepted spellings.
 pub fn scenario_value<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -> Result<T> {
     use serde::de::IntoDeserializer;
-    T::deserialize(value.trim().into_deserializer()).map_err(|e: serde::de::value::Error| anyhow::anyhow!("{flag}: {e}"))
+    T::deserialize(value.trim().into_deserializer())
+        .map_err(|e: serde::de::value::Error| anyhow::anyhow!("{flag}: {e}"))
 }
 
 /// UAV ids given as ranges and lists: `1-4,7`.

@@ -142,7 +142,11 @@ impl Credentials {
     /// `users.txt` (`user:password` lines, the hub's `--users`) and `<user>.password`.
     pub fn create(dir: &Path, users: &[String]) -> Result<Credentials> {
         use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
-        std::fs::DirBuilder::new().recursive(true).mode(0o700).create(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o700)
+            .create(dir)
+            .with_context(|| format!("cannot create {}", dir.display()))?;
         std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
         let creds = Credentials { dir: dir.to_path_buf() };
         let mut dictionary = String::new();
@@ -171,7 +175,10 @@ impl Credentials {
     /// agents log in as that user.
     pub fn dictionary_of(&self, user: &str) -> Result<PathBuf> {
         let all = std::fs::read_to_string(self.dictionary())?;
-        let line = all.lines().find(|l| l.split_once(':').is_some_and(|(u, _)| u == user)).with_context(|| format!("no user {user:?} in {}", self.dictionary().display()))?;
+        let line = all
+            .lines()
+            .find(|l| l.split_once(':').is_some_and(|(u, _)| u == user))
+            .with_context(|| format!("no user {user:?} in {}", self.dictionary().display()))?;
         let path = self.dir.join(format!("users-{user}.txt"));
         write_private(&path, &format!("{line}\n"))?;
         Ok(path)
@@ -194,7 +201,9 @@ impl Credentials {
 fn random_password() -> Result<String> {
     use std::io::Read;
     let mut bytes = [0u8; 16];
-    std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut bytes)).context("cannot read /dev/urandom")?;
+    std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| f.read_exact(&mut bytes))
+        .context("cannot read /dev/urandom")?;
     Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())
 }
 
@@ -258,11 +267,21 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
         rule("agent-sub", "ingress", &["declare_subscriber"], agent_common_keys(&r)),
         rule("agent-data", "egress", &["put"], agent_common_keys(&r)),
         // Bounded by each agent's own ingress list, as the sensors (see the module doc).
-        rule("agent-sensors-out", "egress", &["put"], vec![format!("{r}/uav/*/sense/**"), format!("{r}/radio/*"), format!("{r}/uav/*/ext/cmd")]),
+        rule(
+            "agent-sensors-out",
+            "egress",
+            &["put"],
+            vec![format!("{r}/uav/*/sense/**"), format!("{r}/radio/*"), format!("{r}/uav/*/ext/cmd")],
+        ),
         rule("agent-ext-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
         rule("agent-ask", "ingress", &["query"], vec![format!("{r}/scenario")]),
         rule("agent-answer", "egress", &["reply"], vec![format!("{r}/scenario")]),
-        rule("agent-hub-watch", "ingress", &["declare_liveliness_subscriber", "liveliness_query"], vec![format!("{r}/alive/hub")]),
+        rule(
+            "agent-hub-watch",
+            "ingress",
+            &["declare_liveliness_subscriber", "liveliness_query"],
+            vec![format!("{r}/alive/hub")],
+        ),
         rule("agent-hub-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/hub")]),
         // External controllers: their view, bounded by each one's own ingress list.
         rule("ext-view-out", "egress", &["put"], vec![format!("{r}/uav/*/ext/view")]),
@@ -278,35 +297,75 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
         let subject = format!("user{n}");
         subjects.push(json!({ "id": subject, "usernames": [user] }));
         let granted: Vec<String> = match Role::of(user)? {
-            Role::Bridge => {
-                ["decl-out", "observe-in", "observe-out", "bridge-ext-in", "bridge-ext-token", "bridge-ros-pub", "bridge-ros-sub", "bridge-ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
-                    .map(String::from)
-                    .to_vec()
-            }
+            Role::Bridge => [
+                "decl-out",
+                "observe-in",
+                "observe-out",
+                "bridge-ext-in",
+                "bridge-ext-token",
+                "bridge-ros-pub",
+                "bridge-ros-sub",
+                "bridge-ros-out",
+                "ros-graph-in",
+                "ros-graph-out",
+                "ros-decl-out",
+            ]
+            .map(String::from)
+            .to_vec(),
             Role::Ros => ["ros-in", "ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
                 .into_iter()
                 .chain((!external.is_empty()).then_some("ros-cmd"))
                 .map(String::from)
                 .collect(),
-            Role::Observer => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token"].map(String::from).to_vec(),
-            Role::Operator => ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token", "operate"].map(String::from).to_vec(),
+            Role::Observer => {
+                ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token"]
+                    .map(String::from)
+                    .to_vec()
+            }
+            Role::Operator => [
+                "decl-out",
+                "observe-in",
+                "observe-out",
+                "observe-admin-in",
+                "observe-admin-out",
+                "recorder-token",
+                "operate",
+            ]
+            .map(String::from)
+            .to_vec(),
             Role::External(id) => {
                 rules.extend(external_rules(&r, &subject, id));
-                ["decl-out", "ext-view-out", "agent-hub-watch", "agent-hub-token"].iter().map(|s| s.to_string()).chain(["sub", "pub", "token"].map(|k| format!("{subject}-ext-{k}"))).collect()
+                ["decl-out", "ext-view-out", "agent-hub-watch", "agent-hub-token"]
+                    .iter()
+                    .map(|s| s.to_string())
+                    .chain(["sub", "pub", "token"].map(|k| format!("{subject}-ext-{k}")))
+                    .collect()
             }
             Role::Agents(ids) => {
                 rules.extend(own_rules(&r, &subject, &ids));
                 let own = ["own-sub", "own-pub", "own-token", "own-ext-watch"].map(|k| format!("{subject}-{k}"));
-                ["decl-out", "agent-sub", "agent-data", "agent-sensors-out", "agent-ext-token", "agent-ask", "agent-answer", "agent-hub-watch", "agent-hub-token"]
-                    .iter()
-                    .map(|s| s.to_string())
-                    .chain(own)
-                    .collect()
+                [
+                    "decl-out",
+                    "agent-sub",
+                    "agent-data",
+                    "agent-sensors-out",
+                    "agent-ext-token",
+                    "agent-ask",
+                    "agent-answer",
+                    "agent-hub-watch",
+                    "agent-hub-token",
+                ]
+                .iter()
+                .map(|s| s.to_string())
+                .chain(own)
+                .collect()
             }
         };
         policies.push(json!({ "id": format!("{subject}-policy"), "rules": granted, "subjects": [subject] }));
     }
-    Ok(json!({ "enabled": true, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies }))
+    Ok(
+        json!({ "enabled": true, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies }),
+    )
 }
 
 /// The ROS 2 side: the bridge (`swarm ros2`) and ROS machines. A ROS key starts with its
@@ -326,7 +385,12 @@ fn ros_rules(r: &str, external: &[u32]) -> Vec<Value> {
         rule("ros-out", "egress", &["put"], topics.clone()),
         rule("ros-graph-in", "ingress", &token_read, graph.clone()),
         rule("ros-graph-out", "egress", &["liveliness_token", "reply"], graph),
-        rule("ros-decl-out", "egress", &["declare_subscriber"], topics.into_iter().chain(["*/*/cmd_vel/**".to_string()]).collect()),
+        rule(
+            "ros-decl-out",
+            "egress",
+            &["declare_subscriber"],
+            topics.into_iter().chain(["*/*/cmd_vel/**".to_string()]).collect(),
+        ),
     ];
     if !cmd_vel.is_empty() {
         rules.push(rule("ros-cmd", "ingress", &["put"], cmd_vel));
@@ -343,9 +407,15 @@ fn agent_common_keys(r: &str) -> Vec<String> {
 /// sensors and radio, their own command, shares and state out, their own liveliness tokens.
 fn own_rules(r: &str, subject: &str, ids: &[u32]) -> Vec<Value> {
     let keys = |f: &dyn Fn(u32) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
-    let sensors = keys(&|i| vec![format!("{r}/uav/{i}/sense/**"), format!("{r}/radio/{i}"), format!("{r}/uav/{i}/ext/cmd")]);
+    let sensors =
+        keys(&|i| vec![format!("{r}/uav/{i}/sense/**"), format!("{r}/radio/{i}"), format!("{r}/uav/{i}/ext/cmd")]);
     let out = keys(&|i| {
-        vec![format!("{r}/uav/{i}/cmd"), format!("{r}/uav/{i}/share/**"), format!("{r}/uav/{i}/state"), format!("{r}/uav/{i}/ext/view")]
+        vec![
+            format!("{r}/uav/{i}/cmd"),
+            format!("{r}/uav/{i}/share/**"),
+            format!("{r}/uav/{i}/state"),
+            format!("{r}/uav/{i}/ext/view"),
+        ]
     });
     let tokens = keys(&|i| vec![format!("{r}/alive/uav/{i}")]);
     let ext_tokens = keys(&|i| vec![format!("{r}/alive/ext/{i}")]);
@@ -353,7 +423,12 @@ fn own_rules(r: &str, subject: &str, ids: &[u32]) -> Vec<Value> {
         rule(&format!("{subject}-own-sub"), "ingress", &["declare_subscriber"], sensors),
         rule(&format!("{subject}-own-pub"), "ingress", &["put"], out),
         rule(&format!("{subject}-own-token"), "ingress", &["liveliness_token"], tokens),
-        rule(&format!("{subject}-own-ext-watch"), "ingress", &["declare_liveliness_subscriber", "liveliness_query"], ext_tokens),
+        rule(
+            &format!("{subject}-own-ext-watch"),
+            "ingress",
+            &["declare_liveliness_subscriber", "liveliness_query"],
+            ext_tokens,
+        ),
     ]
 }
 

@@ -4,9 +4,9 @@
 //! computer or a container (docs/hosts-and-containers.md). It knows the built-in controllers
 //! only; a program with controllers of its own is its own agent binary (docs/own-controller.md).
 
+use crate::{auth, pieces, process, router};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
-use crate::{auth, pieces, process, router};
 use uav_agent::Controllers;
 
 /// The hub, an agent or agent host, or a router of a Zenoh-networked UAV swarm.

@@ -101,7 +101,8 @@ pub async fn shutdown_signal(watch_stdin: bool) {
 pub async fn hub(a: HubArgs) -> Result<ExitCode> {
     let name = a.scenario.as_deref().unwrap_or(swarm_config::DEFAULT_SCENARIO);
     let (sc, text) = Scenario::from_arg(name)?;
-    let listen = if a.zenoh.listen.is_empty() { vec!["tcp/127.0.0.1:7447".to_string()] } else { a.zenoh.listen.clone() };
+    let listen =
+        if a.zenoh.listen.is_empty() { vec!["tcp/127.0.0.1:7447".to_string()] } else { a.zenoh.listen.clone() };
     let mut zenoh_cfg = match &a.users {
         Some(dictionary) => crate::auth::router_cfg(&a.run, dictionary, &sc.controller.external)?,
         None => {
@@ -183,6 +184,11 @@ async fn agent_host(a: AgentArgs, scenario: Option<Scenario>, controllers: Contr
             Err(e) => failed.push(format!("UAV {id}: {e}")),
         }
     }
-    anyhow::ensure!(failed.is_empty(), "{} of the {n} agents of this host failed:\n  {}", failed.len(), failed.join("\n  "));
+    anyhow::ensure!(
+        failed.is_empty(),
+        "{} of the {n} agents of this host failed:\n  {}",
+        failed.len(),
+        failed.join("\n  ")
+    );
     Ok(ExitCode::SUCCESS)
 }

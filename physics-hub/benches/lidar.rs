@@ -39,11 +39,7 @@ fn forest(n: usize, seed: u64) -> (World, Vec<[f64; 3]>) {
     let world = World::new(trees, vec![]);
     let mut poses = Vec::with_capacity(256);
     while poses.len() < 256 {
-        let p = [
-            rng.gen_range(0.0..side),
-            rng.gen_range(0.0..side),
-            rng.gen_range(0.0..TAU),
-        ];
+        let p = [rng.gen_range(0.0..side), rng.gen_range(0.0..side), rng.gen_range(0.0..TAU)];
         if world.clearance([p[0], p[1]]) >= 0.3 {
             poses.push(p);
         }
@@ -54,16 +50,8 @@ fn forest(n: usize, seed: u64) -> (World, Vec<[f64; 3]>) {
 fn bench_scan(c: &mut Criterion) {
     let mut group = c.benchmark_group("lidar");
     group.throughput(Throughput::Elements(u64::from(BEAMS)));
-    let noisy = swarm_config::Lidar {
-        beams: BEAMS,
-        max_range_m: RANGE_M,
-        noise_std_m: 0.02,
-        dropout: 0.0,
-    };
-    let clean = swarm_config::Lidar {
-        noise_std_m: 0.0,
-        ..noisy.clone()
-    };
+    let noisy = swarm_config::Lidar { beams: BEAMS, max_range_m: RANGE_M, noise_std_m: 0.02, dropout: 0.0 };
+    let clean = swarm_config::Lidar { noise_std_m: 0.0, ..noisy.clone() };
 
     for (n, spec, name) in [
         (1000, &noisy, "scan_750b_12m_1000trees"),
@@ -78,14 +66,7 @@ fn bench_scan(c: &mut Criterion) {
             b.iter(|| {
                 let pose = poses[k % poses.len()];
                 k += 1;
-                scan(
-                    black_box(&world),
-                    black_box(pose),
-                    &[],
-                    spec,
-                    &mut rng,
-                    &mut out,
-                );
+                scan(black_box(&world), black_box(pose), &[], spec, &mut rng, &mut out);
                 black_box(&out);
             })
         });
@@ -100,10 +81,7 @@ fn bench_scan(c: &mut Criterion) {
             let mut hits = 0u32;
             for i in 0..BEAMS {
                 let a = pose[2] + f64::from(i) * TAU / f64::from(BEAMS);
-                if world
-                    .cast_ray([pose[0], pose[1]], [a.cos(), a.sin()], RANGE_M)
-                    .is_some()
-                {
+                if world.cast_ray([pose[0], pose[1]], [a.cos(), a.sin()], RANGE_M).is_some() {
                     hits += 1;
                 }
             }

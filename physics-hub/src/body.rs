@@ -137,7 +137,10 @@ mod tests {
         for a in [-10.0, -3.2, 0.0, 3.2, 7.0, 100.0] {
             let w = wrap_angle(a);
             assert!(w > -std::f64::consts::PI - 1e-12 && w <= std::f64::consts::PI + 1e-12);
-            assert!(((w - a) / std::f64::consts::TAU).fract().abs() < 1e-9 || ((w - a) / std::f64::consts::TAU).fract().abs() > 1.0 - 1e-9);
+            assert!(
+                ((w - a) / std::f64::consts::TAU).fract().abs() < 1e-9
+                    || ((w - a) / std::f64::consts::TAU).fract().abs() > 1.0 - 1e-9
+            );
         }
     }
 }

@@ -77,12 +77,19 @@ pub fn start_in_obstacle(sc: &Scenario) -> Option<(u32, String)> {
         }
         // The trunk that gives this clearance (none: a wall does).
         let surface = |t: &&Tree| (t.x - p[0]).hypot(t.y - p[1]) - t.r;
-        let tree = world.trees().iter().filter(|t| surface(t) <= clear + 1e-9).min_by(|a, b| surface(a).total_cmp(&surface(b)));
+        let tree = world
+            .trees()
+            .iter()
+            .filter(|t| surface(t) <= clear + 1e-9)
+            .min_by(|a, b| surface(a).total_cmp(&surface(b)));
         let what = match tree {
             Some(t) => format!("{clear:.2} m from the tree at ({:.2}, {:.2}), r {:.2} m", t.x, t.y, t.r),
             None => format!("{clear:.2} m from a wall"),
         };
-        return Some((i as u32 + 1, format!("starts at ({:.2}, {:.2}), {what}; its body needs {body:.2} m", p[0], p[1])));
+        return Some((
+            i as u32 + 1,
+            format!("starts at ({:.2}, {:.2}), {what}; its body needs {body:.2} m", p[0], p[1]),
+        ));
     }
     None
 }

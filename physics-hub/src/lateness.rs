@@ -97,6 +97,9 @@ mod tests {
         }
         let late = l.command(3, t0 + ms(10 * (KEPT_TICKS as u64 + 10))).expect("long closed");
         // Ticks 0..=9 are forgotten; the oldest kept close is tick 10's, at 100 ms.
-        assert!((late - (10.0 * (KEPT_TICKS as f32 + 10.0) - 100.0)).abs() < 0.01, "lower bound from tick 10's close: {late}");
+        assert!(
+            (late - (10.0 * (KEPT_TICKS as f32 + 10.0) - 100.0)).abs() < 0.01,
+            "lower bound from tick 10's close: {late}"
+        );
     }
 }

@@ -53,16 +53,11 @@ pub fn scan(
         let raster = Raster::new(pose, beams, max_range);
         if max_range.is_finite() {
             let (x, y) = (pose[0], pose[1]);
-            world.for_each_in_box(
-                [x - max_range, y - max_range],
-                [x + max_range, y + max_range],
-                |o| raster.obstacle(o, out),
-            );
+            world.for_each_in_box([x - max_range, y - max_range], [x + max_range, y + max_range], |o| {
+                raster.obstacle(o, out)
+            });
         } else {
-            world
-                .obstacles()
-                .iter()
-                .for_each(|o| raster.obstacle(o, out));
+            world.obstacles().iter().for_each(|o| raster.obstacle(o, out));
         }
         for other in others {
             raster.circle([other[0], other[1]], other[2].max(0.0), out);
@@ -92,11 +87,7 @@ fn apply_noise_and_dropout(spec: &swarm_config::Lidar, rng: &mut impl rand::Rng,
     }
     for range in out.iter_mut() {
         let dropped = draw_drop && rng.gen::<f64>() < p_drop;
-        let noise = if draw_noise {
-            sigma * rng.sample::<f64, _>(StandardNormal)
-        } else {
-            0.0
-        };
+        let noise = if draw_noise { sigma * rng.sample::<f64, _>(StandardNormal) } else { 0.0 };
         if dropped {
             *range = f32::INFINITY;
         } else if range.is_finite() {
@@ -126,15 +117,7 @@ impl Raster {
     fn new(pose: [f64; 3], beams: usize, max_range: f64) -> Raster {
         let step = TAU / beams as f64;
         let (step_sin, step_cos) = step.sin_cos();
-        Raster {
-            origin: [pose[0], pose[1]],
-            yaw: pose[2],
-            beams,
-            step,
-            step_cos,
-            step_sin,
-            max_range,
-        }
+        Raster { origin: [pose[0], pose[1]], yaw: pose[2], beams, step, step_cos, step_sin, max_range }
     }
 
     /// Rasterises one world obstacle.
@@ -161,9 +144,7 @@ impl Raster {
         let centre = dy.atan2(dx);
         let half = (r / dist).min(1.0).asin();
         let origin = self.origin;
-        self.beams_between(centre - half, centre + half, out, |dir| {
-            ray_circle(origin, dir, c, r)
-        });
+        self.beams_between(centre - half, centre + half, out, |dir| ray_circle(origin, dir, c, r));
     }
 
     /// Rasterises a solid rectangle (a wall).
@@ -206,13 +187,7 @@ impl Raster {
     /// Runs `hit` on every beam whose world angle lies in `[lo, hi]` (widened by one beam each
     /// side), keeping the nearest hit within range per beam.
     #[inline]
-    fn beams_between(
-        &self,
-        lo: f64,
-        hi: f64,
-        out: &mut [f32],
-        hit: impl Fn([f64; 2]) -> Option<f64>,
-    ) {
+    fn beams_between(&self, lo: f64, hi: f64, out: &mut [f32], hit: impl Fn([f64; 2]) -> Option<f64>) {
         let beams = self.beams as i64;
         let mut first = ((lo - self.yaw) / self.step).ceil() as i64 - 1;
         let last = ((hi - self.yaw) / self.step).floor() as i64 + 1;
@@ -238,10 +213,7 @@ impl Raster {
                 }
             }
             // Next beam direction: rotate by `step` (drift over 750 beams is ~1e-13 rad).
-            (cos, sin) = (
-                cos * self.step_cos - sin * self.step_sin,
-                sin * self.step_cos + cos * self.step_sin,
-            );
+            (cos, sin) = (cos * self.step_cos - sin * self.step_sin, sin * self.step_cos + cos * self.step_sin);
             idx += 1;
             if idx == self.beams {
                 idx = 0;
@@ -249,7 +221,6 @@ impl Raster {
         }
     }
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -261,21 +232,10 @@ mod tests {
     use std::f64::consts::{FRAC_PI_4, SQRT_2};
 
     fn spec(beams: u32, max_range_m: f64) -> swarm_config::Lidar {
-        swarm_config::Lidar {
-            beams,
-            max_range_m,
-            noise_std_m: 0.0,
-            dropout: 0.0,
-        }
+        swarm_config::Lidar { beams, max_range_m, noise_std_m: 0.0, dropout: 0.0 }
     }
 
-
-    fn run(
-        world: &World,
-        pose: [f64; 3],
-        others: &[[f64; 3]],
-        s: &swarm_config::Lidar,
-    ) -> Vec<f32> {
+    fn run(world: &World, pose: [f64; 3], others: &[[f64; 3]], s: &swarm_config::Lidar) -> Vec<f32> {
         let mut rng = ChaCha8Rng::seed_from_u64(0);
         let mut out = Vec::new();
         scan(world, pose, others, s, &mut rng, &mut out);
@@ -325,34 +285,17 @@ mod tests {
     fn ref_ray_wall(o: [f64; 2], d: [f64; 2], w: &swarm_config::Wall, eps: f64) -> f64 {
         let (dx, dy) = (w.x2 - w.x1, w.y2 - w.y1);
         let len = (dx * dx + dy * dy).sqrt();
-        let u = if len > 0.0 {
-            [dx / len, dy / len]
-        } else {
-            [1.0, 0.0]
-        };
+        let u = if len > 0.0 { [dx / len, dy / len] } else { [1.0, 0.0] };
         let v = [-u[1], u[0]];
-        let (hx, hy) = (
-            (0.5 * len + eps).max(0.0),
-            (0.5 * w.thickness + eps).max(0.0),
-        );
+        let (hx, hy) = ((0.5 * len + eps).max(0.0), (0.5 * w.thickness + eps).max(0.0));
         let c = [0.5 * (w.x1 + w.x2), 0.5 * (w.y1 + w.y2)];
-        let (lx, ly) = (
-            (o[0] - c[0]) * u[0] + (o[1] - c[1]) * u[1],
-            (o[0] - c[0]) * v[0] + (o[1] - c[1]) * v[1],
-        );
+        let (lx, ly) = ((o[0] - c[0]) * u[0] + (o[1] - c[1]) * u[1], (o[0] - c[0]) * v[0] + (o[1] - c[1]) * v[1]);
         if lx.abs() <= hx && ly.abs() <= hy {
             return 0.0;
         }
-        let k = |sx: f64, sy: f64| {
-            [
-                c[0] + sx * hx * u[0] + sy * hy * v[0],
-                c[1] + sx * hx * u[1] + sy * hy * v[1],
-            ]
-        };
+        let k = |sx: f64, sy: f64| [c[0] + sx * hx * u[0] + sy * hy * v[0], c[1] + sx * hx * u[1] + sy * hy * v[1]];
         let ks = [k(1.0, 1.0), k(-1.0, 1.0), k(-1.0, -1.0), k(1.0, -1.0)];
-        (0..4)
-            .map(|i| ref_ray_segment(o, d, ks[i], ks[(i + 1) % 4]))
-            .fold(f64::INFINITY, f64::min)
+        (0..4).map(|i| ref_ray_segment(o, d, ks[i], ks[(i + 1) % 4])).fold(f64::INFINITY, f64::min)
     }
 
     /// Brute-force scan: every beam against every tree, wall and other UAV, obstacles grown by
@@ -374,11 +317,7 @@ mod tests {
                     .iter()
                     .map(|t| ref_ray_disc(o, d, [t.x, t.y], (t.r + eps).max(0.0)))
                     .chain(world.walls().iter().map(|w| ref_ray_wall(o, d, w, eps)))
-                    .chain(
-                        others
-                            .iter()
-                            .map(|u| ref_ray_disc(o, d, [u[0], u[1]], (u[2] + eps).max(0.0))),
-                    )
+                    .chain(others.iter().map(|u| ref_ray_disc(o, d, [u[0], u[1]], (u[2] + eps).max(0.0))))
                     .fold(f64::INFINITY, f64::min);
                 if t <= s.max_range_m {
                     t
@@ -414,10 +353,7 @@ mod tests {
                 grown[i].is_finite() && f >= grown[i] - tol && f <= shrunk[i] + tol
             };
             if !ok {
-                return Err(format!(
-                    "beam {i} at pose {pose:?}: fast {f}, reference in [{}, {}]",
-                    grown[i], shrunk[i]
-                ));
+                return Err(format!("beam {i} at pose {pose:?}: fast {f}, reference in [{}, {}]", grown[i], shrunk[i]));
             }
         }
         Ok(())
@@ -425,15 +361,8 @@ mod tests {
 
     fn forest(rng: &mut ChaCha8Rng, n: usize) -> (World, f64) {
         let side = (n as f64 / 0.05).sqrt();
-        let trees = (0..n)
-            .map(|_| {
-                tree(
-                    rng.gen_range(0.0..side),
-                    rng.gen_range(0.0..side),
-                    rng.gen_range(0.1..0.4),
-                )
-            })
-            .collect();
+        let trees =
+            (0..n).map(|_| tree(rng.gen_range(0.0..side), rng.gen_range(0.0..side), rng.gen_range(0.1..0.4))).collect();
         (World::new(trees, vec![]), side)
     }
 
@@ -460,23 +389,12 @@ mod tests {
         // Disc at (4, 3), r = 1: the 45° ray (s, s) enters it at (3, 3), distance 3√2.
         let w = World::new(vec![tree(4.0, 3.0, 1.0)], vec![]);
         let out = run(&w, [0.0, 0.0, 0.0], &[], &spec(8, 12.0));
-        assert!(
-            (f64::from(out[1]) - 3.0 * SQRT_2).abs() < 1e-6,
-            "{}",
-            out[1]
-        );
+        assert!((f64::from(out[1]) - 3.0 * SQRT_2).abs() < 1e-6, "{}", out[1]);
         // And with many beams the 45° beam (index beams/8) matches the analytic distance.
         let out = run(&w, [0.0, 0.0, 0.0], &[], &spec(720, 12.0));
-        assert!(
-            (f64::from(out[90]) - 3.0 * SQRT_2).abs() < 1e-6,
-            "{}",
-            out[90]
-        );
+        assert!((f64::from(out[90]) - 3.0 * SQRT_2).abs() < 1e-6, "{}", out[90]);
         // A tree centred exactly on the 45° bearing: d − r.
-        let w = World::new(
-            vec![tree(5.0 * FRAC_PI_4.cos(), 5.0 * FRAC_PI_4.sin(), 0.3)],
-            vec![],
-        );
+        let w = World::new(vec![tree(5.0 * FRAC_PI_4.cos(), 5.0 * FRAC_PI_4.sin(), 0.3)], vec![]);
         let out = run(&w, [0.0, 0.0, 0.0], &[], &spec(8, 12.0));
         assert!((f64::from(out[1]) - 4.7).abs() < 1e-6, "{}", out[1]);
     }
@@ -489,20 +407,9 @@ mod tests {
         let walls = random_walls(&mut rng, 20, side, 10.0);
         w = World::new(w.trees().to_vec(), walls);
         for _ in 0..20 {
-            let pose = [
-                rng.gen_range(0.0..side),
-                rng.gen_range(0.0..side),
-                rng.gen_range(-10.0..10.0),
-            ];
-            let others: Vec<[f64; 3]> = (0..3)
-                .map(|_| {
-                    [
-                        pose[0] + rng.gen_range(-6.0..6.0),
-                        pose[1] + rng.gen_range(-6.0..6.0),
-                        0.3,
-                    ]
-                })
-                .collect();
+            let pose = [rng.gen_range(0.0..side), rng.gen_range(0.0..side), rng.gen_range(-10.0..10.0)];
+            let others: Vec<[f64; 3]> =
+                (0..3).map(|_| [pose[0] + rng.gen_range(-6.0..6.0), pose[1] + rng.gen_range(-6.0..6.0), 0.3]).collect();
             if let Err(e) = check_against_reference(&w, pose, &others, &spec(750, 12.0), 1e-3) {
                 panic!("{e}");
             }
@@ -512,11 +419,7 @@ mod tests {
     #[test]
     fn yaw_rotates_the_scan_by_whole_beams() {
         let w = World::new(
-            vec![
-                tree(3.0, 0.5, 0.3),
-                tree(-2.0, 4.0, 0.4),
-                tree(0.7, -5.0, 0.2),
-            ],
+            vec![tree(3.0, 0.5, 0.3), tree(-2.0, 4.0, 0.4), tree(0.7, -5.0, 0.2)],
             vec![wall(-6.0, -6.0, -6.0, 6.0, 0.2)],
         );
         let s = spec(360, 12.0);
@@ -541,62 +444,35 @@ mod tests {
         let seen = out.iter().filter(|r| r.is_finite()).count();
         // asin(0.3 / 3) ≈ 5.7° each side: about 11 beams.
         assert!((9..=13).contains(&seen), "{seen}");
-        assert!(run(&w, [1.0, 1.0, 0.0], &[], &s)
-            .iter()
-            .all(|r| r.is_infinite()));
+        assert!(run(&w, [1.0, 1.0, 0.0], &[], &s).iter().all(|r| r.is_infinite()));
     }
 
     #[test]
     fn beyond_max_range_is_infinite() {
-        let w = World::new(
-            vec![tree(13.0, 0.0, 0.5)],
-            vec![wall(0.0, 20.0, 5.0, 20.0, 0.2)],
-        );
-        assert!(run(&w, [0.0, 0.0, 0.0], &[], &spec(750, 12.0))
-            .iter()
-            .all(|r| r.is_infinite()));
+        let w = World::new(vec![tree(13.0, 0.0, 0.5)], vec![wall(0.0, 20.0, 5.0, 20.0, 0.2)]);
+        assert!(run(&w, [0.0, 0.0, 0.0], &[], &spec(750, 12.0)).iter().all(|r| r.is_infinite()));
         // A hit just inside the max range counts (beam directions carry ~1e-13 rad of rounding,
         // so "exactly at max range" is decided to within that).
-        assert_eq!(
-            run(&w, [0.0, 0.0, 0.0], &[], &spec(750, 12.5 + 1e-9))[0],
-            12.5
-        );
-        assert!(run(&w, [0.0, 0.0, 0.0], &[], &spec(750, 12.5 - 1e-9))
-            .iter()
-            .all(|r| r.is_infinite()));
+        assert_eq!(run(&w, [0.0, 0.0, 0.0], &[], &spec(750, 12.5 + 1e-9))[0], 12.5);
+        assert!(run(&w, [0.0, 0.0, 0.0], &[], &spec(750, 12.5 - 1e-9)).iter().all(|r| r.is_infinite()));
     }
 
     #[test]
     fn dropout_one_gives_all_infinite() {
         let w = World::new(vec![tree(2.0, 0.0, 0.5), tree(0.0, 2.0, 0.5)], vec![]);
-        let s = swarm_config::Lidar {
-            beams: 750,
-            max_range_m: 12.0,
-            noise_std_m: 0.02,
-            dropout: 1.0,
-        };
-        assert!(run(&w, [0.0, 0.0, 0.0], &[], &s)
-            .iter()
-            .all(|r| *r == f32::INFINITY));
+        let s = swarm_config::Lidar { beams: 750, max_range_m: 12.0, noise_std_m: 0.02, dropout: 1.0 };
+        assert!(run(&w, [0.0, 0.0, 0.0], &[], &s).iter().all(|r| *r == f32::INFINITY));
     }
 
     #[test]
     fn origin_inside_a_tree_reads_zero() {
         let w = World::new(vec![tree(0.1, 0.0, 0.5), tree(3.0, 0.0, 0.5)], vec![]);
-        assert!(run(&w, [0.0, 0.0, 1.0], &[], &spec(750, 12.0))
-            .iter()
-            .all(|r| *r == 0.0));
+        assert!(run(&w, [0.0, 0.0, 1.0], &[], &spec(750, 12.0)).iter().all(|r| *r == 0.0));
         // Inside a wall too, and inside another UAV.
         let w = World::new(vec![], vec![wall(-1.0, 0.0, 1.0, 0.0, 0.2)]);
-        assert!(run(&w, [0.0, 0.05, 0.0], &[], &spec(100, 12.0))
-            .iter()
-            .all(|r| *r == 0.0));
+        assert!(run(&w, [0.0, 0.05, 0.0], &[], &spec(100, 12.0)).iter().all(|r| *r == 0.0));
         let w = World::new(vec![], vec![]);
-        assert!(
-            run(&w, [0.0, 0.0, 0.0], &[[0.1, 0.0, 0.3]], &spec(100, 12.0))
-                .iter()
-                .all(|r| *r == 0.0)
-        );
+        assert!(run(&w, [0.0, 0.0, 0.0], &[[0.1, 0.0, 0.3]], &spec(100, 12.0)).iter().all(|r| *r == 0.0));
     }
 
     #[test]
@@ -609,84 +485,40 @@ mod tests {
             let a = i as f64 * TAU / 360.0;
             let (c, sn) = (a.cos(), a.sin());
             // Expected: the near face x = 3.9 if the crossing lies within |y| ≤ 3.
-            let expected = if c > 0.0 && (3.9 * sn / c).abs() <= 3.0 {
-                3.9 / c
-            } else {
-                f64::INFINITY
-            };
+            let expected = if c > 0.0 && (3.9 * sn / c).abs() <= 3.0 { 3.9 / c } else { f64::INFINITY };
             if expected.is_finite() {
-                assert!(
-                    (f64::from(r) - expected).abs() < 1e-5,
-                    "beam {i}: {r} vs {expected}"
-                );
+                assert!((f64::from(r) - expected).abs() < 1e-5, "beam {i}: {r} vs {expected}");
             } else {
                 // The end faces at y = ±3 can be hit by beams just past the corners.
-                assert!(
-                    r.is_infinite() || (f64::from(r) * sn).abs() >= 2.999,
-                    "beam {i}: {r}"
-                );
+                assert!(r.is_infinite() || (f64::from(r) * sn).abs() >= 2.999, "beam {i}: {r}");
             }
         }
         assert!((out[0] - 3.9).abs() < 1e-6);
         // A diagonal wall, seen from its side, and its flat end face seen along its axis.
         let w = World::new(vec![], vec![wall(2.0, -2.0, -2.0, 2.0, 0.4)]);
         let out = run(&w, [-1.0, -1.0, FRAC_PI_4], &[], &spec(8, 12.0));
-        assert!(
-            (f64::from(out[0]) - (SQRT_2 - 0.2)).abs() < 1e-6,
-            "{}",
-            out[0]
-        );
+        assert!((f64::from(out[0]) - (SQRT_2 - 0.2)).abs() < 1e-6, "{}", out[0]);
         let along = run(&w, [4.0, -4.0, 3.0 * FRAC_PI_4], &[], &spec(8, 12.0));
-        assert!(
-            (f64::from(along[0]) - 2.0 * SQRT_2).abs() < 1e-6,
-            "{}",
-            along[0]
-        );
+        assert!((f64::from(along[0]) - 2.0 * SQRT_2).abs() < 1e-6, "{}", along[0]);
     }
 
     #[test]
     fn same_seed_gives_identical_ranges() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let (w, side) = forest(&mut rng, 300);
-        let s = swarm_config::Lidar {
-            beams: 750,
-            max_range_m: 12.0,
-            noise_std_m: 0.02,
-            dropout: 0.05,
-        };
+        let s = swarm_config::Lidar { beams: 750, max_range_m: 12.0, noise_std_m: 0.02, dropout: 0.05 };
         let pose = [side / 2.0, side / 2.0, 0.3];
         let others = [[side / 2.0 + 1.0, side / 2.0, 0.3]];
         let mut a = Vec::new();
         let mut b = Vec::new();
-        scan(
-            &w,
-            pose,
-            &others,
-            &s,
-            &mut ChaCha8Rng::seed_from_u64(9),
-            &mut a,
-        );
-        scan(
-            &w,
-            pose,
-            &others,
-            &s,
-            &mut ChaCha8Rng::seed_from_u64(9),
-            &mut b,
-        );
+        scan(&w, pose, &others, &s, &mut ChaCha8Rng::seed_from_u64(9), &mut a);
+        scan(&w, pose, &others, &s, &mut ChaCha8Rng::seed_from_u64(9), &mut b);
         assert_eq!(
             a.iter().map(|r| r.to_bits()).collect::<Vec<_>>(),
             b.iter().map(|r| r.to_bits()).collect::<Vec<_>>()
         );
         let mut c = Vec::new();
-        scan(
-            &w,
-            pose,
-            &others,
-            &s,
-            &mut ChaCha8Rng::seed_from_u64(10),
-            &mut c,
-        );
+        scan(&w, pose, &others, &s, &mut ChaCha8Rng::seed_from_u64(10), &mut c);
         assert_ne!(a, c);
         // The stream consumed depends only on the spec: two draws per beam here.
         let mut r1 = ChaCha8Rng::seed_from_u64(9);
@@ -699,12 +531,7 @@ mod tests {
     #[test]
     fn noise_has_the_configured_spread_and_never_goes_negative() {
         let w = World::new(vec![tree(3.0, 0.0, 0.5)], vec![]);
-        let s = swarm_config::Lidar {
-            beams: 8,
-            max_range_m: 12.0,
-            noise_std_m: 0.1,
-            dropout: 0.0,
-        };
+        let s = swarm_config::Lidar { beams: 8, max_range_m: 12.0, noise_std_m: 0.1, dropout: 0.0 };
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let mut out = Vec::new();
         let samples: Vec<f64> = (0..4000)
@@ -714,19 +541,10 @@ mod tests {
             })
             .collect();
         let mean = samples.iter().sum::<f64>() / samples.len() as f64;
-        let std =
-            (samples.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / samples.len() as f64).sqrt();
-        assert!(
-            mean.abs() < 0.01 && (std - 0.1).abs() < 0.01,
-            "mean {mean} std {std}"
-        );
+        let std = (samples.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / samples.len() as f64).sqrt();
+        assert!(mean.abs() < 0.01 && (std - 0.1).abs() < 0.01, "mean {mean} std {std}");
         // Near a surface, large noise is clamped at 0.
-        let s = swarm_config::Lidar {
-            beams: 8,
-            max_range_m: 12.0,
-            noise_std_m: 5.0,
-            dropout: 0.0,
-        };
+        let s = swarm_config::Lidar { beams: 8, max_range_m: 12.0, noise_std_m: 5.0, dropout: 0.0 };
         for _ in 0..100 {
             scan(&w, [2.4, 0.0, 0.0], &[], &s, &mut rng, &mut out);
             assert!(out[0] >= 0.0 && out[0].is_finite());
@@ -740,14 +558,7 @@ mod tests {
         assert!((f64::from(da) - TAU / 750.0).abs() < 1e-7);
         assert_eq!(beam_angles(&spec(0, 12.0)), (0.0, 0.0));
         let mut out = vec![1.0];
-        scan(
-            &World::new(vec![], vec![]),
-            [0.0; 3],
-            &[],
-            &spec(0, 12.0),
-            &mut ChaCha8Rng::seed_from_u64(0),
-            &mut out,
-        );
+        scan(&World::new(vec![], vec![]), [0.0; 3], &[], &spec(0, 12.0), &mut ChaCha8Rng::seed_from_u64(0), &mut out);
         assert!(out.is_empty());
     }
 

@@ -74,7 +74,6 @@ pub struct HubReport {
     pub ignored: u64,
 }
 
-
 /// Realtime pacing: the wall-clock instant of each next tick, `real_dt` apart.
 struct Pacer {
     next_wall: tokio::time::Instant,
@@ -290,7 +289,11 @@ async fn subscribe_cmds(
 /// every command and state message of 1000 agents against its whole key space (53 % of the
 /// hub's CPU in `Resource::get_matches`, `perf`, open-1000 in 100 processes). Kept for the
 /// hub's life.
-async fn declare_agent_keys(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<zenoh::key_expr::KeyExpr<'static>>, WireError> {
+async fn declare_agent_keys(
+    s: &zenoh::Session,
+    keys: &Keys,
+    sc: &Scenario,
+) -> Result<Vec<zenoh::key_expr::KeyExpr<'static>>, WireError> {
     let mut declared = Vec::with_capacity(sc.count() * 3);
     for id in sc.uav_ids() {
         let share = match sc.localization.mode {
@@ -439,9 +442,17 @@ impl Net {
     }
 
     /// Step 2 of a tick: the commands to integrate, by the scenario's time mode.
-    async fn collect(&mut self, sc: &Scenario, tick: u64, sent: &BTreeSet<u32>, pacer: &mut Pacer) -> BTreeMap<u32, Cmd> {
+    async fn collect(
+        &mut self,
+        sc: &Scenario,
+        tick: u64,
+        sent: &BTreeSet<u32>,
+        pacer: &mut Pacer,
+    ) -> BTreeMap<u32, Cmd> {
         match sc.time.mode {
-            TimeMode::Lockstep => self.collect_lockstep(tick, sent, Duration::from_millis(sc.time.tick_timeout_ms)).await,
+            TimeMode::Lockstep => {
+                self.collect_lockstep(tick, sent, Duration::from_millis(sc.time.tick_timeout_ms)).await
+            }
             TimeMode::Realtime => {
                 tokio::time::sleep_until(pacer.next()).await;
                 self.collect_available(tick)
@@ -503,7 +514,11 @@ impl Net {
     /// Answers a timeline that came on `netem/add` on `netem/ack`: accepted, or refused and why
     /// (`swarm netem` waits for it). A failed answer is only logged: the timeline stands.
     async fn acknowledge(&self, timeline: String, refused: Option<&str>) {
-        let ack = swarm_wire::NetemAck { timeline, accepted: refused.is_none(), reason: refused.unwrap_or_default().to_string() };
+        let ack = swarm_wire::NetemAck {
+            timeline,
+            accepted: refused.is_none(),
+            reason: refused.unwrap_or_default().to_string(),
+        };
         let Ok(json) = serde_json::to_vec(&ack) else { return };
         let put = self.session.put(self.keys.netem_ack(), json).encoding(zenoh::bytes::Encoding::APPLICATION_JSON);
         if let Err(e) = put.await {
@@ -523,8 +538,14 @@ impl Net {
     /// runtime's other worker keeps taking commands meanwhile.
     async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>) -> Result<(), WireError> {
         put(&self.clock, &Msg::Clock(sim.clock())).await?;
-        let ids: Vec<u32> = alive.iter().copied().filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.uavs.len())).collect();
-        tokio::task::block_in_place(|| sim.sensors_each(&ids, |_, s| EncodedSensors::of(s), |id, e| self.put_sensors(id, e?)))
+        let ids: Vec<u32> = alive
+            .iter()
+            .copied()
+            .filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.uavs.len()))
+            .collect();
+        tokio::task::block_in_place(|| {
+            sim.sensors_each(&ids, |_, s| EncodedSensors::of(s), |id, e| self.put_sensors(id, e?))
+        })
     }
 
     /// Publishes UAV `id`'s encoded sensors: radio set, odometry, GNSS, UVDAR, then the scan, so
@@ -554,7 +575,10 @@ impl Net {
         let mut waiting = BTreeSet::new();
         let mut seen_gen = None;
         let ignored = self.ignored.clone();
-        let take = |got: &mut BTreeMap<u32, Cmd>, waiting: &mut BTreeSet<u32>, lateness: &mut Lateness, (id, c, at): (u32, Cmd, Instant)| {
+        let take = |got: &mut BTreeMap<u32, Cmd>,
+                    waiting: &mut BTreeSet<u32>,
+                    lateness: &mut Lateness,
+                    (id, c, at): (u32, Cmd, Instant)| {
             if from_the_future(&ignored, tick, &c) {
                 return;
             }

@@ -20,9 +20,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{GoalRule, LocalizationMode, OnCollision, Scenario};
 use swarm_wire::{
-    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, HubTiming, Odom, RadioSet, Scan, TruthBody, TruthStep, TruthWorld,
-    Uvdar,
-    UvdarSeen,
+    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, HubTiming, Odom, RadioSet, Scan, TruthBody, TruthStep,
+    TruthWorld, Uvdar, UvdarSeen,
 };
 
 /// Sensor messages of one UAV for the current tick.
@@ -201,10 +200,14 @@ impl Sim {
     /// UAV draws only from its own streams, so the result does not depend on the split.
     pub fn sensors_all(&mut self, ids: &[u32]) -> Vec<Sensors> {
         let mut out = Vec::with_capacity(ids.len());
-        let done: Result<(), std::convert::Infallible> = self.sensors_each(ids, |_, s| s, |_, s| {
-            out.push(s);
-            Ok(())
-        });
+        let done: Result<(), std::convert::Infallible> = self.sensors_each(
+            ids,
+            |_, s| s,
+            |_, s| {
+                out.push(s);
+                Ok(())
+            },
+        );
         match done {
             Ok(()) => out,
             Err(never) => match never {},
@@ -280,7 +283,8 @@ impl Sim {
                 let tx = tx.clone();
                 scope.spawn(move || {
                     for (k, part) in mine {
-                        let done = part.iter_mut().map(|(id, r)| (*id, prepare(*id, self.sensors_of(*id, r)))).collect();
+                        let done =
+                            part.iter_mut().map(|(id, r)| (*id, prepare(*id, self.sensors_of(*id, r)))).collect();
                         if tx.send((k, done)).is_err() {
                             return;
                         }
@@ -326,14 +330,16 @@ impl Sim {
         } else {
             (None, None)
         };
-        let odom = Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal, goal_vel };
+        let odom =
+            Odom { tick, t_secs, x: p.x, y: p.y, yaw: wrap_angle(b.yaw - s[2]), vx: v.x, vy: v.y, goal, goal_vel };
         let gnss = (self.sc.localization.mode == LocalizationMode::Broadcast).then(|| {
             let [ex, ey] = gnss_error(&self.sc, id, t_secs, &mut r.gnss);
             Gnss { tick, t_secs, x: b.pos.x + ex, y: b.pos.y + ey, yaw: b.yaw, vx: b.vel.x, vy: b.vel.y }
         });
         let in_range = self.radio.in_range(i).into_iter().map(|j| j as u32 + 1).collect();
         let loss = self.radio.losses(i);
-        let uvdar = (self.sc.localization.mode == LocalizationMode::Uvdar).then(|| self.uvdar(i, tick, t_secs, &mut r.uvdar));
+        let uvdar =
+            (self.sc.localization.mode == LocalizationMode::Uvdar).then(|| self.uvdar(i, tick, t_secs, &mut r.uvdar));
         Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan, uvdar }
     }
 
@@ -351,7 +357,14 @@ impl Sim {
         let mut ranges = Vec::with_capacity(self.sc.lidar.beams as usize);
         lidar::scan(&self.world, [b.pos.x, b.pos.y, b.yaw], &others, &self.sc.lidar, rng, &mut ranges);
         let (angle_min, angle_increment) = lidar::beam_angles(&self.sc.lidar);
-        Scan { tick, t_secs, angle_min, angle_increment, max_range_m: self.sc.lidar.max_range_m as f32, ranges_m: ranges }
+        Scan {
+            tick,
+            t_secs,
+            angle_min,
+            angle_increment,
+            max_range_m: self.sc.lidar.max_range_m as f32,
+            ranges_m: ranges,
+        }
     }
 
     /// What UAV index `i` sees of the others by UVDAR (seed 003) now.
@@ -604,12 +617,17 @@ time_limit_s = 100.0
         for _ in 0..3 {
             let mut order = Vec::new();
             // Three workers whatever this machine has, so the pipeline itself is what is tested.
-            let got = pipelined.sensors_each_on(&ids, 3, |id, s| (id, format!("{s:?}")), |id, (prepared_for, text)| {
-                order.push(id);
-                assert_eq!(prepared_for, id, "prepared and sunk for the same UAV");
-                assert_eq!(text, format!("{:?}", alone.sensors(id)), "UAV {id}");
-                Ok::<(), ()>(())
-            });
+            let got = pipelined.sensors_each_on(
+                &ids,
+                3,
+                |id, s| (id, format!("{s:?}")),
+                |id, (prepared_for, text)| {
+                    order.push(id);
+                    assert_eq!(prepared_for, id, "prepared and sunk for the same UAV");
+                    assert_eq!(text, format!("{:?}", alone.sensors(id)), "UAV {id}");
+                    Ok::<(), ()>(())
+                },
+            );
             assert_eq!(got, Ok(()));
             assert_eq!(order, ids, "sunk in the order asked, UAV 50 left out");
             let cmds = vec![vel(0.4); 100];
@@ -624,14 +642,19 @@ time_limit_s = 100.0
         let ids: Vec<u32> = sc.uav_ids().collect();
         let mut sim = Sim::new(&sc);
         let mut sunk = 0;
-        let got = sim.sensors_each_on(&ids, 3, |_, s| s.scan.ranges_m.len(), |id, _| {
-            sunk += 1;
-            if id == 40 {
-                Err(id)
-            } else {
-                Ok(())
-            }
-        });
+        let got = sim.sensors_each_on(
+            &ids,
+            3,
+            |_, s| s.scan.ranges_m.len(),
+            |id, _| {
+                sunk += 1;
+                if id == 40 {
+                    Err(id)
+                } else {
+                    Ok(())
+                }
+            },
+        );
         assert_eq!(got, Err(40));
         assert_eq!(sunk, 40, "nothing after the error");
         assert_eq!(sim.sensors_all(&ids).len(), 100, "the streams are back for the next tick");

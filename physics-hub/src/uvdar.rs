@@ -68,11 +68,7 @@ pub fn observe(
     let Some(&(self_id, origin, yaw)) = poses.get(observer) else {
         return Vec::new();
     };
-    let eye = Eye {
-        index: observer,
-        origin,
-        yaw,
-    };
+    let eye = Eye { index: observer, origin, yaw };
     let eye_ok = origin.iter().all(|v| v.is_finite()) && yaw.is_finite();
     let mut out = Vec::new();
     for (j, &(id, _, _)) in poses.iter().enumerate() {
@@ -115,21 +111,9 @@ fn draw(params: &UvdarParams, rng: &mut ChaCha8Rng) -> Draws {
     let p = params.detection_probability;
     // NaN or ≥ 1: always detected, no draw.
     let detected = if p < 1.0 { rng.gen::<f64>() < p } else { true };
-    let n_range = if params.range_noise_rel > 0.0 {
-        rng.sample::<f64, _>(StandardNormal)
-    } else {
-        0.0
-    };
-    let n_bearing = if params.bearing_noise_deg > 0.0 {
-        rng.sample::<f64, _>(StandardNormal)
-    } else {
-        0.0
-    };
-    Draws {
-        detected,
-        n_range,
-        n_bearing,
-    }
+    let n_range = if params.range_noise_rel > 0.0 { rng.sample::<f64, _>(StandardNormal) } else { 0.0 };
+    let n_bearing = if params.bearing_noise_deg > 0.0 { rng.sample::<f64, _>(StandardNormal) } else { 0.0 };
+    Draws { detected, n_range, n_bearing }
 }
 
 /// The true geometry of one observation.
@@ -170,10 +154,7 @@ fn sight(
     if params.occluded_by_uavs && blocked_by_uav(poses, eye, target, dir, range_m, params) {
         return None;
     }
-    Some(Truth {
-        range_m,
-        bearing_rad,
-    })
+    Some(Truth { range_m, bearing_rad })
 }
 
 /// Whether another UAV's disc (neither the observer's nor the target's) meets the line of sight
@@ -235,10 +216,7 @@ mod tests {
 
     /// The ids seen by UAV 0 in `poses`.
     fn ids_seen(world: &World, poses: &[(u32, [f64; 2], f64)], p: &UvdarParams) -> Vec<u32> {
-        observe(world, 0, poses, p, &mut rng(1))
-            .iter()
-            .map(|o| o.id)
-            .collect()
+        observe(world, 0, poses, p, &mut rng(1)).iter().map(|o| o.id).collect()
     }
 
     #[test]
@@ -251,10 +229,7 @@ mod tests {
         assert_eq!(obs.len(), 1);
         assert_eq!(obs[0].id, 9);
         assert!((obs[0].range_m - 5.0).abs() < 1e-12, "{obs:?}");
-        assert!(
-            (obs[0].bearing_rad + 3.0f64.atan2(4.0)).abs() < 1e-12,
-            "{obs:?}"
-        );
+        assert!((obs[0].bearing_rad + 3.0f64.atan2(4.0)).abs() < 1e-12, "{obs:?}");
         assert!((obs[0].bearing_rad + 0.643_501_108_793_284_4).abs() < 1e-12);
         // And the other way: from (4, 6) at yaw 0.3, the observer is at world angle
         // atan2(−4, −3) = −(π − 0.927295) = −2.214297, body bearing −2.214297 − 0.3 = −2.514297.
@@ -282,10 +257,7 @@ mod tests {
         let walled = World::new(vec![], vec![wall(2.0, -1.0, 2.0, 1.0, 0.1)]);
         assert_eq!(ids_seen(&walled, &poses, &exact()), Vec::<u32>::new());
         // With obstacle occlusion switched off, both are seen through.
-        let through = UvdarParams {
-            occluded_by_obstacles: false,
-            ..exact()
-        };
+        let through = UvdarParams { occluded_by_obstacles: false, ..exact() };
         assert_eq!(ids_seen(&behind, &poses, &through), vec![1]);
         assert_eq!(ids_seen(&walled, &poses, &through), vec![1]);
     }
@@ -293,30 +265,15 @@ mod tests {
     #[test]
     fn a_uav_in_the_line_of_sight_hides_the_one_behind_it() {
         // Observer (0, 0); UAV 1 at (3, 0) in front of UAV 2 at (6, 0); radius 0.3.
-        let poses = [
-            (0, [0.0, 0.0], 0.0),
-            (1, [3.0, 0.0], 0.0),
-            (2, [6.0, 0.0], 0.0),
-        ];
+        let poses = [(0, [0.0, 0.0], 0.0), (1, [3.0, 0.0], 0.0), (2, [6.0, 0.0], 0.0)];
         assert_eq!(ids_seen(&open(), &poses, &exact()), vec![1]);
-        let through = UvdarParams {
-            occluded_by_uavs: false,
-            ..exact()
-        };
+        let through = UvdarParams { occluded_by_uavs: false, ..exact() };
         assert_eq!(ids_seen(&open(), &poses, &through), vec![1, 2]);
         // UAV 1 moved 0.4 m off the line: 0.4 > r = 0.3, both seen.
-        let off = [
-            (0, [0.0, 0.0], 0.0),
-            (1, [3.0, 0.4], 0.0),
-            (2, [6.0, 0.0], 0.0),
-        ];
+        let off = [(0, [0.0, 0.0], 0.0), (1, [3.0, 0.4], 0.0), (2, [6.0, 0.0], 0.0)];
         assert_eq!(ids_seen(&open(), &off, &exact()), vec![1, 2]);
         // ... but 0.2 m off the line (< 0.3) it still hides UAV 2.
-        let near = [
-            (0, [0.0, 0.0], 0.0),
-            (1, [3.0, 0.2], 0.0),
-            (2, [6.0, 0.0], 0.0),
-        ];
+        let near = [(0, [0.0, 0.0], 0.0), (1, [3.0, 0.2], 0.0), (2, [6.0, 0.0], 0.0)];
         assert_eq!(ids_seen(&open(), &near, &exact()), vec![1]);
     }
 
@@ -336,16 +293,10 @@ mod tests {
     #[test]
     fn out_of_the_field_of_view_is_not_seen() {
         // A 90° view centred on yaw = π (heading −x): bearings within ±45° are seen.
-        let p = UvdarParams {
-            fov_deg: 90.0,
-            ..exact()
-        };
+        let p = UvdarParams { fov_deg: 90.0, ..exact() };
         let at_bearing = |deg: f64| {
             let a = PI + deg.to_radians(); // world angle of a target at body bearing `deg`
-            [
-                (0, [0.0, 0.0], PI),
-                (1, [5.0 * a.cos(), 5.0 * a.sin()], 0.0),
-            ]
+            [(0, [0.0, 0.0], PI), (1, [5.0 * a.cos(), 5.0 * a.sin()], 0.0)]
         };
         assert_eq!(ids_seen(&open(), &at_bearing(0.0), &p), vec![1]);
         assert_eq!(ids_seen(&open(), &at_bearing(44.0), &p), vec![1]);
@@ -360,15 +311,8 @@ mod tests {
     #[test]
     fn a_uav_never_observes_itself() {
         // Entry 2 carries the observer's id (a stale duplicate): neither it nor entry 0 is seen.
-        let poses = [
-            (4, [0.0, 0.0], 0.0),
-            (5, [2.0, 0.0], 0.0),
-            (4, [0.0, 2.0], 0.0),
-        ];
-        let p = UvdarParams {
-            occluded_by_uavs: false,
-            ..UvdarParams::default()
-        };
+        let poses = [(4, [0.0, 0.0], 0.0), (5, [2.0, 0.0], 0.0), (4, [0.0, 2.0], 0.0)];
+        let p = UvdarParams { occluded_by_uavs: false, ..UvdarParams::default() };
         let obs = observe(&open(), 0, &poses, &p, &mut rng(3));
         assert_eq!(obs.iter().map(|o| o.id).collect::<Vec<_>>(), vec![5]);
         // Alone, a UAV sees nothing.
@@ -382,11 +326,7 @@ mod tests {
         assert!(observe(&open(), 0, &poses, &p, &mut rng(1)).is_empty());
         assert!(observe(&open(), 5, &poses, &p, &mut rng(1)).is_empty());
         // A neighbour with a NaN position is not seen and does not hide the others.
-        let poses = [
-            (0, [0.0, 0.0], 0.0),
-            (1, [f64::NAN, 0.0], 0.0),
-            (2, [3.0, 0.0], 0.0),
-        ];
+        let poses = [(0, [0.0, 0.0], 0.0), (1, [f64::NAN, 0.0], 0.0), (2, [3.0, 0.0], 0.0)];
         assert_eq!(ids_seen(&open(), &poses, &exact()), vec![2]);
         // A neighbour exactly on the observer has no bearing and is not reported.
         let poses = [(0, [1.0, 1.0], 0.0), (1, [1.0, 1.0], 0.0)];
@@ -406,17 +346,8 @@ mod tests {
         // Targets at d = 5 (ahead) and d = 2 (to the left); σ_rel = 0.1 → σ_r = 0.5 m and
         // 0.2 m; σ_b = 2° = 0.034907 rad. N = 20000: the standard error of a mean is
         // σ/√N = σ/141.4, so |mean| < 4σ/141.4 ≈ 0.028σ.
-        let p = UvdarParams {
-            range_noise_rel: 0.1,
-            bearing_noise_deg: 2.0,
-            occluded_by_uavs: false,
-            ..exact()
-        };
-        let poses = [
-            (0, [0.0, 0.0], 0.0),
-            (1, [5.0, 0.0], 0.0),
-            (2, [0.0, 2.0], 0.0),
-        ];
+        let p = UvdarParams { range_noise_rel: 0.1, bearing_noise_deg: 2.0, occluded_by_uavs: false, ..exact() };
+        let poses = [(0, [0.0, 0.0], 0.0), (1, [5.0, 0.0], 0.0), (2, [0.0, 2.0], 0.0)];
         let mut r = rng(42);
         let (mut e5, mut e2, mut eb) = (vec![], vec![], vec![]);
         for _ in 0..20_000 {
@@ -437,31 +368,20 @@ mod tests {
     #[test]
     fn detections_happen_at_the_configured_rate() {
         // p = 0.7, N = 10000: the fraction's standard error is √(0.7·0.3/10000) = 0.0046.
-        let p = UvdarParams {
-            detection_probability: 0.7,
-            ..exact()
-        };
+        let p = UvdarParams { detection_probability: 0.7, ..exact() };
         let poses = [(0, [0.0, 0.0], 0.0), (1, [3.0, 0.0], 0.0)];
         let mut r = rng(5);
-        let seen = (0..10_000)
-            .filter(|_| !observe(&open(), 0, &poses, &p, &mut r).is_empty())
-            .count();
+        let seen = (0..10_000).filter(|_| !observe(&open(), 0, &poses, &p, &mut r).is_empty()).count();
         let rate = seen as f64 / 10_000.0;
         assert!((rate - 0.7).abs() < 4.0 * 0.0046, "{rate}");
         // p = 0 never detects.
-        let never = UvdarParams {
-            detection_probability: 0.0,
-            ..exact()
-        };
+        let never = UvdarParams { detection_probability: 0.0, ..exact() };
         assert!((0..100).all(|_| observe(&open(), 0, &poses, &never, &mut r).is_empty()));
     }
 
     #[test]
     fn same_seed_same_observations_other_seed_other_noise() {
-        let p = UvdarParams {
-            detection_probability: 0.9,
-            ..UvdarParams::default()
-        };
+        let p = UvdarParams { detection_probability: 0.9, ..UvdarParams::default() };
         let w = World::new(vec![tree(2.0, 2.0, 0.3)], vec![]);
         let poses = [
             (0, [0.0, 0.0], 0.4),
@@ -472,9 +392,7 @@ mod tests {
         ];
         let run = |seed: u64| {
             let mut r = rng(seed);
-            (0..50)
-                .map(|_| observe(&w, 0, &poses, &p, &mut r))
-                .collect::<Vec<_>>()
+            (0..50).map(|_| observe(&w, 0, &poses, &p, &mut r)).collect::<Vec<_>>()
         };
         assert_eq!(run(11), run(11));
         assert_ne!(run(11), run(12));
@@ -484,15 +402,8 @@ mod tests {
     fn an_occluded_neighbour_does_not_shift_the_noise_of_the_others() {
         // Same seed, UAV 1 in the open or behind a tree: UAV 2's noisy observation is the same,
         // because the draws do not depend on the geometry.
-        let p = UvdarParams {
-            detection_probability: 0.8,
-            ..UvdarParams::default()
-        };
-        let poses = [
-            (0, [0.0, 0.0], 0.0),
-            (1, [6.0, 0.0], 0.0),
-            (2, [0.0, 4.0], 0.0),
-        ];
+        let p = UvdarParams { detection_probability: 0.8, ..UvdarParams::default() };
+        let poses = [(0, [0.0, 0.0], 0.0), (1, [6.0, 0.0], 0.0), (2, [0.0, 4.0], 0.0)];
         let open_obs = observe(&open(), 0, &poses, &p, &mut rng(9));
         let hidden = World::new(vec![tree(3.0, 0.0, 0.3)], vec![]);
         let hidden_obs = observe(&hidden, 0, &poses, &p, &mut rng(9));

@@ -54,10 +54,7 @@ pub(crate) enum Obstacle {
 impl Obstacle {
     /// The disc of a tree (a negative radius is treated as 0).
     pub(crate) fn from_tree(t: &swarm_config::Tree) -> Obstacle {
-        Obstacle::Circle {
-            c: [t.x, t.y],
-            r: t.r.max(0.0),
-        }
+        Obstacle::Circle { c: [t.x, t.y], r: t.r.max(0.0) }
     }
 
     /// The rectangle of a wall: half-extents (len/2, thickness/2) at the midpoint, rotated.
@@ -65,11 +62,7 @@ impl Obstacle {
         let (dx, dy) = (w.x2 - w.x1, w.y2 - w.y1);
         let len = dx.hypot(dy);
         // A zero-length wall is a square-ended stub of width `thickness`; its axis is arbitrary.
-        let u = if len > 0.0 {
-            [dx / len, dy / len]
-        } else {
-            [1.0, 0.0]
-        };
+        let u = if len > 0.0 { [dx / len, dy / len] } else { [1.0, 0.0] };
         Obstacle::Rect {
             c: [0.5 * (w.x1 + w.x2), 0.5 * (w.y1 + w.y2)],
             u,
@@ -84,18 +77,9 @@ impl Obstacle {
             Obstacle::Circle { .. } => None,
             Obstacle::Rect { c, u, hx, hy } => {
                 let v = [-u[1], u[0]];
-                let corner = |sx: f64, sy: f64| {
-                    [
-                        c[0] + sx * hx * u[0] + sy * hy * v[0],
-                        c[1] + sx * hx * u[1] + sy * hy * v[1],
-                    ]
-                };
-                Some([
-                    corner(1.0, 1.0),
-                    corner(-1.0, 1.0),
-                    corner(-1.0, -1.0),
-                    corner(1.0, -1.0),
-                ])
+                let corner =
+                    |sx: f64, sy: f64| [c[0] + sx * hx * u[0] + sy * hy * v[0], c[1] + sx * hx * u[1] + sy * hy * v[1]];
+                Some([corner(1.0, 1.0), corner(-1.0, 1.0), corner(-1.0, -1.0), corner(1.0, -1.0)])
             }
         }
     }
@@ -167,20 +151,10 @@ pub(crate) fn ray_circle(origin: [f64; 2], dir: [f64; 2], c: [f64; 2], r: f64) -
 
 /// Ray (unit `dir`) against a solid rectangle (slab method in the rectangle's frame).
 #[inline]
-pub(crate) fn ray_rect(
-    origin: [f64; 2],
-    dir: [f64; 2],
-    c: [f64; 2],
-    u: [f64; 2],
-    hx: f64,
-    hy: f64,
-) -> Option<f64> {
+pub(crate) fn ray_rect(origin: [f64; 2], dir: [f64; 2], c: [f64; 2], u: [f64; 2], hx: f64, hy: f64) -> Option<f64> {
     let (px, py) = (origin[0] - c[0], origin[1] - c[1]);
     let (ox, oy) = (px * u[0] + py * u[1], -px * u[1] + py * u[0]);
-    let (dx, dy) = (
-        dir[0] * u[0] + dir[1] * u[1],
-        -dir[0] * u[1] + dir[1] * u[0],
-    );
+    let (dx, dy) = (dir[0] * u[0] + dir[1] * u[1], -dir[0] * u[1] + dir[1] * u[0]);
     let mut t_near = 0.0_f64;
     let mut t_far = f64::INFINITY;
     for (o, d, h) in [(ox, dx, hx), (oy, dy, hy)] {
@@ -228,20 +202,13 @@ fn aabb_margin(scale: f64) -> f64 {
 impl World {
     /// Builds the world and its BVH (binned SAH build; O(n log n)).
     pub fn new(trees: Vec<swarm_config::Tree>, walls: Vec<swarm_config::Wall>) -> World {
-        let obstacles: Vec<Obstacle> = trees
-            .iter()
-            .map(Obstacle::from_tree)
-            .chain(walls.iter().map(Obstacle::from_wall))
-            .collect();
+        let obstacles: Vec<Obstacle> =
+            trees.iter().map(Obstacle::from_tree).chain(walls.iter().map(Obstacle::from_wall)).collect();
         let aabbs: Vec<Aabb> = obstacles
             .iter()
             .map(|o| {
                 let (lo, hi) = o.bounds();
-                let scale = lo[0]
-                    .abs()
-                    .max(lo[1].abs())
-                    .max(hi[0].abs())
-                    .max(hi[1].abs());
+                let scale = lo[0].abs().max(lo[1].abs()).max(hi[0].abs()).max(hi[1].abs());
                 let m = aabb_margin(scale);
                 Aabb::new(
                     Point::new((lo[0] - m) as Real, (lo[1] - m) as Real),
@@ -250,12 +217,7 @@ impl World {
             })
             .collect();
         let bvh = Bvh::from_leaves(BvhBuildStrategy::Binned, &aabbs);
-        World {
-            trees,
-            walls,
-            obstacles,
-            bvh,
-        }
+        World { trees, walls, obstacles, bvh }
     }
 
     /// The trees, as given to [`World::new`].
@@ -278,11 +240,7 @@ impl World {
         if self.obstacles.is_empty() {
             return;
         }
-        let scale = lo[0]
-            .abs()
-            .max(lo[1].abs())
-            .max(hi[0].abs())
-            .max(hi[1].abs());
+        let scale = lo[0].abs().max(lo[1].abs()).max(hi[0].abs()).max(hi[1].abs());
         let m = aabb_margin(scale);
         let query = Aabb::new(
             Point::new((lo[0] - m) as Real, (lo[1] - m) as Real),
@@ -338,10 +296,8 @@ impl World {
             return None;
         }
         let best = Cell::new(f64::INFINITY);
-        let ray = Ray::new(
-            Point::new(origin[0] as Real, origin[1] as Real),
-            Vector::new(dir[0] as Real, dir[1] as Real),
-        );
+        let ray =
+            Ray::new(Point::new(origin[0] as Real, origin[1] as Real), Vector::new(dir[0] as Real, dir[1] as Real));
         // The f32 bound passed to the BVH is rounded up a little so no hit ≤ max_range is pruned.
         let max_toi = (max_range + aabb_margin(max_range)) as Real;
         let _ = self.bvh.cast_ray(&ray, max_toi, |leaf, _| {
@@ -393,13 +349,7 @@ pub(crate) mod tests {
 
     fn random_world(rng: &mut ChaCha8Rng, n_trees: usize, n_walls: usize, side: f64) -> World {
         let trees = (0..n_trees)
-            .map(|_| {
-                tree(
-                    rng.gen_range(0.0..side),
-                    rng.gen_range(0.0..side),
-                    rng.gen_range(0.1..0.4),
-                )
-            })
+            .map(|_| tree(rng.gen_range(0.0..side), rng.gen_range(0.0..side), rng.gen_range(0.1..0.4)))
             .collect();
         let walls = random_walls(rng, n_walls, side, 8.0);
         World::new(trees, walls)
@@ -410,10 +360,8 @@ pub(crate) mod tests {
         match *o {
             Obstacle::Circle { c, r } => ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt() - r,
             Obstacle::Rect { c, u, hx, hy } => {
-                let (lx, ly) = (
-                    (p[0] - c[0]) * u[0] + (p[1] - c[1]) * u[1],
-                    -(p[0] - c[0]) * u[1] + (p[1] - c[1]) * u[0],
-                );
+                let (lx, ly) =
+                    ((p[0] - c[0]) * u[0] + (p[1] - c[1]) * u[1], -(p[0] - c[0]) * u[1] + (p[1] - c[1]) * u[0]);
                 if lx.abs() <= hx && ly.abs() <= hy {
                     return -(hx - lx.abs()).min(hy - ly.abs());
                 }
@@ -462,15 +410,11 @@ pub(crate) mod tests {
         let hit = w.cast_ray([1.0, 0.0], [0.0, 1.0], 12.0).unwrap_or(f64::NAN);
         assert!((hit - 1.9).abs() < 1e-12, "{hit}");
         // Flat end: a ray along the axis from the left hits x = 0, not x = -0.1.
-        let hit = w
-            .cast_ray([-3.0, 2.0], [1.0, 0.0], 12.0)
-            .unwrap_or(f64::NAN);
+        let hit = w.cast_ray([-3.0, 2.0], [1.0, 0.0], 12.0).unwrap_or(f64::NAN);
         assert!((hit - 3.0).abs() < 1e-12, "{hit}");
         assert!((w.clearance([2.0, 0.0]) - 1.9).abs() < 1e-12);
         assert!((w.clearance([2.0, 2.05]) + 0.05).abs() < 1e-12);
-        assert!(
-            (w.clearance([-3.0, 5.0]) - (3.0f64.powi(2) + 2.9f64.powi(2)).sqrt()).abs() < 1e-12
-        );
+        assert!((w.clearance([-3.0, 5.0]) - (3.0f64.powi(2) + 2.9f64.powi(2)).sqrt()).abs() < 1e-12);
         // Rotated 45°: the ray along the diagonal hits the near end face.
         let s = std::f64::consts::FRAC_1_SQRT_2;
         let w = World::new(vec![], vec![wall(1.0, 1.0, 3.0, 3.0, 0.4)]);
@@ -485,15 +429,9 @@ pub(crate) mod tests {
             let o = [rng.gen_range(-5.0..5.0), rng.gen_range(-5.0..5.0)];
             let a: f64 = rng.gen_range(0.0..std::f64::consts::TAU);
             let d = [a.cos(), a.sin()];
-            let ray = Ray::new(
-                Point::new(o[0] as f32, o[1] as f32),
-                Vector::new(d[0] as f32, d[1] as f32),
-            );
+            let ray = Ray::new(Point::new(o[0] as f32, o[1] as f32), Vector::new(d[0] as f32, d[1] as f32));
             // Disc at a random place.
-            let (c, r) = (
-                [rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0)],
-                rng.gen_range(0.05..1.5),
-            );
+            let (c, r) = ([rng.gen_range(-3.0..3.0), rng.gen_range(-3.0..3.0)], rng.gen_range(0.05..1.5));
             let ours = ray_circle(o, d, c, r);
             let iso = Isometry::translation(c[0] as f32, c[1] as f32);
             let theirs = Ball::new(r as f32).cast_ray(&iso, &ray, 100.0, true);
@@ -515,16 +453,10 @@ pub(crate) mod tests {
                 thickness: rng.gen_range(0.05..1.0),
             };
             let ob = Obstacle::from_wall(&w);
-            let Obstacle::Rect { c, u, hx, hy } = ob else {
-                panic!("wall is not a rect")
-            };
+            let Obstacle::Rect { c, u, hx, hy } = ob else { panic!("wall is not a rect") };
             let ours = ob.cast_ray(o, d);
-            let iso = Isometry::new(
-                Vector::new(c[0] as f32, c[1] as f32),
-                u[1].atan2(u[0]) as f32,
-            );
-            let theirs =
-                Cuboid::new(Vector::new(hx as f32, hy as f32)).cast_ray(&iso, &ray, 100.0, true);
+            let iso = Isometry::new(Vector::new(c[0] as f32, c[1] as f32), u[1].atan2(u[0]) as f32);
+            let theirs = Cuboid::new(Vector::new(hx as f32, hy as f32)).cast_ray(&iso, &ray, 100.0, true);
             match (ours, theirs) {
                 (Some(a), Some(b)) => assert!((a - b as f64).abs() < 1e-3, "{a} vs {b}"),
                 (None, None) => {}
@@ -544,10 +476,7 @@ pub(crate) mod tests {
         let side = 60.0;
         let w = random_world(&mut rng, 400, 30, side);
         for _ in 0..5000 {
-            let p = [
-                rng.gen_range(-5.0..side + 5.0),
-                rng.gen_range(-5.0..side + 5.0),
-            ];
+            let p = [rng.gen_range(-5.0..side + 5.0), rng.gen_range(-5.0..side + 5.0)];
             let fast = w.clearance(p);
             let brute = brute_clearance(&w, p);
             assert!((fast - brute).abs() < 1e-9, "at {p:?}: {fast} vs {brute}");
@@ -574,19 +503,12 @@ pub(crate) mod tests {
         let side = 60.0;
         let w = random_world(&mut rng, 400, 30, side);
         for _ in 0..5000 {
-            let p = [
-                rng.gen_range(-5.0..side + 5.0),
-                rng.gen_range(-5.0..side + 5.0),
-            ];
+            let p = [rng.gen_range(-5.0..side + 5.0), rng.gen_range(-5.0..side + 5.0)];
             let a: f64 = rng.gen_range(0.0..std::f64::consts::TAU);
             let d = [a.cos(), a.sin()];
             let max_range = rng.gen_range(1.0..30.0);
             let fast = w.cast_ray(p, d, max_range);
-            let brute = w
-                .obstacles()
-                .iter()
-                .filter_map(|o| o.cast_ray(p, d))
-                .fold(f64::INFINITY, f64::min);
+            let brute = w.obstacles().iter().filter_map(|o| o.cast_ray(p, d)).fold(f64::INFINITY, f64::min);
             let brute = (brute <= max_range).then_some(brute);
             assert_eq!(fast, brute, "from {p:?} at {a}");
         }

@@ -35,12 +35,18 @@ fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[u32]) -> LinkClass {
 /// The spans `(from_s, to_s, state)` of the timeline over `[0, t_end]` whose links are not
 /// clean; the state can change only at a rule's or a failure's time.
 pub fn spans(tl: &netem::Timeline, ids: &[u32], t_end: f64) -> Vec<(f64, f64, LinkClass)> {
-    let mut times: Vec<f64> = tl.rules().iter().map(|r| r.at_s).chain(tl.failures().iter().map(|f| f.at_s)).filter(|t| *t < t_end).collect();
+    let mut times: Vec<f64> =
+        tl.rules().iter().map(|r| r.at_s).chain(tl.failures().iter().map(|f| f.at_s)).filter(|t| *t < t_end).collect();
     times.push(0.0);
     times.sort_by(f64::total_cmp);
     times.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
     let ends = times.iter().skip(1).copied().chain([t_end]);
-    times.iter().zip(ends).map(|(&a, b)| (a, b, links_at(tl, a.max(0.0), ids))).filter(|s| s.2 != LinkClass::Clean).collect()
+    times
+        .iter()
+        .zip(ends)
+        .map(|(&a, b)| (a, b, links_at(tl, a.max(0.0), ids)))
+        .filter(|s| s.2 != LinkClass::Clean)
+        .collect()
 }
 
 /// A series as steps: each value holds until the next sample.
@@ -71,26 +77,46 @@ impl Figure for ConnectivityFigure<'_> {
         let mut chart = time_chart(&area, "connected components of the estimate graph", "count", t_end, y_hi)?;
         let ids: Vec<u32> = if run.uavs > 0 { (1..=run.uavs).collect() } else { run.tracks.keys().copied().collect() };
         let spans = spans(&run.timeline, &ids, t_end);
-        for (kind, c, label) in [(LinkClass::Cut, CUT, "links cut"), (LinkClass::Impaired, IMPAIRED, "links impaired")] {
-            let boxes = spans.iter().filter(|s| s.2 == kind).map(|s| Rectangle::new([(s.0, 0.0), (s.1, y_hi)], c.mix(0.18).filled()));
+        for (kind, c, label) in [(LinkClass::Cut, CUT, "links cut"), (LinkClass::Impaired, IMPAIRED, "links impaired")]
+        {
+            let boxes = spans
+                .iter()
+                .filter(|s| s.2 == kind)
+                .map(|s| Rectangle::new([(s.0, 0.0), (s.1, y_hi)], c.mix(0.18).filled()));
             let drawn = chart.draw_series(boxes.collect::<Vec<_>>())?;
             if spans.iter().any(|s| s.2 == kind) {
-                drawn.label(label).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.3).filled()));
+                drawn
+                    .label(label)
+                    .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.3).filled()));
             }
         }
         for f in run.timeline.failures().iter().filter(|f| f.at_s <= t_end) {
-            chart.draw_series(DashedLineSeries::new([(f.at_s, 0.0), (f.at_s, y_hi)], 6, 4, BLACK.mix(0.6).stroke_width(1)))?;
-            let name = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
+            chart.draw_series(DashedLineSeries::new(
+                [(f.at_s, 0.0), (f.at_s, y_hi)],
+                6,
+                4,
+                BLACK.mix(0.6).stroke_width(1),
+            ))?;
+            let name =
+                serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
             chart.draw_series([Text::new(format!("{name} {}", f.uav), (f.at_s, y_hi * 0.97), (FAMILY, 12))])?;
         }
         let grey = super::style::color(7);
         chart
-            .draw_series(DashedLineSeries::new(steps(run.components.iter().map(|c| (c.t_s, c.reporting))), 8, 4, grey.stroke_width(2)))?
+            .draw_series(DashedLineSeries::new(
+                steps(run.components.iter().map(|c| (c.t_s, c.reporting))),
+                8,
+                4,
+                grey.stroke_width(2),
+            ))?
             .label("agents reporting")
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(2)));
         let blue = super::style::color(0);
         chart
-            .draw_series(LineSeries::new(steps(run.components.iter().map(|c| (c.t_s, c.components))), blue.stroke_width(2)))?
+            .draw_series(LineSeries::new(
+                steps(run.components.iter().map(|c| (c.t_s, c.components))),
+                blue.stroke_width(2),
+            ))?
             .label("components")
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], blue.stroke_width(2)));
         legend(&mut chart)
@@ -111,7 +137,15 @@ mod tests {
             "[[netem]]\nat_s = 1.0\nfrom = [2]\nrule = { delay_s = 0.1 }\n\n[[netem]]\nat_s = 2.0\npartition = { scheme = \"halves\", nodes = [1, 2] }\n\n[[netem]]\nat_s = 3.0\npartition = { scheme = \"healed\" }\n\n[[failures]]\nat_s = 5.0\nuav = 1\nkind = \"freeze\"\n",
         );
         let s = spans(&tl, &[1, 2], 6.0);
-        assert_eq!(s, vec![(1.0, 2.0, LinkClass::Impaired), (2.0, 3.0, LinkClass::Cut), (3.0, 5.0, LinkClass::Impaired), (5.0, 6.0, LinkClass::Cut)]);
+        assert_eq!(
+            s,
+            vec![
+                (1.0, 2.0, LinkClass::Impaired),
+                (2.0, 3.0, LinkClass::Cut),
+                (3.0, 5.0, LinkClass::Impaired),
+                (5.0, 6.0, LinkClass::Cut)
+            ]
+        );
         assert!(spans(&netem::Timeline::default(), &[1, 2], 6.0).is_empty(), "no timeline, nothing shaded");
         assert_eq!(spans(&tl, &[1], 6.0), vec![], "one UAV has no links");
     }

@@ -98,7 +98,8 @@ impl Table {
             Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
         };
         let mut lines = text.lines();
-        let cols = lines.next().unwrap_or_default().split(',').enumerate().map(|(i, c)| (c.trim().to_string(), i)).collect();
+        let cols =
+            lines.next().unwrap_or_default().split(',').enumerate().map(|(i, c)| (c.trim().to_string(), i)).collect();
         let rows = lines
             .enumerate()
             .filter(|(_, l)| !l.trim().is_empty())
@@ -133,7 +134,8 @@ impl Table {
 impl Run {
     /// Reads the run folder `dir`.
     pub fn read(dir: &Path) -> Result<Run> {
-        let traj = Table::read(dir, "trajectories.csv")?.ok_or_else(|| anyhow!("{} has no trajectories.csv: not a run folder", dir.display()))?;
+        let traj = Table::read(dir, "trajectories.csv")?
+            .ok_or_else(|| anyhow!("{} has no trajectories.csv: not a run folder", dir.display()))?;
         let mut run = Run { tracks: tracks(&traj)?, ..Run::default() };
         if let Some(t) = Table::read(dir, "agent_states.csv")? {
             run.states = states(&t)?;
@@ -155,7 +157,8 @@ impl Run {
         let path = dir.join("world.json");
         if path.exists() {
             let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-            self.world = Some(serde_json::from_str(&text).with_context(|| format!("{} is not a world", path.display()))?);
+            self.world =
+                Some(serde_json::from_str(&text).with_context(|| format!("{} is not a world", path.display()))?);
         }
         Ok(())
     }
@@ -184,7 +187,8 @@ impl Run {
             return Ok(());
         }
         let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-        let s: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
+        let s: serde_json::Value =
+            serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
         let outcome = match s["time_to_goal_s"].as_f64() {
             Some(t) => format!("goal in {t:.1} s"),
             None => format!("goal not reached ({})", s["end_reason"].as_str().unwrap_or("?")),
@@ -305,7 +309,11 @@ mod tests {
         assert_eq!(run.timeline.rules().len(), 2);
         assert_eq!(run.uavs, 2);
         assert_eq!(run.collisions, vec![[4.0, 1.0]]);
-        assert!(run.title.starts_with("synthetic <2> (r1): goal not reached (time_limit), 1 collisions"), "{}", run.title);
+        assert!(
+            run.title.starts_with("synthetic <2> (r1): goal not reached (time_limit), 1 collisions"),
+            "{}",
+            run.title
+        );
         assert_eq!(run.world.as_ref().map(|w| w.trees.len()), Some(2));
         assert!((run.t_end() - 3.0).abs() < 1e-9);
         std::fs::remove_file(dir.join("trajectories.csv")).expect("rm");

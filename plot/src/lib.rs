@@ -105,7 +105,11 @@ mod tests {
         assert!(run.contains("UAV 2") && run.contains("distance to the nearest other UAV"));
         assert!(!run.contains("NaN") && !run.contains("inf"), "non-finite samples skipped");
         let vectors = read("vectors");
-        assert!(vectors.contains("K21 vectors of UAV 1") && vectors.contains("avoidance |v_o|") && vectors.contains("output |v| [m/s]"));
+        assert!(
+            vectors.contains("K21 vectors of UAV 1")
+                && vectors.contains("avoidance |v_o|")
+                && vectors.contains("output |v| [m/s]")
+        );
         let loc = read("localization");
         assert!(loc.contains("mean over the swarm") && loc.contains("neighbours each agent"));
         let conn = read("connectivity");

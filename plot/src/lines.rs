@@ -48,12 +48,21 @@ impl Figure for LineChart<'_> {
             .x_label_area_size(36)
             .y_label_area_size(56)
             .build_cartesian_2d(0.0..x_hi, 0.0..y_hi)?;
-        chart.configure_mesh().x_desc(self.x_label).y_desc(self.y_label).label_style((FAMILY, 12)).max_light_lines(0).x_label_formatter(&tick).y_label_formatter(&tick).draw()?;
+        chart
+            .configure_mesh()
+            .x_desc(self.x_label)
+            .y_desc(self.y_label)
+            .label_style((FAMILY, 12))
+            .max_light_lines(0)
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .draw()?;
         if let Some(t) = self.threshold {
             chart.draw_series(DashedLineSeries::new([(0.0, t), (x_hi, t)], 6, 4, RED.stroke_width(1)))?;
         }
         for (i, c) in self.series.iter().enumerate() {
-            let (col, pts) = (color(i), c.points.iter().filter(|p| p[0].is_finite() && p[1].is_finite()).map(|p| (p[0], p[1])));
+            let (col, pts) =
+                (color(i), c.points.iter().filter(|p| p[0].is_finite() && p[1].is_finite()).map(|p| (p[0], p[1])));
             let style = col.stroke_width(2);
             let drawn = if c.dashed {
                 chart.draw_series(DashedLineSeries::new(pts.collect::<Vec<_>>(), 8, 4, style))?
@@ -67,7 +76,13 @@ impl Figure for LineChart<'_> {
 }
 
 /// The chart of `series` as SVG text.
-pub fn line_chart(title: &str, x_label: &str, y_label: &str, series: &[Series], threshold: Option<f64>) -> Result<String> {
+pub fn line_chart(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    threshold: Option<f64>,
+) -> Result<String> {
     svg_string(&LineChart { title, x_label, y_label, series, threshold })
 }
 

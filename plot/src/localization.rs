@@ -25,7 +25,8 @@ impl Figure for LocalizationFigure<'_> {
         let area = root.titled(&format!("{}: localization", run.title), (FAMILY, 18))?;
         let (top, bottom) = area.split_vertically(area.dim_in_pixel().1 / 2);
         panel(&top, run, "localization error (mean over each agent's estimates)", "[m]", &run.loc_error)?;
-        let counts: BTreeMap<u32, Vec<(f64, f64)>> = run.states.iter().map(|(&id, s)| (id, s.iter().map(|s| (s.t_s, s.neighbours)).collect())).collect();
+        let counts: BTreeMap<u32, Vec<(f64, f64)>> =
+            run.states.iter().map(|(&id, s)| (id, s.iter().map(|s| (s.t_s, s.neighbours)).collect())).collect();
         panel(&bottom, run, "neighbours each agent holds an estimate of", "neighbours", &counts)
     }
 }
@@ -42,14 +43,23 @@ fn mean_by_time(series: &BTreeMap<u32, Vec<(f64, f64)>>) -> Vec<(f64, f64)> {
 }
 
 /// One thin line per agent and the swarm's mean in black, the legend beside the plot.
-fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run, caption: &str, y_label: &str, series: &BTreeMap<u32, Vec<(f64, f64)>>) -> DrawResult<DB> {
+fn panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    run: &Run,
+    caption: &str,
+    y_label: &str,
+    series: &BTreeMap<u32, Vec<(f64, f64)>>,
+) -> DrawResult<DB> {
     let (plot, strip) = beside_legend(area);
     let y_hi = y_top(series.values().flatten().map(|p| p.1), 0.1);
     let mut chart = time_chart(&plot, caption, y_label, run.t_end(), y_hi)?;
     let mut entries = Vec::new();
     for (i, (id, pts)) in series.iter().enumerate() {
         let c = color(i);
-        chart.draw_series(LineSeries::new(pts.iter().copied().filter(|p| p.1.is_finite()), c.mix(0.7).stroke_width(1)))?;
+        chart.draw_series(LineSeries::new(
+            pts.iter().copied().filter(|p| p.1.is_finite()),
+            c.mix(0.7).stroke_width(1),
+        ))?;
         if series.len() <= 10 {
             entries.push((format!("UAV {id}"), c.stroke_width(1)));
         }
@@ -65,7 +75,8 @@ mod tests {
 
     #[test]
     fn the_mean_matches_times_to_the_millisecond() {
-        let s: BTreeMap<u32, Vec<(f64, f64)>> = [(1, vec![(0.1, 1.0), (0.2, 2.0)]), (2, vec![(0.1000001, 3.0), (0.3, f64::NAN)])].into();
+        let s: BTreeMap<u32, Vec<(f64, f64)>> =
+            [(1, vec![(0.1, 1.0), (0.2, 2.0)]), (2, vec![(0.1000001, 3.0), (0.3, f64::NAN)])].into();
         assert_eq!(mean_by_time(&s), vec![(0.1, 2.0), (0.2, 2.0)]);
     }
 }

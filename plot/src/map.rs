@@ -51,9 +51,10 @@ impl Figure for RunFigure<'_> {
 fn bounds(run: &Run) -> ((f64, f64), (f64, f64)) {
     let goal = run.world.as_ref().map(|w| (w.goal[0], w.goal[1]));
     let pts = run.tracks.values().flatten().map(|p| (p.x_m, p.y_m)).chain(goal);
-    let (x0, x1, y0, y1) = pts.fold((f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY), |b, (x, y)| {
-        (b.0.min(x), b.1.max(x), b.2.min(y), b.3.max(y))
-    });
+    let (x0, x1, y0, y1) = pts
+        .fold((f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY), |b, (x, y)| {
+            (b.0.min(x), b.1.max(x), b.2.min(y), b.3.max(y))
+        });
     let (x0, x1, y0, y1) = if x0.is_finite() { (x0, x1, y0, y1) } else { (0.0, 1.0, 0.0, 1.0) };
     let px_w = f64::from(MAP_W - 2 * MARGIN - Y_LABELS);
     let px_h = f64::from(SIZE.1 - TITLE_H - 2 * MARGIN - X_LABELS);
@@ -66,7 +67,10 @@ fn bounds(run: &Run) -> ((f64, f64), (f64, f64)) {
 
 /// A disc as a polygon of `n` corners in data coordinates (so its radius scales with the axes).
 fn disc(cx: f64, cy: f64, r: f64, n: u32) -> Vec<(f64, f64)> {
-    (0..n).map(|k| f64::from(k) * std::f64::consts::TAU / f64::from(n)).map(|a| (cx + r * a.cos(), cy + r * a.sin())).collect()
+    (0..n)
+        .map(|k| f64::from(k) * std::f64::consts::TAU / f64::from(n))
+        .map(|a| (cx + r * a.cos(), cy + r * a.sin()))
+        .collect()
 }
 
 /// A wall `[x1, y1, x2, y2, thickness]` as a rectangle, clipped to the box `b` (Liang–Barsky on
@@ -101,20 +105,35 @@ fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResu
         .x_label_area_size(X_LABELS)
         .y_label_area_size(Y_LABELS)
         .build_cartesian_2d(b.0 .0..b.0 .1, b.1 .0..b.1 .1)?;
-    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FAMILY, 12)).max_light_lines(0).x_label_formatter(&tick).y_label_formatter(&tick).draw()?;
+    chart
+        .configure_mesh()
+        .x_desc("x [m]")
+        .y_desc("y [m]")
+        .label_style((FAMILY, 12))
+        .max_light_lines(0)
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .draw()?;
     if let Some(w) = &run.world {
         let goal = disc(w.goal[0], w.goal[1], run.goal_radius_m, 72);
         chart.draw_series([Polygon::new(goal.clone(), GOAL.mix(0.12).filled())])?;
         chart.draw_series(LineSeries::new(goal.iter().chain(goal.first()).copied(), GOAL.stroke_width(1)))?;
-        let inside = |t: &&[f64; 3]| t[0] + t[2] >= b.0 .0 && t[0] - t[2] <= b.0 .1 && t[1] + t[2] >= b.1 .0 && t[1] - t[2] <= b.1 .1;
-        chart.draw_series(w.trees.iter().filter(inside).map(|t| Polygon::new(disc(t[0], t[1], t[2], 16), TREE.filled())))?;
-        chart.draw_series(w.walls.iter().filter_map(|wl| wall(wl, b)).map(|p| Polygon::new(p, BLACK.mix(0.8).filled())))?;
+        let inside = |t: &&[f64; 3]| {
+            t[0] + t[2] >= b.0 .0 && t[0] - t[2] <= b.0 .1 && t[1] + t[2] >= b.1 .0 && t[1] - t[2] <= b.1 .1
+        };
+        chart.draw_series(
+            w.trees.iter().filter(inside).map(|t| Polygon::new(disc(t[0], t[1], t[2], 16), TREE.filled())),
+        )?;
+        chart.draw_series(
+            w.walls.iter().filter_map(|wl| wall(wl, b)).map(|p| Polygon::new(p, BLACK.mix(0.8).filled())),
+        )?;
     }
     for (i, (id, track)) in run.tracks.iter().enumerate() {
         let c = color(i);
         let s = chart.draw_series(LineSeries::new(track.iter().map(|p| (p.x_m, p.y_m)), c.stroke_width(2)))?;
         if run.tracks.len() <= LEGEND_MAX {
-            s.label(format!("UAV {id}")).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            s.label(format!("UAV {id}"))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
         }
         if let (Some(a), Some(z)) = (track.first(), track.last()) {
             chart.draw_series([Circle::new((a.x_m, a.y_m), 4, c.filled())])?;
@@ -128,11 +147,17 @@ fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResu
     Ok(())
 }
 
-fn distances<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run, caption: &str, value: fn(&Pose) -> f64) -> DrawResult<DB> {
+fn distances<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    run: &Run,
+    caption: &str,
+    value: fn(&Pose) -> f64,
+) -> DrawResult<DB> {
     let y_hi = super::style::y_top(run.tracks.values().flatten().map(value), 1.0).min(DISTANCE_CAP_M * 1.05);
     let mut chart = time_chart(area, caption, "[m]", run.t_end(), y_hi)?;
     for (i, track) in run.tracks.values().enumerate() {
-        let pts: Vec<(f64, f64)> = track.iter().filter(|p| value(p).is_finite()).map(|p| (p.t_s, value(p).min(y_hi))).collect();
+        let pts: Vec<(f64, f64)> =
+            track.iter().filter(|p| value(p).is_finite()).map(|p| (p.t_s, value(p).min(y_hi))).collect();
         chart.draw_series(LineSeries::new(thin_keeping_minima(&pts, MAX_POINTS), color(i).stroke_width(1)))?;
     }
     Ok(())

@@ -43,7 +43,8 @@ pub trait Figure {
 
 fn register_font() -> Result<()> {
     static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    let ok = *ONCE.get_or_init(|| plotters::style::register_font(FAMILY, FontStyle::Normal, dejavu::sans::regular()).is_ok());
+    let ok = *ONCE
+        .get_or_init(|| plotters::style::register_font(FAMILY, FontStyle::Normal, dejavu::sans::regular()).is_ok());
     if ok {
         Ok(())
     } else {
@@ -61,7 +62,8 @@ fn render<DB: DrawingBackend, F: Figure>(fig: &F, root: DrawingArea<DB, Shift>) 
 pub fn write_pair<F: Figure>(fig: &F, svg: &Path, png: &Path) -> Result<()> {
     register_font()?;
     render(fig, SVGBackend::new(svg, fig.size()).into_drawing_area()).map_err(|e| anyhow!("{}: {e}", svg.display()))?;
-    render(fig, BitMapBackend::new(png, fig.size()).into_drawing_area()).map_err(|e| anyhow!("{}: {e}", png.display()))?;
+    render(fig, BitMapBackend::new(png, fig.size()).into_drawing_area())
+        .map_err(|e| anyhow!("{}: {e}", png.display()))?;
     Ok(())
 }
 
@@ -82,7 +84,9 @@ pub fn svg_string<F: Figure>(fig: &F) -> Result<String> {
 
 /// `(lo, hi)` of the finite values, or `None`.
 pub fn range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values.filter(|v| v.is_finite()).fold(None, |r, v| Some(r.map_or((v, v), |(lo, hi): (f64, f64)| (lo.min(v), hi.max(v)))))
+    values
+        .filter(|v| v.is_finite())
+        .fold(None, |r, v| Some(r.map_or((v, v), |(lo, hi): (f64, f64)| (lo.min(v), hi.max(v)))))
 }
 
 /// The upper end of a y axis from 0 over `values`: 5 % headroom, at least `floor`.
@@ -110,7 +114,11 @@ pub fn thin_keeping_minima(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)>
 pub fn tick(v: &f64) -> String {
     let s = format!("{v:.2}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.into() }
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
 }
 
 /// A chart with sim time [s] across and a value up.
@@ -131,7 +139,11 @@ pub fn time_chart<'a, DB: DrawingBackend>(
         .x_label_area_size(36)
         .y_label_area_size(56)
         .build_cartesian_2d(0.0..t_max, 0.0..y_hi)?;
-    chart.configure_mesh().x_desc("sim time [s]").y_desc(y_label).label_style((FAMILY, 12))
+    chart
+        .configure_mesh()
+        .x_desc("sim time [s]")
+        .y_desc(y_label)
+        .label_style((FAMILY, 12))
         .max_light_lines(0)
         .x_label_formatter(&tick)
         .y_label_formatter(&tick)
@@ -151,14 +163,19 @@ pub fn segments(points: Vec<(f64, f64)>, style: ShapeStyle) -> Vec<PathElement<(
 
 /// `area` split into the chart's part and a strip on its right for [`legend_strip`], so a legend
 /// never covers the lines (time series that fill the whole plot: localization, vectors).
-pub fn beside_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>) -> (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>) {
+pub fn beside_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+) -> (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>) {
     let width = area.dim_in_pixel().0;
     area.split_horizontally(width.saturating_sub(LEGEND_STRIP_PX))
 }
 
 /// Draws a legend of `entries` (label, line style) down `strip`, from the height of the chart's
 /// plotting area.
-pub fn legend_strip<DB: DrawingBackend>(strip: &DrawingArea<DB, Shift>, entries: &[(String, ShapeStyle)]) -> DrawResult<DB> {
+pub fn legend_strip<DB: DrawingBackend>(
+    strip: &DrawingArea<DB, Shift>,
+    entries: &[(String, ShapeStyle)],
+) -> DrawResult<DB> {
     for (i, (label, style)) in entries.iter().enumerate() {
         let y = 44 + 16 * i32::try_from(i).unwrap_or(i32::MAX / 32);
         strip.draw(&PathElement::new(vec![(4, y), (24, y)], *style))?;
@@ -168,7 +185,9 @@ pub fn legend_strip<DB: DrawingBackend>(strip: &DrawingArea<DB, Shift>, entries:
 }
 
 /// Draws the legend of `chart`'s labelled series in its upper right corner.
-pub fn legend<'a, DB: DrawingBackend + 'a, X: Ranged, Y: Ranged>(chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>) -> DrawResult<DB> {
+pub fn legend<'a, DB: DrawingBackend + 'a, X: Ranged, Y: Ranged>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+) -> DrawResult<DB> {
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperRight)
@@ -185,7 +204,11 @@ mod tests {
     #[test]
     fn a_thick_line_is_drawn_as_joinless_segments() {
         let pts = vec![(0.0, 0.0), (0.1, 1.0), (0.2, 0.0), (0.3, 1.0)];
-        assert_eq!(segments(pts, BLACK.stroke_width(2)).len(), 3, "one two-point segment per pair of neighbours, so no miter joins");
+        assert_eq!(
+            segments(pts, BLACK.stroke_width(2)).len(),
+            3,
+            "one two-point segment per pair of neighbours, so no miter joins"
+        );
         assert!(segments(vec![(0.0, 1.0)], BLACK.into()).is_empty(), "a single point draws nothing");
     }
 

@@ -34,7 +34,13 @@ impl Figure for VectorsFigure<'_> {
 
 impl VectorsFigure<'_> {
     /// One panel with the vectors `which` (indices into [`VECTORS`]).
-    fn panel<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>, caption: &str, y_label: &str, which: std::ops::Range<usize>) -> DrawResult<DB> {
+    fn panel<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        caption: &str,
+        y_label: &str,
+        which: std::ops::Range<usize>,
+    ) -> DrawResult<DB> {
         let states = self.run.states.get(&self.uav).map(Vec::as_slice).unwrap_or_default();
         let (plot, strip) = beside_legend(area);
         let y_hi = y_top(states.iter().flat_map(|s| s.vectors[which.clone()].to_vec()), 0.5);

@@ -485,10 +485,15 @@ impl Summary {
         for c in self.failed_checks() {
             let _ = write!(s, "\n  FAIL {}: {}", c.name, c.detail);
             if let Some(f) = &c.first_failure {
-                let at: Vec<String> =
-                    f.uavs.iter().take(SHOWN_UAVS).map(|u| format!("{} at ({:.2}, {:.2})", u.id, u.x_m, u.y_m)).collect();
+                let at: Vec<String> = f
+                    .uavs
+                    .iter()
+                    .take(SHOWN_UAVS)
+                    .map(|u| format!("{} at ({:.2}, {:.2})", u.id, u.x_m, u.y_m))
+                    .collect();
                 let more = f.uavs.len().saturating_sub(SHOWN_UAVS);
-                let more = if more > 0 { format!(" and {more} more (summary.json lists every one)") } else { String::new() };
+                let more =
+                    if more > 0 { format!(" and {more} more (summary.json lists every one)") } else { String::new() };
                 let _ = write!(s, "\n       first at t={:.1} s: {}; UAVs {}{more}", f.t_s, f.what, at.join(", "));
             }
         }
@@ -502,7 +507,11 @@ impl Summary {
             (true, Some(t)) => format!("reached in {t:.1} s"),
             _ => format!("NOT reached ({})", self.end_reason),
         };
-        let _ = writeln!(s, "run {}  scenario {}  ({} UAVs, {} trees, {})", self.run_id, self.scenario, self.uav_count, self.trees, self.time_mode);
+        let _ = writeln!(
+            s,
+            "run {}  scenario {}  ({} UAVs, {} trees, {})",
+            self.run_id, self.scenario, self.uav_count, self.trees, self.time_mode
+        );
         let _ = writeln!(s, "goal: {goal}");
         let _ = writeln!(s, "collisions: {}", self.collisions);
         let _ = writeln!(
@@ -513,8 +522,19 @@ impl Summary {
         let _ = writeln!(
             s,
             "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>9}",
-            "uav", "obst min", "obst mean", "uav min", "uav mean", "path m", "msgs tx", "bytes tx", "msgs rx", "step ms",
-            "alone s", "rejoined", "uav max"
+            "uav",
+            "obst min",
+            "obst mean",
+            "uav min",
+            "uav mean",
+            "path m",
+            "msgs tx",
+            "bytes tx",
+            "msgs rx",
+            "step ms",
+            "alone s",
+            "rejoined",
+            "uav max"
         );
         for a in &self.agents {
             let _ = writeln!(
@@ -608,7 +628,12 @@ mod tests {
 
     #[test]
     fn infinite_distances_are_null_and_read_back() {
-        let a = AgentSummary { id: 1, min_obstacle_distance_m: f64::INFINITY, min_agent_distance_m: 1.5, ..Default::default() };
+        let a = AgentSummary {
+            id: 1,
+            min_obstacle_distance_m: f64::INFINITY,
+            min_agent_distance_m: 1.5,
+            ..Default::default()
+        };
         let json = serde_json::to_value(&a).expect("serializes");
         assert!(json["min_obstacle_distance_m"].is_null());
         assert_eq!(json["min_agent_distance_m"], 1.5);

@@ -89,7 +89,9 @@ impl KeySpace {
     /// JSON `payload`. Replies of other kinds or runs are ignored.
     fn add_reply(&mut self, run_prefix: &str, admin_key: &str, payload: &[u8]) {
         let mut parts = admin_key.splitn(5, '/');
-        let (Some("@"), Some(router), Some("router"), Some(kind), Some(rest)) = (parts.next(), parts.next(), parts.next(), parts.next(), parts.next()) else {
+        let (Some("@"), Some(router), Some("router"), Some(kind), Some(rest)) =
+            (parts.next(), parts.next(), parts.next(), parts.next(), parts.next())
+        else {
             return;
         };
         let entry = match kind {
@@ -124,7 +126,8 @@ impl KeySpace {
     pub fn label(&self, zid: &str) -> String {
         let tokens = self.tokens.get(zid);
         let held = |t: &str| tokens.is_some_and(|s| s.contains(t));
-        let uavs: Vec<u32> = tokens.into_iter().flatten().filter_map(|t| t.strip_prefix("alive/uav/")?.parse().ok()).collect();
+        let uavs: Vec<u32> =
+            tokens.into_iter().flatten().filter_map(|t| t.strip_prefix("alive/uav/")?.parse().ok()).collect();
         if held("alive/hub") {
             "hub".into()
         } else if held("alive/recorder") {
@@ -172,7 +175,14 @@ impl KeySpace {
         subscribers.sort_by_key(|n| natural(n));
         let (msgs, bytes) = self.traffic.get(fam).copied().unwrap_or_default();
         let rate = |v: u64| if self.window_s > 0.0 { Some(v as f64 / self.window_s) } else { None };
-        FamilyRow { family: fam.to_string(), publishers, subscribers, subscribed_keys, msgs_per_s: rate(msgs), bytes_per_s: rate(bytes) }
+        FamilyRow {
+            family: fam.to_string(),
+            publishers,
+            subscribers,
+            subscribed_keys,
+            msgs_per_s: rate(msgs),
+            bytes_per_s: rate(bytes),
+        }
     }
 
     /// Each session: its name, Zenoh id, and what it subscribes to and publishes.
@@ -181,8 +191,15 @@ impl KeySpace {
             .sessions()
             .into_iter()
             .map(|zid| {
-                let list = |m: &BTreeMap<String, BTreeSet<String>>| m.get(zid).map(|s| s.iter().cloned().collect()).unwrap_or_default();
-                SessionRow { session: zid.clone(), name: self.label(zid), subscribes: list(&self.subscribes), publishes: list(&self.publishes) }
+                let list = |m: &BTreeMap<String, BTreeSet<String>>| {
+                    m.get(zid).map(|s| s.iter().cloned().collect()).unwrap_or_default()
+                };
+                SessionRow {
+                    session: zid.clone(),
+                    name: self.label(zid),
+                    subscribes: list(&self.subscribes),
+                    publishes: list(&self.publishes),
+                }
             })
             .collect();
         rows.sort_by_key(|r| natural(&r.name));
@@ -223,7 +240,10 @@ pub struct SessionRow {
 /// The family of `key` (relative to `swarm/R/`): every chunk that is a UAV id, or a `*` in its
 /// place, becomes `{id}`.
 pub fn family(key: &str) -> String {
-    key.split('/').map(|c| if c == "*" || (!c.is_empty() && c.bytes().all(|b| b.is_ascii_digit())) { "{id}" } else { c }).collect::<Vec<_>>().join("/")
+    key.split('/')
+        .map(|c| if c == "*" || (!c.is_empty() && c.bytes().all(|b| b.is_ascii_digit())) { "{id}" } else { c })
+        .collect::<Vec<_>>()
+        .join("/")
 }
 
 /// A name's sort key with its digits read as a number: `uav2` before `uav10`.
@@ -282,7 +302,12 @@ async fn gather(s: &zenoh::Session, keys: &Keys, window: f64) -> Result<KeySpace
     let mut space = KeySpace::default();
     for kind in ["subscriber", "publisher", "querier", "token"] {
         let selector = format!("@/*/router/{kind}/{prefix}/**");
-        let replies = s.get(&selector).timeout(Duration::from_secs(3)).await.map_err(WireError::zenoh).with_context(|| format!("query {selector}"))?;
+        let replies = s
+            .get(&selector)
+            .timeout(Duration::from_secs(3))
+            .await
+            .map_err(WireError::zenoh)
+            .with_context(|| format!("query {selector}"))?;
         while let Ok(r) = replies.recv_async().await {
             match r.result() {
                 Ok(sample) => space.add_reply(&prefix, sample.key_expr().as_str(), &sample.payload().to_bytes()),
@@ -336,7 +361,11 @@ pub fn table(run: &str, space: &KeySpace, verbose: bool) -> String {
     let mut t = String::new();
     let sessions = space.sessions();
     let _ = writeln!(t, "run {run}: {} router(s), {} sessions", space.routers.len(), sessions.len());
-    let _ = writeln!(t, "{:<28} {:>5} {:>5} {:>6} {:>9} {:>10}  publishers / subscribers", "key family", "pubs", "subs", "keys", "msg/s", "kB/s");
+    let _ = writeln!(
+        t,
+        "{:<28} {:>5} {:>5} {:>6} {:>9} {:>10}  publishers / subscribers",
+        "key family", "pubs", "subs", "keys", "msg/s", "kB/s"
+    );
     for r in space.rows() {
         let rate = |v: Option<f64>, scale: f64| v.map_or_else(|| "-".into(), |v| format!("{:.1}", v / scale));
         let _ = writeln!(
@@ -355,7 +384,14 @@ pub fn table(run: &str, space: &KeySpace, verbose: bool) -> String {
     if verbose {
         let _ = writeln!(t, "\nsessions:");
         for s in space.session_rows() {
-            let _ = writeln!(t, "{} ({})\n  subscribes: {}\n  publishes:  {}", s.name, s.session, s.subscribes.join(" "), s.publishes.join(" "));
+            let _ = writeln!(
+                t,
+                "{} ({})\n  subscribes: {}\n  publishes:  {}",
+                s.name,
+                s.session,
+                s.subscribes.join(" "),
+                s.publishes.join(" ")
+            );
         }
     }
     t
@@ -410,7 +446,11 @@ mod tests {
         assert_eq!(s.label("hh"), "uavs3-4");
         assert_eq!(s.label("rec"), "recorder");
         assert_eq!(s.label("0123456789abcdef"), "01234567");
-        assert_eq!(s.routers, ["h", "x"].map(String::from).into(), "both routers answered; other runs, queryables and bad JSON ignored");
+        assert_eq!(
+            s.routers,
+            ["h", "x"].map(String::from).into(),
+            "both routers answered; other runs, queryables and bad JSON ignored"
+        );
         assert!(!s.subscribes.contains_key("zz"));
     }
 

@@ -10,12 +10,7 @@
 //! user (`uav{id}`, `uavs{ids}` for a host), the recording logs in as `observer`; `--insecure`
 //! skips all that.
 
-use swarm_node::args::{default_run_id, scenario_value};
-use swarm_node::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
-use swarm_node::pieces::LISTENING_PREFIX;
 use crate::proxy::{LinkProxy, LinkState};
-use swarm_record::recorder::{progress_bar, Recording};
-use swarm_record::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::collections::BTreeMap;
@@ -23,11 +18,16 @@ use std::path::{Path, PathBuf};
 use std::process::{ExitCode, Stdio};
 use std::time::Duration;
 use swarm_config::{FailureKind, Scenario};
+use swarm_node::args::{default_run_id, scenario_value};
+use swarm_node::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
+use swarm_node::pieces::LISTENING_PREFIX;
+use swarm_record::recorder::{progress_bar, Recording};
+use swarm_record::summary::Summary;
 use swarm_wire::Keys;
-use uav_agent::Controllers;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, ChildStdin, Command};
 use tracing::{info, warn};
+use uav_agent::Controllers;
 
 /// How long the launcher waits for the hub to print its locator.
 const HUB_START_TIMEOUT: Duration = Duration::from_secs(30);
@@ -121,7 +121,13 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&run_id));
     refuse_cut_short(&out)?;
     let per_process = agents_per_process(sc.count(), a.agents_per_process);
-    let show = Show { quiet: a.quiet, mcap: a.mcap.detail(sc.count()), journal: !a.mcap.no_journal, view: a.view, ros2: a.ros2 };
+    let show = Show {
+        quiet: a.quiet,
+        mcap: a.mcap.detail(sc.count()),
+        journal: !a.mcap.no_journal,
+        view: a.view,
+        ros2: a.ros2,
+    };
     let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
     println!("{}", summary.human());
@@ -141,7 +147,11 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
 fn refuse_cut_short(out: &Path) -> Result<()> {
     let recover = |d: &Path| format!("swarm recover {}", d.display());
     if swarm_record::recorder::cut_short(out) {
-        anyhow::bail!("{} holds a run that was cut short and not recovered: run `{}`, or choose another --out", out.display(), recover(out));
+        anyhow::bail!(
+            "{} holds a run that was cut short and not recovered: run `{}`, or choose another --out",
+            out.display(),
+            recover(out)
+        );
     }
     let siblings = out.parent().and_then(|p| std::fs::read_dir(p).ok()).into_iter().flatten().flatten();
     for d in siblings.map(|e| e.path()).filter(|d| swarm_record::recorder::cut_short(d)) {
@@ -240,7 +250,8 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     let locators = read_locators(&mut hub.child, &launcher.logs).await?;
     info!(?locators, "hub up");
     // Where pieces started by hand (an external controller) connect: one locator a line.
-    std::fs::write(out.join(HUB_FILE), locators.join("\n") + "\n").with_context(|| format!("cannot write {}", out.join(HUB_FILE).display()))?;
+    std::fs::write(out.join(HUB_FILE), locators.join("\n") + "\n")
+        .with_context(|| format!("cannot write {}", out.join(HUB_FILE).display()))?;
     let proxies = start_proxies(sc, &locators).await?;
 
     let mut rec_cfg = match &launcher.creds {
@@ -276,7 +287,13 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
 pub const HUB_FILE: &str = "hub.txt";
 
 /// Starts the ROS 2 bridge of the run in this process, logged in as `bridge`.
-async fn start_bridge(launcher: &Launcher, run_id: &str, locators: &[String], zenoh_cfg: &[String], domain: u32) -> Result<()> {
+async fn start_bridge(
+    launcher: &Launcher,
+    run_id: &str,
+    locators: &[String],
+    zenoh_cfg: &[String],
+    domain: u32,
+) -> Result<()> {
     let mut cfg = match &launcher.creds {
         Some(c) => c.client_cfg("bridge")?,
         None => Vec::new(),
@@ -392,7 +409,13 @@ impl Launcher {
     /// Starts `swarm hub` on a free loopback port, its stdout piped for the locator line.
     fn hub(&self, scenario_path: &Path) -> Result<Piece> {
         self.spawn("hub.log", true, |c| {
-            c.arg("hub").arg(scenario_path).args(["--run", &self.run_id, "--listen", "tcp/127.0.0.1:0", "--exit-with-stdin"]);
+            c.arg("hub").arg(scenario_path).args([
+                "--run",
+                &self.run_id,
+                "--listen",
+                "tcp/127.0.0.1:0",
+                "--exit-with-stdin",
+            ]);
             match &self.creds {
                 Some(creds) => c.arg("--users").arg(creds.dictionary()),
                 None => c.arg("--insecure"),
@@ -412,7 +435,13 @@ impl Launcher {
         self.agents(AgentProcess::Host(ids), &log, None, locators)
     }
 
-    fn agents(&self, who: AgentProcess<'_>, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
+    fn agents(
+        &self,
+        who: AgentProcess<'_>,
+        log: &str,
+        proxy: Option<(&LinkProxy, f64)>,
+        locators: &[String],
+    ) -> Result<Piece> {
         self.spawn(log, false, |c| {
             c.arg("agent").args(["--run", &self.run_id]).args(who.args()).arg("--exit-with-stdin");
             if let Some(creds) = &self.creds {
@@ -497,15 +526,19 @@ impl<'a> Agents<'a> {
         proxies: BTreeMap<u32, LinkProxy>,
         spread: Spread,
     ) -> Result<Agents<'a>> {
-        let mut schedule: Vec<(f64, u32, FailureKind)> = sc
-            .failures
-            .iter()
-            .filter(|f| f.kind != FailureKind::Freeze)
-            .map(|f| (f.at_s, f.uav, f.kind))
-            .collect();
+        let mut schedule: Vec<(f64, u32, FailureKind)> =
+            sc.failures.iter().filter(|f| f.kind != FailureKind::Freeze).map(|f| (f.at_s, f.uav, f.kind)).collect();
         schedule.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let mut agents =
-            Agents { launcher, sc, locators, proxies, running: BTreeMap::new(), hosts: Vec::new(), schedule, restarts: 0 };
+        let mut agents = Agents {
+            launcher,
+            sc,
+            locators,
+            proxies,
+            running: BTreeMap::new(),
+            hosts: Vec::new(),
+            schedule,
+            restarts: 0,
+        };
         for group in &spread.hosts {
             agents.hosts.push(launcher.host(group, &agents.locators)?);
         }
@@ -666,7 +699,10 @@ mod tests {
         let host = AgentProcess::Host(&[1, 2, 3, 7]);
         assert_eq!(host.args(), ["--ids".to_string(), "1-3,7".to_string()]);
         assert_eq!(host.user(), "uavs1-3,7");
-        assert_eq!(swarm_node::auth::Role::of(&host.user()).expect("a role"), swarm_node::auth::Role::Agents(vec![1, 2, 3, 7]));
+        assert_eq!(
+            swarm_node::auth::Role::of(&host.user()).expect("a role"),
+            swarm_node::auth::Role::Agents(vec![1, 2, 3, 7])
+        );
         let uav = AgentProcess::Uav(4);
         assert_eq!(uav.args(), ["--id".to_string(), "4".to_string()]);
         assert_eq!(uav.user(), "uav4");

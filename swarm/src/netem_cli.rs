@@ -8,11 +8,11 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
+use netem::impair::{Impairment, JitterDistribution, LossModel, Partition};
 use std::process::ExitCode;
 use swarm_config::{Failure, FailureKind, NetemRule, Timeline, UavSet};
 use swarm_wire::plumbing;
 use swarm_wire::{Keys, Msg, NetemAck};
-use netem::impair::{Impairment, JitterDistribution, LossModel, Partition};
 
 /// `swarm netem`.
 #[derive(Args, Debug, Clone)]
@@ -163,17 +163,27 @@ pub fn timeline_of(op: &NetemOp) -> Result<Timeline> {
                 ..Impairment::IDENTITY
             },
         ),
-        NetemOp::Partition { groups, scheme, hold } => Ok(rules(vec![NetemRule::partition(0.0, partition(groups, *scheme)?, *hold)])),
+        NetemOp::Partition { groups, scheme, hold } => {
+            Ok(rules(vec![NetemRule::partition(0.0, partition(groups, *scheme)?, *hold)]))
+        }
         NetemOp::Isolate { uav } => Ok(rules(vec![NetemRule::partition(0.0, Partition::isolate(*uav), false)])),
         NetemOp::Heal => Ok(rules(vec![
             rule(UavSet::default(), UavSet::default(), Impairment::IDENTITY),
             NetemRule::partition(0.0, Partition::heal(), false),
         ])),
-        NetemOp::Freeze { uav } => Ok(Timeline { netem: Vec::new(), failures: vec![Failure { at_s: 0.0, uav: *uav, kind: FailureKind::Freeze }] }),
+        NetemOp::Freeze { uav } => Ok(Timeline {
+            netem: Vec::new(),
+            failures: vec![Failure { at_s: 0.0, uav: *uav, kind: FailureKind::Freeze }],
+        }),
         NetemOp::Apply { file } => {
             let t = Timeline::from_file(file)?;
             if let Some(f) = t.failures.iter().find(|f| f.kind != FailureKind::Freeze) {
-                bail!("{}: only `freeze` failures can be applied to a running swarm (UAV {} has {:?})", file.display(), f.uav, f.kind);
+                bail!(
+                    "{}: only `freeze` failures can be applied to a running swarm (UAV {} has {:?})",
+                    file.display(),
+                    f.uav,
+                    f.kind
+                );
             }
             Ok(t)
         }
@@ -208,8 +218,17 @@ pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
     let s = a.zenoh.open_tool_session().await?;
     // Listen for the hub's answer before asking, so it cannot be missed.
     let (tx, mut acks) = tokio::sync::mpsc::unbounded_channel();
-    let _sub = plumbing::subscribe(&s, keys.netem_ack(), tx, |x| serde_json::from_slice::<NetemAck>(&plumbing::payload(x)).ok()).await?;
-    plumbing::put_once(&s, &keys.netem_add(), Msg::NetemRules(json.clone()).encode()?, zenoh::qos::CongestionControl::Block).await?;
+    let _sub = plumbing::subscribe(&s, keys.netem_ack(), tx, |x| {
+        serde_json::from_slice::<NetemAck>(&plumbing::payload(x)).ok()
+    })
+    .await?;
+    plumbing::put_once(
+        &s,
+        &keys.netem_add(),
+        Msg::NetemRules(json.clone()).encode()?,
+        zenoh::qos::CongestionControl::Block,
+    )
+    .await?;
     let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs_f64(a.wait.max(0.0));
     let answer = loop {
         match tokio::time::timeout_at(deadline, acks.recv()).await {

@@ -11,17 +11,19 @@
 //! and once the newest is older than half a second.
 //! Formats: `swarm_wire::ros2`.
 
-use swarm_node::args::ZenohArgs;
 use anyhow::{Context, Result};
 use clap::Args;
 use std::collections::BTreeMap;
 use std::process::ExitCode;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use swarm_config::Scenario;
+use swarm_node::args::ZenohArgs;
 use swarm_wire::external::{ExtCmd, ExtCmdKind};
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::ros2::msgs::{laser_scan, odometry, Twist};
-use swarm_wire::ros2::{attachment, data_key, Entity, Kind, RosType, LASER_SCAN, ODOMETRY, QOS_DEFAULT, QOS_SENSOR, TWIST};
+use swarm_wire::ros2::{
+    attachment, data_key, Entity, Kind, RosType, LASER_SCAN, ODOMETRY, QOS_DEFAULT, QOS_SENSOR, TWIST,
+};
 use swarm_wire::session::{self, Role};
 use swarm_wire::{Keys, Msg, WireError};
 use tokio::sync::{mpsc, watch};
@@ -99,9 +101,17 @@ impl Bridge {
         }
         let mut tokens = graph(&s, &sc, domain).await?;
         for &id in &sc.controller.external {
-            subs.push(plumbing::subscribe(&s, keys.ext_view(id), tx.clone(), move |x| Some(Event::View(id, plumbing::payload(x)))).await?);
+            subs.push(
+                plumbing::subscribe(&s, keys.ext_view(id), tx.clone(), move |x| {
+                    Some(Event::View(id, plumbing::payload(x)))
+                })
+                .await?,
+            );
             let cmd_vel = data_key(domain, &format!("/uav{id}/cmd_vel"), &TWIST);
-            subs.push(plumbing::subscribe(&s, cmd_vel, tx.clone(), move |x| Some(Event::CmdVel(id, plumbing::payload(x)))).await?);
+            subs.push(
+                plumbing::subscribe(&s, cmd_vel, tx.clone(), move |x| Some(Event::CmdVel(id, plumbing::payload(x))))
+                    .await?,
+            );
             tokens.push(s.liveliness().declare_token(keys.alive_ext(id)).await.map_err(WireError::zenoh)?);
         }
         let (hub_alive, hub_sub) = plumbing::watch_token(&s, keys.alive_hub()).await?;
@@ -109,7 +119,19 @@ impl Bridge {
         info!(uavs = sc.count(), external = ?sc.controller.external, domain, "ROS 2 bridge up");
         let scan_period_s = sc.dt_secs() as f32;
         let (seq, twists) = (BTreeMap::new(), BTreeMap::new());
-        Ok(Bridge { session: s, keys, domain, scan_period_s, rx, hub_alive, _subs: subs, _tokens: tokens, seq, twists, malformed: 0 })
+        Ok(Bridge {
+            session: s,
+            keys,
+            domain,
+            scan_period_s,
+            rx,
+            hub_alive,
+            _subs: subs,
+            _tokens: tokens,
+            seq,
+            twists,
+            malformed: 0,
+        })
     }
 
     /// Bridges until the hub's token goes away (after it was seen).
@@ -142,7 +164,15 @@ impl Bridge {
                 let frame = format!("uav{id}/base_link");
                 self.publish(id, "scan", LASER_SCAN, laser_scan(&scan, &frame, self.scan_period_s)).await
             }
-            Event::Sense(id, Msg::Odom(o)) => self.publish(id, "odom", ODOMETRY, odometry(&o, &format!("uav{id}/odom"), &format!("uav{id}/base_link"))).await,
+            Event::Sense(id, Msg::Odom(o)) => {
+                self.publish(
+                    id,
+                    "odom",
+                    ODOMETRY,
+                    odometry(&o, &format!("uav{id}/odom"), &format!("uav{id}/base_link")),
+                )
+                .await
+            }
             Event::Sense(..) => Ok(()),
             Event::CmdVel(id, bytes) => {
                 match Twist::decode(&bytes) {
@@ -226,15 +256,39 @@ async fn graph(s: &zenoh::Session, sc: &Scenario, domain: u32) -> Result<Vec<Liv
     let mut tokens = Vec::new();
     for id in sc.uav_ids() {
         let ns = format!("/uav{id}");
-        let node = Entity { domain, zid: &zid, node_id: id, entity_id: id, kind: Kind::Node, namespace: &ns, node: "swarm", topic: None };
+        let node = Entity {
+            domain,
+            zid: &zid,
+            node_id: id,
+            entity_id: id,
+            kind: Kind::Node,
+            namespace: &ns,
+            node: "swarm",
+            topic: None,
+        };
         let (scan, odom, cmd_vel) = (format!("{ns}/scan"), format!("{ns}/odom"), format!("{ns}/cmd_vel"));
         let mut entities = vec![
             node,
-            Entity { entity_id: 1_000_000 + 3 * id, kind: Kind::Publisher, topic: Some((&scan, LASER_SCAN, QOS_SENSOR)), ..node },
-            Entity { entity_id: 1_000_001 + 3 * id, kind: Kind::Publisher, topic: Some((&odom, ODOMETRY, QOS_SENSOR)), ..node },
+            Entity {
+                entity_id: 1_000_000 + 3 * id,
+                kind: Kind::Publisher,
+                topic: Some((&scan, LASER_SCAN, QOS_SENSOR)),
+                ..node
+            },
+            Entity {
+                entity_id: 1_000_001 + 3 * id,
+                kind: Kind::Publisher,
+                topic: Some((&odom, ODOMETRY, QOS_SENSOR)),
+                ..node
+            },
         ];
         if sc.controller.external.contains(&id) {
-            entities.push(Entity { entity_id: 1_000_002 + 3 * id, kind: Kind::Subscription, topic: Some((&cmd_vel, TWIST, QOS_DEFAULT)), ..node });
+            entities.push(Entity {
+                entity_id: 1_000_002 + 3 * id,
+                kind: Kind::Subscription,
+                topic: Some((&cmd_vel, TWIST, QOS_DEFAULT)),
+                ..node
+            });
         }
         for e in entities {
             tokens.push(s.liveliness().declare_token(e.token_key()).await.map_err(WireError::zenoh)?);

@@ -35,7 +35,9 @@ pub fn admit(sc: &Scenario, name: &str, controllers: &Controllers) -> Result<()>
     controllers.check(sc).with_context(|| format!("scenario `{name}`"))?;
     if let Some((uav, what)) = physics_hub::start_in_obstacle(sc) {
         let field = if sc.swarm.start_positions.is_some() { "swarm.start_positions" } else { "swarm.start_area" };
-        anyhow::bail!("scenario `{name}`: {field}: UAV {uav} {what} (move it, or list the spot in world.forest.keep_clear)");
+        anyhow::bail!(
+            "scenario `{name}`: {field}: UAV {uav} {what} (move it, or list the spot in world.forest.keep_clear)"
+        );
     }
     Ok(())
 }

@@ -16,10 +16,7 @@
 //! with `--seeds` ([`Trials`]), and then print every number as a mean with its 95 % interval
 //! (the `sweep-seeds` statistics); such a study is resumable like `sweep-seeds`.
 
-use swarm_node::args::{default_run_id, scenario_value, unix_secs};
 use crate::launch::{agents_per_process, execute, How};
-use swarm_plot::{line_chart, Series};
-use swarm_record::summary::{f, Summary};
 use crate::sweep_seeds::stats::{mean_ci, wilson};
 use crate::sweep_seeds::{mean_pm, parse_seeds};
 use anyhow::{bail, Context, Result};
@@ -31,6 +28,9 @@ use std::pin::Pin;
 use std::process::ExitCode;
 use std::task::Poll;
 use swarm_config::{BroadcastError, ControllerKind, LocalizationMode, Scenario, UavSet};
+use swarm_node::args::{default_run_id, scenario_value, unix_secs};
+use swarm_plot::{line_chart, Series};
+use swarm_record::summary::{f, Summary};
 
 /// `swarm compare`.
 #[derive(Args, Debug, Clone)]
@@ -128,7 +128,12 @@ pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: Varia
 /// `swarm fuzz` share it. The futures are polled together in this one task, not spawned: a run's
 /// future is not `Send` (the recorder's tick callback) and blocks in place now and then; what
 /// the runs wait on is their child processes, which fly in parallel.
-pub(crate) async fn run_bounded<I, F: Future>(items: impl IntoIterator<Item = I>, jobs: usize, mut start: impl FnMut(I) -> F, mut done: impl FnMut(F::Output)) {
+pub(crate) async fn run_bounded<I, F: Future>(
+    items: impl IntoIterator<Item = I>,
+    jobs: usize,
+    mut start: impl FnMut(I) -> F,
+    mut done: impl FnMut(F::Output),
+) {
     let mut queue = items.into_iter();
     let mut running: Vec<Pin<Box<F>>> = Vec::new();
     loop {
@@ -253,7 +258,9 @@ pub(crate) async fn fly_trials(variants: &mut [Variant], out: &Path, trials: &Tr
     let start = |(i, seed, tag): (usize, u64, String)| {
         let mut sc = variants[i].scenario.clone();
         sc.seed = seed;
-        async move { (i, seed, run_variant(&sc, out, &tag, VariantRun::default()).await.with_context(|| format!("{tag} failed"))) }
+        async move {
+            (i, seed, run_variant(&sc, out, &tag, VariantRun::default()).await.with_context(|| format!("{tag} failed")))
+        }
     };
     run_bounded(todo, jobs, start, |(i, seed, result)| match result {
         Ok(s) => done[i].push((seed, s)),
@@ -275,7 +282,10 @@ fn fail_after_table(failed: Vec<anyhow::Error>) -> Result<ExitCode> {
     for e in &failed {
         eprintln!("{e:#}");
     }
-    bail!("{} run(s) failed, left out of the table (with --seeds, the same command and --out flies only those again)", failed.len())
+    bail!(
+        "{} run(s) failed, left out of the table (with --seeds, the same command and --out flies only those again)",
+        failed.len()
+    )
 }
 
 /// The line under a study's title: how many seeds each number is over.
@@ -291,7 +301,8 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
     let (base, _) = Scenario::from_arg(&a.scenario)?;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("compare-{}", unix_secs())));
     // Every value is checked before the first run starts.
-    let mode: Option<LocalizationMode> = a.localization.as_deref().map(|l| scenario_value("--localization", l)).transpose()?;
+    let mode: Option<LocalizationMode> =
+        a.localization.as_deref().map(|l| scenario_value("--localization", l)).transpose()?;
     let mut variants = Vec::new();
     for spec in a.controllers.split(',').map(str::trim) {
         let (kind, own) = match spec.split_once('@') {
@@ -323,7 +334,10 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
             v.cell(|s| s.agents.iter().map(|a| a.path_length_m).sum::<f64>() / s.agents.len().max(1) as f64),
         );
     }
-    let _ = writeln!(t, "\nseed 000 section 6.5 (4 UAVs, one informed): its method 147 s to the goal, the older one 340 s (2.3x).");
+    let _ = writeln!(
+        t,
+        "\nseed 000 section 6.5 (4 UAVs, one informed): its method 147 s to the goal, the older one 340 s (2.3x)."
+    );
     print!("{t}");
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("compare.md"), &t)?;
@@ -332,7 +346,8 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
 }
 
 /// Seed 004 Table 8: LF, PF, TNPF (obstacle distance, trajectory length, deviation) [m].
-const TABLE_8: [(&str, [f64; 3]); 3] = [("lf", [1.81, 50.04, 0.89]), ("pf", [1.67, 48.13, 0.09]), ("tnpf", [1.62, 48.71, 0.08])];
+const TABLE_8: [(&str, [f64; 3]); 3] =
+    [("lf", [1.81, 50.04, 0.89]), ("pf", [1.67, 48.13, 0.09]), ("tnpf", [1.62, 48.71, 0.08])];
 
 /// Runs `swarm formations`.
 pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
@@ -356,7 +371,11 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
     let failed = fly_trials(&mut variants, &out, &a.trials).await?;
     let mut t = String::new();
     let loss = if a.loss > 0.0 { format!(", {} % inter-agent loss", a.loss) } else { String::new() };
-    let _ = writeln!(t, "# seed 004 Table 8, ours beside the seed's (seed values in brackets){loss}{}\n", over_seeds(&variants));
+    let _ = writeln!(
+        t,
+        "# seed 004 Table 8, ours beside the seed's (seed values in brackets){loss}{}\n",
+        over_seeds(&variants)
+    );
     let _ = writeln!(t, "| topology | collisions | goal s | obstacle distance m | trajectory m | deviation from neighbours m | blocking s |");
     let _ = writeln!(t, "|---|---|---|---|---|---|---|");
     for v in &variants {
@@ -377,7 +396,10 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
             v.cell(|s| s.formation.mean_blocking_time_s)
         );
     }
-    let _ = writeln!(t, "\nseed 004: PF and TNPF keep the formation far better than LF (deviation 0.09 / 0.08 m vs 0.89 m).");
+    let _ = writeln!(
+        t,
+        "\nseed 004: PF and TNPF keep the formation far better than LF (deviation 0.09 / 0.08 m vs 0.89 m)."
+    );
     print!("{t}");
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("formations.md"), &t)?;
@@ -454,11 +476,21 @@ fn sweep_svg(points: &[Point]) -> anyhow::Result<String> {
                     .collect();
                 if !pts.is_empty() {
                     let what = if obstacle { "obstacle" } else { "UAV" };
-                    series.push(Series { label: format!("{world}, error on {who}: min {what}"), points: pts, dashed: obstacle });
+                    series.push(Series {
+                        label: format!("{world}, error on {who}: min {what}"),
+                        points: pts,
+                        dashed: obstacle,
+                    });
                 }
             }
         }
     }
     // The red line: two bodies of the default radius touch.
-    line_chart("min distances against the broadcast error δa (seed 001 section 6)", "δa [m]", "distance [m]", &series, Some(0.6))
+    line_chart(
+        "min distances against the broadcast error δa (seed 001 section 6)",
+        "δa [m]",
+        "distance [m]",
+        &series,
+        Some(0.6),
+    )
 }

@@ -94,7 +94,11 @@ pub async fn put(a: PutArgs) -> Result<ExitCode> {
 /// Publishes `bytes` `a.repeat` times (0: until killed), one every `a.every_ms`, dropped rather
 /// than blocking under congestion; logs how many went out every 1000.
 async fn flood(s: &zenoh::Session, a: &PutArgs, bytes: Vec<u8>) -> Result<()> {
-    let p = s.declare_publisher(a.key.clone()).congestion_control(CongestionControl::Drop).await.map_err(WireError::zenoh)?;
+    let p = s
+        .declare_publisher(a.key.clone())
+        .congestion_control(CongestionControl::Drop)
+        .await
+        .map_err(WireError::zenoh)?;
     let mut tick = tokio::time::interval(Duration::from_millis(a.every_ms.max(1)));
     let mut sent = 0u64;
     while a.repeat == 0 || sent < a.repeat {
@@ -143,7 +147,6 @@ pub async fn tap(a: TapArgs) -> Result<ExitCode> {
     let _ = s.close().await;
     Ok(ExitCode::SUCCESS)
 }
-
 
 /// `swarm tap --get`: prints every reply to one query, while `print` wants more.
 async fn query(s: &zenoh::Session, keyexpr: &str, print: &mut dyn FnMut(Value) -> bool) -> Result<()> {
@@ -203,7 +206,8 @@ mod tests {
 
     #[test]
     fn describes_messages_text_and_garbage() {
-        let cmd = Msg::Cmd(swarm_wire::Cmd { tick: 1, kind: swarm_wire::CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 });
+        let cmd =
+            Msg::Cmd(swarm_wire::Cmd { tick: 1, kind: swarm_wire::CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 });
         let v = describe("k", "e", &cmd.encode().expect("encodes"));
         assert_eq!(v["kind"], "cmd");
         assert_eq!(v["msg"]["Cmd"]["tick"], 1);
@@ -216,8 +220,9 @@ mod tests {
 
     #[test]
     fn json_written_like_tap_output_is_a_message() {
-        let m: Msg = serde_json::from_str(r#"{"Cmd": {"tick": 3, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#)
-            .expect("parses");
+        let m: Msg =
+            serde_json::from_str(r#"{"Cmd": {"tick": 3, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#)
+                .expect("parses");
         assert_eq!(m.kind(), "cmd");
         assert_eq!(parse_hex("ff 00 1a").expect("hex"), vec![0xff, 0x00, 0x1a]);
         assert!(parse_hex("abc").is_err());

@@ -28,7 +28,14 @@ fn fly(toml: &str, tag: &str) -> (serde_json::Value, Vec<(u32, f64)>) {
     let path = dir.path().join("scenario.toml");
     std::fs::write(&path, toml).expect("write scenario");
     let out_dir = dir.path().join("run");
-    let out = swarm_run(&[path.to_str().expect("utf8"), "--out", out_dir.to_str().expect("utf8"), "--run", &run_id(tag), "--no-mcap"]);
+    let out = swarm_run(&[
+        path.to_str().expect("utf8"),
+        "--out",
+        out_dir.to_str().expect("utf8"),
+        "--run",
+        &run_id(tag),
+        "--no-mcap",
+    ]);
     assert!(out.status.success(), "{tag}: {}", String::from_utf8_lossy(&out.stderr));
     (summary(&out_dir), nearest_at_end(&out_dir))
 }
@@ -47,7 +54,9 @@ fn nearest_at_end(dir: &Path) -> Vec<(u32, f64)> {
     let last = rows.iter().map(|r| r.0).max().expect("rows");
     let end: Vec<_> = rows.iter().filter(|r| r.0 == last && r.1 != FROZEN).collect();
     end.iter()
-        .map(|a| (a.1, end.iter().filter(|b| b.1 != a.1).map(|b| (a.2 - b.2).hypot(a.3 - b.3)).fold(f64::INFINITY, f64::min)))
+        .map(|a| {
+            (a.1, end.iter().filter(|b| b.1 != a.1).map(|b| (a.2 - b.2).hypot(a.3 - b.3)).fold(f64::INFINITY, f64::min))
+        })
         .collect()
 }
 
@@ -64,15 +73,30 @@ fn a_half_cut_off_from_the_informed_comes_back_and_the_swarm_meets_its_goal() {
     assert_ne!(group_only, CUT_OFF, "arrival is turned off");
     let (s, nearest) = fly(&group_only, "cutoff-group");
     let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
-    assert!(s["reached_goal"] == true && apart.is_empty(), "the group behaviour alone: goal {}, {nearest:?}", s["reached_goal"]);
+    assert!(
+        s["reached_goal"] == true && apart.is_empty(),
+        "the group behaviour alone: goal {}, {nearest:?}",
+        s["reached_goal"]
+    );
 
     // Both ways back off: the group behaviour, and arrival (issue 25), whose second hop count
     // also leads a half that hears the swarm again to the informed UAV at the goal.
     let off = CUT_OFF
-        .replace("[[netem]]                        # burst loss", "[lost_contact]\nregroup_after_s = 0.0\n\n[[netem]]                        # burst loss")
+        .replace(
+            "[[netem]]                        # burst loss",
+            "[lost_contact]\nregroup_after_s = 0.0\n\n[[netem]]                        # burst loss",
+        )
         .replace("[localization]", "[controller.k21]\narrival_radius_m = 0.0\n\n[localization]");
-    assert_eq!(off.matches("regroup_after_s = 0.0").count() + off.matches("arrival_radius_m = 0.0").count(), 2, "both are turned off");
+    assert_eq!(
+        off.matches("regroup_after_s = 0.0").count() + off.matches("arrival_radius_m = 0.0").count(),
+        2,
+        "both are turned off"
+    );
     let (s, nearest) = fly(&off, "cutoff-off");
     let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
-    assert!(s["reached_goal"] == false && !apart.is_empty(), "without it the half flies off: goal {}, {nearest:?}", s["reached_goal"]);
+    assert!(
+        s["reached_goal"] == false && !apart.is_empty(),
+        "without it the half flies off: goal {}, {nearest:?}",
+        s["reached_goal"]
+    );
 }

@@ -17,7 +17,6 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
 use std::process::Command;
 
-
 /// Every `.md` file under `dir`, recursively.
 fn markdown_files(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
@@ -63,7 +62,9 @@ impl Page {
             let n = i + 1;
             let trimmed = line.trim_start();
             if let Some(open) = &fence {
-                if trimmed.starts_with(open.as_str()) && trimmed.trim_start_matches(open.chars().next().unwrap_or('`')).trim().is_empty() {
+                if trimmed.starts_with(open.as_str())
+                    && trimmed.trim_start_matches(open.chars().next().unwrap_or('`')).trim().is_empty()
+                {
                     fence = None;
                 } else {
                     page.code_lines.push((n, line.to_string()));
@@ -99,7 +100,11 @@ impl Page {
             .flat_map(|(_, p)| p.lines())
             .filter_map(|l| {
                 let hashes = l.chars().take_while(|&c| c == '#').count();
-                (1..=6).contains(&hashes).then(|| l[hashes..].strip_prefix(' ')).flatten().map(|t| t.trim_end_matches('#').trim().to_string())
+                (1..=6)
+                    .contains(&hashes)
+                    .then(|| l[hashes..].strip_prefix(' '))
+                    .flatten()
+                    .map(|t| t.trim_end_matches('#').trim().to_string())
             })
             .collect()
     }
@@ -297,7 +302,8 @@ fn commands_named(code: &str) -> Vec<String> {
         if word_at == 0 {
             continue;
         }
-        let word: String = rest[word_at..].chars().take_while(|&c| c.is_ascii_alphanumeric() || c == '-' || c == '_').collect();
+        let word: String =
+            rest[word_at..].chars().take_while(|&c| c.is_ascii_alphanumeric() || c == '-' || c == '_').collect();
         if word.starts_with(|c: char| c.is_ascii_lowercase()) {
             out.push(word);
         }
@@ -307,7 +313,10 @@ fn commands_named(code: &str) -> Vec<String> {
 
 /// A fenced code line without its shell comment (`#` at the start or after a space).
 fn without_comment(line: &str) -> &str {
-    let cut = line.char_indices().find(|&(i, c)| c == '#' && (i == 0 || line[..i].ends_with(char::is_whitespace))).map(|(i, _)| i);
+    let cut = line
+        .char_indices()
+        .find(|&(i, c)| c == '#' && (i == 0 || line[..i].ends_with(char::is_whitespace)))
+        .map(|(i, _)| i);
     &line[..cut.unwrap_or(line.len())]
 }
 
@@ -321,13 +330,19 @@ fn every_swarm_subcommand_the_docs_name_exists() {
         let mut code: Vec<(usize, String)> = Vec::new();
         for (first, paragraph) in &parsed.paragraphs {
             let (_, spans) = split_code_spans(paragraph);
-            code.extend(spans.into_iter().map(|(offset, span)| (line_at(*first, paragraph, offset), span.replace('\n', " "))));
+            code.extend(
+                spans.into_iter().map(|(offset, span)| (line_at(*first, paragraph, offset), span.replace('\n', " "))),
+            );
         }
         code.extend(parsed.code_lines.iter().map(|(n, l)| (*n, without_comment(l).to_string())));
         for (line, text) in code {
             for word in commands_named(&text) {
                 if !known.contains(&word) {
-                    unknown.push(format!("{}:{line}: `swarm {word}` is no subcommand of swarm (it has: {})", rel(&page), known.iter().cloned().collect::<Vec<_>>().join(", ")));
+                    unknown.push(format!(
+                        "{}:{line}: `swarm {word}` is no subcommand of swarm (it has: {})",
+                        rel(&page),
+                        known.iter().cloned().collect::<Vec<_>>().join(", ")
+                    ));
                 }
                 named.insert(word);
             }
@@ -339,13 +354,22 @@ fn every_swarm_subcommand_the_docs_name_exists() {
 
 #[test]
 fn slugs_are_githubs() {
-    assert_eq!(slug("Watching a run: `run.mcap`, the live page, replay"), "watching-a-run-runmcap-the-live-page-replay");
+    assert_eq!(
+        slug("Watching a run: `run.mcap`, the live page, replay"),
+        "watching-a-run-runmcap-the-live-page-replay"
+    );
     assert_eq!(slug("`summary.json` (schema `swarm.summary.v1`)"), "summaryjson-schema-swarmsummaryv1");
     assert_eq!(slug("ROS 2 over rmw_zenoh"), "ros-2-over-rmw_zenoh");
-    assert_eq!(slug("M23's Table 8 (seed 004 section 3.5), over 10 seeds"), "m23s-table-8-seed-004-section-35-over-10-seeds");
+    assert_eq!(
+        slug("M23's Table 8 (seed 004 section 3.5), over 10 seeds"),
+        "m23s-table-8-seed-004-section-35-over-10-seeds"
+    );
     let page = Page::parse("# A\n\n```sh\n# not a heading\n```\n\n## A\n");
     assert_eq!(anchors(&page), BTreeSet::from(["a".to_string(), "a-1".to_string()]));
     assert_eq!(commands_named("cargo run -- run && target/release/swarm scale --json"), vec!["scale"]);
     assert_eq!(commands_named("swarm/exp1/** swarm_wire::Keys swarm-e2e (swarm tap)"), vec!["tap"]);
-    assert_eq!(split_code_spans("a `b` c ``d ` e`` f").1.into_iter().map(|(_, s)| s).collect::<Vec<_>>(), vec!["b", "d ` e"]);
+    assert_eq!(
+        split_code_spans("a `b` c ``d ` e`` f").1.into_iter().map(|(_, s)| s).collect::<Vec<_>>(),
+        vec!["b", "d ` e"]
+    );
 }

@@ -17,11 +17,29 @@ fn an_external_python_controller_flies_uav_3_through_forest5() {
     let out = dir.path().join("run");
     let run = run_id("ext");
     let args = ["run", "forest-5", "--external", "3", "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet"];
-    let swarm = Command::new(SWARM).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("swarm run");
+    let swarm =
+        Command::new(SWARM).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("swarm run");
     let loc = hub_locator(&out);
     let password = out.join("credentials/ext3.password");
-    let ext_args = ["--run", &run, "--id", "3", "--connect", &loc, "--user", "ext3", "--password-file", password.to_str().expect("utf8")];
-    let ext = Command::new(python()).arg(EXTERNAL).args(ext_args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("python");
+    let ext_args = [
+        "--run",
+        &run,
+        "--id",
+        "3",
+        "--connect",
+        &loc,
+        "--user",
+        "ext3",
+        "--password-file",
+        password.to_str().expect("utf8"),
+    ];
+    let ext = Command::new(python())
+        .arg(EXTERNAL)
+        .args(ext_args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python");
     let o = wait_output(swarm, RUN_LIMIT, "swarm run --external 3");
     let e = wait_output(ext, Duration::from_secs(60), "external_uav.py");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -34,8 +52,15 @@ fn an_external_python_controller_flies_uav_3_through_forest5() {
     assert_eq!(three["late_ticks"], 0, "every external command in time: {three:#}");
     let ticks = s["ticks"].as_u64().expect("ticks");
     let placed = three["placed_by_others"].as_u64().expect("placed_by_others");
-    assert!(placed > ticks, "its neighbours localized UAV 3 ({placed} estimates within 1 m over {ticks} ticks): {three:#}");
-    let k21_step = agents.iter().filter(|a| a["id"] != 3).map(|a| a["mean_step_time_ms"].as_f64().expect("step")).fold(0.0, f64::max);
+    assert!(
+        placed > ticks,
+        "its neighbours localized UAV 3 ({placed} estimates within 1 m over {ticks} ticks): {three:#}"
+    );
+    let k21_step = agents
+        .iter()
+        .filter(|a| a["id"] != 3)
+        .map(|a| a["mean_step_time_ms"].as_f64().expect("step"))
+        .fold(0.0, f64::max);
     eprintln!(
         "external UAV 3: mean step {:.3} ms (view out, command back) vs the K21 UAVs' at most {k21_step:.3} ms; placed by others {placed} times in {ticks} ticks",
         three["mean_step_time_ms"].as_f64().expect("step")
@@ -54,14 +79,36 @@ fn an_external_uav_whose_controller_never_comes_says_so_and_stays_put() {
     std::fs::write(&sc, short).expect("write");
     let out = dir.path().join("run");
     let run = run_id("noext");
-    let args = ["run", sc.to_str().expect("utf8"), "--external", "2", "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet"];
-    let swarm = Command::new(SWARM).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("swarm run");
+    let args = [
+        "run",
+        sc.to_str().expect("utf8"),
+        "--external",
+        "2",
+        "--out",
+        out.to_str().expect("utf8"),
+        "--run",
+        &run,
+        "--quiet",
+    ];
+    let swarm =
+        Command::new(SWARM).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("swarm run");
     let _ = wait_output(swarm, RUN_LIMIT, "swarm run --external 2 with no controller");
-    let logs: String = std::fs::read_dir(out.join("logs")).expect("logs").map(|e| std::fs::read_to_string(e.expect("entry").path()).unwrap_or_default()).collect();
-    assert!(logs.contains("UAV 2 waits for its external controller (alive/ext/2), which did not come within 3 s"), "{logs}");
+    let logs: String = std::fs::read_dir(out.join("logs"))
+        .expect("logs")
+        .map(|e| std::fs::read_to_string(e.expect("entry").path()).unwrap_or_default())
+        .collect();
+    assert!(
+        logs.contains("UAV 2 waits for its external controller (alive/ext/2), which did not come within 3 s"),
+        "{logs}"
+    );
     let s = summary(&out);
     let two = s["agents"].as_array().expect("agents").iter().find(|a| a["id"] == 2).expect("UAV 2");
     assert!(two["path_length_m"].as_f64().expect("path") < 0.05, "UAV 2 moved without a controller: {two:#}");
-    let others = s["agents"].as_array().expect("agents").iter().filter(|a| a["id"] != 2).map(|a| a["path_length_m"].as_f64().expect("path"));
+    let others = s["agents"]
+        .as_array()
+        .expect("agents")
+        .iter()
+        .filter(|a| a["id"] != 2)
+        .map(|a| a["path_length_m"].as_f64().expect("path"));
     assert!(others.clone().all(|p| p > 5.0), "the others flew: {s:#}");
 }

@@ -139,7 +139,8 @@ fn forest5_over_lossy_links() {
     let (_dir, s) = fly(&["forest-5-lossy"], "lossy");
     assert_safe_arrival(&s);
     for a in s["agents"].as_array().expect("agents") {
-        let (rx, delivered) = (a["messages_received"].as_f64().expect("n"), a["messages_delivered"].as_f64().expect("n"));
+        let (rx, delivered) =
+            (a["messages_received"].as_f64().expect("n"), a["messages_delivered"].as_f64().expect("n"));
         let share = delivered / rx;
         assert!((0.62..0.78).contains(&share), "30 % loss: {share} delivered of {rx} received: {a:#}");
     }
@@ -171,8 +172,14 @@ fn forest5_survives_a_uav_losing_its_links() {
     let at = |regained: bool| -> Vec<f64> {
         events.iter().filter(|e| e["regained"] == regained).map(|e| e["t_s"].as_f64().expect("t")).collect()
     };
-    assert!(at(false).iter().any(|&t| (30.0..=31.0).contains(&t)), "UAV 3 lost its neighbours when cut off: {events:?}");
-    assert!(at(true).iter().any(|&t| (35.0..=37.0).contains(&t)), "and found them within 2 s of the links returning: {events:?}");
+    assert!(
+        at(false).iter().any(|&t| (30.0..=31.0).contains(&t)),
+        "UAV 3 lost its neighbours when cut off: {events:?}"
+    );
+    assert!(
+        at(true).iter().any(|&t| (35.0..=37.0).contains(&t)),
+        "and found them within 2 s of the links returning: {events:?}"
+    );
 }
 
 /// Issue 4: burst loss (Gilbert–Elliott) on every link, and the front UAV freezes at 30 s among
@@ -185,7 +192,10 @@ fn forest5_burst_loss_and_a_frozen_uav() {
     assert!(agents[0]["path_length_m"].as_f64().expect("n") < 15.0, "UAV 1 froze early: {:#}", agents[0]);
     for a in &agents[1..] {
         assert!(a["path_length_m"].as_f64().expect("n") > 25.0, "{a:#}");
-        assert!(a["messages_delivered"].as_u64().expect("n") < a["messages_received"].as_u64().expect("n"), "loss happened: {a:#}");
+        assert!(
+            a["messages_delivered"].as_u64().expect("n") < a["messages_received"].as_u64().expect("n"),
+            "loss happened: {a:#}"
+        );
     }
 }
 
@@ -227,7 +237,11 @@ fn a_uav_whose_zenoh_link_stalls_and_closes_reconnects() {
     assert!(within(3, 34.0, 35.0, false), "a close is seen at once: {alive:?}");
     assert!(within(4, 42.0, 47.0, true), "{alive:?}");
     let logs = dir.path().join("logs");
-    let agent3: Vec<_> = std::fs::read_dir(&logs).expect("logs").filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().starts_with("agent-3")).collect();
+    let agent3: Vec<_> = std::fs::read_dir(&logs)
+        .expect("logs")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with("agent-3"))
+        .collect();
     assert_eq!(agent3.len(), 1, "one agent process for UAV 3 throughout");
     let log = std::fs::read_to_string(logs.join("agent-3.log")).expect("log");
     assert_eq!(log.matches("hub back").count(), 2, "{log}");

@@ -67,12 +67,20 @@ fn fly(flood: bool) -> Flight {
 
 /// The `malformed_cmds=N` the hub logs when it ends.
 fn hub_malformed(log: &str) -> u64 {
-    log.split("malformed_cmds=").nth(1).and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next()).and_then(|n| n.parse().ok()).unwrap_or(0)
+    log.split("malformed_cmds=")
+        .nth(1)
+        .and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0)
 }
 
 /// The highest `sent=N` a flooder logged (it logs every 1000 payloads).
 fn flood_sent(log: &str) -> u64 {
-    log.split("sent=").skip(1).filter_map(|r| r.split(|c: char| !c.is_ascii_digit()).next()?.parse().ok()).max().unwrap_or(0)
+    log.split("sent=")
+        .skip(1)
+        .filter_map(|r| r.split(|c: char| !c.is_ascii_digit()).next()?.parse().ok())
+        .max()
+        .unwrap_or(0)
 }
 
 #[test]
@@ -84,11 +92,19 @@ fn a_flood_of_malformed_payloads_changes_nothing_the_swarm_does() {
         assert_eq!(s["reached_goal"], true, "{name}: the swarm reaches the goal: {s:#}");
         assert_eq!(s["collisions"], 0, "{name}: no collision: {s:#}");
     }
-    let agents_malformed: u64 =
-        flooded.summary["agents"].as_array().expect("agents").iter().map(|a| a["malformed_messages"].as_u64().unwrap_or(0)).sum();
+    let agents_malformed: u64 = flooded.summary["agents"]
+        .as_array()
+        .expect("agents")
+        .iter()
+        .map(|a| a["malformed_messages"].as_u64().unwrap_or(0))
+        .sum();
     let hub_bad = hub_malformed(&flooded.hub_log);
     assert!(hub_bad > 0, "the hub counted the malformed commands: {}", flooded.hub_log);
-    assert!(agents_malformed > 0, "the agents in UAV 3's range counted the malformed shares: {:#}", flooded.summary["agents"]);
+    assert!(
+        agents_malformed > 0,
+        "the agents in UAV 3's range counted the malformed shares: {:#}",
+        flooded.summary["agents"]
+    );
     assert_eq!(hub_malformed(&calm.hub_log), 0, "no malformed command without the flood");
     assert!(calm.trajectories == flooded.trajectories, "lockstep: the flood changed the trajectories");
     let speed = |f: &Flight| f.summary["sim_speed"].as_f64().expect("sim_speed");

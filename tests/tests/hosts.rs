@@ -15,10 +15,20 @@ fn lockstep_trajectories_do_not_depend_on_agents_per_process() {
     let mut runs = Vec::new();
     for per in ["1", "2", "5"] {
         let dir = tempfile::tempdir().expect("tempdir");
-        let out = swarm_run(&["forest-5", "--agents-per-process", per, "--out", dir.path().to_str().expect("utf8"), "--run", &run_id("per")]);
+        let out = swarm_run(&[
+            "forest-5",
+            "--agents-per-process",
+            per,
+            "--out",
+            dir.path().to_str().expect("utf8"),
+            "--run",
+            &run_id("per"),
+        ]);
         assert!(out.status.success(), "--agents-per-process {per}: {}", String::from_utf8_lossy(&out.stderr));
-        let logs: Vec<String> =
-            std::fs::read_dir(dir.path().join("logs")).expect("logs").map(|e| e.expect("entry").file_name().to_string_lossy().into_owned()).collect();
+        let logs: Vec<String> = std::fs::read_dir(dir.path().join("logs"))
+            .expect("logs")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
         let hosts = logs.iter().filter(|l| l.starts_with("agents-")).count();
         assert_eq!(hosts, [0, 2, 1][runs.len()], "agent hosts started with --agents-per-process {per}: {logs:?}");
         let s = summary(dir.path());
@@ -48,8 +58,20 @@ fn a_killed_agent_host_takes_its_agents_down_and_a_new_one_brings_them_back() {
     let run = run_id("hostkill");
     let (mut hub, loc) = start_hub("open-field-5", &run, dir.path());
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
-    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    let mut rec = Proc::start(
+        &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc],
+        &dir.path().join("rec.log"),
+    );
+    let up = tap(&[
+        &format!("swarm/{run}/alive/recorder"),
+        "--alive",
+        "--connect",
+        &loc,
+        "--count",
+        "1",
+        "--duration",
+        "30",
+    ]);
     assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
     let agent = |flag: &str, ids: &str, log: &str| {
         Proc::start(&["agent", "--run", &run, flag, ids, "--connect", &loc, "--exit-with-stdin"], &dir.path().join(log))
@@ -73,7 +95,16 @@ fn a_killed_agent_host_takes_its_agents_down_and_a_new_one_brings_them_back() {
     signal(&solo[0], "STOP");
     let _host_again = agent("--ids", "4-5", "host-again.log");
     for id in ["4", "5"] {
-        let up = tap(&[&format!("swarm/{run}/alive/uav/{id}"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+        let up = tap(&[
+            &format!("swarm/{run}/alive/uav/{id}"),
+            "--alive",
+            "--connect",
+            &loc,
+            "--count",
+            "1",
+            "--duration",
+            "30",
+        ]);
         assert!(up.contains("\"alive\":true"), "UAV {id} is back: {up}");
     }
     signal(&solo[0], "CONT");
@@ -85,7 +116,8 @@ fn a_killed_agent_host_takes_its_agents_down_and_a_new_one_brings_them_back() {
     // The dead UAVs' bodies stay in the world with no agent to share their poses, so a living
     // UAV may touch one; the living ones must never touch each other.
     let events = s["collision_events"].as_array().expect("events");
-    let alive_only = |e: &serde_json::Value| [&e["id"], &e["other_uav"]].iter().all(|v| v.as_u64().is_some_and(|id| id <= 3));
+    let alive_only =
+        |e: &serde_json::Value| [&e["id"], &e["other_uav"]].iter().all(|v| v.as_u64().is_some_and(|id| id <= 3));
     assert!(!events.iter().any(alive_only), "living UAVs collided: {events:?}");
     for id in ["4", "5"] {
         let a = alive_changes(&out, id);
@@ -112,7 +144,8 @@ fn a_host_reports_an_agent_with_a_bad_id() {
     let (_hub, loc) = start_hub("forest-5", &run, dir.path());
     let log = dir.path().join("host.log");
     let mut host = Proc::start(&["agent", "--run", &run, "--ids", "5-6", "--connect", &loc, "--exit-with-stdin"], &log);
-    let alive = tap(&[&format!("swarm/{run}/alive/uav/5"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    let alive =
+        tap(&[&format!("swarm/{run}/alive/uav/5"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
     assert!(alive.contains("\"alive\":true"), "UAV 5 of the host flies: {alive}");
     let deadline = Instant::now() + Duration::from_secs(30);
     while !std::fs::read_to_string(&log).expect("log").contains("UAV id 6 is not in this scenario") {

@@ -19,7 +19,11 @@ fn icp_eval_places_the_known_case_and_refuses_the_ambiguous_one() {
     let r: serde_json::Value = serde_json::from_str(&stdout).expect("one JSON line");
     let all = &r["all"];
     let count = |k: &str| all[k].as_u64();
-    assert_eq!((count("cases"), count("right"), count("ambiguous"), count("no_fit"), count("wrong_accepted")), (Some(2), Some(1), Some(1), Some(0), Some(0)), "{r:#}");
+    assert_eq!(
+        (count("cases"), count("right"), count("ambiguous"), count("no_fit"), count("wrong_accepted")),
+        (Some(2), Some(1), Some(1), Some(0), Some(0)),
+        "{r:#}"
+    );
     assert_eq!(r["shared_5_plus"]["cases"].as_u64(), Some(2), "both cases share at least 5 trees: {r:#}");
     assert!(all["ms_per_case"].as_f64().is_some_and(|v| v > 0.0), "{r:#}");
 

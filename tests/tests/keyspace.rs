@@ -44,12 +44,28 @@ impl Flight {
         let creds = Creds::make(dir.path(), UAVS);
         let (hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
         let out = dir.path().join("rec");
-        let mut args = vec!["record".to_string(), "--run".into(), run.clone(), "--out".into(), out.to_str().expect("utf8").into(), "--connect".into(), loc.clone()];
+        let mut args = vec![
+            "record".to_string(),
+            "--run".into(),
+            run.clone(),
+            "--out".into(),
+            out.to_str().expect("utf8").into(),
+            "--connect".into(),
+            loc.clone(),
+        ];
         args.extend(creds.login("observer"));
         let rec = Proc::start(&args.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join("rec.log"));
         let agents = (1..=UAVS)
             .map(|id| {
-                let mut a = vec!["agent".to_string(), "--run".into(), run.clone(), "--id".into(), id.to_string(), "--connect".into(), loc.clone()];
+                let mut a = vec![
+                    "agent".to_string(),
+                    "--run".into(),
+                    run.clone(),
+                    "--id".into(),
+                    id.to_string(),
+                    "--connect".into(),
+                    loc.clone(),
+                ];
                 a.extend(creds.login(&format!("uav{id}")));
                 Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join(format!("a{id}.log")))
             })
@@ -73,7 +89,15 @@ fn ids(v: &serde_json::Value) -> BTreeSet<u64> {
 fn each_agent_session_subscribes_to_the_share_keys_of_its_radio_set_only() {
     let f = Flight::start();
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/keyspace/admin.py");
-    let o = output_within(Command::new(common::python()).arg(script).args([&f.loc, &f.run, &f.creds.password("observer"), &UAVS.to_string()]), TOOL_LIMIT);
+    let o = output_within(
+        Command::new(common::python()).arg(script).args([
+            &f.loc,
+            &f.run,
+            &f.creds.password("observer"),
+            &UAVS.to_string(),
+        ]),
+        TOOL_LIMIT,
+    );
     assert!(o.status.success(), "admin.py: {}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON line");
     assert_eq!(v["sessions"], UAVS, "each agent session holds its token: {v}");
@@ -90,9 +114,13 @@ fn each_agent_session_subscribes_to_the_share_keys_of_its_radio_set_only() {
             .collect();
         assert!(sets.len() >= 3, "UAV {id}: radio sets around the query: {v}");
         let union: BTreeSet<u64> = sets.iter().flatten().copied().collect();
-        let both: BTreeSet<u64> = sets.iter().skip(1).fold(sets[0].clone(), |a, b| a.intersection(b).copied().collect());
+        let both: BTreeSet<u64> =
+            sets.iter().skip(1).fold(sets[0].clone(), |a, b| a.intersection(b).copied().collect());
         assert!(subscribed.is_subset(&union), "UAV {id} subscribes to {subscribed:?}, beyond its radio sets {sets:?}");
-        assert!(both.is_subset(&subscribed), "UAV {id} subscribes to {subscribed:?}, missing some of its radio sets {sets:?}");
+        assert!(
+            both.is_subset(&subscribed),
+            "UAV {id} subscribes to {subscribed:?}, missing some of its radio sets {sets:?}"
+        );
         if subscribed.len() < UAVS as usize - 1 {
             strict += 1;
         }
@@ -102,26 +130,48 @@ fn each_agent_session_subscribes_to_the_share_keys_of_its_radio_set_only() {
     // The same graph through our own tool, with rates.
     let mut login = f.creds.login("observer");
     login.extend(["--connect".into(), f.loc.clone()]);
-    let o = output_within(Command::new(SWARM).args(["keys", "--run", &f.run, "--json", "--window", "1"]).args(&login), TOOL_LIMIT);
+    let o = output_within(
+        Command::new(SWARM).args(["keys", "--run", &f.run, "--json", "--window", "1"]).args(&login),
+        TOOL_LIMIT,
+    );
     assert!(o.status.success(), "swarm keys: {}", String::from_utf8_lossy(&o.stderr));
     let k: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
-    let families: BTreeMap<String, &serde_json::Value> =
-        k["families"].as_array().expect("families").iter().map(|r| (r["family"].as_str().expect("name").to_string(), r)).collect();
+    let families: BTreeMap<String, &serde_json::Value> = k["families"]
+        .as_array()
+        .expect("families")
+        .iter()
+        .map(|r| (r["family"].as_str().expect("name").to_string(), r))
+        .collect();
     let pose = families.get("uav/{id}/share/pose").expect("the share family");
-    let names: Vec<&str> = pose["subscribers"].as_array().expect("subscribers").iter().filter_map(|n| n.as_str()).collect();
-    assert_eq!(names, (1..=UAVS).map(|i| format!("uav{i}")).collect::<Vec<_>>(), "every agent, named by its token: {pose}");
+    let names: Vec<&str> =
+        pose["subscribers"].as_array().expect("subscribers").iter().filter_map(|n| n.as_str()).collect();
+    assert_eq!(
+        names,
+        (1..=UAVS).map(|i| format!("uav{i}")).collect::<Vec<_>>(),
+        "every agent, named by its token: {pose}"
+    );
     let keys = pose["subscribed_keys"].as_u64().expect("count");
-    assert!(keys < u64::from(UAVS * (UAVS - 1)) && keys >= u64::from(UAVS), "one subscription per neighbour, not per UAV: {pose}");
+    assert!(
+        keys < u64::from(UAVS * (UAVS - 1)) && keys >= u64::from(UAVS),
+        "one subscription per neighbour, not per UAV: {pose}"
+    );
     assert!(pose["msgs_per_s"].as_f64().expect("a rate") > 40.0, "eight UAVs share at 10 Hz: {pose}");
     let scan = families.get("uav/{id}/sense/scan").expect("scans");
     assert_eq!(scan["publishers"], serde_json::json!(["hub"]), "the hub's writers are seen by their queriers: {scan}");
-    let pose_writers: Vec<&str> = pose["publishers"].as_array().expect("publishers").iter().filter_map(|n| n.as_str()).collect();
+    let pose_writers: Vec<&str> =
+        pose["publishers"].as_array().expect("publishers").iter().filter_map(|n| n.as_str()).collect();
     assert_eq!(pose_writers, names, "every agent writes its own share: {pose}");
 
     let summary = f.finish();
     let traffic = &summary["traffic"];
     assert_eq!(traffic["sessions"], UAVS, "{traffic}");
-    let (arrived, counted) = (traffic["shares_arrived_per_agent_tick"].as_f64().expect("n"), traffic["shares_counted_per_agent_tick"].as_f64().expect("n"));
-    assert!(arrived < f64::from(UAVS - 1) - 1.0, "a session receives its neighbours' shares, not every UAV's: {traffic}");
+    let (arrived, counted) = (
+        traffic["shares_arrived_per_agent_tick"].as_f64().expect("n"),
+        traffic["shares_counted_per_agent_tick"].as_f64().expect("n"),
+    );
+    assert!(
+        arrived < f64::from(UAVS - 1) - 1.0,
+        "a session receives its neighbours' shares, not every UAV's: {traffic}"
+    );
     assert!(counted > 0.0 && arrived >= counted, "{traffic}");
 }

@@ -24,12 +24,35 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
     let (mut hub, loc) = start_hub(&sc, &run, dir.path());
     let out = dir.path().join("rec");
     let out_s = out.to_str().expect("utf8");
-    let mut rec = Proc::start(&["record", "--run", &run, "--out", out_s, "--connect", &loc], &dir.path().join("rec.log"));
-    let alive = common::tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    let mut rec =
+        Proc::start(&["record", "--run", &run, "--out", out_s, "--connect", &loc], &dir.path().join("rec.log"));
+    let alive = common::tap(&[
+        &format!("swarm/{run}/alive/recorder"),
+        "--alive",
+        "--connect",
+        &loc,
+        "--count",
+        "1",
+        "--duration",
+        "30",
+    ]);
     assert!(alive.contains("true"), "the recorder came up: {alive}");
-    let scans = common::tap_listening(&[&format!("swarm/{run}/uav/1/sense/scan"), "--connect", &loc, "--count", &(TICK + 1).to_string(), "--duration", "300"]);
+    let scans = common::tap_listening(&[
+        &format!("swarm/{run}/uav/1/sense/scan"),
+        "--connect",
+        &loc,
+        "--count",
+        &(TICK + 1).to_string(),
+        "--duration",
+        "300",
+    ]);
     let _agents: Vec<Proc> = (1..=5)
-        .map(|i| Proc::start(&["agent", "--run", &run, "--id", &i.to_string(), "--connect", &loc], &dir.path().join(format!("a{i}.log"))))
+        .map(|i| {
+            Proc::start(
+                &["agent", "--run", &run, "--id", &i.to_string(), "--connect", &loc],
+                &dir.path().join(format!("a{i}.log")),
+            )
+        })
         .collect();
     assert!(rec.wait_for(RUN_LIMIT).expect("the run ends").success(), "recorder failed: see rec.log");
     let _ = hub.wait_for(std::time::Duration::from_secs(20));
@@ -74,7 +97,11 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
         assert_eq!(schema(&format!("/uav/{id}/pose")), "foxglove.PoseInFrame");
         assert_eq!(count(&format!("/uav/{id}/scan")), ticks, "UAV {id}: a scan per tick");
         assert_eq!(schema(&format!("/uav/{id}/scan")), "foxglove.LaserScan");
-        assert_eq!(count(&format!("/uav/{id}/numbers")), count(&format!("/uav/{id}/estimates")), "UAV {id}: numbers and estimates per state");
+        assert_eq!(
+            count(&format!("/uav/{id}/numbers")),
+            count(&format!("/uav/{id}/estimates")),
+            "UAV {id}: numbers and estimates per state"
+        );
         assert!(count(&format!("/uav/{id}/numbers")) >= ticks - 1, "UAV {id}: numbers every tick");
         assert_eq!(topics[format!("/uav/{id}/numbers")]["encoding"], "json");
     }

@@ -20,14 +20,18 @@ use std::process::Command;
 
 /// open-1000 with 150 UAVs on a start disc scaled to keep its density, for 20 s.
 fn scenario_file(dir: &Path) -> String {
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/open-1000.toml")).expect("open-1000");
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/open-1000.toml"))
+        .expect("open-1000");
     let radius = 75.0 * (150.0f64 / 1000.0).sqrt();
     let changed = text
         .replace("count = 1000", "count = 150")
         .replace("radius_m = 75.0", &format!("radius_m = {radius:.3}"))
         .replace("time_limit_s = 60.0", "time_limit_s = 20.0")
         .replace("name = \"open-1000\"", "name = \"open-150\"");
-    assert!(changed.contains("count = 150") && changed.contains("time_limit_s = 20.0"), "open-1000's fields moved: update this test");
+    assert!(
+        changed.contains("count = 150") && changed.contains("time_limit_s = 20.0"),
+        "open-1000's fields moved: update this test"
+    );
     let path = dir.join("open-150.toml");
     std::fs::write(&path, changed).expect("write scenario");
     path.to_str().expect("utf8").to_string()
@@ -38,7 +42,10 @@ fn a_swarm_over_three_sites_flies_as_on_one_machine_and_hears_across_borders_onl
     let dir = tempfile::tempdir().expect("tempdir");
     let sc = scenario_file(dir.path());
     let out = dir.path().join("mesh");
-    let o = output_within(Command::new(SWARM).args(["mesh", &sc, "--hosts", "3", "--json", "--out", out.to_str().expect("utf8")]), RUN_LIMIT);
+    let o = output_within(
+        Command::new(SWARM).args(["mesh", &sc, "--hosts", "3", "--json", "--out", out.to_str().expect("utf8")]),
+        RUN_LIMIT,
+    );
     assert!(o.status.success(), "swarm mesh: {}", String::from_utf8_lossy(&o.stderr));
     let r: serde_json::Value = serde_json::from_slice(&o.stdout).expect("the report as JSON");
     println!("mesh: {}", String::from_utf8_lossy(&o.stdout));
@@ -48,7 +55,10 @@ fn a_swarm_over_three_sites_flies_as_on_one_machine_and_hears_across_borders_onl
 
     // The mesh numbers UAVs host by host and flies that scenario (its study folder keeps it).
     let flown = out.join("scenario.toml");
-    assert!(std::fs::read_to_string(&flown).expect("the scenario flown").contains("start_positions"), "starts listed, by host");
+    assert!(
+        std::fs::read_to_string(&flown).expect("the scenario flown").contains("start_positions"),
+        "starts listed, by host"
+    );
     let local = dir.path().join("local");
     let o = swarm_run(&[flown.to_str().expect("utf8"), "--out", local.to_str().expect("utf8"), "--no-mcap"]);
     assert!(o.status.success(), "swarm run: {}", String::from_utf8_lossy(&o.stderr));
@@ -61,12 +71,23 @@ fn a_swarm_over_three_sites_flies_as_on_one_machine_and_hears_across_borders_onl
     assert_eq!(hosts.len(), 3);
     for h in hosts {
         let f = |k: &str| h[k].as_f64().unwrap_or_else(|| panic!("{k} in {h}"));
-        let (remote, heard, wide, elsewhere) = (f("remote_shares_per_tick"), f("outside_heard_per_tick"), f("outside_heard_wide_per_tick"), f("outside_uavs"));
+        let (remote, heard, wide, elsewhere) = (
+            f("remote_shares_per_tick"),
+            f("outside_heard_per_tick"),
+            f("outside_heard_wide_per_tick"),
+            f("outside_uavs"),
+        );
         assert!(heard > 1.0, "the strips border each other: {h}");
         // A UAV enters a radio set within range and leaves it beyond range + hysteresis; the
         // first and last ticks of a subscription add a little either way.
-        assert!(remote >= 0.9 * heard - 1.0 && remote <= 1.1 * wide + 1.0, "shares in from other hosts follow their UAVs in radio range: {h}");
+        assert!(
+            remote >= 0.9 * heard - 1.0 && remote <= 1.1 * wide + 1.0,
+            "shares in from other hosts follow their UAVs in radio range: {h}"
+        );
         assert!(remote < 0.6 * elsewhere, "not every other UAV's share: {h}");
-        assert!(f("link_rx_kb_per_tick") > 10.0 && f("link_tx_kb_per_tick") > 1.0, "the kernel counted the host's traffic: {h}");
+        assert!(
+            f("link_rx_kb_per_tick") > 10.0 && f("link_tx_kb_per_tick") > 1.0,
+            "the kernel counted the host's traffic: {h}"
+        );
     }
 }

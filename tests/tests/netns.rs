@@ -139,7 +139,12 @@ fn lines_of(p: &mut Proc) -> mpsc::Receiver<(Instant, String)> {
 }
 
 /// Waits (at most `limit`) for a line that `pick` accepts; fails the test saying `what`.
-fn wait_line(rx: &mpsc::Receiver<(Instant, String)>, limit: Duration, what: &str, pick: impl Fn(&str) -> bool) -> Instant {
+fn wait_line(
+    rx: &mpsc::Receiver<(Instant, String)>,
+    limit: Duration,
+    what: &str,
+    pick: impl Fn(&str) -> bool,
+) -> Instant {
     let end = Instant::now() + limit;
     loop {
         let left = end.saturating_duration_since(Instant::now());
@@ -174,7 +179,8 @@ fn wait_alive(rx: &mpsc::Receiver<(Instant, String)>, run: &str, ids: &[u32], al
 /// forest-5 with a time limit long enough to wait for the machine that was cut off: the goal
 /// counts every UAV, so the run can end only when the swarm is whole again.
 fn scenario_file(dir: &Path) -> String {
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/forest-5.toml")).expect("forest-5");
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/forest-5.toml"))
+        .expect("forest-5");
     let text = text.replace("time_limit_s = 300.0", "time_limit_s = 3000.0");
     assert!(text.contains("3000.0"), "forest-5's time limit moved: update this test");
     let path = dir.join("forest-5-hosts.toml");
@@ -221,9 +227,14 @@ fn a_swarm_over_four_machines_lives_through_a_cut_link() {
     wait_line(&lines_of(&mut router), TOOL_LIMIT, "the router's locator", |l| l.starts_with("swarm-router listening:"));
 
     let out = d.join("rec");
-    let mut rec = net.start("hub", &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &hub_ep, "--cfg", LEASE], &d.join("rec.log"));
+    let mut rec = net.start(
+        "hub",
+        &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &hub_ep, "--cfg", LEASE],
+        &d.join("rec.log"),
+    );
     let tap = |key: String, extra: &[&str], log: &str| {
-        let mut args = vec!["tap".to_string(), key, "--connect".into(), hub_ep.clone(), "--duration".into(), "900".into()];
+        let mut args =
+            vec!["tap".to_string(), key, "--connect".into(), hub_ep.clone(), "--duration".into(), "900".into()];
         args.extend(extra.iter().map(|s| s.to_string()));
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         net.start("hub", &args, &d.join(log))
@@ -246,7 +257,14 @@ fn a_swarm_over_four_machines_lives_through_a_cut_link() {
     wait_alive(&alive, &run, &[1, 2, 3, 4, 5], true, "every agent alive at the hub");
 
     // Mid-flight (sim 15 s, among the trees), the far machine's link goes down.
-    let tick_at_least = |n: u64| move |l: &str| serde_json::from_str::<serde_json::Value>(l).ok().and_then(|v| v["msg"]["Clock"]["tick"].as_u64()).is_some_and(|t| t >= n);
+    let tick_at_least = |n: u64| {
+        move |l: &str| {
+            serde_json::from_str::<serde_json::Value>(l)
+                .ok()
+                .and_then(|v| v["msg"]["Clock"]["tick"].as_u64())
+                .is_some_and(|t| t >= n)
+        }
+    };
     wait_line(&clock, TOOL_LIMIT, "tick 150", tick_at_least(150));
     let down_at = Instant::now();
     net.set_link("far", false);
@@ -256,7 +274,8 @@ fn a_swarm_over_four_machines_lives_through_a_cut_link() {
     let up_at = Instant::now();
     net.set_link("far", true);
     let whole_at = wait_alive(&alive, &run, &[3, 4, 5], true, "the far agents back at the hub");
-    let (to_hover_s, to_whole_s) = (gone_at.duration_since(down_at).as_secs_f64(), whole_at.duration_since(up_at).as_secs_f64());
+    let (to_hover_s, to_whole_s) =
+        (gone_at.duration_since(down_at).as_secs_f64(), whole_at.duration_since(up_at).as_secs_f64());
     println!("netns: link down -> far agents out at the hub, hovering: {to_hover_s:.2} s; link up -> swarm whole again: {to_whole_s:.2} s");
 
     let status = rec.wait_for(RUN_LIMIT).expect("the recorder finishes with the run");
@@ -280,7 +299,11 @@ fn a_swarm_over_four_machines_lives_through_a_cut_link() {
     for (i, a) in far.iter_mut().enumerate() {
         // Still running (waiting out its long grace for the hub that ended the run): the same
         // process lived through the cut.
-        assert!(a.child.try_wait().expect("try_wait").is_none(), "agent {}: the same process lived through the cut", i + 3);
+        assert!(
+            a.child.try_wait().expect("try_wait").is_none(),
+            "agent {}: the same process lived through the cut",
+            i + 3
+        );
         let log = std::fs::read_to_string(d.join(format!("agent-{}.log", i + 3))).expect("log");
         assert!(log.contains("hub back"), "agent {}: its session came back: {log}", i + 3);
     }

@@ -68,9 +68,11 @@ fn agent_whose_hub_dies_hovers_and_exits_cleanly() {
     let dir = tempfile::tempdir().expect("tempdir");
     let run = run_id("hubdies");
     let (mut hub, loc) = start_hub("forest-5", &run, dir.path());
-    let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
+    let mut agent =
+        Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
     // The agent is alive when a liveliness tap sees its token.
-    let alive = tap(&[&format!("swarm/{run}/alive/uav/1"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    let alive =
+        tap(&[&format!("swarm/{run}/alive/uav/1"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
     assert!(alive.contains("\"alive\":true"), "{alive}");
     assert!(agent.child.try_wait().expect("try_wait").is_none(), "agent still running");
     // Close the hub's stdin: it stops; the agent must notice and exit with success.
@@ -87,7 +89,8 @@ fn agent_with_an_id_outside_the_scenario_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
     let run = run_id("badid");
     let (_hub, loc) = start_hub("forest-5", &run, dir.path());
-    let out = output_within(Command::new(SWARM).args(["agent", "--run", &run, "--id", "9", "--connect", &loc]), TOOL_LIMIT);
+    let out =
+        output_within(Command::new(SWARM).args(["agent", "--run", &run, "--id", "9", "--connect", &loc]), TOOL_LIMIT);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("UAV id 9 is not in this scenario"), "{err}");
@@ -114,7 +117,17 @@ fn children_die_with_a_killed_launcher() {
     let dir = tempfile::tempdir().expect("tempdir");
     let run = run_id("orphans");
     let mut launcher = Command::new(SWARM)
-        .args(["run", "forest-5", "--time-mode", "realtime", "--quiet", "--run", &run, "--out", dir.path().to_str().expect("utf8")])
+        .args([
+            "run",
+            "forest-5",
+            "--time-mode",
+            "realtime",
+            "--quiet",
+            "--run",
+            &run,
+            "--out",
+            dir.path().to_str().expect("utf8"),
+        ])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -149,8 +162,12 @@ fn malformed_messages_are_counted_and_dropped() {
     let (mut hub, loc) = start_hub(sc.to_str().expect("utf8"), &run, dir.path());
     let out = dir.path().join("rec");
     let mut rec = start_recorder(&run, &loc, &out, dir.path());
-    let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
-    assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "5", "--duration", "60"]).lines().count(), 5);
+    let mut agent =
+        Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
+    assert_eq!(
+        tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "5", "--duration", "60"]).lines().count(),
+        5
+    );
     let put = |key: String, payload: &[&str]| {
         let o = output_within(Command::new(SWARM).args(["put", &key, "--connect", &loc]).args(payload), TOOL_LIMIT);
         assert!(o.status.success(), "put: {}", String::from_utf8_lossy(&o.stderr));
@@ -158,8 +175,14 @@ fn malformed_messages_are_counted_and_dropped() {
     put(format!("swarm/{run}/uav/1/sense/scan"), &["--hex", "ff ff ff ff 01"]);
     put(format!("swarm/{run}/uav/1/sense/odom"), &["--hex", "01"]);
     put(format!("swarm/{run}/uav/1/cmd"), &["--hex", "05 02"]);
-    put(format!("swarm/{run}/uav/0/cmd"), &["--json", r#"{"Cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#]);
-    put(format!("swarm/{run}/uav/77/cmd"), &["--json", r#"{"Cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#]);
+    put(
+        format!("swarm/{run}/uav/0/cmd"),
+        &["--json", r#"{"Cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#],
+    );
+    put(
+        format!("swarm/{run}/uav/77/cmd"),
+        &["--json", r#"{"Cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#],
+    );
 
     assert!(rec.wait_for(Duration::from_secs(120)).expect("the run ends").success());
     let s = common::summary(&out);
@@ -192,11 +215,13 @@ fn a_foreign_uav_id_is_ignored_by_the_hub() {
         &["agent", "--run", &run, "--id", "2", "--scenario", two.to_str().expect("utf8"), "--connect", &loc],
         &dir.path().join("foreign.log"),
     );
-    let alive = tap(&[&format!("swarm/{run}/alive/uav/2"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
+    let alive =
+        tap(&[&format!("swarm/{run}/alive/uav/2"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]);
     assert!(alive.contains("true"), "the foreign agent is up: {alive}");
     let out = dir.path().join("rec");
     let mut rec = start_recorder(&run, &loc, &out, dir.path());
-    let mut agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
+    let mut agent =
+        Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
     assert!(rec.wait_for(Duration::from_secs(60)).expect("run ends").success());
     let s = common::summary(&out);
     assert_eq!(s["end_reason"], "time_limit", "{s:#}");
@@ -233,7 +258,12 @@ fn recorder_notices_a_vanished_hub() {
     let out = dir.path().join("rec");
     let mut rec = start_recorder(&run, &loc, &out, dir.path());
     let _agent = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("agent.log"));
-    assert_eq!(tap(&[&format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", "3", "--duration", "30"]).lines().count(), 3);
+    assert_eq!(
+        tap(&[&format!("swarm/{run}/truth/step"), "--connect", &loc, "--count", "3", "--duration", "30"])
+            .lines()
+            .count(),
+        3
+    );
     drop(hub); // SIGKILL
     let st = rec.wait_for(Duration::from_secs(20)).expect("the recorder does not hang");
     assert!(!st.success(), "an incomplete run is a failure: {st:?}");
@@ -260,17 +290,33 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
     let out = dir.path().join("rec");
     let mut rec = start_recorder(&run, &loc, &out, dir.path());
     let _agents: Vec<Proc> = (1..=3)
-        .map(|id| Proc::start(&["agent", "--run", &run, "--id", &id.to_string(), "--connect", &loc], &dir.path().join(format!("a{id}.log"))))
+        .map(|id| {
+            Proc::start(
+                &["agent", "--run", &run, "--id", &id.to_string(), "--connect", &loc],
+                &dir.path().join(format!("a{id}.log")),
+            )
+        })
         .collect();
-    assert_eq!(tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]).lines().count(), 20);
-    let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "isolate", "3"]), TOOL_LIMIT);
+    assert_eq!(
+        tap(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]).lines().count(),
+        20
+    );
+    let o = output_within(
+        Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "isolate", "3"]),
+        TOOL_LIMIT,
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("\"scheme\":\"isolate\""));
-    let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "2"]), TOOL_LIMIT);
+    let o =
+        output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "2"]), TOOL_LIMIT);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "9"]), TOOL_LIMIT);
+    let o =
+        output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "9"]), TOOL_LIMIT);
     let said = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && said.contains("the hub refused the change:"), "UAV 9 does not exist, and netem says so: {said}");
+    assert!(
+        !o.status.success() && said.contains("the hub refused the change:"),
+        "UAV 9 does not exist, and netem says so: {said}"
+    );
     assert!(rec.wait_for(Duration::from_secs(60)).expect("the run ends").success());
     assert!(hub.wait_for(Duration::from_secs(20)).is_some());
     let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");
@@ -280,9 +326,11 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
     let uav3 = &s["agents"][2];
     let lost = uav3["contact_events"].as_array().expect("events").iter().any(|e| e["regained"] == false);
     assert!(lost, "UAV 3 lost its neighbours once isolated: {uav3:#}");
-    let (rx, delivered) = (uav3["messages_received"].as_u64().expect("n"), uav3["messages_delivered"].as_u64().expect("n"));
+    let (rx, delivered) =
+        (uav3["messages_received"].as_u64().expect("n"), uav3["messages_delivered"].as_u64().expect("n"));
     assert!(delivered < rx / 2, "most of what reached UAV 3 after the cut was dropped: {uav3:#}");
-    let (p1, p2) = (s["agents"][0]["path_length_m"].as_f64().expect("n"), s["agents"][1]["path_length_m"].as_f64().expect("n"));
+    let (p1, p2) =
+        (s["agents"][0]["path_length_m"].as_f64().expect("n"), s["agents"][1]["path_length_m"].as_f64().expect("n"));
     assert!(p2 < 0.8 * p1, "UAV 2 stopped when frozen, UAV 1 flew on: {p2} vs {p1}");
     let cut = &s["network"][2];
     assert_eq!(cut["class"], "cut");
@@ -292,7 +340,8 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
 #[test]
 fn a_uav_starting_inside_a_tree_is_refused_before_anything_starts() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let forest5 = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-5.toml")).expect("forest-5");
+    let forest5 =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-5.toml")).expect("forest-5");
     // An explicit trunk on UAV 2's start, and a dense forest drawn over the whole start area.
     let listed = forest5.replace("[world.forest]", "[[world.trees]]\nx = 0.1\ny = 2.0\nr = 0.3\n\n[world.forest]");
     let drawn = forest5
@@ -300,17 +349,29 @@ fn a_uav_starting_inside_a_tree_is_refused_before_anything_starts() {
         .replace("density_per_100m2 = 5.0", "density_per_100m2 = 40.0")
         .replace("min_spacing_m = 2.5", "min_spacing_m = 0.8")
         .replace("keep_clear = [{ x = 0.0, y = 0.0, r = 4.0 }, ", "keep_clear = [");
-    for (name, text, said) in [("listed", listed, "UAV 2 starts at (0.00, 2.00), -0.20 m from the tree at (0.10, 2.00)"), ("drawn", drawn, "starts at (")] {
+    for (name, text, said) in [
+        ("listed", listed, "UAV 2 starts at (0.00, 2.00), -0.20 m from the tree at (0.10, 2.00)"),
+        ("drawn", drawn, "starts at ("),
+    ] {
         let file = dir.path().join(format!("{name}.toml"));
         std::fs::write(&file, text).expect("write scenario");
         let file = file.to_str().expect("utf-8 path");
         let out = output_within(Command::new(SWARM).args(["check", file]), TOOL_LIMIT);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{name}: swarm check refuses it");
-        assert!(err.contains("swarm.start_positions: UAV") && err.contains(said) && err.contains("world.forest.keep_clear"), "{name}: {err}");
+        assert!(
+            err.contains("swarm.start_positions: UAV") && err.contains(said) && err.contains("world.forest.keep_clear"),
+            "{name}: {err}"
+        );
         let run_dir = dir.path().join(format!("{name}-run"));
-        let out = output_within(Command::new(SWARM).args(["run", file, "--out", run_dir.to_str().expect("utf-8")]), TOOL_LIMIT);
-        assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains(said), "{name}: swarm run refuses it");
+        let out = output_within(
+            Command::new(SWARM).args(["run", file, "--out", run_dir.to_str().expect("utf-8")]),
+            TOOL_LIMIT,
+        );
+        assert!(
+            !out.status.success() && String::from_utf8_lossy(&out.stderr).contains(said),
+            "{name}: swarm run refuses it"
+        );
         assert!(!run_dir.exists(), "{name}: nothing was started or written");
     }
 }

@@ -16,13 +16,17 @@ const PNG_SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n
 /// Every figure is there: an SVG document naming the run, and a PNG of plausible size.
 fn assert_figures(dir: &Path, run: &str) {
     for stem in FIGURES {
-        let svg = std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap_or_else(|e| panic!("{stem}.svg: {e}"));
+        let svg =
+            std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap_or_else(|e| panic!("{stem}.svg: {e}"));
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"), "{stem}.svg is an SVG document");
         assert!(svg.contains(&format!("forest-5 ({run})")), "{stem}.svg is titled with the run");
         let png = std::fs::read(dir.join(format!("{stem}.png"))).unwrap_or_else(|e| panic!("{stem}.png: {e}"));
         assert_eq!(png[..8], PNG_SIGNATURE, "{stem}.png is a PNG");
         // IHDR: width and height, big-endian, after the signature, length and chunk type.
-        let (w, h) = (u32::from_be_bytes(png[16..20].try_into().expect("4 bytes")), u32::from_be_bytes(png[20..24].try_into().expect("4 bytes")));
+        let (w, h) = (
+            u32::from_be_bytes(png[16..20].try_into().expect("4 bytes")),
+            u32::from_be_bytes(png[20..24].try_into().expect("4 bytes")),
+        );
         assert!(w >= 900 && h >= 400, "{stem}.png is {w}x{h}");
     }
 }
@@ -43,7 +47,9 @@ fn a_run_writes_every_figure_and_swarm_plot_draws_them_again() {
     let ticks = common::summary(dir.path())["ticks"].as_u64().expect("ticks") as usize;
     assert!(rows(dir.path(), "localization.csv") > 4 * ticks, "about a scored state per agent per tick");
     assert!(rows(dir.path(), "connectivity.csv") + 2 >= ticks, "components at every tick");
-    let world: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("world.json")).expect("world.json")).expect("json");
+    let world: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("world.json")).expect("world.json"))
+            .expect("json");
     assert!(world["trees"].as_array().expect("trees").len() > 10);
     let run_svg = std::fs::read_to_string(dir.path().join("run.svg")).expect("run.svg");
     assert!(run_svg.matches("<polygon").count() > 10, "the trees are drawn");
@@ -56,7 +62,8 @@ fn a_run_writes_every_figure_and_swarm_plot_draws_them_again() {
             std::fs::remove_file(dir.path().join(format!("{stem}.{ext}"))).expect("remove");
         }
     }
-    let plot = output_within(Command::new(SWARM).args(["plot", dir.path().to_str().expect("utf8"), "--uav", "3"]), TOOL_LIMIT);
+    let plot =
+        output_within(Command::new(SWARM).args(["plot", dir.path().to_str().expect("utf8"), "--uav", "3"]), TOOL_LIMIT);
     assert!(plot.status.success(), "swarm plot failed: {}", String::from_utf8_lossy(&plot.stderr));
     assert_eq!(String::from_utf8_lossy(&plot.stdout).lines().count(), 2 * FIGURES.len(), "one path printed per file");
     assert_figures(dir.path(), &run);
@@ -65,5 +72,8 @@ fn a_run_writes_every_figure_and_swarm_plot_draws_them_again() {
 
     let empty = tempfile::tempdir().expect("tempdir");
     let bad = output_within(Command::new(SWARM).args(["plot", empty.path().to_str().expect("utf8")]), TOOL_LIMIT);
-    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("not a run folder"), "a folder with no run is refused");
+    assert!(
+        !bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("not a run folder"),
+        "a folder with no run is refused"
+    );
 }

@@ -22,7 +22,11 @@ const TICKS_PER_S: u64 = 10;
 /// not counted; none before the file exists).
 fn csv_ticks(dir: &Path) -> Vec<u64> {
     let text = std::fs::read_to_string(dir.join("trajectories.csv")).unwrap_or_default();
-    text.split_inclusive('\n').skip(1).filter(|l| l.ends_with('\n')).filter_map(|l| l.split(',').next()?.parse().ok()).collect()
+    text.split_inclusive('\n')
+        .skip(1)
+        .filter(|l| l.ends_with('\n'))
+        .filter_map(|l| l.split(',').next()?.parse().ok())
+        .collect()
 }
 
 /// A kill delay in [2, 6) s after the first rows: random per test run, printed for a rerun.
@@ -69,15 +73,28 @@ fn a_killed_run_is_recovered_and_read_by_the_python_mcap_reader() {
 
     let ticks = csv_ticks(&out);
     let last = *ticks.last().expect("recovered rows");
-    assert!(written.saturating_sub(last) <= TICKS_PER_S, "at most one sim second lost: the killed run had tick {written}, recovered {last}");
+    assert!(
+        written.saturating_sub(last) <= TICKS_PER_S,
+        "at most one sim second lost: the killed run had tick {written}, recovered {last}"
+    );
     assert_eq!(ticks.len() as u64, last * UAVS, "a row per UAV for every tick from 1 to {last}");
     let s = summary(&out);
     assert_eq!(s["end_reason"], "cut_short");
     assert_eq!(s["ticks"].as_u64(), Some(last), "the summary counts the ticks the CSVs hold");
     assert!(out.join("run.png").exists() && out.join("world.json").exists(), "figures and world drawn");
 
-    let py = output_within(Command::new(python()).arg(concat!(env!("CARGO_MANIFEST_DIR"), "/py/read_mcap.py")).arg(out.join("run.mcap")).args(["1", "0.0"]), TOOL_LIMIT);
-    assert!(py.status.success(), "the Python reader opens the recovered run.mcap: {}", String::from_utf8_lossy(&py.stderr));
+    let py = output_within(
+        Command::new(python())
+            .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/py/read_mcap.py"))
+            .arg(out.join("run.mcap"))
+            .args(["1", "0.0"]),
+        TOOL_LIMIT,
+    );
+    assert!(
+        py.status.success(),
+        "the Python reader opens the recovered run.mcap: {}",
+        String::from_utf8_lossy(&py.stderr)
+    );
     let read: Value = serde_json::from_slice(&py.stdout).expect("reader json");
     let count = |t: &str| read["topics"][t]["count"].as_u64().unwrap_or(0);
     assert!(count("/tf") >= last, "a transform set for each of the {last} ticks: {}", count("/tf"));

@@ -83,7 +83,10 @@ fn an_isolated_uav_rejoins_and_the_swarm_meets_its_goal() {
 /// is not.)
 #[test]
 fn without_the_lost_contact_layer_the_isolated_uav_flies_off() {
-    let s = fly_text(&format!("{STRANDED}\n[lost_contact]\nenabled = false\n\n[controller.k21]\narrival_radius_m = 0.0\n"), "norejoin");
+    let s = fly_text(
+        &format!("{STRANDED}\n[lost_contact]\nenabled = false\n\n[controller.k21]\narrival_radius_m = 0.0\n"),
+        "norejoin",
+    );
     assert_eq!(s["reached_goal"], false, "{s:#}");
     let changes = group_changes(&s);
     let (_, last_groups) = *changes.last().expect("a group change");

@@ -20,8 +20,25 @@ fn close(v: &serde_json::Value, want: f64) -> bool {
 #[test]
 fn rosbags_reads_our_scan_odometry_and_twist_and_we_read_its_twist() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let scan = Scan { tick: 12, t_secs: 1.25, angle_min: -3.0, angle_increment: 0.5, max_range_m: 12.0, ranges_m: vec![1.5, f32::INFINITY, 3.25] };
-    let odom = Odom { tick: 12, t_secs: 1.25, x: 2.0, y: -1.0, yaw: std::f64::consts::FRAC_PI_2, vx: 0.0, vy: 1.0, goal: None, goal_vel: None };
+    let scan = Scan {
+        tick: 12,
+        t_secs: 1.25,
+        angle_min: -3.0,
+        angle_increment: 0.5,
+        max_range_m: 12.0,
+        ranges_m: vec![1.5, f32::INFINITY, 3.25],
+    };
+    let odom = Odom {
+        tick: 12,
+        t_secs: 1.25,
+        x: 2.0,
+        y: -1.0,
+        yaw: std::f64::consts::FRAC_PI_2,
+        vx: 0.0,
+        vy: 1.0,
+        goal: None,
+        goal_vel: None,
+    };
     let twist = Twist { linear: [0.5, -0.25, 0.0], angular: [0.0, 0.0, 0.1] };
     std::fs::write(dir.path().join("scan.cdr"), laser_scan(&scan, "uav3/base_link", 0.1)).expect("write");
     std::fs::write(dir.path().join("odom.cdr"), odometry(&odom, "uav3/odom", "uav3/base_link")).expect("write");
@@ -72,8 +89,26 @@ fn a_ros_client_sees_uav_3_and_drives_it_through_cmd_vel() {
     let scenario = common::forest5_cut(dir.path(), 15.0);
     let out = dir.path().join("run");
     let run = common::run_id("ros2");
-    let args = ["run", &scenario, "--external", "3", "--ros2", "--time-mode", "realtime", "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet"];
-    let swarm = Command::new(common::SWARM).args(args).stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().expect("swarm run");
+    let args = [
+        "run",
+        &scenario,
+        "--external",
+        "3",
+        "--ros2",
+        "--time-mode",
+        "realtime",
+        "--out",
+        out.to_str().expect("utf8"),
+        "--run",
+        &run,
+        "--quiet",
+    ];
+    let swarm = Command::new(common::SWARM)
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("swarm run");
     let loc = common::hub_locator(&out);
     let password = out.join("credentials/ros.password");
     let client = Command::new(python())
@@ -88,7 +123,9 @@ fn a_ros_client_sees_uav_3_and_drives_it_through_cmd_vel() {
     assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
     let seen: serde_json::Value = serde_json::from_slice(&c.stdout).expect("json");
     let graph: Vec<&str> = seen["graph"].as_array().expect("graph").iter().filter_map(|k| k.as_str()).collect();
-    let has = |kind: &str, tail: &str| graph.iter().any(|k| k.contains(&format!("/{kind}/%/%uav3/swarm")) && k.ends_with(tail));
+    let has = |kind: &str, tail: &str| {
+        graph.iter().any(|k| k.contains(&format!("/{kind}/%/%uav3/swarm")) && k.ends_with(tail))
+    };
     assert!(has("NN", "/NN/%/%uav3/swarm"), "{graph:?}");
     assert!(has("MP", &format!("/%uav3%scan/{}/{}/2::,5:,:,:,,", LASER_SCAN.dds, LASER_SCAN.hash)), "{graph:?}");
     assert!(has("MP", &format!("/%uav3%odom/{}/{}/2::,5:,:,:,,", ODOMETRY.dds, ODOMETRY.hash)), "{graph:?}");

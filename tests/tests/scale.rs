@@ -13,7 +13,9 @@ fn scale_flies_a_series_and_reports_a_sane_row() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out_dir = dir.path().join("study");
     let out = output_within(
-        Command::new(SWARM).args(["scale", "--scenarios", "forest-5,no-such-scenario", "--time-limit", "4", "--json", "--out"]).arg(&out_dir),
+        Command::new(SWARM)
+            .args(["scale", "--scenarios", "forest-5,no-such-scenario", "--time-limit", "4", "--json", "--out"])
+            .arg(&out_dir),
         RUN_LIMIT,
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -23,7 +25,11 @@ fn scale_flies_a_series_and_reports_a_sane_row() {
     let rows = rows.as_array().expect("an array of rows");
     assert_eq!(rows.len(), 1, "{rows:#?}");
     let r = &rows[0];
-    assert_eq!((r["scenario"].as_str(), r["uavs"].as_u64(), r["collisions"].as_u64()), (Some("forest-5"), Some(5), Some(0)), "{r:#}");
+    assert_eq!(
+        (r["scenario"].as_str(), r["uavs"].as_u64(), r["collisions"].as_u64()),
+        (Some("forest-5"), Some(5), Some(0)),
+        "{r:#}"
+    );
     let positive = |k: &str| r[k].as_f64().is_some_and(|v| v > 0.0);
     for k in ["x_real_time", "rss_total_mib", "rss_per_uav_mib", "hub_tick_p99_ms", "agent_step_p99_ms"] {
         assert!(positive(k), "{k} in {r:#}");

@@ -42,13 +42,22 @@ impl Flight {
         let creds = Creds::make_with(dir.path(), 3, &["ext3", "ros", "bridge"]);
         let (hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
         let out = dir.path().join("rec");
-        let mut args = vec!["record".to_string(), "--run".into(), run.clone(), "--out".into(), out.to_str().expect("utf8").into()];
+        let mut args =
+            vec!["record".to_string(), "--run".into(), run.clone(), "--out".into(), out.to_str().expect("utf8").into()];
         args.extend(["--connect".into(), loc.clone()]);
         args.extend(creds.login("observer"));
         let rec = Proc::start(&args.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join("rec.log"));
         let agents = (1..=3)
             .map(|id| {
-                let mut a = vec!["agent".to_string(), "--run".into(), run.clone(), "--id".into(), id.to_string(), "--connect".into(), loc.clone()];
+                let mut a = vec![
+                    "agent".to_string(),
+                    "--run".into(),
+                    run.clone(),
+                    "--id".into(),
+                    id.to_string(),
+                    "--connect".into(),
+                    loc.clone(),
+                ];
                 a.extend(creds.login(&format!("uav{id}")));
                 Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join(format!("a{id}.log")))
             })
@@ -101,10 +110,15 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     let quick = ["--count", "1", "--duration", "5", "--cfg", "connect/timeout_ms:2000"];
     let key = format!("swarm/{}/clock", f.run);
     let anonymous = f.as_user(None, "tap", &[&[key.as_str()], &quick[..]].concat());
-    assert!(!anonymous.status.success(), "a session without credentials is refused: {}", String::from_utf8_lossy(&anonymous.stdout));
+    assert!(
+        !anonymous.status.success(),
+        "a session without credentials is refused: {}",
+        String::from_utf8_lossy(&anonymous.stdout)
+    );
     let said = String::from_utf8_lossy(&anonymous.stderr);
     assert!(
-        said.contains(&format!("error: cannot connect to {}", f.loc)) && said.contains("--user observer --password-file <run folder>/credentials/observer.password"),
+        said.contains(&format!("error: cannot connect to {}", f.loc))
+            && said.contains("--user observer --password-file <run folder>/credentials/observer.password"),
         "a refused tool says what to do: {said}"
     );
     let wrong = output_within(
@@ -121,8 +135,16 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     // Agent: its own sensors, never truth, nor another UAV's sensors. A subscription broader
     // than its keys (`swarm/{run}/**`) is refused whole by the router: it receives nothing.
     assert_eq!(f.tap_as("uav3", "uav/3/sense/scan", &["--count", "3", "--duration", "30"]).lines().count(), 3);
-    assert_eq!(f.tap_as("uav3", "uav/2/sense/scan", &["--duration", "3"]).lines().count(), 0, "UAV 2's scan is not UAV 3's");
-    assert_eq!(f.tap_as("uav3", "**", &["--duration", "3"]).lines().count(), 0, "a subscription to everything is refused");
+    assert_eq!(
+        f.tap_as("uav3", "uav/2/sense/scan", &["--duration", "3"]).lines().count(),
+        0,
+        "UAV 2's scan is not UAV 3's"
+    );
+    assert_eq!(
+        f.tap_as("uav3", "**", &["--duration", "3"]).lines().count(),
+        0,
+        "a subscription to everything is refused"
+    );
     // The router forwards every agent's sensor data under one wildcard rule (node/src/auth.rs):
     // what keeps UAV 2's scan from UAV 3 is that a subscription broader than UAV 3's own keys is
     // refused.
@@ -131,10 +153,18 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
         0,
         "a subscription to every UAV's scan is refused"
     );
-    assert_eq!(f.tap_as("uav3", "radio/2", &["--duration", "3"]).lines().count(), 0, "UAV 2's radio set is not UAV 3's");
+    assert_eq!(
+        f.tap_as("uav3", "radio/2", &["--duration", "3"]).lines().count(),
+        0,
+        "UAV 2's radio set is not UAV 3's"
+    );
     assert_eq!(f.tap_as("uav3", "truth/**", &["--duration", "3"]).lines().count(), 0, "UAV 3 reads no truth");
     // Observer: everything, truth included.
-    assert_eq!(f.tap_as("observer", "truth/step", &["--count", "3", "--duration", "30"]).lines().count(), 3, "truth was flowing");
+    assert_eq!(
+        f.tap_as("observer", "truth/step", &["--count", "3", "--duration", "30"]).lines().count(),
+        3,
+        "truth was flowing"
+    );
     assert!(f.tap_as("observer", "uav/2/sense/scan", &["--count", "1", "--duration", "30"]).contains("Scan"));
 
     // UAV 3's puts on UAV 2's command key (garbage, and a command) are refused by the router;
@@ -147,12 +177,19 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     assert_eq!(f.tap_as("ext3", "clock", &["--duration", "3"]).lines().count(), 0, "ext3 reads only its view");
     assert_eq!(f.tap_as("ext3", "uav/3/sense/scan", &["--duration", "3"]).lines().count(), 0, "ext3 reads no sensor");
     assert_eq!(f.tap_as("ros", "clock", &["--duration", "3"]).lines().count(), 0, "ros reads nothing of the run");
-    assert_eq!(f.tap_as("bridge", "clock", &["--count", "1", "--duration", "30"]).lines().count(), 1, "the bridge reads as an observer");
+    assert_eq!(
+        f.tap_as("bridge", "clock", &["--count", "1", "--duration", "30"]).lines().count(),
+        1,
+        "the bridge reads as an observer"
+    );
     for user in ["ext3", "ros", "bridge"] {
         f.put_as(user, "uav/3/cmd", &["--json", FUTURE_CMD]);
         let o = f.as_user(Some(user), "netem", &["--run", &f.run, "--wait", "2", "freeze", "2"]);
         let said = String::from_utf8_lossy(&o.stderr);
-        assert!(!o.status.success() && said.contains("no answer from the hub of run"), "{user}: the router drops it, and netem says so: {said}");
+        assert!(
+            !o.status.success() && said.contains("no answer from the hub of run"),
+            "{user}: the router drops it, and netem says so: {said}"
+        );
     }
     // An observer publishes nothing: neither a command nor a netem timeline.
     f.put_as("observer", "uav/1/cmd", &["--hex", "05 02"]);
@@ -190,5 +227,8 @@ fn a_python_client_no_one_here_wrote_is_held_to_its_role() {
     assert!(keys.iter().all(|k| !k.contains("/truth/") && !k.contains("/uav/2/sense/")), "{keys:?}");
     let log = f.finish();
     assert!(log.contains("malformed_cmds=1"), "its garbage on uav/3/cmd arrived, on uav/2/cmd it did not: {log}");
-    assert!(!log.contains("liveliness token of a UAV not in this scenario"), "its token for UAV 9 never reached the hub: {log}");
+    assert!(
+        !log.contains("liveliness token of a UAV not in this scenario"),
+        "its token for UAV 9 never reached the hub: {log}"
+    );
 }

@@ -10,11 +10,24 @@ use std::process::Command;
 fn sweep(out: &std::path::Path, seeds: &str) -> (String, String) {
     let o = output_within(
         Command::new(SWARM)
-            .args(["sweep-seeds", "forest-5", "--seeds", seeds, "--jobs", "2", "--time-limit", "3", "--localization", "broadcast", "--out"])
+            .args([
+                "sweep-seeds",
+                "forest-5",
+                "--seeds",
+                seeds,
+                "--jobs",
+                "2",
+                "--time-limit",
+                "3",
+                "--localization",
+                "broadcast",
+                "--out",
+            ])
             .arg(out),
         RUN_LIMIT,
     );
-    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned());
+    let (stdout, stderr) =
+        (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned());
     assert!(o.status.success(), "{stderr}");
     (stdout, stderr)
 }
@@ -27,7 +40,8 @@ fn sweep_seeds_flies_each_seed_once_and_resumes() {
     // 3 s is too short to reach the goal: 0 of 3, Wilson 95 % upper bound 56.15 %.
     assert!(table.contains("| success (goal, no collision) % | 3 | 0.00 (0/3; Wilson 0.00–56.15) |"), "{table}");
     assert!(table.contains("| min UAV distance m | 3 |"), "{table}");
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("sweep.json")).expect("sweep.json")).expect("JSON");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("sweep.json")).expect("sweep.json")).expect("JSON");
     let seeds: Vec<u64> = report["runs"].as_array().expect("runs").iter().filter_map(|r| r["seed"].as_u64()).collect();
     assert_eq!(seeds, [1, 2, 3]);
     for seed in 1..=3 {
@@ -43,13 +57,22 @@ fn sweep_seeds_flies_each_seed_once_and_resumes() {
     let first = std::fs::read(out.join("seed-001/summary.json")).expect("summary");
     let (table, stderr) = sweep(&out, "1..4");
     assert!(stderr.contains("3 seeds already flown"), "{stderr}");
-    assert!(!stderr.contains("seed-001: running") && stderr.contains("seed-004: running"), "only the new seed flies: {stderr}");
-    assert_eq!(std::fs::read(out.join("seed-001/summary.json")).expect("summary"), first, "a flown run is not flown again");
+    assert!(
+        !stderr.contains("seed-001: running") && stderr.contains("seed-004: running"),
+        "only the new seed flies: {stderr}"
+    );
+    assert_eq!(
+        std::fs::read(out.join("seed-001/summary.json")).expect("summary"),
+        first,
+        "a flown run is not flown again"
+    );
     assert!(table.contains("| collisions | 4 |"), "{table}");
 
     // The same folder for another experiment: refused, naming what the kept runs were.
     let o = output_within(
-        Command::new(SWARM).args(["sweep-seeds", "forest-5", "--seeds", "1..2", "--time-limit", "3", "--localization", "icp", "--out"]).arg(&out),
+        Command::new(SWARM)
+            .args(["sweep-seeds", "forest-5", "--seeds", "1..2", "--time-limit", "3", "--localization", "icp", "--out"])
+            .arg(&out),
         RUN_LIMIT,
     );
     let said = String::from_utf8_lossy(&o.stderr);

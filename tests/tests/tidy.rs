@@ -41,7 +41,8 @@ fn members() -> Vec<Member> {
     dirs.iter()
         .map(|d| {
             let dir = d.as_str().expect("member path").to_string();
-            let own: toml::Table = read(&root().join(&dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
+            let own: toml::Table =
+                read(&root().join(&dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
             let package = own["package"]["name"].as_str().expect("package.name").to_string();
             Member { dir, package }
         })
@@ -65,7 +66,11 @@ fn rust_files(dir: &Path) -> Vec<PathBuf> {
 
 /// The source files the checks cover: each member's `src/` and `benches/`.
 fn source_files() -> Vec<PathBuf> {
-    members().iter().flat_map(|m| ["src", "benches"].map(|sub| root().join(&m.dir).join(sub))).flat_map(|d| rust_files(&d)).collect()
+    members()
+        .iter()
+        .flat_map(|m| ["src", "benches"].map(|sub| root().join(&m.dir).join(sub)))
+        .flat_map(|d| rust_files(&d))
+        .collect()
 }
 
 /// The file's module doc: its `//!` lines in the leading block of comments and inner attributes
@@ -88,7 +93,9 @@ fn declared_modules(text: &str) -> Vec<String> {
             test_only = true;
             continue;
         }
-        let item = line.strip_prefix("pub ").or_else(|| line.split_once(") ").filter(|(v, _)| v.starts_with("pub(")).map(|(_, r)| r));
+        let item = line
+            .strip_prefix("pub ")
+            .or_else(|| line.split_once(") ").filter(|(v, _)| v.starts_with("pub(")).map(|(_, r)| r));
         let item = item.unwrap_or(line);
         if let Some(name) = item.strip_prefix("mod ").and_then(|r| r.strip_suffix(';')) {
             if !test_only {
@@ -125,7 +132,10 @@ fn every_module_is_named_in_its_parents_doc() {
         let text = read(&file);
         let doc = module_doc(&text);
         for m in declared_modules(&text).iter().filter(|m| !names_module(&doc, m)) {
-            missing.push(format!("{}: name module `{m}` in the `//!` doc (e.g. \"- [`{m}`]: what it is for\")", rel(&file)));
+            missing.push(format!(
+                "{}: name module `{m}` in the `//!` doc (e.g. \"- [`{m}`]: what it is for\")",
+                rel(&file)
+            ));
         }
     }
     assert!(missing.is_empty(), "modules their parent's doc does not name:\n{}", missing.join("\n"));
@@ -255,14 +265,18 @@ fn key_table_matches_wire_keys() {
             KeyFn::Key(make) => {
                 let key = as_pattern(&make(&keys, 4242));
                 if !table.contains(&key) {
-                    problems.push(format!("ARCHITECTURE.md: add a row for `{key}` (built by `Keys::{name}`) to the key table"));
+                    problems.push(format!(
+                        "ARCHITECTURE.md: add a row for `{key}` (built by `Keys::{name}`) to the key table"
+                    ));
                 }
                 built.insert(key);
             }
             KeyFn::Wildcard(make) => {
                 let w = as_pattern(&make(&keys, 4242));
                 if !table.iter().any(|row| matches(&w, row)) {
-                    problems.push(format!("ARCHITECTURE.md: `Keys::{name}` subscribes to `{w}`, which matches no row of the key table"));
+                    problems.push(format!(
+                        "ARCHITECTURE.md: `Keys::{name}` subscribes to `{w}`, which matches no row of the key table"
+                    ));
                 }
             }
             KeyFn::Other => {}
@@ -293,7 +307,11 @@ fn codemap_sections() -> Vec<(String, String)> {
 fn crate_root(member: &Member) -> PathBuf {
     let src = root().join(&member.dir).join("src");
     let lib = src.join("lib.rs");
-    if lib.exists() { lib } else { src.join("main.rs") }
+    if lib.exists() {
+        lib
+    } else {
+        src.join("main.rs")
+    }
 }
 
 #[test]
@@ -303,7 +321,10 @@ fn codemap_names_every_crate_and_top_level_module() {
     for m in members() {
         let named = |h: &str| names_module(h, &m.dir) || names_module(h, &m.package);
         let Some((_, body)) = sections.iter().find(|(h, _)| named(h)) else {
-            problems.push(format!("ARCHITECTURE.md: add a codemap section \"### `{}` (crate `{}`)\" saying what the crate is for", m.dir, m.package));
+            problems.push(format!(
+                "ARCHITECTURE.md: add a codemap section \"### `{}` (crate `{}`)\" saying what the crate is for",
+                m.dir, m.package
+            ));
             continue;
         };
         let root_file = crate_root(&m);
@@ -325,7 +346,8 @@ fn documented_dependencies() -> BTreeMap<String, BTreeSet<String>> {
         .into_iter()
         .filter_map(|l| l.split_once(" -> "))
         .map(|(name, deps)| {
-            let deps = deps.split(',').map(str::trim).filter(|d| !d.is_empty() && *d != "(none)").map(String::from).collect();
+            let deps =
+                deps.split(',').map(str::trim).filter(|d| !d.is_empty() && *d != "(none)").map(String::from).collect();
             (name.trim().to_string(), deps)
         })
         .collect()
@@ -338,8 +360,13 @@ fn manifest_dependencies() -> BTreeMap<String, BTreeSet<String>> {
     members
         .iter()
         .map(|m| {
-            let own: toml::Table = read(&root().join(&m.dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
-            let deps = own.get("dependencies").and_then(|d| d.as_table()).map(|t| t.keys().cloned().collect::<Vec<_>>()).unwrap_or_default();
+            let own: toml::Table =
+                read(&root().join(&m.dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
+            let deps = own
+                .get("dependencies")
+                .and_then(|d| d.as_table())
+                .map(|t| t.keys().cloned().collect::<Vec<_>>())
+                .unwrap_or_default();
             (m.package.clone(), deps.into_iter().filter(|d| packages.contains(d.as_str())).collect())
         })
         .collect()
@@ -352,7 +379,9 @@ fn crate_dependency_list_matches_the_manifests() {
     for (package, deps) in &actual {
         match documented.get(package) {
             None => wrong.push(format!("ARCHITECTURE.md: add `{package} -> ...` to `## Crate dependencies`")),
-            Some(d) if d != deps => wrong.push(format!("ARCHITECTURE.md: `{package}` depends on {deps:?} (its Cargo.toml), not {d:?}")),
+            Some(d) if d != deps => {
+                wrong.push(format!("ARCHITECTURE.md: `{package}` depends on {deps:?} (its Cargo.toml), not {d:?}"))
+            }
             Some(_) => {}
         }
     }
@@ -384,12 +413,18 @@ fn crate_dependency_picture_draws_every_crate_above_what_it_uses() {
     let actual = manifest_dependencies();
     let packages: BTreeSet<String> = actual.keys().cloned().collect();
     let rows = picture_rows(&architecture(), &packages);
-    let mut wrong: Vec<String> = packages.iter().filter(|p| !rows.contains_key(*p)).map(|p| format!("ARCHITECTURE.md: draw `{p}` in the crate-dependency picture")).collect();
+    let mut wrong: Vec<String> = packages
+        .iter()
+        .filter(|p| !rows.contains_key(*p))
+        .map(|p| format!("ARCHITECTURE.md: draw `{p}` in the crate-dependency picture"))
+        .collect();
     for (package, deps) in &actual {
         for dep in deps {
             if let (Some(a), Some(b)) = (rows.get(package), rows.get(dep)) {
                 if a >= b {
-                    wrong.push(format!("ARCHITECTURE.md: the picture must draw `{package}` above `{dep}`, which it depends on"));
+                    wrong.push(format!(
+                        "ARCHITECTURE.md: the picture must draw `{package}` above `{dep}`, which it depends on"
+                    ));
                 }
             }
         }
@@ -428,7 +463,9 @@ fn function_lengths(text: &str) -> Vec<(String, usize)> {
         }
         let name: String = code[at + 3..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
         let close = format!("{}}}", " ".repeat(indent));
-        if let Some(end) = lines[i + 1..].iter().position(|l| l.starts_with(&close) && l.len() - l.trim_start().len() == indent) {
+        if let Some(end) =
+            lines[i + 1..].iter().position(|l| l.starts_with(&close) && l.len() - l.trim_start().len() == indent)
+        {
             out.push((name, end + 2));
         }
     }
@@ -439,8 +476,12 @@ fn function_lengths(text: &str) -> Vec<(String, usize)> {
 fn functions_in_the_nodes_and_the_launcher_stay_short() {
     let mut long = Vec::new();
     for file in SHORT_FUNCTION_FILES {
-        for (name, n) in function_lengths(&read(&root().join(file))).into_iter().filter(|(_, n)| *n > MAX_FUNCTION_LINES) {
-            long.push(format!("{file}: `{name}` is {n} lines; split it into named steps (at most {MAX_FUNCTION_LINES})"));
+        for (name, n) in
+            function_lengths(&read(&root().join(file))).into_iter().filter(|(_, n)| *n > MAX_FUNCTION_LINES)
+        {
+            long.push(format!(
+                "{file}: `{name}` is {n} lines; split it into named steps (at most {MAX_FUNCTION_LINES})"
+            ));
         }
     }
     assert!(long.is_empty(), "{}", long.join("\n"));
@@ -467,7 +508,10 @@ fn only_the_agents_network_layer_touches_zenoh() {
         found.join("\n")
     );
     let net_files = rust_files(&net);
-    assert!(net_files.iter().any(|f| code_lines(&read(f)).any(|(_, l)| l.contains("zenoh::"))), "the check looks where Zenoh is used");
+    assert!(
+        net_files.iter().any(|f| code_lines(&read(f)).any(|(_, l)| l.contains("zenoh::"))),
+        "the check looks where Zenoh is used"
+    );
 }
 
 #[test]
@@ -482,7 +526,11 @@ fn the_helpers_parse_what_they_should() {
     assert!(module_doc("use x;\n//! late").is_empty());
     assert!(matches("s/r/uav/*/cmd", "s/r/uav/{id}/cmd") && !matches("s/r/uav/*/cmd", "s/r/uav/{id}/state"));
     assert!(matches("s/r/truth/**", "s/r/truth/step") && !matches("s/r/truth/**", "s/r/clock"));
-    assert!(version("1.90") == version("1.90.0") && version("1.88.0") < version("1.90") && version("1.100") > version("1.90"));
+    assert!(
+        version("1.90") == version("1.90.0")
+            && version("1.88.0") < version("1.90")
+            && version("1.100") > version("1.90")
+    );
     let dockerfile = "# FROM rust:1.0 in a comment\nFROM rust:1.90-bookworm AS build\nFROM ${BASE} AS runtime\nfrom rust:1.91 as x\n";
     assert_eq!(rust_images(dockerfile), ["1.90", "1.91"]);
 }
@@ -521,7 +569,10 @@ fn rust_images(dockerfile: &str) -> Vec<String> {
 fn dockerfile_builds_with_the_workspace_rust_version() {
     let want = workspace_rust_version();
     let images = rust_images(&read(&root().join("Dockerfile")));
-    assert!(!images.is_empty(), "Dockerfile: no `FROM rust:<version>-...` build stage; the users' path builds `swarm` in one");
+    assert!(
+        !images.is_empty(),
+        "Dockerfile: no `FROM rust:<version>-...` build stage; the users' path builds `swarm` in one"
+    );
     for got in &images {
         assert_eq!(
             got, &want,
@@ -535,12 +586,17 @@ fn every_member_inherits_the_workspace_rust_version() {
     let mut missing = Vec::new();
     for m in members() {
         let own: toml::Table = read(&root().join(&m.dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
-        let inherits = own["package"].get("rust-version").and_then(|v| v.get("workspace")).and_then(|w| w.as_bool()) == Some(true);
+        let inherits =
+            own["package"].get("rust-version").and_then(|v| v.get("workspace")).and_then(|w| w.as_bool()) == Some(true);
         if !inherits {
             missing.push(format!("{}/Cargo.toml: add `rust-version.workspace = true` under [package]", m.dir));
         }
     }
-    assert!(missing.is_empty(), "members that do not declare the workspace's rust-version (cargo then checks none):\n{}", missing.join("\n"));
+    assert!(
+        missing.is_empty(),
+        "members that do not declare the workspace's rust-version (cargo then checks none):\n{}",
+        missing.join("\n")
+    );
 }
 
 #[test]
@@ -553,15 +609,23 @@ fn rust_version_covers_every_locked_dependency() {
         .unwrap_or_else(|e| panic!("cannot run `{cargo} metadata`: {e}"));
     assert!(out.status.success(), "`cargo metadata --locked` failed: {}", String::from_utf8_lossy(&out.stderr));
     let metadata: serde_json::Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
-    let members: BTreeSet<&str> =
-        metadata["workspace_members"].as_array().expect("workspace_members").iter().filter_map(|m| m.as_str()).collect();
+    let members: BTreeSet<&str> = metadata["workspace_members"]
+        .as_array()
+        .expect("workspace_members")
+        .iter()
+        .filter_map(|m| m.as_str())
+        .collect();
     let packages = metadata["packages"].as_array().expect("packages");
     let floors: Vec<(String, &str, &str)> = packages
         .iter()
         .filter(|p| !members.contains(p["id"].as_str().unwrap_or_default()))
         .filter_map(|p| Some((p["rust_version"].as_str()?.to_string(), p["name"].as_str()?, p["version"].as_str()?)))
         .collect();
-    assert!(floors.len() > 10, "cargo metadata: only {} locked packages declare a rust-version; is its output read right?", floors.len());
+    assert!(
+        floors.len() > 10,
+        "cargo metadata: only {} locked packages declare a rust-version; is its output read right?",
+        floors.len()
+    );
     let ours = workspace_rust_version();
     let above: Vec<String> = floors
         .iter()

@@ -27,7 +27,11 @@ goal_rule = "centroid"
 #[test]
 fn realtime_mode_flies_and_never_outruns_its_factor() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let sc = write_scenario(dir.path(), "rt", &format!("{TWO_UAVS}\ntime_limit_s = 60.0\n[time]\nmode = \"realtime\"\nrealtime_factor = 8.0\n"));
+    let sc = write_scenario(
+        dir.path(),
+        "rt",
+        &format!("{TWO_UAVS}\ntime_limit_s = 60.0\n[time]\nmode = \"realtime\"\nrealtime_factor = 8.0\n"),
+    );
     let out = swarm_run(&[&sc, "--out", dir.path().join("o").to_str().expect("utf8"), "--run", &run_id("rt")]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let s = summary(&dir.path().join("o"));
@@ -58,12 +62,26 @@ fn lockstep_goes_on_when_an_agent_dies() {
     let run = run_id("die");
     let (mut hub, loc) = start_hub(&sc, &run, dir.path());
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(&["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc], &dir.path().join("rec.log"));
+    let mut rec = Proc::start(
+        &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc],
+        &dir.path().join("rec.log"),
+    );
     let tap = common::tap;
-    assert!(tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", &loc, "--count", "1", "--duration", "30"]).contains("true"));
+    assert!(tap(&[
+        &format!("swarm/{run}/alive/recorder"),
+        "--alive",
+        "--connect",
+        &loc,
+        "--count",
+        "1",
+        "--duration",
+        "30"
+    ])
+    .contains("true"));
     // The hub ticks only once both agents are alive, and may then fly hundreds of ticks in less
     // than a tap takes to start: listen to the clock before the second agent comes.
-    let clock = common::tap_listening(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]);
+    let clock =
+        common::tap_listening(&[&format!("swarm/{run}/clock"), "--connect", &loc, "--count", "20", "--duration", "60"]);
     let mut a1 = Proc::start(&["agent", "--run", &run, "--id", "1", "--connect", &loc], &dir.path().join("a1.log"));
     let a2 = Proc::start(&["agent", "--run", &run, "--id", "2", "--connect", &loc], &dir.path().join("a2.log"));
     // Let the swarm fly a few ticks, then kill agent 2 outright.
@@ -77,7 +95,9 @@ fn lockstep_goes_on_when_an_agent_dies() {
     let traj = std::fs::read_to_string(out.join("trajectories.csv")).expect("csv");
     let last: Vec<&str> = traj.lines().rev().take(2).collect();
     // Columns: ...,colliding,alive,cmd_on_time
-    let alive = |row: &str, id: &str| row.starts_with("600,") && row.split(',').nth(2) == Some(id) && row.split(',').nth(11) == Some("1");
+    let alive = |row: &str, id: &str| {
+        row.starts_with("600,") && row.split(',').nth(2) == Some(id) && row.split(',').nth(11) == Some("1")
+    };
     assert!(last.iter().any(|r| alive(r, "1")), "UAV 1 alive to the end: {last:?}");
     assert!(!last.iter().any(|r| alive(r, "2")), "UAV 2 marked dead: {last:?}");
     assert!(hub.wait_for(Duration::from_secs(20)).is_some());

@@ -34,7 +34,13 @@ fn output_dir(test: &str) -> PathBuf {
 /// the process and the (page URL, Foxglove URL) of that line.
 fn start_serving(args: &[&str], prefix: &str, log: &Path) -> (Proc, String, String) {
     let err = std::fs::File::create(log).expect("log");
-    let mut child = Command::new(SWARM).args(args).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::from(err)).spawn().expect("spawn");
+    let mut child = Command::new(SWARM)
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(err))
+        .spawn()
+        .expect("spawn");
     let stdout = child.stdout.take().expect("stdout");
     let stdin = child.stdin.take();
     let (tx, rx) = std::sync::mpsc::channel();
@@ -56,9 +62,13 @@ fn start_serving(args: &[&str], prefix: &str, log: &Path) -> (Proc, String, Stri
 
 /// Runs one of the Python scripts in tests/py and parses the JSON it prints.
 fn py(script: &str, args: &[&str]) -> Value {
-    let out = common::output_within(Command::new(python()).arg(format!("{}/py/{script}", env!("CARGO_MANIFEST_DIR"))).args(args), TOOL_LIMIT);
+    let out = common::output_within(
+        Command::new(python()).arg(format!("{}/py/{script}", env!("CARGO_MANIFEST_DIR"))).args(args),
+        TOOL_LIMIT,
+    );
     assert!(out.status.success(), "{script}: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{script} printed no JSON ({e}): {}", String::from_utf8_lossy(&out.stdout)))
+    serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("{script} printed no JSON ({e}): {}", String::from_utf8_lossy(&out.stdout)))
 }
 
 /// `trajectories.csv` as (tick, id) -> (x, y).
@@ -77,7 +87,12 @@ fn truth(run: &Path) -> BTreeMap<(u64, u64), (f64, f64)> {
 /// The tick length of a run [s], from `trajectories.csv` (a row past tick 0: t_s / tick).
 fn tick_length(run: &Path) -> f64 {
     let text = std::fs::read_to_string(run.join("trajectories.csv")).expect("trajectories.csv");
-    let row = text.lines().skip(1).map(|l| l.split(',').collect::<Vec<_>>()).find(|c| c[0] != "0").expect("a row past tick 0");
+    let row = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .find(|c| c[0] != "0")
+        .expect("a row past tick 0");
     row[1].parse::<f64>().expect("t_s") / row[0].parse::<f64>().expect("tick")
 }
 
@@ -89,10 +104,21 @@ fn assert_trails_on_truth(trails: &Value, from_s: f64, to_s: f64, truth: &BTreeM
     assert_eq!(trails.len(), 5, "a trail per UAV: {trails:?}");
     for (id, points) in trails {
         let id: u64 = id.parse().expect("UAV id");
-        let points: Vec<[f64; 3]> = points.as_array().expect("points").iter().map(|p| [0, 1, 2].map(|i| p[i].as_f64().expect("number"))).collect();
+        let points: Vec<[f64; 3]> = points
+            .as_array()
+            .expect("points")
+            .iter()
+            .map(|p| [0, 1, 2].map(|i| p[i].as_f64().expect("number")))
+            .collect();
         let (first, last) = (points.first().expect("a point")[2], points.last().expect("a point")[2]);
-        assert!(first <= from_s && last >= to_s, "UAV {id}'s trail spans {first} to {last} s, not {from_s} to {to_s} s");
-        assert!(points.windows(2).all(|w| w[1][2] > w[0][2] && w[1][2] - w[0][2] <= 0.5 + 1e-9), "UAV {id}'s trail has a gap: {points:?}");
+        assert!(
+            first <= from_s && last >= to_s,
+            "UAV {id}'s trail spans {first} to {last} s, not {from_s} to {to_s} s"
+        );
+        assert!(
+            points.windows(2).all(|w| w[1][2] > w[0][2] && w[1][2] - w[0][2] <= 0.5 + 1e-9),
+            "UAV {id}'s trail has a gap: {points:?}"
+        );
         for [x, y, t] in points {
             let tick = (t / dt).round() as u64;
             let (tx, ty) = truth.get(&(tick, id)).unwrap_or_else(|| panic!("no truth for tick {tick} UAV {id}"));
@@ -114,14 +140,29 @@ fn value_with_unit(text: &str, label: &str, unit: &str) -> Option<f64> {
 /// A UAV's panel gives each number its unit: speed and command in m/s, position in m, heading
 /// in degrees, step time in ms.
 fn assert_units(panel: &str) {
-    for (label, unit) in [("speed", "m/s"), ("x", "m"), ("y", "m"), ("heading", "°"), ("step", "ms"), ("command", "m/s")] {
-        assert!(value_with_unit(panel, label, unit).is_some_and(f64::is_finite), "'{label} <number> {unit}' in the panel: {panel}");
+    for (label, unit) in
+        [("speed", "m/s"), ("x", "m"), ("y", "m"), ("heading", "°"), ("step", "ms"), ("command", "m/s")]
+    {
+        assert!(
+            value_with_unit(panel, label, unit).is_some_and(f64::is_finite),
+            "'{label} <number> {unit}' in the panel: {panel}"
+        );
     }
 }
 
 /// The legend names every mark the map draws.
 fn assert_legend(legend: &str) {
-    for key in ["UAV, its heading", "selected UAV", "tree", "goal (4 m radius)", "trail: last 20 s", "neighbour estimate", "radio link", "collision", "lost UAV"] {
+    for key in [
+        "UAV, its heading",
+        "selected UAV",
+        "tree",
+        "goal (4 m radius)",
+        "trail: last 20 s",
+        "neighbour estimate",
+        "radio link",
+        "collision",
+        "lost UAV",
+    ] {
         assert!(legend.contains(key), "'{key}' in the legend: {legend}");
     }
 }
@@ -142,7 +183,8 @@ fn assert_scale(seen: &Value) {
         .flat_map(|a| uavs.iter().map(move |b| (a, b)))
         .find(|(a, b)| (num(a, "x") - num(b, "x")).hypot(num(a, "y") - num(b, "y")) > 1.0)
         .expect("two UAVs a metre apart");
-    let px_per_m = (num(a, "px") - num(b, "px")).hypot(num(a, "py") - num(b, "py")) / (num(a, "x") - num(b, "x")).hypot(num(a, "y") - num(b, "y"));
+    let px_per_m = (num(a, "px") - num(b, "px")).hypot(num(a, "py") - num(b, "py"))
+        / (num(a, "x") - num(b, "x")).hypot(num(a, "y") - num(b, "y"));
     let css = seen["scale_css_px"].as_f64().expect("bar width") * seen["dpr"].as_f64().expect("dpr");
     assert!((css / (m * px_per_m) - 1.0).abs() < 0.02, "a {m} m bar {css} px long at {px_per_m} px/m");
 }
@@ -154,19 +196,39 @@ fn assert_selected_on_map(seen: &Value) {
     assert_eq!(state["selected"], 1, "{state}");
     assert_eq!(seen["panel_selected"], "1", "{seen}");
     let layers: Vec<&str> = state["layers"].as_array().expect("layers").iter().filter_map(Value::as_str).collect();
-    let at = |name: &str| layers.iter().position(|l| *l == name).unwrap_or_else(|| panic!("no {name} layer: {layers:?}"));
+    let at =
+        |name: &str| layers.iter().position(|l| *l == name).unwrap_or_else(|| panic!("no {name} layer: {layers:?}"));
     assert!(at("estimates") > at("uavs"), "estimates above the arrows: {layers:?}");
     let marks = state["estimates"].as_array().expect("estimates");
     assert!(!marks.is_empty(), "UAV 1's estimates drawn: {state}");
-    assert!(marks.iter().all(|e| e["of"] == 1 && e["r"].as_f64().unwrap_or(0.0) >= 5.0), "rings of UAV 1's, 5 px or more: {marks:?}");
-    let others: Vec<(f64, f64)> = state["uavs"].as_array().expect("uavs").iter().filter(|u| u["id"] != 1).map(|u| (u["x"].as_f64().unwrap_or(f64::NAN), u["y"].as_f64().unwrap_or(f64::NAN))).collect();
-    let near = marks.iter().filter(|e| others.iter().any(|&(x, y)| (e["x"].as_f64().unwrap_or(f64::NAN) - x).hypot(e["y"].as_f64().unwrap_or(f64::NAN) - y) < 1.0)).count();
+    assert!(
+        marks.iter().all(|e| e["of"] == 1 && e["r"].as_f64().unwrap_or(0.0) >= 5.0),
+        "rings of UAV 1's, 5 px or more: {marks:?}"
+    );
+    let others: Vec<(f64, f64)> = state["uavs"]
+        .as_array()
+        .expect("uavs")
+        .iter()
+        .filter(|u| u["id"] != 1)
+        .map(|u| (u["x"].as_f64().unwrap_or(f64::NAN), u["y"].as_f64().unwrap_or(f64::NAN)))
+        .collect();
+    let near = marks
+        .iter()
+        .filter(|e| {
+            others.iter().any(|&(x, y)| {
+                (e["x"].as_f64().unwrap_or(f64::NAN) - x).hypot(e["y"].as_f64().unwrap_or(f64::NAN) - y) < 1.0
+            })
+        })
+        .count();
     assert!(near * 4 >= marks.len() * 3, "{near} of {} estimates near a UAV: {marks:?}", marks.len());
 }
 
 /// Seconds in a text like `4.2 s`.
 fn seconds(text: &str) -> f64 {
-    text.trim().strip_suffix(" s").and_then(|n| n.parse().ok()).unwrap_or_else(|| panic!("not a time in seconds: {text:?}"))
+    text.trim()
+        .strip_suffix(" s")
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("not a time in seconds: {text:?}"))
 }
 
 /// The replay's seek bar shows the sought time and the total, its ends' times, and with the
@@ -179,7 +241,10 @@ fn assert_seek_times(seen: &Value, tick: u64, dt: f64, truth: &BTreeMap<(u64, u6
     assert_eq!(text("seek_end"), format!("{last_t:.1} s"), "{seen}");
     assert!((seconds(&text("seek_start")) - first_t).abs() < 0.051, "{seen}");
     let mid = (first_t + last_t) / 2.0;
-    assert!((seconds(&text("seek_hover")) - mid).abs() <= 0.08 * (last_t - first_t), "the bar's middle is about {mid} s: {seen}");
+    assert!(
+        (seconds(&text("seek_hover")) - mid).abs() <= 0.08 * (last_t - first_t),
+        "the bar's middle is about {mid} s: {seen}"
+    );
 }
 
 /// Every UAV drawn in `state` (a `window.viewState`) sits at the truth of its tick, within 1 cm
@@ -222,9 +287,15 @@ fn assert_scan_drawn(state: &Value, id: u64, run: &Path, truth: &BTreeMap<(u64, 
     let (x, y) = truth[&(tick, id)];
     let at = |i: usize| pose[i].as_f64().expect("pose number");
     assert!((at(0) - x).hypot(at(1) - y) < 0.01, "scan of tick {tick} drawn at {pose:?}, truth ({x}, {y})");
-    let world: Value = serde_json::from_str(&std::fs::read_to_string(run.join("world.json")).expect("world.json")).expect("world json");
+    let world: Value = serde_json::from_str(&std::fs::read_to_string(run.join("world.json")).expect("world.json"))
+        .expect("world json");
     let r_uav = world["body_radius_m"].as_f64().expect("body radius");
-    let mut surfaces: Vec<(f64, f64, f64)> = world["trees"].as_array().expect("trees").iter().map(|t| (t[0].as_f64().unwrap_or(0.0), t[1].as_f64().unwrap_or(0.0), t[2].as_f64().unwrap_or(0.0))).collect();
+    let mut surfaces: Vec<(f64, f64, f64)> = world["trees"]
+        .as_array()
+        .expect("trees")
+        .iter()
+        .map(|t| (t[0].as_f64().unwrap_or(0.0), t[1].as_f64().unwrap_or(0.0), t[2].as_f64().unwrap_or(0.0)))
+        .collect();
     surfaces.extend(truth.iter().filter(|((t, u), _)| *t == tick && *u != id).map(|(_, &(ux, uy))| (ux, uy, r_uav)));
     let hits = scan["hits"].as_array().expect("hits");
     assert!(hits.len() >= 10, "the scan sees something: {} returns", hits.len());
@@ -253,13 +324,28 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     let sc = common::forest5_cut(dir.path(), 40.0);
     let out = dir.path().join("run");
     let run = run_id("view");
-    let args = ["run", &sc, "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet", "--time-mode", "realtime", "--view", "0"];
+    let args = [
+        "run",
+        &sc,
+        "--out",
+        out.to_str().expect("utf8"),
+        "--run",
+        &run,
+        "--quiet",
+        "--time-mode",
+        "realtime",
+        "--view",
+        "0",
+    ];
     let (_run, page, ws) = start_serving(&args, "view: ", &dir.path().join("run.log"));
 
     // Offered both names, the SDK's server chooses the current one.
     assert_poses(&py("foxglove_ws.py", &[&ws, "/uav/1/pose", "20", "60"]), "foxglove.sdk.v1");
     // Lichtblick offers only the old name: the front door answers with it.
-    assert_poses(&py("foxglove_ws.py", &[&ws, "/uav/1/pose", "20", "60", "foxglove.websocket.v1"]), "foxglove.websocket.v1");
+    assert_poses(
+        &py("foxglove_ws.py", &[&ws, "/uav/1/pose", "20", "60", "foxglove.websocket.v1"]),
+        "foxglove.websocket.v1",
+    );
 
     let shot = output_dir("live").join("live.png");
     let seen = py("page.py", &[&page, shot.to_str().expect("utf8"), "live", "3"]);
@@ -268,8 +354,20 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     let (first, second) = (&seen["first"], &seen["second"]);
     let tick = |v: &Value| v["tick"].as_u64().unwrap_or_else(|| panic!("a tick: {seen}"));
     assert!(tick(second) > tick(first), "the clock moves: {seen}");
-    let moved = |a: &Value, b: &Value| (a["x"].as_f64().unwrap_or(0.0) - b["x"].as_f64().unwrap_or(0.0)).hypot(a["y"].as_f64().unwrap_or(0.0) - b["y"].as_f64().unwrap_or(0.0)) > 0.05;
-    assert!(first["uavs"].as_array().expect("uavs").iter().zip(second["uavs"].as_array().expect("uavs")).any(|(a, b)| moved(a, b)), "drawn UAVs move: {seen}");
+    let moved = |a: &Value, b: &Value| {
+        (a["x"].as_f64().unwrap_or(0.0) - b["x"].as_f64().unwrap_or(0.0))
+            .hypot(a["y"].as_f64().unwrap_or(0.0) - b["y"].as_f64().unwrap_or(0.0))
+            > 0.05
+    };
+    assert!(
+        first["uavs"]
+            .as_array()
+            .expect("uavs")
+            .iter()
+            .zip(second["uavs"].as_array().expect("uavs"))
+            .any(|(a, b)| moved(a, b)),
+        "drawn UAVs move: {seen}"
+    );
     let scan_shot = output_dir("live").join("live-scan.png");
     let scanned = py("page.py", &[&page, scan_shot.to_str().expect("utf8"), "scan", "1"]);
     assert!(scan_shot.exists(), "screenshot kept");
@@ -285,7 +383,13 @@ fn live_view_draws_the_run_and_serves_foxglove_poses() {
     // start (or the 20 s a trail keeps) and up to that frame.
     let first_t = seen["first_trails"]["t"].as_f64().expect("first frame's t");
     assert!(first_t >= 5.0, "the page was opened late: {}", seen["first_trails"]);
-    assert_trails_on_truth(&seen["first_trails"]["trails"], (first_t - 19.5).max(0.5), first_t - 1e-6, &truth, tick_length(&out));
+    assert_trails_on_truth(
+        &seen["first_trails"]["trails"],
+        (first_t - 19.5).max(0.5),
+        first_t - 1e-6,
+        &truth,
+        tick_length(&out),
+    );
     assert_legend(seen["legend"].as_str().expect("legend"));
     assert_scale(&seen);
     assert_selected_on_map(&seen);
@@ -299,7 +403,11 @@ fn replay_seeks_to_a_tick_and_draws_its_positions() {
     let out = dir.path().join("run");
     let o = common::swarm_run(&[&sc, "--out", out.to_str().expect("utf8"), "--run", &run_id("replay")]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (_replay, page, _ws) = start_serving(&["replay", out.to_str().expect("utf8"), "--port", "0", "--paused"], "replay: ", &dir.path().join("replay.log"));
+    let (_replay, page, _ws) = start_serving(
+        &["replay", out.to_str().expect("utf8"), "--port", "0", "--paused"],
+        "replay: ",
+        &dir.path().join("replay.log"),
+    );
     let shot = output_dir("replay").join("replay.png");
     let seen = py("page.py", &[&page, shot.to_str().expect("utf8"), "seek", "42", "2"]);
     assert!(shot.exists(), "screenshot kept");

@@ -60,7 +60,14 @@ fn starts(rng: &mut Lcg, n: usize) -> Vec<(f64, f64, f64)> {
 }
 
 /// The scan of UAV `me` at `pose` among `circles` (x, y, r), with range noise.
-fn scan(circles: &[(f64, f64, f64)], pose: (f64, f64, f64), me: usize, n_trees: usize, rng: &mut Lcg, tick: u64) -> Scan {
+fn scan(
+    circles: &[(f64, f64, f64)],
+    pose: (f64, f64, f64),
+    me: usize,
+    n_trees: usize,
+    rng: &mut Lcg,
+    tick: u64,
+) -> Scan {
     const BEAMS: usize = 750;
     const RANGE_M: f64 = 12.0;
     let inc = std::f32::consts::TAU / BEAMS as f32;
@@ -82,10 +89,21 @@ fn scan(circles: &[(f64, f64, f64)], pose: (f64, f64, f64), me: usize, n_trees: 
                     (disc >= 0.0 && b > 0.0).then(|| b - disc.sqrt())
                 })
                 .fold(f64::INFINITY, f64::min);
-            if d <= RANGE_M { (d + 0.02 * rng.gauss()) as f32 } else { f32::INFINITY }
+            if d <= RANGE_M {
+                (d + 0.02 * rng.gauss()) as f32
+            } else {
+                f32::INFINITY
+            }
         })
         .collect();
-    Scan { tick, t_secs: tick as f64 * 0.1, angle_min: 0.0, angle_increment: inc, max_range_m: RANGE_M as f32, ranges_m }
+    Scan {
+        tick,
+        t_secs: tick as f64 * 0.1,
+        angle_min: 0.0,
+        angle_increment: inc,
+        max_range_m: RANGE_M as f32,
+        ranges_m,
+    }
 }
 
 /// CPU time of this thread so far [s] (`/proc/thread-self/schedstat`, nanoseconds on CPU), so the
@@ -111,7 +129,8 @@ fn main() {
     let mut rng = Lcg(0x5eed_0040);
     let trees = forest(&mut rng);
     let mut poses = starts(&mut rng, n);
-    let mut agents: Vec<Agent> = (0..n).map(|i| Agent::new(i as u32 + 1, sc.clone(), &Controllers::builtin()).expect("agent")).collect();
+    let mut agents: Vec<Agent> =
+        (0..n).map(|i| Agent::new(i as u32 + 1, sc.clone(), &Controllers::builtin()).expect("agent")).collect();
     let mut errors: Vec<f64> = Vec::new();
     let (mut step_s, mut steps, mut estimates) = (0.0, 0u64, 0u64);
     // Full-grid ICPs (placements and re-checks) and short ICPs, over all agents.
@@ -128,7 +147,17 @@ fn main() {
             .enumerate()
             .map(|(i, &p)| {
                 let scan = scan(&circles, p, i, trees.len(), &mut rng, tick);
-                let odom = Odom { tick, t_secs: t, x: p.0, y: p.1, yaw: p.2, vx: 0.3, vy: 0.0, goal: Some([45.0, 0.0]), goal_vel: None };
+                let odom = Odom {
+                    tick,
+                    t_secs: t,
+                    x: p.0,
+                    y: p.1,
+                    yaw: p.2,
+                    vx: 0.3,
+                    vy: 0.0,
+                    goal: Some([45.0, 0.0]),
+                    goal_vel: None,
+                };
                 SensorFrame { scan, odom, gnss: None, uvdar: None }
             })
             .collect();

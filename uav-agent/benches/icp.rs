@@ -72,15 +72,19 @@ fn bench_case(c: &mut Criterion, seed: u64, shared: usize, own: usize) {
     let (reference, source, truth) = scenario(seed, shared, own);
     let pts = shared + own;
     // Sanity: the benchmarked case is a successful one.
-    let solved =
-        initial_icp(&reference, &source, &p).is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
+    let solved = initial_icp(&reference, &source, &p)
+        .is_ok_and(|m| (m.agent_from_neighbour.translation_m - truth.translation_m).norm() < 0.1);
     assert!(solved, "the {pts}-point bench scenario must be solvable");
-    c.bench_function(&format!("icp/initial_{pts}pts"), |b| b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p)));
+    c.bench_function(&format!("icp/initial_{pts}pts"), |b| {
+        b.iter(|| initial_icp(black_box(&reference), black_box(&source), &p))
+    });
     let start = AgentFromNeighbour {
         rotation_rad: truth.rotation_rad + 5f64.to_radians(),
         translation_m: truth.translation_m + Vector2::new(0.3, -0.2),
     };
-    c.bench_function(&format!("icp/short_{pts}pts"), |b| b.iter(|| icp(black_box(&reference), black_box(&source), start, &p)));
+    c.bench_function(&format!("icp/short_{pts}pts"), |b| {
+        b.iter(|| icp(black_box(&reference), black_box(&source), start, &p))
+    });
 }
 
 fn bench_icp(c: &mut Criterion) {

@@ -65,7 +65,17 @@ fn scan_of(trees: &[(f64, f64, f64)], beams: usize) -> Scan {
 fn bench_step(c: &mut Criterion) {
     let sc = swarm_config::builtin("forest-5").expect("builtin");
     let scan = forest_scan(750);
-    let odom = Odom { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
+    let odom = Odom {
+        tick: 10,
+        t_secs: 1.0,
+        x: 0.0,
+        y: 0.0,
+        yaw: 0.0,
+        vx: 0.3,
+        vy: 0.0,
+        goal: Some([30.0, 0.0]),
+        goal_vel: None,
+    };
     let gnss = Gnss { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0 };
     let frame = SensorFrame { scan, odom, gnss: Some(gnss), uvdar: None };
     for n in [4u32, 8] {
@@ -74,7 +84,18 @@ fn bench_step(c: &mut Criterion) {
             b.iter(|| {
                 for j in 0..n {
                     let a = f64::from(j) * 0.8;
-                    agent.on_share(&Share::Pose(PoseShare { from: j + 2, tick: 9, t_secs: 0.9, x: 2.0 * a.cos(), y: 2.0 * a.sin(), yaw: 0.1, vx: 0.3, vy: 0.0, hops: 0, arrival: 0 }));
+                    agent.on_share(&Share::Pose(PoseShare {
+                        from: j + 2,
+                        tick: 9,
+                        t_secs: 0.9,
+                        x: 2.0 * a.cos(),
+                        y: 2.0 * a.sin(),
+                        yaw: 0.1,
+                        vx: 0.3,
+                        vy: 0.0,
+                        hops: 0,
+                        arrival: 0,
+                    }));
                 }
                 black_box(agent.step(black_box(&frame)))
             })
@@ -94,7 +115,14 @@ fn share_in(trees: &[(f64, f64, f64)], j: u32, pose: (f64, f64, f64), tick: u64)
         let (dx, dy) = (t.0 - pose.0, t.1 - pose.1);
         [c * dx + s * dy, -s * dx + c * dy]
     });
-    Share::Obstacles(ObstacleShare { from: j, tick, t_secs: tick as f64 * 0.1, centres_cm: ObstacleShare::quantize(pts), hops: 0, arrival: 0 })
+    Share::Obstacles(ObstacleShare {
+        from: j,
+        tick,
+        t_secs: tick as f64 * 0.1,
+        centres_cm: ObstacleShare::quantize(pts),
+        hops: 0,
+        arrival: 0,
+    })
 }
 
 fn bench_icp_step(c: &mut Criterion) {
@@ -113,7 +141,17 @@ fn bench_icp_step(c: &mut Criterion) {
                 }
                 let t = tick as f64 * 0.1;
                 let scan = Scan { tick, t_secs: t, ..scan.clone() };
-                let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
+                let odom = Odom {
+                    tick,
+                    t_secs: t,
+                    x: 0.0,
+                    y: 0.0,
+                    yaw: 0.0,
+                    vx: 0.0,
+                    vy: 0.0,
+                    goal: Some([30.0, 0.0]),
+                    goal_vel: None,
+                };
                 let out = agent.step(black_box(&SensorFrame { scan, odom, gnss: None, uvdar: None }));
                 tick += 1;
                 black_box(out)
@@ -128,7 +166,8 @@ fn bench_icp_step(c: &mut Criterion) {
         for (j, &p) in poses.iter().enumerate() {
             agent.on_share(&share_of(j as u32 + 2, p, tick - 1));
         }
-        let out = agent.step(&SensorFrame { scan: Scan { tick, t_secs: t, ..scan.clone() }, odom, gnss: None, uvdar: None });
+        let out =
+            agent.step(&SensorFrame { scan: Scan { tick, t_secs: t, ..scan.clone() }, odom, gnss: None, uvdar: None });
         assert_eq!(out.report.neighbours.len(), n as usize, "all neighbours localized: {:?}", out.report.icp);
     }
 }
@@ -155,13 +194,20 @@ fn crowd(trees: &[(f64, f64, f64)], n: usize) -> Vec<(f64, f64, f64)> {
 
 /// One ICP-mode step of the agent at the origin at `tick`, after every neighbour's share of the
 /// previous tick arrived.
-fn crowd_step(agent: &mut Agent, trees: &[(f64, f64, f64)], poses: &[(f64, f64, f64)], scan: &Scan, tick: u64) -> uav_agent::StepOutput {
+fn crowd_step(
+    agent: &mut Agent,
+    trees: &[(f64, f64, f64)],
+    poses: &[(f64, f64, f64)],
+    scan: &Scan,
+    tick: u64,
+) -> uav_agent::StepOutput {
     for (j, &p) in poses.iter().enumerate() {
         agent.on_share(&share_in(trees, j as u32 + 2, p, tick - 1));
     }
     let t = tick as f64 * 0.1;
     let scan = Scan { tick, t_secs: t, ..scan.clone() };
-    let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
+    let odom =
+        Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
     agent.step(&SensorFrame { scan, odom, gnss: None, uvdar: None })
 }
 

@@ -221,7 +221,8 @@ impl Admission {
         // One rule lookup per sender that has held messages.
         let (timeline, me) = (&self.timeline, self.me);
         let senders: BTreeSet<u32> = self.inbox.held().map(|m| m.from()).collect();
-        let open: Vec<u32> = senders.into_iter().filter(|&from| !timeline.rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
+        let open: Vec<u32> =
+            senders.into_iter().filter(|&from| !timeline.rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
         let mut released = Vec::new();
         self.inbox.release(now, |m| {
             let go = open.contains(&m.from());
@@ -288,7 +289,18 @@ mod tests {
     }
 
     fn share(from: u32, tick: u64) -> Arrived {
-        let pose = PoseShare { from, tick, t_secs: tick as f64 * DT, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0, arrival: 0 };
+        let pose = PoseShare {
+            from,
+            tick,
+            t_secs: tick as f64 * DT,
+            x: 0.0,
+            y: 0.0,
+            yaw: 0.0,
+            vx: 0.0,
+            vy: 0.0,
+            hops: 0,
+            arrival: 0,
+        };
         let share = Share::from_msg(Msg::Pose(pose), from).expect("a share");
         Arrived { from, share: Some(Arc::new(share)), len: 50 }
     }
@@ -379,7 +391,11 @@ mod tests {
         a.on_arrived(share(2, 5));
         step(&mut a, 5);
         a.on_arrived(share(2, 6));
-        assert_eq!(step(&mut a, 6), vec![], "tick 3's share was sent out of range, ticks 4 and 5's before the window reopened");
+        assert_eq!(
+            step(&mut a, 6),
+            vec![],
+            "tick 3's share was sent out of range, ticks 4 and 5's before the window reopened"
+        );
         assert_eq!(step(&mut a, 7), vec![(2, 6)]);
         assert_eq!(a.report().counters.recv_msgs, 2, "ticks 2 and 6");
     }
@@ -413,7 +429,11 @@ mod tests {
         let mut lossy = admission();
         lossy.on_radio(0, &[2], &[1.0]);
         assert_eq!(in_window(&mut lossy), vec![], "a certain radio loss drops it");
-        assert_eq!((lossy.report().counters.recv_msgs, lossy.report().counters.delivered_msgs), (1, 0), "counted, then lost");
+        assert_eq!(
+            (lossy.report().counters.recv_msgs, lossy.report().counters.delivered_msgs),
+            (1, 0),
+            "counted, then lost"
+        );
         let json = r#"{"netem":[{"at_s":0.0,"rule":{"blocked":true}}],"failures":[]}"#;
         let mut cut = admission();
         cut.set_timeline(serde_json::from_str(json).expect("a timeline"));

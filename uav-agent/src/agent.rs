@@ -112,7 +112,15 @@ impl Agent {
     pub fn new(id: u32, sc: Scenario, controllers: &Controllers) -> Result<Agent, UnknownController> {
         let localizer = Localizer::new(id, &sc);
         let pilot = controllers.make(&sc)?;
-        Ok(Agent { id, sc, localizer, pilot, lost: LostContact::new(), hops: Hops::default(), arrival: Arrival::default() })
+        Ok(Agent {
+            id,
+            sc,
+            localizer,
+            pilot,
+            lost: LostContact::new(),
+            hops: Hops::default(),
+            arrival: Arrival::default(),
+        })
     }
 
     /// The UAV this agent flies.
@@ -150,8 +158,12 @@ impl Agent {
         let started = Instant::now();
         let seen = perception::extract(&frame.scan, &self.sc.perception, &perception::SegmentParams::default());
         let localized = self.localizer.localize(frame, &seen.circles, started);
-        let around =
-            surroundings(&seen, &localized.estimates, self.sc.perception.neighbour_match_m, self.pilot.wants_scan_points());
+        let around = surroundings(
+            &seen,
+            &localized.estimates,
+            self.sc.perception.neighbour_match_m,
+            self.pilot.wants_scan_points(),
+        );
         Perceived { started, seen, localized, around }
     }
 
@@ -294,8 +306,30 @@ mod tests {
     #[test]
     fn own_pose_is_ignored() {
         let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
-        a.on_share(&Share::Pose(PoseShare { from: 1, tick: 0, t_secs: 0.0, x: 9.0, y: 9.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0, arrival: 0 }));
-        a.on_share(&Share::Pose(PoseShare { from: 2, tick: 0, t_secs: 0.0, x: 3.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, hops: 0, arrival: 0 }));
+        a.on_share(&Share::Pose(PoseShare {
+            from: 1,
+            tick: 0,
+            t_secs: 0.0,
+            x: 9.0,
+            y: 9.0,
+            yaw: 0.0,
+            vx: 0.0,
+            vy: 0.0,
+            hops: 0,
+            arrival: 0,
+        }));
+        a.on_share(&Share::Pose(PoseShare {
+            from: 2,
+            tick: 0,
+            t_secs: 0.0,
+            x: 3.0,
+            y: 0.0,
+            yaw: 0.0,
+            vx: 0.0,
+            vy: 0.0,
+            hops: 0,
+            arrival: 0,
+        }));
         let out = a.step(&frame(None, Some(fix())));
         assert_eq!(out.report.neighbours.len(), 1, "own echo ignored");
         assert_eq!(out.report.neighbours[0].id, Some(2));
@@ -303,10 +337,15 @@ mod tests {
 
     #[test]
     fn a_neighbour_seen_by_lidar_is_not_an_obstacle() {
-        let neighbour = Estimate { id: Some(2), pos_in_body: nalgebra::Vector2::new(3.0, 0.0), heading: 0.0, age_secs: 0.0 };
+        let neighbour =
+            Estimate { id: Some(2), pos_in_body: nalgebra::Vector2::new(3.0, 0.0), heading: 0.0, age_secs: 0.0 };
         let circle = Circle { center: Point2::new(3.05, 0.0), radius: 0.3 };
         let tree = Circle { center: Point2::new(0.0, 5.0), radius: 0.3 };
-        let seen = Extracted { circles: vec![circle, tree], segments: Vec::new(), beams: vec![Some(circle.center), Some(tree.center)] };
+        let seen = Extracted {
+            circles: vec![circle, tree],
+            segments: Vec::new(),
+            beams: vec![Some(circle.center), Some(tree.center)],
+        };
         let around = surroundings(&seen, &[neighbour], 0.5, true);
         assert_eq!(around, Surroundings { trees: vec![tree], static_points: vec![tree.center] });
         assert!(surroundings(&seen, &[neighbour], 0.5, false).static_points.is_empty());
@@ -316,7 +355,11 @@ mod tests {
     fn the_state_message_joins_the_step_and_the_link() {
         let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
         let out = a.step(&frame(None, Some(fix())));
-        let link = LinkReport { in_radio_range: 3, counters: LinkCounters { sent_msgs: 1, ..LinkCounters::default() }, ..LinkReport::default() };
+        let link = LinkReport {
+            in_radio_range: 3,
+            counters: LinkCounters { sent_msgs: 1, ..LinkCounters::default() },
+            ..LinkReport::default()
+        };
         let state = out.report.clone().into_state(link);
         assert_eq!((state.id, state.tick, state.in_radio_range, state.link.sent_msgs), (1, 1, 3, 1));
         assert_eq!(state.vectors, out.report.vectors);

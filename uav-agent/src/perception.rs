@@ -148,17 +148,13 @@ fn group_beams(beams: &[Option<Point2<f64>>], angle_increment: f64, gap_m: f64) 
         groups.push(current);
     }
 
-    if first_starts_at_beam_zero
-        && last_ends_at_last_beam
-        && groups.len() >= 2
-        && covers_full_turn(n, angle_increment)
+    if first_starts_at_beam_zero && last_ends_at_last_beam && groups.len() >= 2 && covers_full_turn(n, angle_increment)
     {
-        let close =
-            match (groups.first().and_then(|g| g.first()), groups.last().and_then(|g| g.last())) {
-                // seed 000, Algorithm 2 distance test, applied across beam 0 of the 360° ring.
-                (Some(first), Some(last)) => (first - last).norm() < gap_m,
-                _ => false,
-            };
+        let close = match (groups.first().and_then(|g| g.first()), groups.last().and_then(|g| g.last())) {
+            // seed 000, Algorithm 2 distance test, applied across beam 0 of the 360° ring.
+            (Some(first), Some(last)) => (first - last).norm() < gap_m,
+            _ => false,
+        };
         if close {
             let head = groups.remove(0);
             if let Some(tail) = groups.last_mut() {
@@ -459,9 +455,7 @@ fn merge_runs(points: &[Point2<f64>], runs: Vec<(usize, usize)>, tol: f64) -> Ve
     let mut merged: Vec<(usize, usize)> = Vec::with_capacity(runs.len());
     for (i, j) in runs {
         match merged.last_mut() {
-            Some(prev) if prev.1 == i && max_line_residual(&points[prev.0..=j]) <= tol => {
-                prev.1 = j
-            }
+            Some(prev) if prev.1 == i && max_line_residual(&points[prev.0..=j]) <= tol => prev.1 = j,
             _ => merged.push((i, j)),
         }
     }
@@ -470,11 +464,7 @@ fn merge_runs(points: &[Point2<f64>], runs: Vec<(usize, usize)>, tol: f64) -> Ve
 
 /// Cuts runs where two consecutive points are farther apart than `max_gap` (the sub-runs share
 /// no point).
-fn split_at_gaps(
-    points: &[Point2<f64>],
-    runs: Vec<(usize, usize)>,
-    max_gap: f64,
-) -> Vec<(usize, usize)> {
+fn split_at_gaps(points: &[Point2<f64>], runs: Vec<(usize, usize)>, max_gap: f64) -> Vec<(usize, usize)> {
     let mut out = Vec::with_capacity(runs.len());
     for (i, j) in runs {
         let mut start = i;
@@ -495,8 +485,7 @@ fn line_crossing(s: &Segment, t: &Segment) -> Option<Point2<f64>> {
     let (d, e) = (s.b - s.a, t.b - t.a);
     let cross = d.perp(&e);
     // Parallel (or NaN): no crossing.
-    if cross.abs().partial_cmp(&(1e-12 * d.norm() * e.norm())) != Some(std::cmp::Ordering::Greater)
-    {
+    if cross.abs().partial_cmp(&(1e-12 * d.norm() * e.norm())) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     // s.a + λ·d = t.a + μ·e  ⇒  λ = ((t.a − s.a) × e) / (d × e).
@@ -523,8 +512,7 @@ fn snap_corners(segments: &mut [Segment], snap: f64) {
 /// at least `min_length_m` long, then apply the corner rule. Non-finite points are ignored.
 /// Does not look at circles: [`extract`] decides which groups come here.
 pub fn segments_in_group(group: &[Point2<f64>], params: &SegmentParams) -> Vec<Segment> {
-    let points: Vec<Point2<f64>> =
-        group.iter().copied().filter(|p| p.x.is_finite() && p.y.is_finite()).collect();
+    let points: Vec<Point2<f64>> = group.iter().copied().filter(|p| p.x.is_finite() && p.y.is_finite()).collect();
     let tol = params.split_tolerance_m;
     let runs = merge_runs(&points, split_runs(&points, tol), tol);
     let runs = split_at_gaps(&points, runs, params.max_point_gap_m);
@@ -550,9 +538,7 @@ pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParam
     let beams = beam_points(scan);
     for group in group_beams(&beams, f64::from(scan.angle_increment), perception.group_gap_m) {
         let circle = accepted_circle(&group, perception);
-        if let Some(c) =
-            circle.filter(|c| rms_circle_residual(&group, c) <= params.circle_max_rms_m)
-        {
+        if let Some(c) = circle.filter(|c| rms_circle_residual(&group, c) <= params.circle_max_rms_m) {
             out.circles.push(c);
             continue;
         }
@@ -571,17 +557,12 @@ pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParam
 /// Root mean square of the geometric residuals |‖p − c‖ − r| of `points` from `circle` [m].
 fn rms_circle_residual(points: &[Point2<f64>], circle: &Circle) -> f64 {
     let n = points.len() as f64;
-    let sum: f64 =
-        points.iter().map(|p| ((p - circle.center).norm() - circle.radius).powi(2)).sum();
+    let sum: f64 = points.iter().map(|p| ((p - circle.center).norm() - circle.radius).powi(2)).sum();
     (sum / n).sqrt()
 }
 
 /// The segments of [`extract`] alone.
-pub fn extract_segments(
-    scan: &Scan,
-    perception: &PerceptionParams,
-    params: &SegmentParams,
-) -> Vec<Segment> {
+pub fn extract_segments(scan: &Scan, perception: &PerceptionParams, params: &SegmentParams) -> Vec<Segment> {
     extract(scan, perception, params).segments
 }
 
@@ -602,8 +583,7 @@ mod tests {
         }
         /// Uniform in (0, 1).
         fn uniform(&mut self) -> f64 {
-            self.state =
-                self.state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            self.state = self.state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((self.state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
         }
         /// Standard normal (Box–Muller).
@@ -651,12 +631,7 @@ mod tests {
 
     /// A 360° scan of `beams` beams starting at `angle_min`, of the given circles, with optional
     /// Gaussian range noise.
-    fn synthetic_scan(
-        beams: usize,
-        angle_min: f64,
-        circles: &[(f64, f64, f64)],
-        noise: Option<(f64, u64)>,
-    ) -> Scan {
+    fn synthetic_scan(beams: usize, angle_min: f64, circles: &[(f64, f64, f64)], noise: Option<(f64, u64)>) -> Scan {
         world_scan(beams, angle_min, circles, &[], noise)
     }
 
@@ -675,7 +650,10 @@ mod tests {
         let scan = scan_from(0.0, TAU / 4.0, vec![2.0, f32::INFINITY, 1.0, -1.0]);
         let pts = scan_points(&scan);
         assert_eq!(pts.len(), 2);
-        assert!((pts[0] - Point2::new(2.0, 0.0)).norm() < 1e-9 && (pts[1] - Point2::new(-1.0, 0.0)).norm() < 1e-6, "{pts:?}");
+        assert!(
+            (pts[0] - Point2::new(2.0, 0.0)).norm() < 1e-9 && (pts[1] - Point2::new(-1.0, 0.0)).norm() < 1e-6,
+            "{pts:?}"
+        );
     }
 
     #[test]
@@ -765,8 +743,7 @@ mod tests {
 
     #[test]
     fn fit_circle_collinear_is_none() {
-        let pts: Vec<_> =
-            (0..10).map(|i| Point2::new(0.1 * i as f64, 0.3 * i as f64 + 0.7)).collect();
+        let pts: Vec<_> = (0..10).map(|i| Point2::new(0.1 * i as f64, 0.3 * i as f64 + 0.7)).collect();
         assert_eq!(fit_circle(&pts), None);
         let horizontal: Vec<_> = (0..5).map(|i| Point2::new(i as f64, 2.0)).collect();
         assert_eq!(fit_circle(&horizontal), None);
@@ -900,8 +877,7 @@ mod tests {
             assert_eq!(found.len(), 2, "{noise:?}: {found:?}");
             for &(x, y, r) in &trees {
                 let hit = found.iter().find(|c| (c.center - Point2::new(x, y)).norm() < 0.05);
-                let hit = hit
-                    .unwrap_or_else(|| panic!("{noise:?}: no circle near ({x}, {y}) in {found:?}"));
+                let hit = hit.unwrap_or_else(|| panic!("{noise:?}: no circle near ({x}, {y}) in {found:?}"));
                 assert!((hit.radius - r).abs() < 0.1, "{hit:?}");
             }
         }
@@ -1050,10 +1026,7 @@ mod tests {
         let t = seg(0.0, 0.0, 0.0, -2.0);
         let both = segment_points(&[s, t], 0.5);
         assert_eq!(both.len(), 3 + 5);
-        assert_eq!(
-            both[3..],
-            [pt(0.0, 0.0), pt(0.0, -0.5), pt(0.0, -1.0), pt(0.0, -1.5), pt(0.0, -2.0)]
-        );
+        assert_eq!(both[3..], [pt(0.0, 0.0), pt(0.0, -0.5), pt(0.0, -1.0), pt(0.0, -1.5), pt(0.0, -2.0)]);
         // Degenerate inputs: zero length → one point; bad spacing → the ends; non-finite → none.
         assert_eq!(segment_points(&[seg(2.0, 3.0, 2.0, 3.0)], 0.1), vec![pt(2.0, 3.0)]);
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
@@ -1068,8 +1041,7 @@ mod tests {
     fn fit_segment_by_hand() {
         // Six points symmetric about y = 0: Sxx = 2·(2² + 0 + 2²) = 16, Syy = 6, Sxy = 0 ⇒
         // θ = ½·atan2(0, 10) = 0, the x axis through the mean (2, 0); projections −2 … 2.
-        let pts =
-            [pt(0.0, 1.0), pt(0.0, -1.0), pt(2.0, 1.0), pt(2.0, -1.0), pt(4.0, 1.0), pt(4.0, -1.0)];
+        let pts = [pt(0.0, 1.0), pt(0.0, -1.0), pt(2.0, 1.0), pt(2.0, -1.0), pt(4.0, 1.0), pt(4.0, -1.0)];
         let s = fit_segment(&pts).unwrap();
         assert!(near(s.a, pt(0.0, 0.0), 1e-12) && near(s.b, pt(4.0, 0.0), 1e-12), "{s:?}");
         // Orientation follows the points: reversed input, reversed segment.
@@ -1118,21 +1090,12 @@ mod tests {
         pts.extend((0..11).map(|i| pt(2.0, 0.2 + 0.2 * i as f64)));
         let segs = segments_in_group(&pts, &SegmentParams::default());
         assert_eq!(segs.len(), 2, "{segs:?}");
-        assert!(
-            near(segs[0].a, pt(0.0, 0.0), 1e-9) && near(segs[0].b, pt(2.0, 0.0), 1e-9),
-            "{segs:?}"
-        );
-        assert!(
-            near(segs[1].a, pt(2.0, 0.0), 1e-9) && near(segs[1].b, pt(2.0, 2.2), 1e-9),
-            "{segs:?}"
-        );
+        assert!(near(segs[0].a, pt(0.0, 0.0), 1e-9) && near(segs[0].b, pt(2.0, 0.0), 1e-9), "{segs:?}");
+        assert!(near(segs[1].a, pt(2.0, 0.0), 1e-9) && near(segs[1].b, pt(2.0, 2.2), 1e-9), "{segs:?}");
         // With a snap distance below 0.2 m the legs keep their own ends.
         let strict = SegmentParams { corner_snap_m: 0.19, ..SegmentParams::default() };
         let segs = segments_in_group(&pts, &strict);
-        assert!(
-            near(segs[0].b, pt(1.8, 0.0), 1e-9) && near(segs[1].a, pt(2.0, 0.2), 1e-9),
-            "{segs:?}"
-        );
+        assert!(near(segs[0].b, pt(1.8, 0.0), 1e-9) && near(segs[1].a, pt(2.0, 0.2), 1e-9), "{segs:?}");
     }
 
     #[test]
@@ -1150,10 +1113,7 @@ mod tests {
         gapped.extend((0..9).map(|i| pt(1.0, 1.2 + 0.1 * i as f64)));
         let segs = segments_in_group(&gapped, &p);
         assert_eq!(segs.len(), 2, "{segs:?}");
-        assert!(
-            near(segs[0].b, pt(1.0, 0.8), 1e-9) && near(segs[1].a, pt(1.0, 1.2), 1e-9),
-            "{segs:?}"
-        );
+        assert!(near(segs[0].b, pt(1.0, 0.8), 1e-9) && near(segs[1].a, pt(1.0, 1.2), 1e-9), "{segs:?}");
         // The parallel halves never meet, so the corner rule leaves them; a gap of 0.3 m does
         // not cut.
         let mut closer = line.clone();
@@ -1172,11 +1132,7 @@ mod tests {
             ..p
         };
         let _ = segments_in_group(&gapped, &nan);
-        let _ = extract(
-            &world_scan(750, -PI, &[(2.0, 0.0, 0.3)], &[], None),
-            &PerceptionParams::default(),
-            &nan,
-        );
+        let _ = extract(&world_scan(750, -PI, &[(2.0, 0.0, 0.3)], &[], None), &PerceptionParams::default(), &nan);
         assert!(segments_in_group(&[], &p).is_empty());
     }
 
@@ -1228,12 +1184,8 @@ mod tests {
         // x = 3 (y from 1.5 to 4) are visible, meeting at the convex corner (3, 1.5). Beam
         // spacing r·Δθ/cos α at the far ends: (5, 1.5): 5.22·0.00838/(1.5/5.22) = 0.152 m;
         // (3, 4): 5·0.00838/(3/5) = 0.070 m.
-        let block = [
-            seg(3.0, 1.5, 5.0, 1.5),
-            seg(5.0, 1.5, 5.0, 4.0),
-            seg(5.0, 4.0, 3.0, 4.0),
-            seg(3.0, 4.0, 3.0, 1.5),
-        ];
+        let block =
+            [seg(3.0, 1.5, 5.0, 1.5), seg(5.0, 1.5, 5.0, 4.0), seg(5.0, 4.0, 3.0, 4.0), seg(3.0, 4.0, 3.0, 1.5)];
         let (perception, params) = (PerceptionParams::default(), SegmentParams::default());
         for seed in 0..20 {
             let scan = world_scan(750, -PI, &[], &block, Some((0.02, 300 + seed)));
@@ -1293,10 +1245,7 @@ mod tests {
             assert!((found.circles[0].radius - 0.3).abs() < 0.1, "seed {seed}: {found:?}");
             assert_eq!(found.segments.len(), 1, "seed {seed}: {found:?}");
             let s = found.segments[0];
-            assert!(
-                near(s.a, pt(2.9, -2.0), 0.05) && near(s.b, pt(2.9, 2.0), 0.05),
-                "seed {seed}: {s:?}"
-            );
+            assert!(near(s.a, pt(2.9, -2.0), 0.05) && near(s.b, pt(2.9, 2.0), 0.05), "seed {seed}: {s:?}");
         }
     }
 
@@ -1309,8 +1258,7 @@ mod tests {
             let (x, y) = (24.0 * rng.uniform() - 12.0, 24.0 * rng.uniform() - 12.0);
             let r = 0.1 + 0.3 * rng.uniform();
             let clear_of_origin = x.hypot(y) > 1.0 + r;
-            let clear_of_trees =
-                trees.iter().all(|&(tx, ty, tr)| (x - tx).hypot(y - ty) >= r + tr + min_gap_m);
+            let clear_of_trees = trees.iter().all(|&(tx, ty, tr)| (x - tx).hypot(y - ty) >= r + tr + min_gap_m);
             if clear_of_origin && clear_of_trees {
                 trees.push((x, y, r));
             }
@@ -1358,14 +1306,7 @@ mod tests {
             seg(3.0, 2.0, -3.0, 2.0),
             seg(-3.0, 2.0, -3.0, -2.0),
         ];
-        let corners = [
-            pt(-3.0, 0.0),
-            pt(-3.0, -2.0),
-            pt(3.0, -2.0),
-            pt(3.0, 2.0),
-            pt(-3.0, 2.0),
-            pt(-3.0, 0.0),
-        ];
+        let corners = [pt(-3.0, 0.0), pt(-3.0, -2.0), pt(3.0, -2.0), pt(3.0, 2.0), pt(-3.0, 2.0), pt(-3.0, 0.0)];
         let (perception, params) = (PerceptionParams::default(), SegmentParams::default());
         for seed in 0..10 {
             let scan = world_scan(750, -PI, &[], &room, Some((0.02, 600 + seed)));
@@ -1374,10 +1315,7 @@ mod tests {
             assert!(found.circles.is_empty(), "seed {seed}: {found:?}");
             assert_eq!(found.segments.len(), 5, "seed {seed}: {found:?}");
             for (k, s) in found.segments.iter().enumerate() {
-                assert!(
-                    near(s.a, corners[k], 0.05) && near(s.b, corners[k + 1], 0.05),
-                    "seed {seed} {k}: {s:?}"
-                );
+                assert!(near(s.a, corners[k], 0.05) && near(s.b, corners[k + 1], 0.05), "seed {seed} {k}: {s:?}");
             }
             for w in found.segments.windows(2) {
                 assert_eq!(w[0].b, w[1].a, "seed {seed}");

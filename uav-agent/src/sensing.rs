@@ -89,7 +89,14 @@ pub(crate) mod tests {
     use super::*;
 
     fn scan(tick: u64) -> Scan {
-        Scan { tick, t_secs: tick as f64 * 0.1, angle_min: 0.0, angle_increment: 0.1, max_range_m: 12.0, ranges_m: vec![] }
+        Scan {
+            tick,
+            t_secs: tick as f64 * 0.1,
+            angle_min: 0.0,
+            angle_increment: 0.1,
+            max_range_m: 12.0,
+            ranges_m: vec![],
+        }
     }
 
     fn odom(tick: u64) -> Odom {

@@ -2,10 +2,10 @@
 //! the radio graph, the estimates, the collisions and failures so far, and each agent's numbers.
 //! Pure: fed message by message like the recorder, tested without a network.
 
-use swarm_record::scene;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::sync::Arc;
+use swarm_record::scene;
 use swarm_wire::msg::{AgentState, CollisionEvent, RadioSet, TruthStep, TruthWorld};
 
 /// The page's view of the run.
@@ -79,10 +79,11 @@ impl Board {
             .map(|b| json!({"id": b.id, "x": b.x, "y": b.y, "yaw": b.yaw, "v": b.vx.hypot(b.vy), "alive": b.alive, "colliding": b.colliding}))
             .collect();
         let pos: BTreeMap<u32, [f64; 3]> = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
-        let links: Vec<Value> = scene::radio_links(&self.radio, &self.timeline, s.t_secs, |id| pos.get(&id).map(|p| [p[0], p[1]]))
-            .into_iter()
-            .map(|l| json!([l.ids[0], l.ids[1], l.class.name()]))
-            .collect();
+        let links: Vec<Value> =
+            scene::radio_links(&self.radio, &self.timeline, s.t_secs, |id| pos.get(&id).map(|p| [p[0], p[1]]))
+                .into_iter()
+                .map(|l| json!([l.ids[0], l.ids[1], l.class.name()]))
+                .collect();
         let mut estimates = BTreeMap::new();
         let mut numbers = BTreeMap::new();
         for (id, st) in &self.states {
@@ -106,7 +107,19 @@ mod tests {
     use swarm_wire::msg::TruthBody;
 
     fn body(id: u32, x: f64, alive: bool) -> TruthBody {
-        TruthBody { id, x, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.4, alive, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false }
+        TruthBody {
+            id,
+            x,
+            y: 0.0,
+            yaw: 0.0,
+            vx: 0.3,
+            vy: 0.4,
+            alive,
+            cmd_on_time: true,
+            obstacle_distance_m: 1.0,
+            agent_distance_m: 1.0,
+            colliding: false,
+        }
     }
 
     #[test]
@@ -125,7 +138,16 @@ mod tests {
         let mut b = Board::new(&sc);
         assert!(b.frame().is_none());
         b.on_radio(&RadioSet { tick: 1, id: 1, in_range: vec![2], loss: vec![] });
-        let step = |tick, alive| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(1, 1.0, true), body(2, 2.0, alive)], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.01, timing: Box::default() };
+        let step = |tick, alive| TruthStep {
+            tick,
+            t_secs: tick as f64 * 0.1,
+            bodies: vec![body(1, 1.0, true), body(2, 2.0, alive)],
+            collisions: vec![],
+            goal_reached_at: None,
+            ended: None,
+            wall_secs: 0.01,
+            timing: Box::default(),
+        };
         b.on_step(Arc::new(step(1, true)));
         b.on_step(Arc::new(step(2, false)));
         let f = b.frame().expect("frame");

@@ -151,7 +151,8 @@ fn rename_lines(text: &str, from: &str, to: &str) -> String {
 mod tests {
     use super::*;
 
-    const OLD_ONLY: &str = "GET / HTTP/1.1\r\nHost: x\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\nSec-WebSocket-Key: k\r\n\r\n";
+    const OLD_ONLY: &str =
+        "GET / HTTP/1.1\r\nHost: x\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\nSec-WebSocket-Key: k\r\n\r\n";
 
     #[test]
     fn an_offer_of_the_old_name_alone_is_renamed_and_the_answer_back() {
@@ -159,7 +160,10 @@ mod tests {
         assert!(renamed);
         let req = String::from_utf8(req).expect("utf8");
         assert!(req.contains("Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n"), "{req}");
-        assert!(req.starts_with("GET / HTTP/1.1\r\nHost: x\r\n") && req.ends_with("Sec-WebSocket-Key: k\r\n\r\n"), "{req}");
+        assert!(
+            req.starts_with("GET / HTTP/1.1\r\nHost: x\r\n") && req.ends_with("Sec-WebSocket-Key: k\r\n\r\n"),
+            "{req}"
+        );
         let answer = "HTTP/1.1 101 Switching Protocols\r\nsec-websocket-protocol: foxglove.sdk.v1\r\nsec-websocket-accept: a\r\n\r\n";
         let back = String::from_utf8(rename_answer(answer.as_bytes())).expect("utf8");
         assert_eq!(back, answer.replace("foxglove.sdk.v1", "foxglove.websocket.v1"));
@@ -182,7 +186,10 @@ mod tests {
         let h = "GET / HTTP/1.1\r\nSEC-WEBSOCKET-PROTOCOL: x.v2 ,foxglove.websocket.v1\r\n\r\n";
         let (req, renamed) = rename_offer(h.as_bytes());
         assert!(renamed);
-        assert_eq!(String::from_utf8(req).expect("utf8"), "GET / HTTP/1.1\r\nSEC-WEBSOCKET-PROTOCOL: x.v2, foxglove.sdk.v1\r\n\r\n");
+        assert_eq!(
+            String::from_utf8(req).expect("utf8"),
+            "GET / HTTP/1.1\r\nSEC-WEBSOCKET-PROTOCOL: x.v2, foxglove.sdk.v1\r\n\r\n"
+        );
     }
 
     #[tokio::test]

@@ -71,7 +71,11 @@ async fn handle(mut s: TcpStream, Sources { snap, control, scans, trails }: Sour
         "/" | "/index.html" => respond(&mut s, "200 OK", "text/html; charset=utf-8", PAGE.as_bytes()).await,
         "/state" => {
             let now = snap.borrow().clone();
-            let body = format!("{{\"world\":{},\"frame\":{}}}", now.world.as_deref().unwrap_or("null"), now.frame.as_deref().unwrap_or("null"));
+            let body = format!(
+                "{{\"world\":{},\"frame\":{}}}",
+                now.world.as_deref().unwrap_or("null"),
+                now.frame.as_deref().unwrap_or("null")
+            );
             respond(&mut s, "200 OK", "application/json", body.as_bytes()).await
         }
         "/events" => events(s, snap, trails).await,
@@ -114,14 +118,19 @@ async fn respond(s: &mut TcpStream, status: &str, ctype: &str, body: &[u8]) -> s
 
 /// Streams the world, the trails so far and then every new frame as Server-Sent Events (the
 /// trails again, before its frame, whenever their epoch changes).
-async fn events(mut s: TcpStream, mut snap: watch::Receiver<Snapshot>, trails: Arc<dyn TrailSource>) -> std::io::Result<()> {
+async fn events(
+    mut s: TcpStream,
+    mut snap: watch::Receiver<Snapshot>,
+    trails: Arc<dyn TrailSource>,
+) -> std::io::Result<()> {
     s.write_all(b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\nConnection: keep-alive\r\n\r\n").await?;
     let mut sent = Snapshot::default();
     let mut trails_sent = None;
     loop {
         let now = snap.borrow_and_update().clone();
         if now.world.is_some() && !same(&now.world, &sent.world) {
-            s.write_all(format!("event: world\ndata: {}\n\n", now.world.as_deref().unwrap_or("null")).as_bytes()).await?;
+            s.write_all(format!("event: world\ndata: {}\n\n", now.world.as_deref().unwrap_or("null")).as_bytes())
+                .await?;
         }
         if trails_sent != Some(now.trails_epoch) {
             s.write_all(format!("event: trails\ndata: {}\n\n", trails.trails()).as_bytes()).await?;
@@ -148,7 +157,11 @@ fn same(a: &Option<Arc<str>>, b: &Option<Arc<str>>) -> bool {
 
 /// `a=1&b=x` as pairs (no percent-decoding: the page sends plain words and numbers).
 fn parse_query(q: &str) -> Command {
-    q.split('&').filter(|p| !p.is_empty()).map(|p| p.split_once('=').unwrap_or((p, ""))).map(|(k, v)| (k.to_string(), v.to_string())).collect()
+    q.split('&')
+        .filter(|p| !p.is_empty())
+        .map(|p| p.split_once('=').unwrap_or((p, "")))
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect()
 }
 
 #[cfg(test)]
@@ -157,7 +170,10 @@ mod tests {
 
     #[test]
     fn queries_split_into_pairs() {
-        assert_eq!(parse_query("cmd=seek&tick=40"), vec![("cmd".to_string(), "seek".to_string()), ("tick".to_string(), "40".to_string())]);
+        assert_eq!(
+            parse_query("cmd=seek&tick=40"),
+            vec![("cmd".to_string(), "seek".to_string()), ("tick".to_string(), "40".to_string())]
+        );
         assert!(parse_query("").is_empty());
     }
 }

@@ -28,21 +28,21 @@ mod trails;
 
 pub use replay::{replay, ReplayArgs};
 
-use swarm_node::args::ZenohArgs;
-use swarm_record::scene::{Extra, Scene};
 use anyhow::{Context as _, Result};
 use board::Board;
 use clap::Args;
 use front::Front;
 use scans::LiveScans;
-use trails::LiveTrails;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 use swarm_config::Scenario;
+use swarm_node::args::ZenohArgs;
+use swarm_record::scene::{Extra, Scene};
 use swarm_wire::session::{self, Role};
 use swarm_wire::{plumbing, Keys, Msg, WireError};
 use tokio::sync::watch;
+use trails::LiveTrails;
 use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::Sample;
@@ -96,9 +96,21 @@ async fn ring(s: &zenoh::Session, key: String) -> Result<Ring> {
 
 /// The Foxglove WebSocket of `ctx`: the SDK's server on a free loopback port, behind the front
 /// door on 127.0.0.1:`port` (0: any free port), which clients connect to.
-async fn foxglove_server(ctx: &Arc<foxglove::Context>, name: String, port: u16) -> Result<(foxglove::WebSocketServerHandle, Front)> {
-    let sdk = ctx.websocket_server().name(name).bind("127.0.0.1", 0).start().await.context("cannot start the Foxglove WebSocket server")?;
-    let front = Front::start(port, ([127, 0, 0, 1], sdk.port()).into()).await.with_context(|| format!("cannot listen on port {port}"))?;
+async fn foxglove_server(
+    ctx: &Arc<foxglove::Context>,
+    name: String,
+    port: u16,
+) -> Result<(foxglove::WebSocketServerHandle, Front)> {
+    let sdk = ctx
+        .websocket_server()
+        .name(name)
+        .bind("127.0.0.1", 0)
+        .start()
+        .await
+        .context("cannot start the Foxglove WebSocket server")?;
+    let front = Front::start(port, ([127, 0, 0, 1], sdk.port()).into())
+        .await
+        .with_context(|| format!("cannot listen on port {port}"))?;
     Ok((sdk, front))
 }
 
@@ -142,12 +154,17 @@ impl Live {
         let (page, fox) = ports(page_port);
         let scene = Scene::new(&sc)?;
         let (foxglove, front) = foxglove_server(scene.context(), format!("swarm view {run_id}"), fox).await?;
-        let listener = tokio::net::TcpListener::bind(("127.0.0.1", page)).await.with_context(|| format!("cannot listen on port {page}"))?;
+        let listener = tokio::net::TcpListener::bind(("127.0.0.1", page))
+            .await
+            .with_context(|| format!("cannot listen on port {page}"))?;
         let page_port = listener.local_addr()?.port();
         let (snap, rx) = watch::channel(http::Snapshot::default());
         let scans = Arc::new(LiveScans::default());
         let trails = Arc::new(LiveTrails::default());
-        tokio::spawn(http::serve(listener, http::Sources { snap: rx, control: None, scans: scans.clone(), trails: trails.clone() }));
+        tokio::spawn(http::serve(
+            listener,
+            http::Sources { snap: rx, control: None, scans: scans.clone(), trails: trails.clone() },
+        ));
         let mut shown = Shown { keys, run_id: run_id.to_string(), scene, board: Board::new(&sc), scans, trails, snap };
         match plumbing::fetch(&session, &shown.keys.truth_world(), ASK_WAIT).await {
             Ok(b) => shown.truth(&b),
@@ -210,7 +227,6 @@ impl Live {
 }
 
 impl Shown {
-
     fn truth(&mut self, b: &[u8]) {
         match Msg::decode(b) {
             Ok(Msg::TruthStep(s)) => {

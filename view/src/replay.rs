@@ -15,7 +15,6 @@
 use super::http::{self, Command, Snapshot};
 use super::scans::{ScanPicture, ScanSource};
 use super::trails::{TrailSource, Trails};
-use swarm_record::scene::TRAIL_S;
 use anyhow::{Context as _, Result};
 use foxglove::messages::{FrameTransforms, LaserScan, Log, SceneUpdate};
 use foxglove::{Decode, PartialMetadata, RawChannel, Schema};
@@ -25,6 +24,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
+use swarm_record::scene::TRAIL_S;
 use tokio::sync::{mpsc, watch};
 
 /// `swarm replay`.
@@ -72,14 +72,23 @@ impl ScanSource for ReplayShown {
         let rec = &self.rec;
         let t_ns = self.shown_ns.load(Ordering::Relaxed);
         let idx = rec.scans.get(&id)?;
-        let m = &rec.messages[*idx.get(idx.partition_point(|&i| rec.messages[i].log_time_ns <= t_ns).checked_sub(1)?)?];
+        let m =
+            &rec.messages[*idx.get(idx.partition_point(|&i| rec.messages[i].log_time_ns <= t_ns).checked_sub(1)?)?];
         let l = LaserScan::decode(m.data.as_slice()).ok()?;
         let (tick, _, frame) = &rec.frames[rec.frames.binary_search_by_key(&m.log_time_ns, |f| f.1).ok()?];
         let u = frame["uavs"].as_array()?.iter().find(|u| u["id"] == id)?;
         let pose = [u["x"].as_f64()?, u["y"].as_f64()?, u["yaw"].as_f64()?];
         let n = l.ranges.len().max(2) as f64;
         let angle_increment = (l.end_angle - l.start_angle) / (n - 1.0);
-        Some(ScanPicture { id, tick: *tick, t_s: m.log_time_ns as f64 * 1e-9, pose, angle_min: l.start_angle, angle_increment, ranges: l.ranges })
+        Some(ScanPicture {
+            id,
+            tick: *tick,
+            t_s: m.log_time_ns as f64 * 1e-9,
+            pose,
+            angle_min: l.start_angle,
+            angle_increment,
+            ranges: l.ranges,
+        })
     }
 }
 
@@ -88,7 +97,8 @@ impl TrailSource for ReplayShown {
         let rec = &self.rec;
         let t_ns = self.shown_ns.load(Ordering::Relaxed);
         let from_ns = t_ns.saturating_sub((TRAIL_S * 1e9) as u64);
-        let frames = &rec.frames[rec.frames.partition_point(|f| f.1 < from_ns)..rec.frames.partition_point(|f| f.1 <= t_ns)];
+        let frames =
+            &rec.frames[rec.frames.partition_point(|f| f.1 < from_ns)..rec.frames.partition_point(|f| f.1 <= t_ns)];
         let mut trails = Trails::default();
         for (_, ns, frame) in frames {
             for u in frame["uavs"].as_array().into_iter().flatten() {
@@ -111,19 +121,26 @@ pub async fn replay(a: ReplayArgs) -> Result<ExitCode> {
     let raw: Vec<Arc<RawChannel>> = rec
         .channels
         .iter()
-        .map(|(topic, enc, schema)| ctx.channel_builder(topic.clone()).message_encoding(enc.clone()).schema(schema.clone()).build_raw())
+        .map(|(topic, enc, schema)| {
+            ctx.channel_builder(topic.clone()).message_encoding(enc.clone()).schema(schema.clone()).build_raw()
+        })
         .collect::<Result<_, _>>()
         .context("cannot make the replay's channels")?;
     let (page, fox) = super::ports(a.port);
     let (_server, front) = super::foxglove_server(&ctx, format!("swarm replay {}", path.display()), fox).await?;
-    let listener = tokio::net::TcpListener::bind(("127.0.0.1", page)).await.with_context(|| format!("cannot listen on port {page}"))?;
+    let listener = tokio::net::TcpListener::bind(("127.0.0.1", page))
+        .await
+        .with_context(|| format!("cannot listen on port {page}"))?;
     println!("replay: http://127.0.0.1:{}/  foxglove: ws://127.0.0.1:{}", listener.local_addr()?.port(), front.port());
     use std::io::Write as _;
     let _ = std::io::stdout().flush();
     let (snap, snap_rx) = watch::channel(Snapshot::default());
     let (ctl_tx, ctl) = mpsc::unbounded_channel();
     let shown = Arc::new(ReplayShown { rec: rec.clone(), shown_ns: AtomicU64::new(rec.frames[0].1) });
-    tokio::spawn(http::serve(listener, http::Sources { snap: snap_rx, control: Some(ctl_tx), scans: shown.clone(), trails: shown.clone() }));
+    tokio::spawn(http::serve(
+        listener,
+        http::Sources { snap: snap_rx, control: Some(ctl_tx), scans: shown.clone(), trails: shown.clone() },
+    ));
     tokio::select! {
         () = play(&rec, &raw, &snap, &shown.shown_ns, ctl, !a.paused) => {}
         _ = tokio::signal::ctrl_c() => {}
@@ -132,7 +149,14 @@ pub async fn replay(a: ReplayArgs) -> Result<ExitCode> {
 }
 
 /// The playback clock: plays, pauses, seeks and changes speed on the page's commands.
-async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Snapshot>, shown_ns: &AtomicU64, mut ctl: mpsc::UnboundedReceiver<Command>, playing: bool) {
+async fn play(
+    rec: &Recording,
+    raw: &[Arc<RawChannel>],
+    snap: &watch::Sender<Snapshot>,
+    shown_ns: &AtomicU64,
+    mut ctl: mpsc::UnboundedReceiver<Command>,
+    playing: bool,
+) {
     let world: Arc<str> = Arc::from(rec.world.to_string());
     let mut playing = playing;
     let mut speed = 1.0f64;
@@ -190,7 +214,11 @@ async fn play(rec: &Recording, raw: &[Arc<RawChannel>], snap: &watch::Sender<Sna
 
 /// Logs the recording's world again (for a seek: Foxglove clears its scene).
 fn relog_world(rec: &Recording, raw: &[Arc<RawChannel>]) {
-    for m in rec.messages.iter().filter(|m| rec.channels[m.channel].0 == "/world" || rec.channels[m.channel].0 == "/swarm/world") {
+    for m in rec
+        .messages
+        .iter()
+        .filter(|m| rec.channels[m.channel].0 == "/world" || rec.channels[m.channel].0 == "/swarm/world")
+    {
         raw[m.channel].log_with_meta(&m.data, PartialMetadata::with_log_time(m.log_time_ns));
     }
 }
@@ -205,7 +233,8 @@ fn load(path: &Path) -> Result<Recording> {
         let m = m.with_context(|| format!("{}: a bad record", path.display()))?;
         let next = channels.len();
         let channel = *ids.entry(m.channel.id).or_insert_with(|| {
-            let schema = m.channel.schema.as_ref().map(|s| Schema::new(s.name.clone(), s.encoding.clone(), s.data.to_vec()));
+            let schema =
+                m.channel.schema.as_ref().map(|s| Schema::new(s.name.clone(), s.encoding.clone(), s.data.to_vec()));
             channels.push((m.channel.topic.clone(), m.channel.message_encoding.clone(), schema));
             next
         });
@@ -270,7 +299,12 @@ fn frames<'a>(messages: &'a [Rec], topic: &dyn Fn(&'a Rec) -> &'a str, dt: f64) 
     let mut lost = serde_json::Map::new();
     let mut pending_tf: Option<&Rec> = None;
     let mut speeds = Speeds::default();
-    let mut emit = |tf: &Rec, links: &[Value], est: &serde_json::Map<String, Value>, num: &serde_json::Map<String, Value>, col: &[Value], lost: &serde_json::Map<String, Value>| {
+    let mut emit = |tf: &Rec,
+                    links: &[Value],
+                    est: &serde_json::Map<String, Value>,
+                    num: &serde_json::Map<String, Value>,
+                    col: &[Value],
+                    lost: &serde_json::Map<String, Value>| {
         let Ok(f) = FrameTransforms::decode(tf.data.as_slice()) else { return };
         let t = tf.log_time_ns as f64 * 1e-9;
         let tick = (t / dt).round() as u64;
@@ -316,7 +350,13 @@ fn frames<'a>(messages: &'a [Rec], topic: &dyn Fn(&'a Rec) -> &'a str, dt: f64) 
                 }
                 "estimates" => {
                     if let Ok(u) = SceneUpdate::decode(m.data.as_slice()) {
-                        let pts: Vec<Value> = u.entities.iter().flat_map(|e| &e.spheres).filter_map(|s| s.pose.and_then(|p| p.position)).map(|p| json!([p.x, p.y])).collect();
+                        let pts: Vec<Value> = u
+                            .entities
+                            .iter()
+                            .flat_map(|e| &e.spheres)
+                            .filter_map(|s| s.pose.and_then(|p| p.position))
+                            .map(|p| json!([p.x, p.y]))
+                            .collect();
                         estimates.insert(id.to_string(), Value::Array(pts));
                     }
                 }
@@ -352,7 +392,12 @@ impl Speeds {
 fn radio_links(u: &SceneUpdate) -> Vec<Value> {
     let mut out = Vec::new();
     for e in &u.entities {
-        let ids: Vec<u32> = e.metadata.iter().filter(|kv| kv.key == "links").flat_map(|kv| kv.value.split(',').filter_map(|x| x.parse().ok())).collect();
+        let ids: Vec<u32> = e
+            .metadata
+            .iter()
+            .filter(|kv| kv.key == "links")
+            .flat_map(|kv| kv.value.split(',').filter_map(|x| x.parse().ok()))
+            .collect();
         for l in &e.lines {
             for (k, c) in l.colors.iter().step_by(2).enumerate() {
                 let (Some(&i), Some(&j)) = (ids.get(2 * k), ids.get(2 * k + 1)) else { continue };
@@ -369,7 +414,8 @@ fn event(l: &Log, collisions: &mut Vec<Value>, lost: &mut serde_json::Map<String
     let words: Vec<&str> = l.message.split_whitespace().collect();
     match words.as_slice() {
         ["collision:", "UAV", id, ..] => {
-            let at = l.message.rsplit_once("at (").map(|(_, r)| r.trim_end_matches(')').to_string()).unwrap_or_default();
+            let at =
+                l.message.rsplit_once("at (").map(|(_, r)| r.trim_end_matches(')').to_string()).unwrap_or_default();
             let xy: Vec<f64> = at.split(',').filter_map(|v| v.trim().parse().ok()).collect();
             if let (Ok(id), [x, y]) = (id.parse::<u32>(), xy.as_slice()) {
                 collisions.push(json!([id, x, y, null]));

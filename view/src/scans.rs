@@ -126,9 +126,37 @@ mod tests {
     #[test]
     fn a_live_scan_is_placed_at_the_pose_of_its_own_tick() {
         let scans = LiveScans::default();
-        let body = |tick: u64| TruthBody { id: 2, x: tick as f64, y: 1.0, yaw: std::f64::consts::FRAC_PI_2, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
-        let step = |tick| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(tick)], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() };
-        let scan = Scan { tick: 5, t_secs: 0.5, angle_min: 0.0, angle_increment: std::f32::consts::FRAC_PI_2, max_range_m: 9.0, ranges_m: vec![2.0, f32::INFINITY, 3.0] };
+        let body = |tick: u64| TruthBody {
+            id: 2,
+            x: tick as f64,
+            y: 1.0,
+            yaw: std::f64::consts::FRAC_PI_2,
+            vx: 0.0,
+            vy: 0.0,
+            alive: true,
+            cmd_on_time: true,
+            obstacle_distance_m: 1.0,
+            agent_distance_m: 1.0,
+            colliding: false,
+        };
+        let step = |tick| TruthStep {
+            tick,
+            t_secs: tick as f64 * 0.1,
+            bodies: vec![body(tick)],
+            collisions: vec![],
+            goal_reached_at: None,
+            ended: None,
+            wall_secs: 0.0,
+            timing: Box::default(),
+        };
+        let scan = Scan {
+            tick: 5,
+            t_secs: 0.5,
+            angle_min: 0.0,
+            angle_increment: std::f32::consts::FRAC_PI_2,
+            max_range_m: 9.0,
+            ranges_m: vec![2.0, f32::INFINITY, 3.0],
+        };
         scans.on_scan(2, scan.clone());
         assert!(scans.scan(2).is_none(), "no pose of tick 5 yet");
         scans.on_step(Arc::new(step(5)));

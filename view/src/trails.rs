@@ -8,10 +8,10 @@
 //! [`Trails`] is the pure ring, tested alone; a [`TrailSource`] answers the page's server:
 //! [`LiveTrails`] fed by the live view's truth steps, `replay`'s from the recording's frames.
 
-use swarm_record::scene::TRAIL_S;
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Mutex;
+use swarm_record::scene::TRAIL_S;
 use swarm_wire::msg::TruthStep;
 
 /// The sim time between two kept points of a path [s].
@@ -63,7 +63,12 @@ impl Trails {
         let uavs: serde_json::Map<String, Value> = self
             .by_uav
             .iter()
-            .map(|(id, path)| (id.to_string(), path.iter().map(|p| json!([round(p[0], 1e3), round(p[1], 1e3), round(p[2], 1e6)])).collect()))
+            .map(|(id, path)| {
+                (
+                    id.to_string(),
+                    path.iter().map(|p| json!([round(p[0], 1e3), round(p[1], 1e3), round(p[2], 1e6)])).collect(),
+                )
+            })
             .collect();
         json!({"keep_s": TRAIL_S, "every_s": EVERY_S, "uavs": uavs})
     }

@@ -136,7 +136,13 @@ mod tests {
 
     #[test]
     fn anything_else_is_not_a_command() {
-        for bad in [&br#"{"x": 0.5, "y": 0}"#[..], br#"{"tick": 1, "x": "fast", "y": 0}"#, br#"{"tick": 1, "x": 1e999, "y": 0}"#, b"\xff", b""] {
+        for bad in [
+            &br#"{"x": 0.5, "y": 0}"#[..],
+            br#"{"tick": 1, "x": "fast", "y": 0}"#,
+            br#"{"tick": 1, "x": 1e999, "y": 0}"#,
+            b"\xff",
+            b"",
+        ] {
             assert_eq!(ExtCmd::parse(bad), None, "{}", String::from_utf8_lossy(bad));
         }
     }
@@ -154,7 +160,12 @@ mod tests {
             walls: vec![],
         };
         let text = serde_json::to_string(&v).expect("json");
-        assert!(text.starts_with(r#"{"tick":3,"t_s":0.3,"id":2,"odom":{"x":1.0,"y":2.0,"yaw":0.0,"vx":0.5,"vy":0.0},"goal":[30.0,0.0]"#), "{text}");
+        assert!(
+            text.starts_with(
+                r#"{"tick":3,"t_s":0.3,"id":2,"odom":{"x":1.0,"y":2.0,"yaw":0.0,"vx":0.5,"vy":0.0},"goal":[30.0,0.0]"#
+            ),
+            "{text}"
+        );
         assert_eq!(serde_json::from_str::<ExtView>(&text).expect("back"), v);
     }
 }

@@ -98,8 +98,13 @@ fn structured() -> impl Strategy<Value = Msg> {
     let kind = prop_oneof![Just(CmdKind::Velocity), Just(CmdKind::Acceleration), Just(CmdKind::Hover)];
     prop_oneof![
         (any::<u64>(), f64s(), f64s()).prop_map(|(tick, t_secs, dt_secs)| Msg::Clock(Clock { tick, t_secs, dt_secs })),
-        (any::<u64>(), kind, f32s(), f32s(), f32s())
-            .prop_map(|(tick, kind, x, y, yaw_rate)| Msg::Cmd(Cmd { tick, kind, x, y, yaw_rate })),
+        (any::<u64>(), kind, f32s(), f32s(), f32s()).prop_map(|(tick, kind, x, y, yaw_rate)| Msg::Cmd(Cmd {
+            tick,
+            kind,
+            x,
+            y,
+            yaw_rate
+        })),
         (any::<u32>(), any::<u64>(), prop::array::uniform6(f64s())).prop_map(|(from, tick, v)| Msg::Pose(PoseShare {
             from,
             tick,
@@ -118,23 +123,30 @@ fn structured() -> impl Strategy<Value = Msg> {
             }),
         (any::<u64>(), any::<u32>(), prop::collection::vec(any::<u32>(), 0..20), prop::collection::vec(f32s(), 0..20))
             .prop_map(|(tick, id, in_range, loss)| Msg::Radio(RadioSet { tick, id, in_range, loss })),
-        (any::<u64>(), prop::array::uniform4(f32s()), prop::collection::vec(f32s(), 0..100)).prop_map(|(tick, a, r)| {
-            Msg::Scan(Scan {
-                tick,
-                t_secs: f64::from(a[0]),
-                angle_min: a[1],
-                angle_increment: a[2],
-                max_range_m: a[3],
-                ranges_m: r,
-            })
-        }),
-        (any::<u64>(), f64s(), prop::collection::vec((any::<u32>(), f32s(), f32s()), 0..10)).prop_map(|(tick, t_secs, s)| {
-            Msg::Uvdar(Uvdar {
-                tick,
-                t_secs,
-                seen: s.into_iter().map(|(id, range_m, bearing_rad)| UvdarSeen { id, range_m, bearing_rad }).collect(),
-            })
-        }),
+        (any::<u64>(), prop::array::uniform4(f32s()), prop::collection::vec(f32s(), 0..100)).prop_map(
+            |(tick, a, r)| {
+                Msg::Scan(Scan {
+                    tick,
+                    t_secs: f64::from(a[0]),
+                    angle_min: a[1],
+                    angle_increment: a[2],
+                    max_range_m: a[3],
+                    ranges_m: r,
+                })
+            }
+        ),
+        (any::<u64>(), f64s(), prop::collection::vec((any::<u32>(), f32s(), f32s()), 0..10)).prop_map(
+            |(tick, t_secs, s)| {
+                Msg::Uvdar(Uvdar {
+                    tick,
+                    t_secs,
+                    seen: s
+                        .into_iter()
+                        .map(|(id, range_m, bearing_rad)| UvdarSeen { id, range_m, bearing_rad })
+                        .collect(),
+                })
+            }
+        ),
         ".{0,200}".prop_map(Msg::NetemRules),
     ]
 }
@@ -216,10 +228,14 @@ fn structured_values_round_trip_and_survive_mutation() {
         prop_assert!(same_bytes(&m, &back), "{m:?} came back as {back:?}");
         Ok(())
     });
-    fuzz("decode(arbitrary structured value, mutated)", (structured(), prop::collection::vec(edit(), 1..5)), |(m, edits)| {
-        let bytes = apply(m.encode().expect("encodes"), &edits);
-        let r = Msg::decode(&bytes);
-        prop_assert!(r.is_ok() || is_decode_error(&r, bytes.len()), "{r:?}");
-        Ok(())
-    });
+    fuzz(
+        "decode(arbitrary structured value, mutated)",
+        (structured(), prop::collection::vec(edit(), 1..5)),
+        |(m, edits)| {
+            let bytes = apply(m.encode().expect("encodes"), &edits);
+            let r = Msg::decode(&bytes);
+            prop_assert!(r.is_ok() || is_decode_error(&r, bytes.len()), "{r:?}");
+            Ok(())
+        },
+    );
 }

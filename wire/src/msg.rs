@@ -55,7 +55,8 @@ impl Msg {
     /// Decodes a payload; a malformed one is an error to count and drop, never a panic. Bytes
     /// after the end of a message make it malformed (postcard alone would ignore them).
     pub fn decode(bytes: &[u8]) -> Result<Msg, WireError> {
-        let (msg, rest) = postcard::take_from_bytes(bytes).map_err(|source| WireError::Decode { len: bytes.len(), source })?;
+        let (msg, rest) =
+            postcard::take_from_bytes(bytes).map_err(|source| WireError::Decode { len: bytes.len(), source })?;
         if rest.is_empty() {
             Ok(msg)
         } else {
@@ -648,7 +649,18 @@ pub(crate) mod tests {
             },
             icp: IcpCounts { short: 1, long: 2, initial: 3, deferred: 4, entries: 5, suspended: 6 },
             delays: vec![DelaySample { class: 1, delay_s: 0.5 }],
-            traffic: Traffic { session: "a1".into(), agents: 2, shares: 3, share_bytes: 300, bytes: 5, subscriptions: 6, remote_shares: 7, remote_share_bytes: 8, agent_shares: 9, agent_bytes: 10 },
+            traffic: Traffic {
+                session: "a1".into(),
+                agents: 2,
+                shares: 3,
+                share_bytes: 300,
+                bytes: 5,
+                subscriptions: 6,
+                remote_shares: 7,
+                remote_share_bytes: 8,
+                agent_shares: 9,
+                agent_bytes: 10,
+            },
         };
         let body = |id: u32, colliding: bool| TruthBody {
             id,
@@ -757,7 +769,8 @@ pub(crate) mod tests {
             .iter()
             .filter_map(|(m, want)| {
                 let got = hex(&m.encode().expect("encodes"));
-                (got != *want).then(|| format!("{} (variant {}):\n  want {want}\n  got  {got}", m.kind(), variant_index(m)))
+                (got != *want)
+                    .then(|| format!("{} (variant {}):\n  want {want}\n  got  {got}", m.kind(), variant_index(m)))
             })
             .collect();
         assert!(wrong.is_empty(), "wire shape changed; append, never reorder:\n{}", wrong.join("\n"));
@@ -773,7 +786,14 @@ pub(crate) mod tests {
     #[test]
     fn obstacle_shares_are_compact_and_round_to_centimetres() {
         let pts: Vec<[f64; 2]> = (0..20).map(|i| [f64::from(i) * 0.5 - 5.0, 7.123 - f64::from(i) * 0.3]).collect();
-        let share = ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: ObstacleShare::quantize(pts.clone()), hops: 0, arrival: 0 };
+        let share = ObstacleShare {
+            from: 3,
+            tick: 100,
+            t_secs: 10.0,
+            centres_cm: ObstacleShare::quantize(pts.clone()),
+            hops: 0,
+            arrival: 0,
+        };
         let bytes = Msg::Obstacles(share.clone()).encode().expect("encodes");
         assert!(bytes.len() < 110, "20 centres in {} bytes", bytes.len());
         for (a, b) in share.centres_m().zip(&pts) {

@@ -29,7 +29,9 @@ pub enum Role {
 /// Builds the Zenoh config of a process. `extra` are `KEY:JSON5` overrides (`--cfg`), applied last.
 pub fn config(role: Role, listen: &[String], connect: &[String], extra: &[String]) -> Result<zenoh::Config, WireError> {
     let mut c = zenoh::Config::default();
-    let set = |c: &mut zenoh::Config, k: &str, v: &str| c.insert_json5(k, v).map_err(|e| WireError::zenoh(format!("{k}: {e}")));
+    let set = |c: &mut zenoh::Config, k: &str, v: &str| {
+        c.insert_json5(k, v).map_err(|e| WireError::zenoh(format!("{k}: {e}")))
+    };
     let mode = match role {
         Role::Router => "\"router\"",
         Role::Client => "\"client\"",
@@ -52,16 +54,20 @@ pub fn config(role: Role, listen: &[String], connect: &[String], extra: &[String
         set(&mut c, "connect/retry", "{period_init_ms: 100, period_max_ms: 1000, period_increase_factor: 2}")?;
     }
     for kv in extra {
-        let (k, v) = kv
-            .split_once(':')
-            .ok_or_else(|| WireError::zenoh(format!("--cfg {kv:?}: expected KEY:JSON5_VALUE")))?;
+        let (k, v) =
+            kv.split_once(':').ok_or_else(|| WireError::zenoh(format!("--cfg {kv:?}: expected KEY:JSON5_VALUE")))?;
         set(&mut c, k, v)?;
     }
     Ok(c)
 }
 
 /// Opens a session with [`config`].
-pub async fn open(role: Role, listen: &[String], connect: &[String], extra: &[String]) -> Result<zenoh::Session, WireError> {
+pub async fn open(
+    role: Role,
+    listen: &[String],
+    connect: &[String],
+    extra: &[String],
+) -> Result<zenoh::Session, WireError> {
     let c = config(role, listen, connect, extra)?;
     zenoh::open(c).await.map_err(WireError::zenoh)
 }
@@ -126,7 +132,11 @@ impl Writer {
     }
 
     fn builder(&self, bytes: Vec<u8>) -> zenoh::session::SessionPutBuilder<'_, 'static> {
-        self.session.put(self.key.clone(), bytes).encoding(encoding()).congestion_control(self.cc).priority(Priority::Data)
+        self.session
+            .put(self.key.clone(), bytes)
+            .encoding(encoding())
+            .congestion_control(self.cc)
+            .priority(Priority::Data)
     }
 
     /// Puts `bytes`.

@@ -45,7 +45,12 @@ impl Controller for PotentialField {
         }
         let v_cmd = pull + push;
         let xy = if v_cmd.norm() > self.speed_mps { v_cmd.normalize() * self.speed_mps } else { v_cmd };
-        let vectors = VectorMagnitudes { navigation: pull.norm() as f32, avoidance: push.norm() as f32, output: xy.norm() as f32, ..Default::default() };
+        let vectors = VectorMagnitudes {
+            navigation: pull.norm() as f32,
+            avoidance: push.norm() as f32,
+            output: xy.norm() as f32,
+            ..Default::default()
+        };
         Command { kind: CmdKind::Velocity, xy, yaw_rate: 0.0, vectors }
     }
 }

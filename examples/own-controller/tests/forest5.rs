@@ -20,7 +20,8 @@ fn run_id(tag: &str) -> String {
 
 fn fly(scenario: &Path, out: &Path, tag: &str) -> Output {
     let run = run_id(tag);
-    let args = ["run", scenario.to_str().expect("utf8"), "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet"];
+    let args =
+        ["run", scenario.to_str().expect("utf8"), "--out", out.to_str().expect("utf8"), "--run", &run, "--quiet"];
     Command::new(OWN).args(args).output().expect("own-controller runs")
 }
 
@@ -30,10 +31,14 @@ fn the_potential_field_flies_forest5_to_the_goal_without_collision() {
     let out = dir.path().join("run");
     let o = fly(Path::new(SCENARIO), &out, "pf");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).expect("summary")).expect("json");
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).expect("summary")).expect("json");
     assert_eq!(s["reached_goal"], true, "{s:#}");
     assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    assert!(s["agents"].as_array().expect("agents").iter().all(|a| a["late_ticks"] == 0), "every command on time: {s:#}");
+    assert!(
+        s["agents"].as_array().expect("agents").iter().all(|a| a["late_ticks"] == 0),
+        "every command on time: {s:#}"
+    );
 }
 
 #[test]

@@ -88,7 +88,13 @@ impl Checker {
         let bounds = sc.bounds();
         let deadlines = heal_times(sc)
             .into_iter()
-            .map(|h| Deadline { heal_s: h, due_s: h + bounds.reconnect_within_s, tick: None, graph: BTreeMap::new(), positions: None })
+            .map(|h| Deadline {
+                heal_s: h,
+                due_s: h + bounds.reconnect_within_s,
+                tick: None,
+                graph: BTreeMap::new(),
+                positions: None,
+            })
             .collect();
         Checker {
             bounds,
@@ -155,7 +161,10 @@ impl Checker {
             .iter()
             .filter(|o| o.id != b.id)
             .min_by(|p, q| (p.x - b.x).hypot(p.y - b.y).total_cmp(&(q.x - b.x).hypot(q.y - b.y)))?;
-        let what = format!("UAVs {} and {} {:.2} m apart (bound {:.2} m)", b.id, other.id, b.agent_distance_m, self.bounds.min_separation_m);
+        let what = format!(
+            "UAVs {} and {} {:.2} m apart (bound {:.2} m)",
+            b.id, other.id, b.agent_distance_m, self.bounds.min_separation_m
+        );
         failure(s.t_secs, what, vec![at(b), at(other)])
     }
 

@@ -6,7 +6,19 @@ use crate::recorder::metrics::Metrics;
 use swarm_wire::{CollisionEvent, NeighbourEstimate};
 
 fn body(id: u32, x: f64, y: f64) -> TruthBody {
-    TruthBody { id, x, y, yaw: 0.0, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 5.0, agent_distance_m: 0.0, colliding: false }
+    TruthBody {
+        id,
+        x,
+        y,
+        yaw: 0.0,
+        vx: 0.0,
+        vy: 0.0,
+        alive: true,
+        cmd_on_time: true,
+        obstacle_distance_m: 5.0,
+        agent_distance_m: 0.0,
+        colliding: false,
+    }
 }
 
 /// A step with each body's nearest-UAV distance filled in.
@@ -16,7 +28,16 @@ fn step(tick: u64, mut bodies: Vec<TruthBody>) -> TruthStep {
         b.agent_distance_m =
             copy.iter().filter(|o| o.id != b.id).map(|o| (o.x - b.x).hypot(o.y - b.y)).fold(f64::INFINITY, f64::min);
     }
-    TruthStep { tick, t_secs: 0.1 * tick as f64, bodies, collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Default::default() }
+    TruthStep {
+        tick,
+        t_secs: 0.1 * tick as f64,
+        bodies,
+        collisions: vec![],
+        goal_reached_at: None,
+        ended: None,
+        wall_secs: 0.0,
+        timing: Default::default(),
+    }
 }
 
 fn state(id: u32, tick: u64, of: &[u32]) -> AgentState {
@@ -26,7 +47,10 @@ fn state(id: u32, tick: u64, of: &[u32]) -> AgentState {
         t_secs: 0.1 * tick as f64,
         step_time_us: 1,
         obstacles: 0,
-        neighbours: of.iter().map(|&j| NeighbourEstimate { id: Some(j), x: 1.0, y: 0.0, heading: 0.0, age_secs: 0.0 }).collect(),
+        neighbours: of
+            .iter()
+            .map(|&j| NeighbourEstimate { id: Some(j), x: 1.0, y: 0.0, heading: 0.0, age_secs: 0.0 })
+            .collect(),
         in_radio_range: 0,
         vectors: Default::default(),
         link: Default::default(),
@@ -101,11 +125,14 @@ fn an_estimate_across_a_cut_link_fails_and_a_heal_must_reconnect() {
     let f = judge(&sc, &held, "stale_estimate").first_failure.expect("held across the cut");
     assert!((f.t_s - 1.2).abs() < 1e-9, "{f:?}");
     // Dropped at the cut and never regained after the heal at 2 s: reconnect fails at 3 s.
-    let lost: Vec<_> = (1..=40).map(|k| (near(k), vec![state(1, k, if k < 5 { &[2] } else { &[] }), state(2, k, &[])])).collect();
+    let lost: Vec<_> =
+        (1..=40).map(|k| (near(k), vec![state(1, k, if k < 5 { &[2] } else { &[] }), state(2, k, &[])])).collect();
     assert!(judge(&sc, &lost, "stale_estimate").passed);
     let f = judge(&sc, &lost, "reconnect").first_failure.expect("never one component");
     assert!((f.t_s - 3.0).abs() < 1e-9 && f.what.contains("2 component"), "{f:?}");
-    let back: Vec<_> = (1..=40).map(|k| (near(k), vec![state(1, k, if (5..22).contains(&k) { &[] } else { &[2] }), state(2, k, &[])])).collect();
+    let back: Vec<_> = (1..=40)
+        .map(|k| (near(k), vec![state(1, k, if (5..22).contains(&k) { &[] } else { &[2] }), state(2, k, &[])]))
+        .collect();
     assert!(judge(&sc, &back, "reconnect").passed, "regained 0.2 s after the heal");
     let never: Vec<_> = (1..=40).map(|k| (near(k), vec![state(1, k, &[]), state(2, k, &[])])).collect();
     assert!(judge(&sc, &never, "reconnect").passed, "never one component before the heal: nothing to come back to");
@@ -120,13 +147,18 @@ fn end_connectivity_goal_and_skip() {
     let goal = judge(&sc, &steps, "goal").first_failure.expect("not reached");
     assert_eq!(goal.uavs.len(), 2, "both outside the goal disc");
     let skipping = scenario("[expect]\nskip = [\"goal\", \"connected_at_end\"]");
-    let names: Vec<String> = Checker::new(&skipping).finish(&skipping, &Metrics::default().summary("r", &skipping)).into_iter().map(|c| c.name).collect();
+    let names: Vec<String> = Checker::new(&skipping)
+        .finish(&skipping, &Metrics::default().summary("r", &skipping))
+        .into_iter()
+        .map(|c| c.name)
+        .collect();
     assert_eq!(names, ["collision", "min_separation", "stale_estimate", "neighbour_while_alone", "reconnect"]);
 }
 
 #[test]
 fn expect_errors_name_the_field() {
-    let e = Scenario::from_toml_str(&format!("{}\n[expect]\nskip = [\"nope\"]", base()), "f.toml").expect_err("unknown check");
+    let e = Scenario::from_toml_str(&format!("{}\n[expect]\nskip = [\"nope\"]", base()), "f.toml")
+        .expect_err("unknown check");
     assert!(e.to_string().contains("expect.skip"), "{e}");
     let e = Scenario::from_toml_str(&format!("{}\n[expect]\nalone_m = -1", base()), "f.toml").expect_err("negative");
     assert!(e.to_string().contains("f.toml: field `expect.alone_m`"), "{e}");

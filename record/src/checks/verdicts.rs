@@ -45,7 +45,9 @@ impl Checker {
     pub(super) fn verdict(&self, c: CheckName, sc: &Scenario, s: &Summary) -> CheckResult {
         let b = &self.bounds;
         match c {
-            CheckName::Collision => result(c, "no contact with an obstacle or another UAV".into(), self.collision.clone()),
+            CheckName::Collision => {
+                result(c, "no contact with an obstacle or another UAV".into(), self.collision.clone())
+            }
             CheckName::MinSeparation => {
                 result(c, format!("no two UAVs closer than {:.2} m", b.min_separation_m), self.separation.clone())
             }
@@ -59,7 +61,10 @@ impl Checker {
             ),
             CheckName::NeighbourWhileAlone => result(
                 c,
-                format!("no neighbour reported {:.2} s after the last UAV within {:.1} m left", b.stale_grace_s, b.alone_m),
+                format!(
+                    "no neighbour reported {:.2} s after the last UAV within {:.1} m left",
+                    b.stale_grace_s, b.alone_m
+                ),
                 self.alone.clone(),
             ),
             CheckName::Reconnect => self.reconnect(s),
@@ -90,7 +95,10 @@ impl Checker {
                     sets.len(),
                     d.heal_s
                 );
-                let uavs = d.positions.as_ref().map_or_else(Vec::new, |p| p.iter().filter(|u| apart.contains(&u.id)).cloned().collect());
+                let uavs = d
+                    .positions
+                    .as_ref()
+                    .map_or_else(Vec::new, |p| p.iter().filter(|u| apart.contains(&u.id)).cloned().collect());
                 return result(c, detail, failure(d.due_s, what, uavs));
             }
         }
@@ -111,7 +119,10 @@ impl Checker {
             return result(c, format!("{detail} (vacuous: {} live)", live.len()), None);
         }
         let nearest = |u: &UavAt| {
-            live.iter().filter(|o| o.id != u.id).map(|o| (o.x_m - u.x_m).hypot(o.y_m - u.y_m)).fold(f64::INFINITY, f64::min)
+            live.iter()
+                .filter(|o| o.id != u.id)
+                .map(|o| (o.x_m - u.x_m).hypot(o.y_m - u.y_m))
+                .fold(f64::INFINITY, f64::min)
         };
         let lonely: Vec<UavAt> = live.iter().filter(|u| nearest(u) > range).cloned().collect();
         let f = (!lonely.is_empty()).then(|| CheckFailure {
@@ -133,8 +144,11 @@ impl Checker {
             return result(c, detail, None);
         }
         let g = sc.swarm.goal;
-        let out: Vec<UavAt> =
-            self.live_at_end().into_iter().filter(|u| (u.x_m - g[0]).hypot(u.y_m - g[1]) > sc.end.goal_radius_m).collect();
+        let out: Vec<UavAt> = self
+            .live_at_end()
+            .into_iter()
+            .filter(|u| (u.x_m - g[0]).hypot(u.y_m - g[1]) > sc.end.goal_radius_m)
+            .collect();
         let what = format!("goal not reached ({}); {} live UAV(s) outside the goal disc", s.end_reason, out.len());
         result(c, detail, failure(s.sim_time_s, what, out))
     }

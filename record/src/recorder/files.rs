@@ -42,8 +42,19 @@ impl Files {
             writeln!(
                 self.traj,
                 "{},{:.3},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{}",
-                s.tick, s.t_secs, b.id, b.x, b.y, b.yaw, b.vx, b.vy, b.obstacle_distance_m, b.agent_distance_m,
-                u8::from(b.colliding), u8::from(b.alive), u8::from(b.cmd_on_time)
+                s.tick,
+                s.t_secs,
+                b.id,
+                b.x,
+                b.y,
+                b.yaw,
+                b.vx,
+                b.vy,
+                b.obstacle_distance_m,
+                b.agent_distance_m,
+                u8::from(b.colliding),
+                u8::from(b.alive),
+                u8::from(b.cmd_on_time)
             )?;
         }
         Ok(())
@@ -57,9 +68,28 @@ impl Files {
         writeln!(
             self.states,
             "{},{:.3},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{}",
-            st.tick, st.t_secs, st.id, st.step_time_us, st.obstacles, st.neighbours.len(), st.in_radio_range,
-            v.cohesion, v.separation, v.avoidance, v.navigation, v.output, l.sent_msgs, l.sent_bytes, l.recv_msgs, l.recv_bytes,
-            c.short, c.long, c.initial, c.deferred, c.entries, c.suspended
+            st.tick,
+            st.t_secs,
+            st.id,
+            st.step_time_us,
+            st.obstacles,
+            st.neighbours.len(),
+            st.in_radio_range,
+            v.cohesion,
+            v.separation,
+            v.avoidance,
+            v.navigation,
+            v.output,
+            l.sent_msgs,
+            l.sent_bytes,
+            l.recv_msgs,
+            l.recv_bytes,
+            c.short,
+            c.long,
+            c.initial,
+            c.deferred,
+            c.entries,
+            c.suspended
         )?;
         Ok(())
     }
@@ -67,7 +97,11 @@ impl Files {
     /// Appends scored states (rows in scoring order: a state waits for its tick's truth).
     pub fn write_scored(&mut self, rows: &[Scored]) -> Result<()> {
         for r in rows {
-            writeln!(self.loc, "{},{:.3},{},{},{},{:.4},{:.4}", r.tick, r.t_s, r.id, r.neighbours, r.scored, r.mean_error_m, r.max_error_m)?;
+            writeln!(
+                self.loc,
+                "{},{:.3},{},{},{},{:.4},{:.4}",
+                r.tick, r.t_s, r.id, r.neighbours, r.scored, r.mean_error_m, r.max_error_m
+            )?;
         }
         Ok(())
     }

@@ -67,7 +67,8 @@ impl Journal {
             Kind::State => self.state,
         };
         let ns = crate::scene::log_time_ns(t_secs);
-        let header = mcap::records::MessageHeader { channel_id, sequence: self.sequence, log_time: ns, publish_time: ns };
+        let header =
+            mcap::records::MessageHeader { channel_id, sequence: self.sequence, log_time: ns, publish_time: ns };
         self.sequence = self.sequence.wrapping_add(1);
         self.w.write_to_known_channel(&header, payload).context("cannot write the journal")
     }
@@ -229,7 +230,10 @@ mod tests {
         killed_journal(&dir);
         let path = dir.join(JOURNAL_FILE);
         let before = read(&dir).1.len() as u64;
-        assert!(!matches!(mcap::Summary::read(&std::fs::read(&path).expect("bytes")), Ok(Some(_))), "a cut file has no summary");
+        assert!(
+            !matches!(mcap::Summary::read(&std::fs::read(&path).expect("bytes")), Ok(Some(_))),
+            "a cut file has no summary"
+        );
         let cut = salvage::rewrite(&path).expect("rewrite");
         assert_eq!(cut.messages, before);
         let bytes = std::fs::read(&path).expect("bytes");

@@ -329,7 +329,11 @@ impl NearestLive<'_> {
     /// The exact distance: min over the other live bodies of `hypot(dx, dy)`.
     fn exact(&self) -> f64 {
         let me = self.me;
-        self.bodies.iter().filter(|b| b.id != me.id && b.alive).map(|b| (b.x - me.x).hypot(b.y - me.y)).fold(f64::INFINITY, f64::min)
+        self.bodies
+            .iter()
+            .filter(|b| b.id != me.id && b.alive)
+            .map(|b| (b.x - me.x).hypot(b.y - me.y))
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// Whether [`NearestLive::exact`] is greater than `bound_m`.
@@ -419,14 +423,21 @@ impl Metrics {
             self.spacing.push((s.t_secs, nn.iter().sum::<f64>() / nn.len() as f64));
         }
         for c in &s.collisions {
-            self.collisions.push(CollisionRecord { t_s: s.t_secs, id: c.id, other_uav: c.other_uav, x_m: c.x, y_m: c.y });
+            self.collisions.push(CollisionRecord {
+                t_s: s.t_secs,
+                id: c.id,
+                other_uav: c.other_uav,
+                x_m: c.x,
+                y_m: c.y,
+            });
         }
         self.truth.insert(s.tick, TickTruth::of(s.bodies.clone()));
         while self.truth.len() as u64 > TRUTH_KEPT {
             self.truth.pop_first();
         }
         let later = self.pending.split_off(&s.tick.saturating_add(1));
-        let mut ready: Vec<(u64, AgentState)> = std::mem::replace(&mut self.pending, later).into_values().flatten().collect();
+        let mut ready: Vec<(u64, AgentState)> =
+            std::mem::replace(&mut self.pending, later).into_values().flatten().collect();
         ready.sort_unstable_by_key(|&(arrival, _)| arrival);
         for (_, st) in ready {
             self.score(&st);
@@ -476,7 +487,15 @@ impl Metrics {
         a.last_count = Some(count);
         let mean_error_m = if errors.is_empty() { f64::NAN } else { errors.iter().sum::<f64>() / errors.len() as f64 };
         let max_error_m = errors.iter().copied().reduce(f64::max).unwrap_or(f64::NAN);
-        self.scored.push(Scored { tick: st.tick, t_s: st.t_secs, id: st.id, neighbours: count, scored: errors.len(), mean_error_m, max_error_m });
+        self.scored.push(Scored {
+            tick: st.tick,
+            t_s: st.t_secs,
+            id: st.id,
+            neighbours: count,
+            scored: errors.len(),
+            mean_error_m,
+            max_error_m,
+        });
         a.false_estimates += errors.iter().filter(|&&e| e > FALSE_ESTIMATE_M).count() as u64;
         a.loc_errors.extend(errors);
     }
@@ -497,7 +516,10 @@ impl Metrics {
                 v.push(f64::from(d.delay_s));
             }
         }
-        if let Some(prev) = a.last_state.as_ref().filter(|p| st.link.classes.iter().map(|c| c.offered).sum::<u64>() < p.link.classes.iter().map(|c| c.offered).sum::<u64>()) {
+        if let Some(prev) = a.last_state.as_ref().filter(|p| {
+            st.link.classes.iter().map(|c| c.offered).sum::<u64>()
+                < p.link.classes.iter().map(|c| c.offered).sum::<u64>()
+        }) {
             // A new incarnation (restart): its counters start again from zero.
             let before = prev.link.classes;
             a.link_base = std::array::from_fn(|i| a.link_base[i] + before[i]);
@@ -537,7 +559,12 @@ impl Metrics {
     pub fn components_series(&self) -> Vec<ComponentsRow> {
         self.known
             .iter()
-            .map(|(&tick, (t, known))| ComponentsRow { tick, t_s: *t, reporting: known.len(), components: components(known) })
+            .map(|(&tick, (t, known))| ComponentsRow {
+                tick,
+                t_s: *t,
+                reporting: known.len(),
+                components: components(known),
+            })
             .collect()
     }
 
@@ -553,9 +580,10 @@ impl Metrics {
     pub fn awaiting_last_states(&self) -> bool {
         let Some(last) = self.last_step.as_ref() else { return false };
         let tick = last.tick.saturating_sub(1);
-        last.bodies.iter().filter(|b| b.cmd_on_time).any(|b| {
-            self.agents.get(&b.id).and_then(|a| a.last_state.as_ref()).is_none_or(|st| st.tick < tick)
-        })
+        last.bodies
+            .iter()
+            .filter(|b| b.cmd_on_time)
+            .any(|b| self.agents.get(&b.id).and_then(|a| a.last_state.as_ref()).is_none_or(|st| st.tick < tick))
     }
 
     /// The last step seen.
@@ -645,7 +673,11 @@ impl Metrics {
         let agent_ticks: u64 = agents.iter().map(|a| a.span()).sum();
         let per_agent_tick = |f: fn(&AgentTraffic) -> u64| {
             let total: u64 = agents.iter().map(|a| f(a)).sum();
-            if agent_ticks > 0 { total as f64 / agent_ticks as f64 } else { 0.0 }
+            if agent_ticks > 0 {
+                total as f64 / agent_ticks as f64
+            } else {
+                0.0
+            }
         };
         TrafficSummary {
             sessions: self.sessions.len(),
@@ -681,9 +713,11 @@ impl Metrics {
 
     /// What the links did, per class, over every agent.
     fn network(&self) -> Vec<ClassSummary> {
-        let totals = self.agents.values().map(Acc::link_classes).fold([ClassCounts::default(); 3], |t, c| {
-            std::array::from_fn(|i| t[i] + c[i])
-        });
+        let totals = self
+            .agents
+            .values()
+            .map(Acc::link_classes)
+            .fold([ClassCounts::default(); 3], |t, c| std::array::from_fn(|i| t[i] + c[i]));
         netem::LinkClass::ALL
             .iter()
             .map(|&class| {
@@ -838,7 +872,13 @@ mod tests {
         for k in 0..=70 {
             let t = f64::from(k) * 0.1;
             samples.push([t, x, 0.0, 1.0, 1.0]);
-            x += if t < 3.0 - 1e-9 { 0.05 } else if t < 5.0 - 1e-9 { 0.0 } else { 0.005 };
+            x += if t < 3.0 - 1e-9 {
+                0.05
+            } else if t < 5.0 - 1e-9 {
+                0.0
+            } else {
+                0.005
+            };
         }
         // Still from 3.0 s: blocked once the last second moved < 0.1 m, i.e. from 3.9 s (at 3.9
         // it moved 0.05 m since 2.9) through 7.0 s: 3.1 s (the crawl moves 0.05 m per second).
@@ -911,7 +951,20 @@ mod tests {
         };
         m.on_step(&last);
         assert!(m.awaiting_last_states(), "UAV 1 sent its command of tick 6: its state is due");
-        let mut st = AgentState { id: 1, tick: 6, t_secs: 0.6, step_time_us: 1, obstacles: 0, neighbours: vec![], in_radio_range: 0, vectors: Default::default(), link: Default::default(), icp: Default::default(), delays: Vec::new(), traffic: Default::default() };
+        let mut st = AgentState {
+            id: 1,
+            tick: 6,
+            t_secs: 0.6,
+            step_time_us: 1,
+            obstacles: 0,
+            neighbours: vec![],
+            in_radio_range: 0,
+            vectors: Default::default(),
+            link: Default::default(),
+            icp: Default::default(),
+            delays: Vec::new(),
+            traffic: Default::default(),
+        };
         st.tick = 5;
         m.on_state(st.clone());
         assert!(m.awaiting_last_states(), "an older state is not the last");
@@ -927,9 +980,11 @@ mod tests {
         assert_eq!(g(&[(1, &[2]), (2, &[3]), (3, &[])]), 1, "weakly connected");
         assert_eq!(g(&[(1, &[]), (2, &[]), (3, &[9])]), 3, "ids that did not report are not nodes");
         // A long chain in the worst order for plain parent links, and pairs beside it.
-        let chain: BTreeMap<u32, Vec<u32>> = (1..=3000u32).map(|i| (i, if i > 1 { vec![i - 1] } else { vec![] })).collect();
+        let chain: BTreeMap<u32, Vec<u32>> =
+            (1..=3000u32).map(|i| (i, if i > 1 { vec![i - 1] } else { vec![] })).collect();
         assert_eq!(components(&chain), 1);
-        let pairs: BTreeMap<u32, Vec<u32>> = (1..=3000u32).map(|i| (i, vec![if i % 2 == 0 { i - 1 } else { i + 1 }])).collect();
+        let pairs: BTreeMap<u32, Vec<u32>> =
+            (1..=3000u32).map(|i| (i, vec![if i % 2 == 0 { i - 1 } else { i + 1 }])).collect();
         assert_eq!(components(&pairs), 1500);
     }
 
@@ -941,11 +996,7 @@ mod tests {
             tick,
             t_secs: tick as f64 * 0.1,
             bodies: vec![body(1, x, od, ad, tick != 2)],
-            collisions: if tick == 2 {
-                vec![CollisionEvent { id: 1, other_uav: None, x, y: 0.0 }]
-            } else {
-                vec![]
-            },
+            collisions: if tick == 2 { vec![CollisionEvent { id: 1, other_uav: None, x, y: 0.0 }] } else { vec![] },
             goal_reached_at: goal,
             ended,
             wall_secs: tick as f64 * 0.01,
@@ -988,7 +1039,16 @@ mod tests {
         b1.yaw = std::f64::consts::FRAC_PI_2;
         let mut b2 = body(2, 0.0, 5.0, 2.0, true);
         b2.y = 2.0;
-        let truth = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Default::default() };
+        let truth = |tick| TruthStep {
+            tick,
+            t_secs: 0.1 * tick as f64,
+            bodies: vec![b1, b2],
+            collisions: vec![],
+            goal_reached_at: None,
+            ended: None,
+            wall_secs: 0.0,
+            timing: Default::default(),
+        };
         let state = |tick, x: f32, n: usize| AgentState {
             id: 1,
             tick,
@@ -1010,11 +1070,18 @@ mod tests {
         m.on_state(state(3, 2.0, 2)); // a step with two estimates (the count changes)
         m.on_step(&truth(3));
         let rows = m.take_scored();
-        assert_eq!(rows.iter().map(|r| (r.tick, r.scored)).collect::<Vec<_>>(), vec![(1, 1), (2, 1), (3, 2)], "one row per scored state, in scoring order");
+        assert_eq!(
+            rows.iter().map(|r| (r.tick, r.scored)).collect::<Vec<_>>(),
+            vec![(1, 1), (2, 1), (3, 2)],
+            "one row per scored state, in scoring order"
+        );
         assert!((rows[1].mean_error_m - 0.3).abs() < 1e-6 && (rows[1].max_error_m - 0.3).abs() < 1e-6);
         assert!(m.take_scored().is_empty(), "taken once");
         let comps = m.components_series();
-        assert_eq!(comps.iter().map(|c| (c.tick, c.reporting, c.components)).collect::<Vec<_>>(), vec![(1, 1, 1), (2, 1, 1), (3, 1, 1)]);
+        assert_eq!(
+            comps.iter().map(|c| (c.tick, c.reporting, c.components)).collect::<Vec<_>>(),
+            vec![(1, 1, 1), (2, 1, 1), (3, 1, 1)]
+        );
         let s = m.summary("r", &sc);
         assert_eq!(s.localization.estimates_scored, 4);
         assert!((s.localization.mean_error_m - 0.1).abs() < 1e-6, "{}", s.localization.mean_error_m);
@@ -1037,7 +1104,16 @@ mod tests {
         b2.y = 10.0;
         // As the hub would report it: each one's nearest UAV is now 10 m away.
         (b1.agent_distance_m, b2.agent_distance_m) = (10.0, 10.0);
-        let far = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Default::default() };
+        let far = |tick| TruthStep {
+            tick,
+            t_secs: 0.1 * tick as f64,
+            bodies: vec![b1, b2],
+            collisions: vec![],
+            goal_reached_at: None,
+            ended: None,
+            wall_secs: 0.0,
+            timing: Default::default(),
+        };
         m.on_step(&far(6));
         m.on_state(state(6, 10.0, 1));
         let s = m.summary("r", &sc);
@@ -1047,31 +1123,32 @@ mod tests {
     #[test]
     fn traffic_is_per_session_and_per_agent_tick() {
         // (id, tick, session, session shares, session bytes, counted, agent shares, agent bytes)
-        let state = |id: u32, tick: u64, session: &str, shares: u64, bytes: u64, counted: u64, mine: (u64, u64)| AgentState {
-            id,
-            tick,
-            t_secs: 0.1 * tick as f64,
-            step_time_us: 1,
-            obstacles: 0,
-            neighbours: vec![],
-            in_radio_range: 0,
-            vectors: Default::default(),
-            link: swarm_wire::LinkCounters { recv_msgs: counted, ..Default::default() },
-            icp: Default::default(),
-            delays: Vec::new(),
-            traffic: Traffic {
-                session: session.into(),
-                agents: 2,
-                shares,
-                share_bytes: shares * 10,
-                bytes,
-                subscriptions: 4,
-                remote_shares: shares / 2,
-                remote_share_bytes: shares * 5,
-                agent_shares: mine.0,
-                agent_bytes: mine.1,
-            },
-        };
+        let state =
+            |id: u32, tick: u64, session: &str, shares: u64, bytes: u64, counted: u64, mine: (u64, u64)| AgentState {
+                id,
+                tick,
+                t_secs: 0.1 * tick as f64,
+                step_time_us: 1,
+                obstacles: 0,
+                neighbours: vec![],
+                in_radio_range: 0,
+                vectors: Default::default(),
+                link: swarm_wire::LinkCounters { recv_msgs: counted, ..Default::default() },
+                icp: Default::default(),
+                delays: Vec::new(),
+                traffic: Traffic {
+                    session: session.into(),
+                    agents: 2,
+                    shares,
+                    share_bytes: shares * 10,
+                    bytes,
+                    subscriptions: 4,
+                    remote_shares: shares / 2,
+                    remote_share_bytes: shares * 5,
+                    agent_shares: mine.0,
+                    agent_bytes: mine.1,
+                },
+            };
         let mut m = Metrics::default();
         // A host "h" of agents 1 and 2 over ticks 0..=9, and agent 3 alone on "a" over ticks 5..=9;
         // the host's states arrive out of order, as they may.

@@ -30,7 +30,6 @@ pub mod solitude;
 pub use recording::{replay, Recording};
 pub use recover::{cut_short, recover, RecoverArgs};
 
-use swarm_node::args::ZenohArgs;
 use crate::scene::Detail;
 use anyhow::{Context, Result};
 use clap::Args;
@@ -38,6 +37,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use swarm_config::Scenario;
+use swarm_node::args::ZenohArgs;
 
 /// `swarm record`.
 #[derive(Args, Debug, Clone)]

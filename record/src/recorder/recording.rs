@@ -5,8 +5,8 @@
 use super::files::{decode, write_connectivity, write_world, Files};
 use super::journal::{self, Journal, Kind};
 use super::metrics::Metrics;
-use crate::scene::{Feed, Scene};
 use crate::checks::Checker;
+use crate::scene::{Feed, Scene};
 use crate::summary::Summary;
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
@@ -62,9 +62,25 @@ struct Sink<'a> {
 
 impl<'a> Sink<'a> {
     /// A sink writing the run folder `out` (its CSVs are created afresh).
-    fn new(out: &Path, sc: &'a Scenario, pb: &'a ProgressBar, scene: Option<Scene>, journal: Option<Journal>) -> Result<Sink<'a>> {
+    fn new(
+        out: &Path,
+        sc: &'a Scenario,
+        pb: &'a ProgressBar,
+        scene: Option<Scene>,
+        journal: Option<Journal>,
+    ) -> Result<Sink<'a>> {
         let files = Files::create(out)?;
-        Ok(Sink { files, m: Metrics::default(), checks: Checker::new(sc), malformed: 0, sc, pb, scene, journal, next_checkpoint_t: 0.0 })
+        Ok(Sink {
+            files,
+            m: Metrics::default(),
+            checks: Checker::new(sc),
+            malformed: 0,
+            sc,
+            pb,
+            scene,
+            journal,
+            next_checkpoint_t: 0.0,
+        })
     }
 
     /// Journals one payload (stamped with the latest truth step's time).
@@ -179,11 +195,8 @@ impl Recording {
         let (hub_alive, h_sub) = plumbing::watch_token(&session, keys.alive_hub()).await?;
         let feed = if mcap { Some(Feed::subscribe(&session, &keys).await?) } else { None };
         // Subscribed: say so, for whoever starts agents by hand and wants the whole run recorded.
-        let token = session
-            .liveliness()
-            .declare_token(keys.alive_recorder())
-            .await
-            .map_err(swarm_wire::WireError::zenoh)?;
+        let token =
+            session.liveliness().declare_token(keys.alive_recorder()).await.map_err(swarm_wire::WireError::zenoh)?;
         Ok(Recording {
             session,
             keys,
@@ -372,7 +385,8 @@ pub fn replay(out: &Path, sc: &Scenario) -> Result<(Summary, journal::salvage::C
 /// the figures (a figure that cannot be drawn is a warning: the run itself is recorded).
 fn write_outputs(out: &Path, summary: &Summary, m: &Metrics) -> Result<()> {
     let path = out.join("summary.json");
-    std::fs::write(&path, serde_json::to_string_pretty(summary)?).with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(&path, serde_json::to_string_pretty(summary)?)
+        .with_context(|| format!("cannot write {}", path.display()))?;
     if let Some(w) = m.world() {
         write_world(out, w)?;
     }

@@ -42,11 +42,21 @@ pub fn recover(a: RecoverArgs) -> Result<ExitCode> {
             println!("no journal (--no-journal): no summary rebuilt; run.mcap rewritten with {} messages and a summary section{}", m.messages, stopped(&m));
             return Ok(ExitCode::SUCCESS);
         }
-        bail!("{} has no {JOURNAL_FILE}, run.mcap or summary.json: not the folder of a `swarm run` (or `swarm record`)", dir.display());
+        bail!(
+            "{} has no {JOURNAL_FILE}, run.mcap or summary.json: not the folder of a `swarm run` (or `swarm record`)",
+            dir.display()
+        );
     }
     let (summary, journal, mcap) = recover_dir(dir)?;
     println!("{}", summary.human());
-    println!("recovered {}: {} ticks to t = {:.1} s from {} journaled messages{}", dir.display(), summary.ticks, summary.sim_time_s, journal.messages, stopped(&journal));
+    println!(
+        "recovered {}: {} ticks to t = {:.1} s from {} journaled messages{}",
+        dir.display(),
+        summary.ticks,
+        summary.sim_time_s,
+        journal.messages,
+        stopped(&journal)
+    );
     match mcap {
         Some(m) => println!("run.mcap rewritten with {} messages and a summary section{}", m.messages, stopped(&m)),
         None => println!("no run.mcap (the run was flown with --no-mcap)"),

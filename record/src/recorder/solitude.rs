@@ -65,7 +65,10 @@ mod tests {
     #[test]
     fn never_alone() {
         let s = solitude(&track(&[2.0, 10.5, 3.0]), 10.0, 1.0);
-        assert_eq!(s, Solitude { time_alone_s: 0.0, spells: 0, rejoined: None, rejoined_at_s: None, max_nearest_uav_m: 10.5 });
+        assert_eq!(
+            s,
+            Solitude { time_alone_s: 0.0, spells: 0, rejoined: None, rejoined_at_s: None, max_nearest_uav_m: 10.5 }
+        );
     }
 
     #[test]

@@ -198,7 +198,11 @@ impl Scene {
     pub fn write_mcap(&mut self, path: &Path) -> Result<()> {
         let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
         let options = foxglove::McapWriteOptions::new().compression(Some(foxglove::McapCompression::Zstd));
-        let h = self.ctx.mcap_writer_with_options(options).create(BufWriter::new(file)).context("cannot start the MCAP writer")?;
+        let h = self
+            .ctx
+            .mcap_writer_with_options(options)
+            .create(BufWriter::new(file))
+            .context("cannot start the MCAP writer")?;
         self.mcap = Some(h);
         Ok(())
     }
@@ -304,7 +308,9 @@ impl Scene {
     /// its neighbour's truth, and their mean error [m] (estimates of known id only).
     fn estimates(&self, st: &AgentState) -> (SceneUpdate, Option<f64>) {
         let mut e = shapes::entity(format!("estimates{}", st.id), st.t_secs);
-        let Some(me) = self.bodies.get(&st.id) else { return (SceneUpdate { entities: vec![e], ..Default::default() }, None) };
+        let Some(me) = self.bodies.get(&st.id) else {
+            return (SceneUpdate { entities: vec![e], ..Default::default() }, None);
+        };
         let points = estimates_in_world([me.x, me.y, me.yaw], st);
         let grey = shapes::rgb(0.5, 0.5, 0.5);
         let mut segs = Vec::new();
@@ -339,7 +345,11 @@ impl Scene {
     fn draw_trails(&mut self, t: f64) {
         let mut e = shapes::entity(format!("trails{}", shapes::log_time_ns(t)), t);
         e.lifetime = foxglove::messages::Duration::try_from_secs_f64(TRAIL_S).ok();
-        e.lines = self.trails.values().map(|tr| shapes::strip(tr.iter().copied(), shapes::rgb(0.3, 0.3, 0.8), 0.05)).collect();
+        e.lines = self
+            .trails
+            .values()
+            .map(|tr| shapes::strip(tr.iter().copied(), shapes::rgb(0.3, 0.3, 0.8), 0.05))
+            .collect();
         self.trails_ch.log_with_time(&SceneUpdate { entities: vec![e], ..Default::default() }, shapes::log_time_ns(t));
         for tr in self.trails.values_mut() {
             let last = tr.last().copied();
@@ -366,7 +376,10 @@ impl Scene {
             log(Level::Info, format!("netem at {:.2} s: {}", r.at_s, serde_json::to_string(r).unwrap_or_default()));
         }
         for f in self.timeline.failures().iter().filter(|f| due(f.at_s)) {
-            log(Level::Warning, format!("failure at {:.2} s: {}", f.at_s, serde_json::to_string(f).unwrap_or_default()));
+            log(
+                Level::Warning,
+                format!("failure at {:.2} s: {}", f.at_s, serde_json::to_string(f).unwrap_or_default()),
+            );
         }
     }
 }
@@ -377,7 +390,10 @@ pub fn estimates_in_world(pose: [f64; 3], st: &AgentState) -> Vec<[f64; 2]> {
     let [x, y, yaw] = pose;
     let (sin, cos) = yaw.sin_cos();
     // Body to world: p_w = p_me + R(yaw) p_b.
-    st.neighbours.iter().map(|n| [x + cos * f64::from(n.x) - sin * f64::from(n.y), y + sin * f64::from(n.x) + cos * f64::from(n.y)]).collect()
+    st.neighbours
+        .iter()
+        .map(|n| [x + cos * f64::from(n.x) - sin * f64::from(n.y), y + sin * f64::from(n.x) + cos * f64::from(n.y)])
+        .collect()
 }
 
 /// One radio link to draw: its ends' ids (`ids[0] < ids[1]`), their positions [m, world] and the
@@ -393,7 +409,12 @@ pub struct RadioLink {
 
 /// The links of the latest radio sets (`radio`: each UAV's ids in range) between UAVs whose
 /// position `at` knows, each once, classed by `timeline` at `t`.
-pub fn radio_links(radio: &BTreeMap<u32, Vec<u32>>, timeline: &netem::Timeline, t: f64, at: impl Fn(u32) -> Option<[f64; 2]>) -> Vec<RadioLink> {
+pub fn radio_links(
+    radio: &BTreeMap<u32, Vec<u32>>,
+    timeline: &netem::Timeline,
+    t: f64,
+    at: impl Fn(u32) -> Option<[f64; 2]>,
+) -> Vec<RadioLink> {
     let mut links = Vec::new();
     for (&i, ids) in radio {
         for &j in ids.iter().filter(|&&j| j > i) {
@@ -458,8 +479,29 @@ mod tests {
 
     /// The truth step `tick` with UAV 1 alone, at (x, y) heading `yaw`.
     fn one_uav_step(tick: u64, x: f64, y: f64, yaw: f64) -> TruthStep {
-        let body = TruthBody { id: 1, x, y, yaw, vx: 0.0, vy: 0.0, alive: true, cmd_on_time: true, obstacle_distance_m: 1.0, agent_distance_m: 1.0, colliding: false };
-        TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], collisions: vec![], goal_reached_at: None, ended: None, wall_secs: 0.0, timing: Box::default() }
+        let body = TruthBody {
+            id: 1,
+            x,
+            y,
+            yaw,
+            vx: 0.0,
+            vy: 0.0,
+            alive: true,
+            cmd_on_time: true,
+            obstacle_distance_m: 1.0,
+            agent_distance_m: 1.0,
+            colliding: false,
+        };
+        TruthStep {
+            tick,
+            t_secs: tick as f64 * 0.1,
+            bodies: vec![body],
+            collisions: vec![],
+            goal_reached_at: None,
+            ended: None,
+            wall_secs: 0.0,
+            timing: Box::default(),
+        }
     }
 
     #[test]
@@ -476,13 +518,25 @@ mod tests {
     fn a_thinned_scene_keeps_every_pose_and_every_kth_scan() {
         let (mut scene, path) = recording("thin");
         scene.set_detail(Detail { every: 4, uavs: None });
-        let scan = |tick: u64| Scan { tick, t_secs: tick as f64 * 0.1, angle_min: 0.0, angle_increment: 0.1, max_range_m: 10.0, ranges_m: vec![1.0; 8] };
+        let scan = |tick: u64| Scan {
+            tick,
+            t_secs: tick as f64 * 0.1,
+            angle_min: 0.0,
+            angle_increment: 0.1,
+            max_range_m: 10.0,
+            ranges_m: vec![1.0; 8],
+        };
         for tick in 1..=12u64 {
             scene.on_step(&one_uav_step(tick, tick as f64, 0.0, 0.0));
             scene.on_scan(1, &scan(tick));
         }
         let bytes = finished(scene, &path);
-        let count = |topic: &str| mcap::MessageStream::new(&bytes).expect("mcap").filter(|m| m.as_ref().expect("record").channel.topic == topic).count();
+        let count = |topic: &str| {
+            mcap::MessageStream::new(&bytes)
+                .expect("mcap")
+                .filter(|m| m.as_ref().expect("record").channel.topic == topic)
+                .count()
+        };
         assert_eq!(count("/uav/1/pose"), 12);
         assert_eq!(count("/uav/1/scan"), 3, "scans 1, 5 and 9");
         assert_eq!(count("/radio"), 3, "ticks 4, 8 and 12");
@@ -514,7 +568,8 @@ mod tests {
             .collect();
         // At 0, 1 and 2 s: three pieces, each its own entity living TRAIL_S.
         assert_eq!(pieces.len(), 3);
-        let xs: Vec<Vec<f64>> = pieces.iter().map(|u| u.entities[0].lines[0].points.iter().map(|p| p.x).collect()).collect();
+        let xs: Vec<Vec<f64>> =
+            pieces.iter().map(|u| u.entities[0].lines[0].points.iter().map(|p| p.x).collect()).collect();
         assert_eq!(xs[0], vec![0.0]);
         assert_eq!(xs[1], (0..=10).map(f64::from).collect::<Vec<_>>(), "the second piece starts where the first ended");
         assert_eq!(xs[2], (10..=20).map(f64::from).collect::<Vec<_>>());

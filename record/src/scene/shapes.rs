@@ -4,8 +4,8 @@
 //! drawn in the plane at [`FLY_Z_M`].
 
 use foxglove::messages::{
-    Color, CubePrimitive, CylinderPrimitive, FrameTransform, LaserScan, LinePrimitive, Log, Point3, Pose, PoseInFrame, Quaternion,
-    SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, Vector3,
+    Color, CubePrimitive, CylinderPrimitive, FrameTransform, LaserScan, LinePrimitive, Log, Point3, Pose, PoseInFrame,
+    Quaternion, SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, Vector3,
 };
 use swarm_wire::msg::{Scan, TruthBody, TruthWorld};
 
@@ -156,7 +156,14 @@ pub fn entity(id: String, t_secs: f64) -> SceneEntity {
 
 /// A log line of the run at `t_secs`.
 pub fn log(t_secs: f64, level: foxglove::messages::log::Level, name: &str, message: String) -> Log {
-    Log { timestamp: Some(stamp(t_secs)), level: level as i32, message, name: name.into(), file: String::new(), line: 0 }
+    Log {
+        timestamp: Some(stamp(t_secs)),
+        level: level as i32,
+        message,
+        name: name.into(),
+        file: String::new(),
+        line: 0,
+    }
 }
 
 #[cfg(test)]
@@ -173,7 +180,14 @@ mod tests {
 
     #[test]
     fn laser_scan_keeps_the_wire_ranges_exactly() {
-        let s = Scan { tick: 3, t_secs: 0.3, angle_min: -1.0, angle_increment: 0.5, max_range_m: 9.0, ranges_m: vec![1.25, f32::INFINITY, 0.1] };
+        let s = Scan {
+            tick: 3,
+            t_secs: 0.3,
+            angle_min: -1.0,
+            angle_increment: 0.5,
+            max_range_m: 9.0,
+            ranges_m: vec![1.25, f32::INFINITY, 0.1],
+        };
         let l = laser_scan(4, &s);
         assert_eq!(l.frame_id, "uav4");
         assert_eq!(l.ranges.iter().map(|&r| r as f32).collect::<Vec<_>>(), s.ranges_m);
@@ -183,12 +197,21 @@ mod tests {
 
     #[test]
     fn walls_are_boxes_along_their_segment() {
-        let w = TruthWorld { trees: vec![[1.0, 2.0, 0.3]], walls: vec![[0.0, 0.0, 0.0, 4.0, 0.2]], starts: vec![], goal: [9.0, 9.0], body_radius_m: 0.2 };
+        let w = TruthWorld {
+            trees: vec![[1.0, 2.0, 0.3]],
+            walls: vec![[0.0, 0.0, 0.0, 4.0, 0.2]],
+            starts: vec![],
+            goal: [9.0, 9.0],
+            body_radius_m: 0.2,
+        };
         let u = world(&w, 4.0);
         let e = &u.entities[0];
         assert_eq!(e.cylinders.len(), 2, "the tree and the goal");
         let goal = e.cylinders[1].size.expect("goal size");
-        assert!((goal.x - 8.0).abs() < 1e-12 && (goal.y - 8.0).abs() < 1e-12, "the goal disc is 2 x 4 m across: {goal:?}");
+        assert!(
+            (goal.x - 8.0).abs() < 1e-12 && (goal.y - 8.0).abs() < 1e-12,
+            "the goal disc is 2 x 4 m across: {goal:?}"
+        );
         let size = e.cubes[0].size.expect("size");
         assert!((size.x - 4.0).abs() < 1e-12 && (size.y - 0.2).abs() < 1e-12);
     }

@@ -136,7 +136,18 @@ impl Case {
             kinds: space.nemesis.clone(),
         };
         let faults = schedule(rng.gen(), &spec);
-        Ok(Case { index, seed: rng.gen_range(0..1_000_000), controller, localization, starts, trees, goal_x_m, time_limit_s, faults, weaken: space.weaken })
+        Ok(Case {
+            index,
+            seed: rng.gen_range(0..1_000_000),
+            controller,
+            localization,
+            starts,
+            trees,
+            goal_x_m,
+            time_limit_s,
+            faults,
+            weaken: space.weaken,
+        })
     }
 
     /// The number of UAVs.

@@ -13,9 +13,7 @@
 mod case;
 mod shrink;
 
-use swarm_node::args::unix_secs;
 use crate::study::{run_bounded, run_variant, VariantRun};
-use swarm_record::summary::{CheckResult, Summary};
 use anyhow::{Context, Result};
 use case::{Case, Space, Weaken};
 use clap::Args;
@@ -27,6 +25,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use swarm_config::ControllerKind;
+use swarm_node::args::unix_secs;
+use swarm_record::summary::{CheckResult, Summary};
 
 /// `swarm fuzz`.
 #[derive(Args, Debug, Clone)]
@@ -110,16 +110,19 @@ impl Failure {
 /// The check to shrink: the failed check whose first failure came first (checks judged as
 /// they happen before those judged at the end).
 fn first_failed(s: &Summary) -> Option<Failure> {
-    s.failed_checks()
-        .map(|c| Failure::of(c, s))
-        .min_by(|a, b| {
-            (shrink::judged_at_end(&a.check), a.t_s).partial_cmp(&(shrink::judged_at_end(&b.check), b.t_s)).unwrap_or(std::cmp::Ordering::Equal)
-        })
+    s.failed_checks().map(|c| Failure::of(c, s)).min_by(|a, b| {
+        (shrink::judged_at_end(&a.check), a.t_s)
+            .partial_cmp(&(shrink::judged_at_end(&b.check), b.t_s))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    })
 }
 
 fn space(a: &FuzzArgs) -> Result<Space> {
-    let controllers: Vec<ControllerKind> =
-        a.controllers.split(',').map(|c| swarm_node::args::scenario_value("--controllers", c)).collect::<Result<_>>()?;
+    let controllers: Vec<ControllerKind> = a
+        .controllers
+        .split(',')
+        .map(|c| swarm_node::args::scenario_value("--controllers", c))
+        .collect::<Result<_>>()?;
     let nemesis: Vec<NemesisKind> = a
         .nemesis
         .split(',')
@@ -128,7 +131,10 @@ fn space(a: &FuzzArgs) -> Result<Space> {
         .collect::<Result<_>>()?;
     anyhow::ensure!(!controllers.is_empty(), "--controllers: none given");
     if let Some(own) = controllers.iter().find(|k| matches!(k, ControllerKind::Own(_))) {
-        anyhow::bail!("--controllers: `{}` is not one of k21, p17, a21, m23 (the fuzzer flies the built-in controllers)", own.name());
+        anyhow::bail!(
+            "--controllers: `{}` is not one of k21, p17, a21, m23 (the fuzzer flies the built-in controllers)",
+            own.name()
+        );
     }
     Ok(Space { controllers, max_uavs: a.max_uavs, nemesis, max_faults: a.max_faults, weaken: a.weaken })
 }
@@ -204,7 +210,10 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
     let runs = a.runs.unwrap_or(if a.minutes.is_some() { usize::MAX } else { 20 });
     let deadline = a.minutes.map(|m| Instant::now() + Duration::from_secs_f64(m * 60.0));
     let pb = ProgressBar::new(if runs == usize::MAX { 0 } else { runs as u64 });
-    pb.set_style(ProgressStyle::with_template("{elapsed:>4} [{bar:32}] {pos}/{len} {msg}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    pb.set_style(
+        ProgressStyle::with_template("{elapsed:>4} [{bar:32}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
     let mut master = rand_chacha::ChaCha8Rng::seed_from_u64(a.seed);
     let (mut flown, mut findings, mut next) = (Vec::new(), Vec::new(), 0usize);
     // Batches of `jobs` cases, so `--minutes` is checked between batches.
@@ -222,7 +231,12 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
                 Err(e) => {
                     // A run that could not be flown is reported, not shrunk: the fuzz goes on.
                     tracing::warn!("case {} ({}): {e:#}", case.index, case.label());
-                    flown.push(Flown { case: case.index, label: case.label(), failed: vec!["run_error".into()], end_reason: "error".into() });
+                    flown.push(Flown {
+                        case: case.index,
+                        label: case.label(),
+                        failed: vec!["run_error".into()],
+                        end_reason: "error".into(),
+                    });
                     continue;
                 }
             };
@@ -234,8 +248,22 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
                 let file = out.join(format!("found-{}-{}.toml", a.seed, small.index));
                 let text = write_found(&small, a.seed, &failure, &file)?;
                 let Failure { check, what, .. } = failure;
-                pb.suspend(|| println!("case {}: `{check}` failed; shrunk from {original} to {}:\n{text}", small.index, small.label()));
-                findings.push(Finding { case: small.index, check, original, shrunk: small.label(), first_failure: what, file, shrink_runs: spent });
+                pb.suspend(|| {
+                    println!(
+                        "case {}: `{check}` failed; shrunk from {original} to {}:\n{text}",
+                        small.index,
+                        small.label()
+                    )
+                });
+                findings.push(Finding {
+                    case: small.index,
+                    check,
+                    original,
+                    shrunk: small.label(),
+                    first_failure: what,
+                    file,
+                    shrink_runs: spent,
+                });
             }
         }
     }
@@ -267,7 +295,13 @@ mod tests {
     use super::*;
 
     fn a_case() -> Case {
-        let space = Space { controllers: vec![ControllerKind::K21], max_uavs: 4, nemesis: NemesisKind::DETERMINISTIC.to_vec(), max_faults: 2, weaken: None };
+        let space = Space {
+            controllers: vec![ControllerKind::K21],
+            max_uavs: 4,
+            nemesis: NemesisKind::DETERMINISTIC.to_vec(),
+            max_faults: 2,
+            weaken: None,
+        };
         Case::generate(&space, 0, 7).expect("generates")
     }
 

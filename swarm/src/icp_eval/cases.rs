@@ -157,7 +157,11 @@ mod tests {
             // Noise-free and nothing missed: every source tree within range of the reference
             // UAV is shared.
             let (s, k) = c.truth.heading.sin_cos();
-            let in_ref_range = c.source.iter().filter(|p| (k * p[0] - s * p[1] + c.truth.x).hypot(s * p[0] + k * p[1] + c.truth.y) <= 8.0).count();
+            let in_ref_range = c
+                .source
+                .iter()
+                .filter(|p| (k * p[0] - s * p[1] + c.truth.x).hypot(s * p[0] + k * p[1] + c.truth.y) <= 8.0)
+                .count();
             assert_eq!(c.shared(), in_ref_range);
         }
         let mean_seen = cases.iter().map(|c| c.reference.len()).sum::<usize>() as f64 / cases.len() as f64;

@@ -193,8 +193,18 @@ impl Detail {
             Placement::NoFit(m) => (*m, f64::NAN),
             Placement::Ambiguous(r) => (Some(r.best), r.runner_up.map_or(f64::NAN, |u| u.frmsd / r.best.frmsd)),
         };
-        let error_m = best.map_or(f64::NAN, |m| (m.agent_from_neighbour.translation_m.x - case.truth.x).hypot(m.agent_from_neighbour.translation_m.y - case.truth.y));
-        Detail { shared, outcome, frmsd: best.map_or(f64::NAN, |m| m.frmsd), pairs: best.map_or(0, |m| m.pairs), runner_up_ratio: ratio, error_m }
+        let error_m = best.map_or(f64::NAN, |m| {
+            (m.agent_from_neighbour.translation_m.x - case.truth.x)
+                .hypot(m.agent_from_neighbour.translation_m.y - case.truth.y)
+        });
+        Detail {
+            shared,
+            outcome,
+            frmsd: best.map_or(f64::NAN, |m| m.frmsd),
+            pairs: best.map_or(0, |m| m.pairs),
+            runner_up_ratio: ratio,
+            error_m,
+        }
     }
 }
 
@@ -245,7 +255,12 @@ impl Report {
         let _ = writeln!(t, "# swarm icp-eval: {}\n", self.source);
         let _ = writeln!(t, "| cases | n | right | no estimate (ambiguous + no fit) | wrong but accepted | CPU ms per case | wall ms per case |");
         let _ = writeln!(t, "|---|---|---|---|---|---|---|");
-        for (name, g) in [("all", &self.all), ("sharing >= 5 trees", &self.shared_5_plus), ("sharing 3-4 trees", &self.shared_3_4), ("sharing < 3 trees", &self.shared_0_2)] {
+        for (name, g) in [
+            ("all", &self.all),
+            ("sharing >= 5 trees", &self.shared_5_plus),
+            ("sharing 3-4 trees", &self.shared_3_4),
+            ("sharing < 3 trees", &self.shared_0_2),
+        ] {
             let _ = writeln!(
                 t,
                 "| {name} | {} | {} | {} ({} + {}) | {} | {:.2} | {:.2} |",
@@ -285,7 +300,8 @@ pub async fn icp_eval(a: IcpEvalArgs) -> Result<ExitCode> {
     let (all, what) = match &a.cases {
         Some(path) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-            let all: Vec<Case> = serde_json::from_str(&text).with_context(|| format!("{}: not a list of cases", path.display()))?;
+            let all: Vec<Case> =
+                serde_json::from_str(&text).with_context(|| format!("{}: not a list of cases", path.display()))?;
             let what = format!("{} cases from {}", all.len(), path.display());
             (all, what)
         }
@@ -317,7 +333,10 @@ pub async fn icp_eval(a: IcpEvalArgs) -> Result<ExitCode> {
     if a.details {
         println!("\ncase shared outcome frmsd pairs runner_up_ratio error_m");
         for (i, d) in report.details.iter().enumerate() {
-            println!("{i} {} {:?} {:.3} {} {:.2} {:.2}", d.shared, d.outcome, d.frmsd, d.pairs, d.runner_up_ratio, d.error_m);
+            println!(
+                "{i} {} {:?} {:.3} {} {:.2} {:.2}",
+                d.shared, d.outcome, d.frmsd, d.pairs, d.runner_up_ratio, d.error_m
+            );
         }
     }
     Ok(ExitCode::SUCCESS)

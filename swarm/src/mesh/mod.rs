@@ -23,9 +23,6 @@
 pub mod net;
 pub mod report;
 
-use swarm_node::args::{default_run_id, scenario_value, unix_secs};
-use swarm_node::auth::{host_user, ids_text, Credentials};
-use swarm_record::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use net::Net;
@@ -35,6 +32,9 @@ use std::path::{Path, PathBuf};
 use std::process::{ExitCode, Stdio};
 use std::time::Duration;
 use swarm_config::Scenario;
+use swarm_node::args::{default_run_id, scenario_value, unix_secs};
+use swarm_node::auth::{host_user, ids_text, Credentials};
+use swarm_record::summary::Summary;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::Child;
 
@@ -84,9 +84,16 @@ pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("mesh-{}", unix_secs())));
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let out = out.canonicalize()?;
-    eprintln!("mesh: {} UAVs of {} on {} agent hosts ({}), hub and recorder on their own machine", sc.count(), sc.name, hosts.len(), sizes(&groups));
+    eprintln!(
+        "mesh: {} UAVs of {} on {} agent hosts ({}), hub and recorder on their own machine",
+        sc.count(),
+        sc.name,
+        hosts.len(),
+        sizes(&groups)
+    );
     // Ctrl-C or SIGTERM at any moment still drops the network (its namespaces) and the pieces.
-    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).context("cannot watch SIGTERM")?;
+    let mut term =
+        tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).context("cannot watch SIGTERM")?;
     let flown = tokio::select! {
         f = fly(&net, &sc, &out, &hosts, &groups, a.mcap) => f?,
         _ = tokio::signal::ctrl_c() => bail!("interrupted; the network and its pieces are removed"),
@@ -139,13 +146,29 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     let creds = Credentials::create(&out.join("credentials"), &users)?;
     let run = default_run_id("mesh");
     let hub_ep = format!("tcp/{}:{PORT}", net.addr("hub"));
-    let start = |machine: &str, args: Vec<String>, log: &str| spawn(net, machine, &exe, args, &out.join(log), Stdio::piped());
+    let start =
+        |machine: &str, args: Vec<String>, log: &str| spawn(net, machine, &exe, args, &out.join(log), Stdio::piped());
 
     let dict = creds.dictionary().to_string_lossy().into_owned();
-    let mut hub = start("hub", strings(&["hub", &scenario_file.to_string_lossy(), "--run", &run, "--listen", &hub_ep, "--users", &dict, "--exit-with-stdin"]), "hub.log")?;
+    let mut hub = start(
+        "hub",
+        strings(&[
+            "hub",
+            &scenario_file.to_string_lossy(),
+            "--run",
+            &run,
+            "--listen",
+            &hub_ep,
+            "--users",
+            &dict,
+            "--exit-with-stdin",
+        ]),
+        "hub.log",
+    )?;
     wait_line(&mut hub, swarm_node::pieces::LISTENING_PREFIX, "the hub").await?;
     let observer = creds.client_args("observer");
-    let mut rec_args = strings(&["record", "--run", &run, "--out", &out.join("run").to_string_lossy(), "--connect", &hub_ep]);
+    let mut rec_args =
+        strings(&["record", "--run", &run, "--out", &out.join("run").to_string_lossy(), "--connect", &hub_ep]);
     rec_args.extend(observer.iter().cloned());
     if !mcap {
         rec_args.push("--no-mcap".into());
@@ -154,17 +177,33 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     // and stall it.
     let printed = std::fs::File::create(out.join("summary.txt")).context("cannot create summary.txt")?;
     let mut rec = spawn(net, "hub", &exe, rec_args, &out.join("recorder.log"), Stdio::from(printed))?;
-    let mut up = strings(&["tap", &format!("swarm/{run}/alive/recorder"), "--alive", "--count", "1", "--duration", "60", "--connect", &hub_ep]);
+    let mut up = strings(&[
+        "tap",
+        &format!("swarm/{run}/alive/recorder"),
+        "--alive",
+        "--count",
+        "1",
+        "--duration",
+        "60",
+        "--connect",
+        &hub_ep,
+    ]);
     up.extend(observer.iter().cloned());
-    let seen = spawn(net, "hub", &exe, up, &out.join("tap-recorder.log"), Stdio::piped())?.child.wait_with_output().await?;
-    anyhow::ensure!(String::from_utf8_lossy(&seen.stdout).contains("\"alive\":true"), "the recorder never came up (see {})", out.join("recorder.log").display());
+    let seen =
+        spawn(net, "hub", &exe, up, &out.join("tap-recorder.log"), Stdio::piped())?.child.wait_with_output().await?;
+    anyhow::ensure!(
+        String::from_utf8_lossy(&seen.stdout).contains("\"alive\":true"),
+        "the recorder never came up (see {})",
+        out.join("recorder.log").display()
+    );
 
     let mut pieces = Vec::new();
     for (host, ids) in hosts.iter().zip(groups) {
         let ep = format!("tcp/{}:{PORT}", net.addr(host));
         let user = host_user(ids);
         let relay_users = creds.dictionary_of(&user)?.to_string_lossy().into_owned();
-        let mut r_args = strings(&["router", "--listen", &ep, "--connect", &hub_ep, "--users", &relay_users, "--exit-with-stdin"]);
+        let mut r_args =
+            strings(&["router", "--listen", &ep, "--connect", &hub_ep, "--users", &relay_users, "--exit-with-stdin"]);
         r_args.extend(creds.client_args(&user));
         let mut router = start(host, r_args, &format!("router-{host}.log"))?;
         wait_line(&mut router, swarm_node::router::ROUTER_LISTENING_PREFIX, &format!("the router of {host}")).await?;
@@ -173,7 +212,8 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     let before = counters(net)?;
     for (host, ids) in hosts.iter().zip(groups) {
         let ep = format!("tcp/{}:{PORT}", net.addr(host));
-        let mut a_args = strings(&["agent", "--run", &run, "--ids", &ids_text(ids), "--connect", &ep, "--exit-with-stdin"]);
+        let mut a_args =
+            strings(&["agent", "--run", &run, "--ids", &ids_text(ids), "--connect", &ep, "--exit-with-stdin"]);
         a_args.extend(creds.client_args(&host_user(ids)));
         pieces.push(spawn(net, host, &exe, a_args, &out.join(format!("agents-{host}.log")), Stdio::null())?);
     }
@@ -237,7 +277,9 @@ async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piec
     let mut lines = BufReader::new(stdout).lines();
     let ticks = async {
         while let Ok(Some(line)) = lines.next_line().await {
-            if let Some(t) = serde_json::from_str::<serde_json::Value>(&line).ok().and_then(|v| v["msg"]["Clock"]["tick"].as_u64()) {
+            if let Some(t) =
+                serde_json::from_str::<serde_json::Value>(&line).ok().and_then(|v| v["msg"]["Clock"]["tick"].as_u64())
+            {
                 bar.set_position(t);
             }
         }
@@ -268,12 +310,16 @@ async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piec
 /// The report from the run folder and the link counters.
 fn build_report(sc: &Scenario, out: &Path, hosts: &[String], groups: &[Vec<u32>], flown: &Flown) -> Result<MeshReport> {
     let run = out.join("run");
-    let summary: Summary = serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).context("the run left no summary.json")?)?;
+    let summary: Summary = serde_json::from_str(
+        &std::fs::read_to_string(run.join("summary.json")).context("the run left no summary.json")?,
+    )?;
     let csv = std::fs::read_to_string(run.join("trajectories.csv")).context("the run left no trajectories.csv")?;
     let ticks = report::positions_by_tick(&csv).map_err(anyhow::Error::msg)?;
-    let host_of: HashMap<u32, usize> = groups.iter().enumerate().flat_map(|(h, ids)| ids.iter().map(move |&id| (id, h))).collect();
+    let host_of: HashMap<u32, usize> =
+        groups.iter().enumerate().flat_map(|(h, ids)| ids.iter().map(move |&id| (id, h))).collect();
     let heard = report::outside_heard_per_tick(&ticks, &host_of, groups.len(), sc.radio.range_m);
-    let heard_wide = report::outside_heard_per_tick(&ticks, &host_of, groups.len(), sc.radio.range_m + sc.radio.hysteresis_m);
+    let heard_wide =
+        report::outside_heard_per_tick(&ticks, &host_of, groups.len(), sc.radio.range_m + sc.radio.hysteresis_m);
     let n = summary.ticks.max(1) as f64;
     let kb = |b: u64| b as f64 / 1000.0 / n;
     let rows = hosts

@@ -27,7 +27,8 @@ fn ip(args: &[&str]) -> Result<String> {
 pub fn link_bytes_of(json: &str) -> Result<(u64, u64)> {
     let v: serde_json::Value = serde_json::from_str(json).context("`ip -j -s link` printed no JSON")?;
     let stats = &v[0]["stats64"];
-    let get = |dir: &str| stats[dir]["bytes"].as_u64().with_context(|| format!("no {dir} bytes in `ip -j -s link`: {json}"));
+    let get =
+        |dir: &str| stats[dir]["bytes"].as_u64().with_context(|| format!("no {dir} bytes in `ip -j -s link`: {json}"));
     Ok((get("rx")?, get("tx")?))
 }
 
@@ -53,7 +54,9 @@ impl Net {
 
     fn add_ns(&mut self, name: &str) -> Result<String> {
         let ns = format!("{}-{name}", self.prefix);
-        ip(&["netns", "add", &ns]).with_context(|| format!("cannot make network namespace {ns} (`swarm mesh` needs root, or CAP_SYS_ADMIN, on Linux)"))?;
+        ip(&["netns", "add", &ns]).with_context(|| {
+            format!("cannot make network namespace {ns} (`swarm mesh` needs root, or CAP_SYS_ADMIN, on Linux)")
+        })?;
         self.created.push(ns.clone());
         Ok(ns)
     }

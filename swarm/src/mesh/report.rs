@@ -35,7 +35,11 @@ pub fn strips(starts: &[[f64; 2]], goal: [f64; 2], hosts: usize) -> Vec<Vec<u32>
 /// `uavs1-250`, as a site would, instead of a list of scattered ids. Scenarios whose timelines
 /// name UAVs (`[[netem]]`, `[[failures]]`, `[[mission]]`) are refused: they would need the same
 /// renumbering of every set they name.
-pub fn renumbered(sc: &swarm_config::Scenario, starts: &[[f64; 2]], groups: &[Vec<u32>]) -> Result<(swarm_config::Scenario, Vec<Vec<u32>>), String> {
+pub fn renumbered(
+    sc: &swarm_config::Scenario,
+    starts: &[[f64; 2]],
+    groups: &[Vec<u32>],
+) -> Result<(swarm_config::Scenario, Vec<Vec<u32>>), String> {
     if !sc.netem.is_empty() || !sc.failures.is_empty() || !sc.mission.is_empty() {
         return Err(format!(
             "{}: swarm mesh numbers UAVs host by host, and this scenario's [[netem]], [[failures]] or [[mission]] name UAVs by id; fly one without them",
@@ -75,7 +79,8 @@ pub type Positions = Vec<(u32, [f64; 2])>;
 pub fn positions_by_tick(csv: &str) -> Result<BTreeMap<u64, Positions>, String> {
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().ok_or("trajectories.csv is empty")?.split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).ok_or(format!("trajectories.csv has no `{name}` column"));
+    let col =
+        |name: &str| header.iter().position(|h| *h == name).ok_or(format!("trajectories.csv has no `{name}` column"));
     let (tick, id, x, y, alive) = (col("tick")?, col("id")?, col("x_m")?, col("y_m")?, col("alive")?);
     let mut out: BTreeMap<u64, Positions> = BTreeMap::new();
     for (n, line) in lines.enumerate() {
@@ -95,7 +100,12 @@ pub fn positions_by_tick(csv: &str) -> Result<BTreeMap<u64, Positions>, String> 
 /// Per host, the mean over ticks of how many UAVs of other hosts are within `range` of at least
 /// one of its UAVs: the senders whose shares must cross into the host (each once per tick, to its
 /// one session). `host_of` maps a UAV to its host's index.
-pub fn outside_heard_per_tick(ticks: &BTreeMap<u64, Positions>, host_of: &HashMap<u32, usize>, hosts: usize, range: f64) -> Vec<f64> {
+pub fn outside_heard_per_tick(
+    ticks: &BTreeMap<u64, Positions>,
+    host_of: &HashMap<u32, usize>,
+    hosts: usize,
+    range: f64,
+) -> Vec<f64> {
     let mut sums = vec![0u64; hosts];
     for positions in ticks.values() {
         // A uniform grid of `range` cells: a UAV's neighbours are in its cell and the 8 around.
@@ -244,7 +254,11 @@ mod tests {
         let (out, ranges) = renumbered(&sc, &starts, &groups).expect("renumbered");
         assert_eq!(ranges, vec![vec![1, 2], vec![3, 4, 5]]);
         let listed = out.swarm.start_positions.clone().expect("listed");
-        assert_eq!(listed, vec![starts[1], starts[3], starts[0], starts[2], starts[4]], "old 2, 4, 1, 3, 5 are new 1 to 5");
+        assert_eq!(
+            listed,
+            vec![starts[1], starts[3], starts[0], starts[2], starts[4]],
+            "old 2, 4, 1, 3, 5 are new 1 to 5"
+        );
         assert!(matches!(&out.swarm.informed, swarm_config::Informed::Ids(ids) if ids == &vec![1, 5]), "old 2 and 5");
         assert_eq!(out.swarm.failed, vec![2], "old 4");
         sc.failures.push(serde_json::from_str(r#"{"at_s": 1.0, "uav": 3, "kind": "kill"}"#).expect("a failure"));

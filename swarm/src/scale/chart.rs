@@ -3,12 +3,12 @@
 //! figure of [`swarm_plot`] (plotters, the embedded font).
 
 use super::ScaleRow;
-use swarm_plot::{color, write_pair, DrawResult, Figure, FAMILY};
 use anyhow::Result;
-use swarm_plot::plotters::coord::Shift;
-use swarm_plot::plotters::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
+use swarm_plot::plotters::coord::Shift;
+use swarm_plot::plotters::prelude::*;
+use swarm_plot::{color, write_pair, DrawResult, Figure, FAMILY};
 
 /// Picture size [px].
 const SIZE: (u32, u32) = (1200, 520);
@@ -86,7 +86,12 @@ mod tests {
     #[test]
     fn writes_an_svg_with_text_and_a_png() {
         let row = |uavs: usize, mode: &str, x: f64| ScaleRow { x_real_time: x, ..crate::scale::test_row(uavs, mode) };
-        let rows = [row(5, "broadcast", 40.0), row(40, "broadcast", 8.0), row(40, "icp", 2.0), row(1000, "broadcast", f64::NAN)];
+        let rows = [
+            row(5, "broadcast", 40.0),
+            row(40, "broadcast", 8.0),
+            row(40, "icp", 2.0),
+            row(1000, "broadcast", f64::NAN),
+        ];
         let dir = std::env::temp_dir().join(format!("scale-chart-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");
         let (svg, png) = (dir.join("s.svg"), dir.join("s.png"));
@@ -96,6 +101,10 @@ mod tests {
         let bytes = std::fs::read(&png).expect("png written");
         assert_eq!(&bytes[1..4], b"PNG");
         let _ = std::fs::remove_dir_all(&dir);
-        assert_eq!(series(&rows, |r| r.x_real_time)["broadcast"], vec![(5.0, 40.0), (40.0, 8.0)], "NaN points are left out");
+        assert_eq!(
+            series(&rows, |r| r.x_real_time)["broadcast"],
+            vec![(5.0, 40.0), (40.0, 8.0)],
+            "NaN points are left out"
+        );
     }
 }

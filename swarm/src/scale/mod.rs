@@ -23,9 +23,7 @@
 //! flies a peer simulator at each row's size right after it, for a ratio measured side by side. Speeds depend on the machine and its load: this is a measurement,
 //! never a test assertion.
 
-use swarm_node::args::{scenario_value, unix_secs};
 use crate::study::{run_variant, VariantRun};
-use swarm_record::summary::Summary;
 use anyhow::{Context, Result};
 use clap::Args;
 use serde::{Deserialize, Serialize};
@@ -37,6 +35,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use swarm_config::Scenario;
+use swarm_node::args::{scenario_value, unix_secs};
+use swarm_record::summary::Summary;
 
 mod chart;
 pub mod peer;
@@ -178,7 +178,14 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
     let mut rows = Vec::new();
     for (i, sc) in plan.iter().enumerate() {
         let mode = format!("{:?}", sc.localization.mode).to_lowercase();
-        eprintln!("[{}/{}] {}: {} UAVs, {mode}, {:.0} s of sim time", i + 1, plan.len(), sc.name, sc.count(), sc.end.time_limit_s);
+        eprintln!(
+            "[{}/{}] {}: {} UAVs, {mode}, {:.0} s of sim time",
+            i + 1,
+            plan.len(),
+            sc.name,
+            sc.count(),
+            sc.end.time_limit_s
+        );
         let sampler = MemorySampler::start();
         let how = VariantRun { per_process: a.agents_per_process, progress: true };
         let tag = format!("{:02}-{}", i + 1, sc.name);
@@ -186,7 +193,11 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
         let mem = sampler.stop().await;
         let mut row = ScaleRow::new(&summary?, &mode, mem);
         if let Some(cmd) = &peer_cmd {
-            let size = peer::PeerSize { agents: sc.count(), obstacles: peer::obstacles_in(&out.join(&tag))?, rays: sc.lidar.beams };
+            let size = peer::PeerSize {
+                agents: sc.count(),
+                obstacles: peer::obstacles_in(&out.join(&tag))?,
+                rays: sc.lidar.beams,
+            };
             eprintln!("{tag}: peer at {} agents, {} obstacles, {} rays", size.agents, size.obstacles, size.rays);
             row.peer = Some(peer::fly(cmd, size, Duration::from_secs_f64(a.peer_budget_s)).await?);
         }
@@ -208,7 +219,8 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
 /// The scenarios to fly, with the command line's overrides; names that are neither a file nor
 /// a built-in are skipped with a message, any other error stops the study before it starts.
 fn plan(a: &ScaleArgs) -> Result<Vec<Scenario>> {
-    let mode: Option<swarm_config::TimeMode> = a.time_mode.as_deref().map(|m| scenario_value("--time-mode", m)).transpose()?;
+    let mode: Option<swarm_config::TimeMode> =
+        a.time_mode.as_deref().map(|m| scenario_value("--time-mode", m)).transpose()?;
     let mut plan = Vec::new();
     for name in a.scenarios.split(',').map(str::trim).filter(|n| !n.is_empty()) {
         let known = Path::new(name).exists() || swarm_config::BUILTIN.iter().any(|(n, _)| *n == name);
@@ -241,7 +253,11 @@ fn plan(a: &ScaleArgs) -> Result<Vec<Scenario>> {
 pub fn resized(sc: &Scenario, n: u32) -> Result<Scenario> {
     anyhow::ensure!(n > 0, "a swarm needs a UAV");
     let mut out = sc.clone();
-    let area = out.swarm.start_area.as_mut().context("the scenario lists its start positions; only a start disc can be resized")?;
+    let area = out
+        .swarm
+        .start_area
+        .as_mut()
+        .context("the scenario lists its start positions; only a start disc can be resized")?;
     area.radius_m *= (f64::from(n) / f64::from(sc.swarm.count)).sqrt();
     if let swarm_config::Informed::Ids(ids) = &sc.swarm.informed {
         anyhow::ensure!(ids.iter().all(|&i| i <= n), "informed UAVs {ids:?} are not all among {n}");
@@ -472,9 +488,23 @@ mod tests {
     fn peer_rows_get_a_side_by_side_table_with_the_ratio() {
         assert!(!table(&[row(5, "icp")]).contains("Side by side"), "no peer, no table");
         let mut a = row(40, "icp");
-        a.peer = Some(peer::PeerRow { peer: "vmas 1.5.2".into(), x_real_time: Some(0.5), steps: 100, obstacles: 51, rays: 750, note: None });
+        a.peer = Some(peer::PeerRow {
+            peer: "vmas 1.5.2".into(),
+            x_real_time: Some(0.5),
+            steps: 100,
+            obstacles: 51,
+            rays: 750,
+            note: None,
+        });
         let mut b = row(1000, "icp");
-        b.peer = Some(peer::PeerRow { peer: "vmas 1.5.2".into(), x_real_time: None, steps: 0, obstacles: 700, rays: 750, note: Some("slow".into()) });
+        b.peer = Some(peer::PeerRow {
+            peer: "vmas 1.5.2".into(),
+            x_real_time: None,
+            steps: 0,
+            obstacles: 700,
+            rays: 750,
+            note: Some("slow".into()),
+        });
         let t = table(&[a, b]);
         assert!(t.contains("| s40 | 40 | 51 | 750 | 12.50 | vmas 1.5.2 | 0.5000 | 25x | 100 |"), "{t}");
         assert!(t.contains("| s1000 | 1000 | 700 | 750 | 12.50 | vmas 1.5.2 | out of reach (slow) | - | 0 |"), "{t}");

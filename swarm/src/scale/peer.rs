@@ -185,7 +185,8 @@ pub async fn fly(cmd: &PeerCmd, size: PeerSize, budget: Duration) -> Result<Peer
 pub fn obstacles_in(run_dir: &Path) -> Result<usize> {
     let path = run_dir.join("world.json");
     let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-    let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
     let count = |k: &str| v.get(k).and_then(serde_json::Value::as_array).map_or(0, Vec::len);
     Ok(count("trees") + count("walls"))
 }

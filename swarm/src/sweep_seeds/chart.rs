@@ -4,11 +4,11 @@
 //! embedded font, like every figure of [`swarm_plot`] (no system font needed).
 
 use super::{mean_pm, Report, METRICS};
-use swarm_plot::{write_pair, DrawResult, Figure, FAMILY};
 use anyhow::Result;
+use std::path::Path;
 use swarm_plot::plotters::coord::Shift;
 use swarm_plot::plotters::prelude::*;
-use std::path::Path;
+use swarm_plot::{write_pair, DrawResult, Figure, FAMILY};
 
 /// Picture size [px]: five panels a row.
 const SIZE: (u32, u32) = (1500, 700);
@@ -56,7 +56,8 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, report: &Report) -> D
 /// The panel of metric `i`.
 fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, report: &Report, i: usize) -> DrawResult<DB> {
     let stats = &report.metrics[i].stats;
-    let values: Vec<(usize, f64)> = report.runs.iter().enumerate().map(|(k, r)| (k, r.values[i])).filter(|(_, v)| v.is_finite()).collect();
+    let values: Vec<(usize, f64)> =
+        report.runs.iter().enumerate().map(|(k, r)| (k, r.values[i])).filter(|(_, v)| v.is_finite()).collect();
     let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, v)| (lo.min(v), hi.max(v)));
     let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
     let pad = ((hi - lo) * 0.1).max(1e-3 * hi.abs().max(1.0));
@@ -73,7 +74,10 @@ fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, report: &Report, i: 
         chart.draw_series(std::iter::once(Rectangle::new(band, RGBColor(31, 119, 180).mix(0.2).filled())))?;
     }
     if stats.mean.is_finite() {
-        chart.draw_series(std::iter::once(PathElement::new(vec![(0.05, stats.mean), (0.95, stats.mean)], RGBColor(31, 119, 180).stroke_width(2))))?;
+        chart.draw_series(std::iter::once(PathElement::new(
+            vec![(0.05, stats.mean), (0.95, stats.mean)],
+            RGBColor(31, 119, 180).stroke_width(2),
+        )))?;
     }
     let x = |k: usize| 0.1 + 0.8 * (k as f64 + 0.5) / n;
     chart.draw_series(values.iter().map(|&(k, v)| Circle::new((x(k), v), 3, BLACK.filled())))?;

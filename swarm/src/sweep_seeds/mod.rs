@@ -19,9 +19,7 @@
 //! outcomes repeat byte for byte; x real time is a wall-clock measurement and depends on how many
 //! runs share the machine.
 
-use swarm_node::args::scenario_value;
 use crate::study::{run_bounded, run_variant, VariantRun};
-use swarm_record::summary::Summary;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -30,6 +28,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use swarm_config::{LocalizationMode, Scenario};
+use swarm_node::args::scenario_value;
+use swarm_record::summary::Summary;
 
 mod chart;
 pub mod stats;
@@ -72,13 +72,29 @@ pub struct Metric {
 
 /// Every headline metric of the results table in docs/results.md.
 pub const METRICS: &[Metric] = &[
-    Metric { key: "time_to_goal_s", label: "time to goal s (runs that arrived)", value: |s| s.time_to_goal_s.unwrap_or(f64::NAN) },
+    Metric {
+        key: "time_to_goal_s",
+        label: "time to goal s (runs that arrived)",
+        value: |s| s.time_to_goal_s.unwrap_or(f64::NAN),
+    },
     Metric { key: "collisions", label: "collisions", value: |s| s.collisions as f64 },
     Metric { key: "min_obstacle_distance_m", label: "min obstacle distance m", value: |s| s.min_obstacle_distance_m },
     Metric { key: "min_agent_distance_m", label: "min UAV distance m", value: |s| s.min_agent_distance_m },
-    Metric { key: "localization_mean_error_m", label: "localization mean error m", value: |s| s.localization.mean_error_m },
-    Metric { key: "localization_p95_error_m", label: "localization p95 error m", value: |s| s.localization.p95_error_m },
-    Metric { key: "false_estimates", label: "false estimates (> 1 m off)", value: |s| s.localization.false_estimates as f64 },
+    Metric {
+        key: "localization_mean_error_m",
+        label: "localization mean error m",
+        value: |s| s.localization.mean_error_m,
+    },
+    Metric {
+        key: "localization_p95_error_m",
+        label: "localization p95 error m",
+        value: |s| s.localization.p95_error_m,
+    },
+    Metric {
+        key: "false_estimates",
+        label: "false estimates (> 1 m off)",
+        value: |s| s.localization.false_estimates as f64,
+    },
     Metric { key: "false_estimate_share_pct", label: "false estimate share %", value: false_share_pct },
     Metric {
         key: "stable_neighbour_share_pct",
@@ -150,12 +166,20 @@ impl Report {
     pub fn new(scenario: &str, localization: &str, runs: &[(u64, Summary)]) -> Report {
         let rows: Vec<RunRow> = runs
             .iter()
-            .map(|(seed, s)| RunRow { seed: *seed, success: succeeded(s), values: METRICS.iter().map(|m| (m.value)(s)).collect() })
+            .map(|(seed, s)| RunRow {
+                seed: *seed,
+                success: succeeded(s),
+                values: METRICS.iter().map(|m| (m.value)(s)).collect(),
+            })
             .collect();
         let metrics = METRICS
             .iter()
             .enumerate()
-            .map(|(i, m)| MetricRow { key: m.key, label: m.label, stats: mean_ci(&rows.iter().map(|r| r.values[i]).collect::<Vec<_>>()) })
+            .map(|(i, m)| MetricRow {
+                key: m.key,
+                label: m.label,
+                stats: mean_ci(&rows.iter().map(|r| r.values[i]).collect::<Vec<_>>()),
+            })
             .collect();
         let k = rows.iter().filter(|r| r.success).count();
         Report {
@@ -174,7 +198,13 @@ impl Report {
         let mut t = String::new();
         let seeds = self.runs.iter().map(|r| r.seed);
         let (lo, hi) = (seeds.clone().min().unwrap_or(0), seeds.max().unwrap_or(0));
-        let _ = writeln!(t, "# {} ({}), {} seeds ({lo}..{hi}): mean ± 95 % CI (Student t)\n", self.scenario, self.localization, self.runs.len());
+        let _ = writeln!(
+            t,
+            "# {} ({}), {} seeds ({lo}..{hi}): mean ± 95 % CI (Student t)\n",
+            self.scenario,
+            self.localization,
+            self.runs.len()
+        );
         let _ = writeln!(t, "| metric | runs | mean ± 95 % CI | min | max |");
         let _ = writeln!(t, "|---|---|---|---|---|");
         let s = &self.success;
@@ -253,7 +283,10 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
         base.end.time_limit_s = t;
     }
     let mode = format!("{:?}", base.localization.mode).to_lowercase();
-    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join("sweep-seeds").join(format!("{}-{mode}", base.name)));
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join("sweep-seeds").join(format!("{}-{mode}", base.name)));
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let jobs = a.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), |j| j as usize);
 
@@ -293,7 +326,11 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
         for (seed, e) in &failed {
             eprintln!("seed {seed}: {e:#}");
         }
-        bail!("{} of {} runs failed (left out of the table; run the same command again to retry them)", failed.len(), seeds.len())
+        bail!(
+            "{} of {} runs failed (left out of the table; run the same command again to retry them)",
+            failed.len(),
+            seeds.len()
+        )
     }
 }
 

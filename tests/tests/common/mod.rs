@@ -154,7 +154,9 @@ impl Creds {
         let creds = dir.join("creds");
         let users = more.iter().flat_map(|u| ["--user", u]);
         let o = output_within(
-            Command::new(SWARM).args(["credentials", "--out", creds.to_str().expect("utf8"), "--uavs", &uavs.to_string()]).args(users),
+            Command::new(SWARM)
+                .args(["credentials", "--out", creds.to_str().expect("utf8"), "--uavs", &uavs.to_string()])
+                .args(users),
             TOOL_LIMIT,
         );
         assert!(o.status.success(), "swarm credentials: {}", String::from_utf8_lossy(&o.stderr));
@@ -198,8 +200,12 @@ fn start_hub_with(scenario: &str, run: &str, dir: &Path, access: &[&str]) -> (Pr
 
 /// Starts `swarm record` into `out` and waits until it holds its token, i.e. is subscribed.
 pub fn start_recorder(run: &str, loc: &str, out: &std::path::Path, dir: &std::path::Path) -> Proc {
-    let rec = Proc::start(&["record", "--run", run, "--out", out.to_str().expect("utf8"), "--connect", loc], &dir.join("rec.log"));
-    let up = tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", loc, "--count", "1", "--duration", "30"]);
+    let rec = Proc::start(
+        &["record", "--run", run, "--out", out.to_str().expect("utf8"), "--connect", loc],
+        &dir.join("rec.log"),
+    );
+    let up =
+        tap(&[&format!("swarm/{run}/alive/recorder"), "--alive", "--connect", loc, "--count", "1", "--duration", "30"]);
     assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
     rec
 }
@@ -282,11 +288,7 @@ impl Listening {
 /// missing venv fails the test with the command that makes it, never skips it.
 pub fn python() -> std::path::PathBuf {
     let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../.venv/bin/python");
-    assert!(
-        venv.exists(),
-        "no test Python at {}: run tools/test-env first",
-        venv.display()
-    );
+    assert!(venv.exists(), "no test Python at {}: run tools/test-env first", venv.display());
     venv
 }
 
@@ -306,7 +308,9 @@ pub fn forest5_cut(dir: &Path, limit_s: f64) -> String {
 pub fn hub_locator(out: &Path) -> String {
     let start = Instant::now();
     loop {
-        if let Some(loc) = std::fs::read_to_string(out.join("hub.txt")).ok().and_then(|t| t.lines().next().map(String::from)) {
+        if let Some(loc) =
+            std::fs::read_to_string(out.join("hub.txt")).ok().and_then(|t| t.lines().next().map(String::from))
+        {
             return loc;
         }
         assert!(start.elapsed() < Duration::from_secs(60), "no hub.txt in {}", out.display());

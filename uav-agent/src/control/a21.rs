@@ -91,8 +91,7 @@ pub fn lambda_alpha(p: &A21Params) -> f64 {
 /// λβ, the scale that makes β continuous at d_c (seed 003 eq. 6).
 pub fn lambda_beta(p: &A21Params) -> f64 {
     // seed 003 eq. 6: λβ = kβ (d_c − d_0)² √(d_c d_0) / (√d_0 − √d_c).
-    p.k_beta * (p.dc_m - p.d0_m).powi(2) * (p.dc_m * p.d0_m).sqrt()
-        / (p.d0_m.sqrt() - p.dc_m.sqrt())
+    p.k_beta * (p.dc_m - p.d0_m).powi(2) * (p.dc_m * p.d0_m).sqrt() / (p.d0_m.sqrt() - p.dc_m.sqrt())
 }
 
 /// Attraction α(d) ≥ 0 towards an agent at distance `d_m` (seed 003 eq. 3).
@@ -291,11 +290,7 @@ fn point_at_arc_length(path: &[Point2<f64>], s: f64) -> Option<Point2<f64>> {
 /// result. `None` when there is no finite path point, `pos` is not finite, or the target is
 /// within 1e-9 m of `pos` (at the goal). Non-finite path points are skipped; a NaN or negative
 /// lookahead counts as 0, an infinite one aims at the goal.
-pub fn navigation_direction(
-    path: &[Point2<f64>],
-    pos: Point2<f64>,
-    lookahead_m: f64,
-) -> Option<Vector2<f64>> {
+pub fn navigation_direction(path: &[Point2<f64>], pos: Point2<f64>, lookahead_m: f64) -> Option<Vector2<f64>> {
     if !(pos.x.is_finite() && pos.y.is_finite()) {
         return None;
     }

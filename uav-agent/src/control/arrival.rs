@@ -81,7 +81,8 @@ impl Arrival {
         // An arrived UAV makes room: every neighbour closer than the separation radius pushes it,
         // not only those ahead (eq. 4.7-4.9 look ahead only, so a hovering cluster would never
         // yield to the UAVs arriving behind it).
-        let all_around = if own == 0 { p.separation_radius_m.max(p.separation_all_around_m) } else { p.separation_all_around_m };
+        let all_around =
+            if own == 0 { p.separation_radius_m.max(p.separation_all_around_m) } else { p.separation_all_around_m };
         let faded = K21Params { kn: p.kn * fade.clamp(0.0, 1.0), separation_all_around_m: all_around, ..p.clone() };
         let mut c = k21_command(&faded, v, v.neighbours, None, &[]);
         // seed 000 eq. 4.14 with the target as the only heading.
@@ -124,7 +125,12 @@ mod tests {
     }
 
     fn flock() -> Command {
-        Command { kind: CmdKind::Velocity, xy: Vector2::new(0.4, 0.0), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+        Command {
+            kind: CmdKind::Velocity,
+            xy: Vector2::new(0.4, 0.0),
+            yaw_rate: 0.0,
+            vectors: VectorMagnitudes::default(),
+        }
     }
 
     fn neighbour(id: u32, x: f64) -> Estimate {
@@ -146,7 +152,8 @@ mod tests {
         let edge = odom(goal[0] - 0.9 * r, Some(goal));
         assert_eq!(a.own(&sc, &view(&edge, &[]), 1.0), 0);
         let centre = odom(goal[0] - 0.05 * r, Some(goal));
-        let (at_edge, near_centre) = (a.steer(&sc, &view(&edge, &[]), 0, flock()), a.steer(&sc, &view(&centre, &[]), 0, flock()));
+        let (at_edge, near_centre) =
+            (a.steer(&sc, &view(&edge, &[]), 0, flock()), a.steer(&sc, &view(&centre, &[]), 0, flock()));
         assert!(at_edge.xy.x > 0.0 && near_centre.xy.x > 0.0, "towards the goal: {at_edge:?} {near_centre:?}");
         assert!(near_centre.xy.norm() < 0.1 * at_edge.xy.norm(), "slower near the centre: {at_edge:?} {near_centre:?}");
     }
@@ -163,7 +170,10 @@ mod tests {
         let aim = centred(&view(&o, &right), goal);
         assert!((aim[0] - goal[0]).abs() < 1e-9 && (aim[1] - (goal[1] + 1.5)).abs() < 1e-9, "{aim:?}");
         let c = Arrival::default().steer(&sc, &view(&o, &right), 0, flock());
-        assert!((c.yaw_rate - sc.controller.k21.heading_gain * std::f64::consts::FRAC_PI_2).abs() < 1e-9, "turns north: {c:?}");
+        assert!(
+            (c.yaw_rate - sc.controller.k21.heading_gain * std::f64::consts::FRAC_PI_2).abs() < 1e-9,
+            "turns north: {c:?}"
+        );
         // Facing north (yaw π/2), the same neighbours on its right lie east: it aims west.
         let north = Odom { yaw: std::f64::consts::FRAC_PI_2, ..odom(goal[0], Some(goal)) };
         let aim = centred(&view(&north, &right), goal);
@@ -184,7 +194,10 @@ mod tests {
         assert!(c.xy.x > 0.0, "towards the lower count: {c:?}");
         let close = [neighbour(2, sc.controller.k21.cohesion_radius_m - 0.1)];
         let stopped = a.steer(&sc, &view(&o, &close), 1, flock());
-        assert!(stopped.xy.norm() < 1e-9, "within the cohesion radius (and beyond separation's): it stops: {stopped:?}");
+        assert!(
+            stopped.xy.norm() < 1e-9,
+            "within the cohesion radius (and beyond separation's): it stops: {stopped:?}"
+        );
         assert_eq!(a.steer(&sc, &view(&o, &far), NO_PATH, flock()), flock(), "no arrival heard: K21 as it is");
         let mut off = sc.clone();
         off.controller.k21.arrival_radius_m = Some(0.0);

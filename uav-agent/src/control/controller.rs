@@ -60,7 +60,11 @@ impl Controllers {
         c
     }
 
-    fn insert(&mut self, kind: ControllerKind, make: impl Fn(&Scenario) -> Box<dyn Controller> + Send + Sync + 'static) {
+    fn insert(
+        &mut self,
+        kind: ControllerKind,
+        make: impl Fn(&Scenario) -> Box<dyn Controller> + Send + Sync + 'static,
+    ) {
         self.makers.insert(kind.name().to_string(), Arc::new(make));
     }
 
@@ -71,8 +75,13 @@ impl Controllers {
     /// If `name` is taken (a built-in or one registered before) or is not a valid controller
     /// name (lower-case letters, digits, `-` and `_`, starting with a letter or digit): both are
     /// mistakes in the program, found the first time it runs.
-    pub fn with(mut self, name: &str, make: impl Fn(&Scenario) -> Box<dyn Controller> + Send + Sync + 'static) -> Controllers {
-        let kind = ControllerKind::try_from(name.to_string()).unwrap_or_else(|e| panic!("controller name `{name}`: {e}"));
+    pub fn with(
+        mut self,
+        name: &str,
+        make: impl Fn(&Scenario) -> Box<dyn Controller> + Send + Sync + 'static,
+    ) -> Controllers {
+        let kind =
+            ControllerKind::try_from(name.to_string()).unwrap_or_else(|e| panic!("controller name `{name}`: {e}"));
         assert!(!self.makers.contains_key(name), "a controller named `{name}` is registered already");
         self.insert(kind, make);
         self
@@ -94,7 +103,9 @@ impl Controllers {
     }
 
     fn maker(&self, kind: &ControllerKind) -> Result<&Arc<MakeController>, UnknownController> {
-        self.makers.get(kind.name()).ok_or_else(|| UnknownController { name: kind.name().to_string(), known: self.names() })
+        self.makers
+            .get(kind.name())
+            .ok_or_else(|| UnknownController { name: kind.name().to_string(), known: self.names() })
     }
 }
 
@@ -121,7 +132,12 @@ mod tests {
     struct Hover;
     impl Controller for Hover {
         fn step(&mut self, _: &View) -> Command {
-            Command { kind: CmdKind::Velocity, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+            Command {
+                kind: CmdKind::Velocity,
+                xy: Vector2::zeros(),
+                yaw_rate: 0.0,
+                vectors: VectorMagnitudes::default(),
+            }
         }
     }
 
@@ -146,7 +162,10 @@ mod tests {
     #[test]
     fn an_unknown_name_is_an_error_naming_the_known_ones() {
         let e = Controllers::builtin().make(&scenario("hover")).err().expect("unknown");
-        assert_eq!(e.to_string(), "unknown controller `hover` ([controller] kind); this program knows: a21, k21, m23, p17");
+        assert_eq!(
+            e.to_string(),
+            "unknown controller `hover` ([controller] kind); this program knows: a21, k21, m23, p17"
+        );
     }
 
     #[test]

@@ -141,11 +141,7 @@ pub fn cohesion(p: &K21Params, neighbours: &[Neighbour], obstacle_near: bool) ->
 /// A zero or non-finite `desired_dir` is replaced by the body x axis. A neighbour at the UAV's
 /// own position (|x_i| < 1e-9) has no direction; it is taken as straight along `desired_dir`
 /// (k_i = −1, v_i = −d). Neighbours with a non-finite position are ignored.
-pub fn separation(
-    p: &K21Params,
-    neighbours: &[Neighbour],
-    desired_dir: Vector2<f64>,
-) -> Vector2<f64> {
+pub fn separation(p: &K21Params, neighbours: &[Neighbour], desired_dir: Vector2<f64>) -> Vector2<f64> {
     let d = direction_or_x(desired_dir);
     let mut sum = Vector2::zeros();
     let mut count = 0usize;
@@ -202,17 +198,13 @@ pub fn separation(
 pub fn avoidance(p: &K21Params, obstacles: &[Vector2<f64>], desired: Vector2<f64>) -> Vector2<f64> {
     let d = direction_or_x(desired);
     let ignore = p.avoidance_ignore_deg.to_radians();
-    let candidates = obstacles
-        .iter()
-        .copied()
-        .filter(is_finite)
-        .filter(|y| {
-            let dist = y.norm();
-            // seed 000 section 4.4: angle between y and the desired direction, in [0, π];
-            // obstacles more than 135° (avoidance_ignore_deg) from it are ignored.
-            let angle = (d.x * y.y - d.y * y.x).abs().atan2(d.dot(y));
-            dist > EPS && dist <= p.avoidance_radius_m && angle <= ignore
-        });
+    let candidates = obstacles.iter().copied().filter(is_finite).filter(|y| {
+        let dist = y.norm();
+        // seed 000 section 4.4: angle between y and the desired direction, in [0, π];
+        // obstacles more than 135° (avoidance_ignore_deg) from it are ignored.
+        let angle = (d.x * y.y - d.y * y.x).abs().atan2(d.dot(y));
+        dist > EPS && dist <= p.avoidance_radius_m && angle <= ignore
+    });
     let Some(y) = nearest(candidates) else {
         return Vector2::zeros();
     };
@@ -277,12 +269,7 @@ pub fn barrier(v: Vector2<f64>, obstacles: impl IntoIterator<Item = Vector2<f64>
 ///
 /// k_n = |v_c| + |v_s| + |v_o|; v_n = (1 − k_n)·(1, 0) if k_n ≤ 1, else 0. The parameters are not
 /// used by eq. 4.17; `_p` keeps the signature uniform with the other vectors.
-pub fn navigation(
-    _p: &K21Params,
-    vc: Vector2<f64>,
-    vs: Vector2<f64>,
-    vo: Vector2<f64>,
-) -> Vector2<f64> {
+pub fn navigation(_p: &K21Params, vc: Vector2<f64>, vs: Vector2<f64>, vo: Vector2<f64>) -> Vector2<f64> {
     // seed 000, eq. 4.16: k_n = |v_c| + |v_s| + |v_o|.
     let k_n = vc.norm() + vs.norm() + vo.norm();
     // seed 000, eq. 4.17: v_n = (1 − k_n)·x̂ if k_n ≤ 1, else 0 (a NaN k_n gives 0).
@@ -301,8 +288,7 @@ pub fn navigation(
 /// resultant is shorter than 1e-9 times their count, e.g. 0 and π) the mean is undefined and 0 is
 /// returned (keep the heading). Non-finite headings are ignored.
 pub fn alignment(neighbours: &[Neighbour], goal_heading: Option<f64>) -> f64 {
-    let headings =
-        neighbours.iter().map(|n| n.heading).chain(goal_heading).filter(|h| h.is_finite());
+    let headings = neighbours.iter().map(|n| n.heading).chain(goal_heading).filter(|h| h.is_finite());
     let (mut sum_sin, mut sum_cos, mut count) = (0.0, 0.0, 0usize);
     for h in headings {
         sum_sin += h.sin();
@@ -460,11 +446,7 @@ mod tests {
         let ns = [nb(0.0, 20.0), nb(6.0, 0.0)];
         // All: c = (6,20)/3 = (2,6.6667), |c| = 6.9602, k = 1 − 2.5/6.9602 = 0.64082,
         // v_c = (1.2816,4.2721), |v_c| = 4.4602 → clipped c/|c| = (0.28735,0.95783).
-        close(
-            cohesion(&params(), &ns, false),
-            v(2.0, 20.0 / 3.0) / (4.0f64 + 400.0 / 9.0).sqrt(),
-            1e-12,
-        );
+        close(cohesion(&params(), &ns, false), v(2.0, 20.0 / 3.0) / (4.0f64 + 400.0 / 9.0).sqrt(), 1e-12);
         // Obstacle near: closest (6,0), c = (3,0), k = 1 − 2.5/3 = 1/6, v_c = (0.5,0).
         close(cohesion(&params(), &ns, true), v(0.5, 0.0), 1e-12);
     }
@@ -702,11 +684,7 @@ mod tests {
         // Zero desired direction → body x: same as p = (1,0) → (0.4,−0.8).
         close(avoidance(&p, &[v(2.0, 1.0)], v(0.0, 0.0)), v(0.4, -0.8), 1e-12);
         // Obstacle at the origin or non-finite: ignored.
-        close(
-            avoidance(&p, &[v(0.0, 0.0), v(f64::NAN, 1.0), v(f64::INFINITY, 0.0)], v(1.0, 0.0)),
-            v(0.0, 0.0),
-            1e-15,
-        );
+        close(avoidance(&p, &[v(0.0, 0.0), v(f64::NAN, 1.0), v(f64::INFINITY, 0.0)], v(1.0, 0.0)), v(0.0, 0.0), 1e-15);
     }
 
     #[test]
@@ -723,10 +701,7 @@ mod tests {
 
     #[test]
     fn alignment_hand_computed() {
-        let ns = [
-            Neighbour { pos: v(1.0, 0.0), heading: 0.1 },
-            Neighbour { pos: v(0.0, 1.0), heading: -0.3 },
-        ];
+        let ns = [Neighbour { pos: v(1.0, 0.0), heading: 0.1 }, Neighbour { pos: v(0.0, 1.0), heading: -0.3 }];
         // Σ sin = sin 0.1 + sin(−0.3) + sin 0.5 = 0.099833 − 0.295520 + 0.479426 = 0.283739,
         // Σ cos = 0.995004 + 0.955336 + 0.877583 = 2.827923; α = atan2(0.283739, 2.827923) = 0.1
         // (the headings 0.1 ± 0.4 and 0.1 are symmetric about 0.1).
@@ -734,10 +709,7 @@ mod tests {
         assert!((a - 0.1).abs() < 1e-12, "{a}");
         assert!((a - 0.283_738_748_589_691_6f64.atan2(2.827_923_216_294_004_7)).abs() < 1e-12);
         // Headings 0, π/2 and goal π/2: Σ sin = 2, Σ cos = 1 → α = atan2(2,1) = 1.1071487.
-        let ns = [
-            Neighbour { pos: v(1.0, 0.0), heading: 0.0 },
-            Neighbour { pos: v(0.0, 1.0), heading: FRAC_PI_2 },
-        ];
+        let ns = [Neighbour { pos: v(1.0, 0.0), heading: 0.0 }, Neighbour { pos: v(0.0, 1.0), heading: FRAC_PI_2 }];
         assert!((alignment(&ns, Some(FRAC_PI_2)) - 2f64.atan2(1.0)).abs() < 1e-12);
         // Without the goal: Σ sin = 1, Σ cos = 1 → π/4.
         assert!((alignment(&ns, None) - PI / 4.0).abs() < 1e-12);
@@ -751,30 +723,22 @@ mod tests {
         assert!((alignment(&[], Some(2.0)) - 2.0).abs() < 1e-12);
         assert!((alignment(&[], Some(3.5)) - (3.5 - 2.0 * PI)).abs() < 1e-12);
         // Headings 0 and π cancel: mean undefined → 0.
-        let ns = [
-            Neighbour { pos: v(1.0, 0.0), heading: 0.0 },
-            Neighbour { pos: v(0.0, 1.0), heading: PI },
-        ];
+        let ns = [Neighbour { pos: v(1.0, 0.0), heading: 0.0 }, Neighbour { pos: v(0.0, 1.0), heading: PI }];
         assert_eq!(alignment(&ns, None), 0.0);
         // A NaN heading and a NaN goal are ignored.
-        let ns = [
-            Neighbour { pos: v(1.0, 0.0), heading: f64::NAN },
-            Neighbour { pos: v(0.0, 1.0), heading: 0.3 },
-        ];
+        let ns = [Neighbour { pos: v(1.0, 0.0), heading: f64::NAN }, Neighbour { pos: v(0.0, 1.0), heading: 0.3 }];
         assert!((alignment(&ns, Some(f64::NAN)) - 0.3).abs() < 1e-12);
     }
 
     #[test]
     fn step_free_flight_goal_ahead() {
         // No neighbours, no obstacles: v_c = v_s = v_o = 0, v_n = (1,0), v = (1,0), v_f = 0.4·(1,0).
-        let out =
-            step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.0) });
+        let out = step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.0) });
         close(out.velocity, v(0.4, 0.0), 1e-15);
         assert_eq!(out.yaw_rate, 0.0);
         close(out.navigation, v(1.0, 0.0), 1e-15);
         // Goal to the left: same velocity, yaw rate = 1·0.7.
-        let out =
-            step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.7) });
+        let out = step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.7) });
         close(out.velocity, v(0.4, 0.0), 1e-15);
         assert!((out.yaw_rate - 0.7).abs() < 1e-12);
         // kf and heading_gain scale the outputs.
@@ -804,20 +768,14 @@ mod tests {
         // v_o = (0.4,−0.8) (see avoidance_tangential_hand_computed), |v_o| = 0.89443,
         // v_n = (1 − 0.89443, 0) = (0.10557,0), v = (0.50557,−0.8), |v| = 0.94636 ≤ 1,
         // v_f = 0.4·v = (0.20223,−0.32).
-        let out = step(
-            &params(),
-            &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0) },
-        );
+        let out = step(&params(), &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0) });
         close(out.avoidance, v(0.4, -0.8), 1e-12);
         let kn = 1.0 - 0.8f64.sqrt();
         close(out.navigation, v(kn, 0.0), 1e-12);
         close(out.velocity, 0.4 * v(0.4 + kn, -0.8), 1e-12);
         // Weights: ko = 2 → v = (0.8 + 0.10557, −1.6), |v| > 1 → normalised, × 0.4.
         let p = K21Params { ko: 2.0, ..params() };
-        let out = step(
-            &p,
-            &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0) },
-        );
+        let out = step(&p, &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0) });
         close(out.velocity, 0.4 * v(0.8 + kn, -1.6).normalize(), 1e-12);
     }
 
@@ -828,10 +786,7 @@ mod tests {
         let ns = [nb(0.0, 20.0), nb(6.0, 0.0)];
         // Both neighbours beyond the default 5 m reach: widen it so that they count.
         let wide = K21Params { neighbour_radius_m: 100.0, ..params() };
-        let out = step(
-            &wide,
-            &Input { neighbours: &ns, obstacles: &[v(-2.0, 0.0)], goal_heading: None },
-        );
+        let out = step(&wide, &Input { neighbours: &ns, obstacles: &[v(-2.0, 0.0)], goal_heading: None });
         close(out.cohesion, v(0.5, 0.0), 1e-12);
         close(out.avoidance, v(0.0, 0.0), 1e-15);
         // v_s = 0 ((6,0) beyond 2 m, (0,20) beyond 2 m; N = 2); v_n = (0.5,0); v = (1,0) → (0.4,0).
@@ -845,10 +800,7 @@ mod tests {
     fn step_ignores_non_finite_inputs() {
         let ns = [Neighbour { pos: v(f64::NAN, 1.0), heading: f64::NAN }];
         let obs = [v(f64::INFINITY, 0.0), v(f64::NAN, f64::NAN)];
-        let out = step(
-            &params(),
-            &Input { neighbours: &ns, obstacles: &obs, goal_heading: Some(f64::NAN) },
-        );
+        let out = step(&params(), &Input { neighbours: &ns, obstacles: &obs, goal_heading: Some(f64::NAN) });
         close(out.velocity, v(0.4, 0.0), 1e-15);
         assert_eq!(out.yaw_rate, 0.0);
     }
@@ -870,16 +822,9 @@ mod tests {
                             ];
                             let obs = [v(ox, oy), v(oy + 0.5, ox - 0.5)];
                             for k in 0..=3 {
-                                let input = Input {
-                                    neighbours: &ns[..k],
-                                    obstacles: &obs,
-                                    goal_heading: goal,
-                                };
+                                let input = Input { neighbours: &ns[..k], obstacles: &obs, goal_heading: goal };
                                 let out = step(&p, &input);
-                                assert!(
-                                    out.velocity.x.is_finite() && out.velocity.y.is_finite(),
-                                    "{input:?}"
-                                );
+                                assert!(out.velocity.x.is_finite() && out.velocity.y.is_finite(), "{input:?}");
                                 assert!(out.velocity.norm() <= p.kf + 1e-12, "{input:?} → {out:?}");
                                 assert!(out.yaw_rate.is_finite());
                                 assert!(out.yaw_rate.abs() <= PI + 1e-12);

@@ -200,8 +200,8 @@ fn wall_points(v: &View) -> Vec<Vector2<f64>> {
 mod tests {
     use super::*;
     use crate::world_model::{Circle, Estimate};
-    use swarm_wire::NO_PATH;
     use nalgebra::Point2;
+    use swarm_wire::NO_PATH;
     use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
     fn scenario() -> Scenario {
@@ -217,7 +217,12 @@ mod tests {
     }
 
     fn flock() -> Command {
-        Command { kind: CmdKind::Velocity, xy: Vector2::new(0.4, 0.0), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
+        Command {
+            kind: CmdKind::Velocity,
+            xy: Vector2::new(0.4, 0.0),
+            yaw_rate: 0.0,
+            vectors: VectorMagnitudes::default(),
+        }
     }
 
     fn neighbour(x: f64, y: f64) -> Estimate {
@@ -231,9 +236,16 @@ mod tests {
         let mut l = LostContact::new();
         // Heading +y at (0, 0), neighbours 2 m ahead and 2 m left-ahead: centroid (−1, 2) in odometry.
         let o = odom(0.0, 0.0, std::f64::consts::FRAC_PI_2, None);
-        assert_eq!(l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0), neighbour(2.0, 2.0)], &[]), NO_PATH, &Hops::default()), Phase::Flock);
+        assert_eq!(
+            l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0), neighbour(2.0, 2.0)], &[]), NO_PATH, &Hops::default()),
+            Phase::Flock
+        );
         let far = odom(0.0, 10.0, std::f64::consts::FRAC_PI_2, None);
-        assert_eq!(l.phase(&sc, &view(after - 0.1, &far, &[], &[]), NO_PATH, &Hops::default()), Phase::Flock, "not lost yet");
+        assert_eq!(
+            l.phase(&sc, &view(after - 0.1, &far, &[], &[]), NO_PATH, &Hops::default()),
+            Phase::Flock,
+            "not lost yet"
+        );
         match l.phase(&sc, &view(after, &far, &[], &[]), NO_PATH, &Hops::default()) {
             Phase::Return(t) => assert!((t - Vector2::new(-1.0, 2.0)).norm() < 1e-9, "{t}"),
             other => panic!("{other:?}"),
@@ -242,9 +254,16 @@ mod tests {
         assert!(c.xy.norm() <= sc.lost_contact.speed_mps + 1e-9 && c.yaw_rate.abs() > 0.0, "turns back, slowly: {c:?}");
         let there = odom(-1.0, 2.5, 0.0, None);
         assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &[], &[]), NO_PATH, &Hops::default()), Phase::Hold);
-        let c = l.steer(&sc, &view(after + 20.1, &odom(-1.0, 4.0, 0.0, None), &[], &[]), NO_PATH, &Hops::default(), flock());
+        let c = l.steer(
+            &sc,
+            &view(after + 20.1, &odom(-1.0, 4.0, 0.0, None), &[], &[]),
+            NO_PATH,
+            &Hops::default(),
+            flock(),
+        );
         assert_eq!(c.kind, CmdKind::Hover, "holding is sticky");
-        let back = l.steer(&sc, &view(after + 21.0, &there, &[neighbour(3.0, 0.0)], &[]), NO_PATH, &Hops::default(), flock());
+        let back =
+            l.steer(&sc, &view(after + 21.0, &there, &[neighbour(3.0, 0.0)], &[]), NO_PATH, &Hops::default(), flock());
         assert_eq!(back, flock(), "contact again: the controller flies");
     }
 
@@ -262,11 +281,22 @@ mod tests {
         let o = odom(0.0, 0.0, 0.0, None);
         let mut l = LostContact::new();
         assert_eq!(l.phase(&sc, &view(0.0, &o, &[mate, ahead], &[]), 2, &heard), Phase::Flock, "not for after_s yet");
-        assert_eq!(l.phase(&sc, &view(after, &o, &[mate, ahead], &[]), 2, &heard), Phase::Follow(Vector2::new(reach + 3.0, 1.0)));
+        assert_eq!(
+            l.phase(&sc, &view(after, &o, &[mate, ahead], &[]), 2, &heard),
+            Phase::Follow(Vector2::new(reach + 3.0, 1.0))
+        );
         let near = Estimate { id: Some(2), ..neighbour(3.0, 1.0) };
-        assert_eq!(l.phase(&sc, &view(after + 0.1, &o, &[mate, near], &[]), 2, &heard), Phase::Flock, "within reach: flock");
+        assert_eq!(
+            l.phase(&sc, &view(after + 0.1, &o, &[mate, near], &[]), 2, &heard),
+            Phase::Flock,
+            "within reach: flock"
+        );
         heard.hear(2, 2, 0.1);
-        assert_eq!(l.phase(&sc, &view(2.0 * after + 1.0, &o, &[mate, ahead], &[]), 2, &heard), Phase::Flock, "nobody nearer the informed");
+        assert_eq!(
+            l.phase(&sc, &view(2.0 * after + 1.0, &o, &[mate, ahead], &[]), 2, &heard),
+            Phase::Flock,
+            "nobody nearer the informed"
+        );
     }
 
     #[test]
@@ -275,22 +305,52 @@ mod tests {
         let after = sc.lost_contact.regroup_after_s;
         let mut l = LostContact::new();
         let mates = [neighbour(2.0, 0.0), neighbour(0.0, 2.0)];
-        assert_eq!(l.phase(&sc, &view(0.0, &odom(3.0, 0.0, 0.0, None), &mates, &[]), 4, &Hops::default()), Phase::Flock, "a path: flock");
+        assert_eq!(
+            l.phase(&sc, &view(0.0, &odom(3.0, 0.0, 0.0, None), &mates, &[]), 4, &Hops::default()),
+            Phase::Flock,
+            "a path: flock"
+        );
         let on = odom(8.0, 0.0, 0.0, None);
-        assert_eq!(l.phase(&sc, &view(after - 0.1, &on, &mates, &[]), NO_PATH, &Hops::default()), Phase::Flock, "not for long enough");
-        assert_eq!(l.phase(&sc, &view(after, &on, &mates, &[]), NO_PATH, &Hops::default()), Phase::Regroup(Vector2::new(3.0, 0.0)));
+        assert_eq!(
+            l.phase(&sc, &view(after - 0.1, &on, &mates, &[]), NO_PATH, &Hops::default()),
+            Phase::Flock,
+            "not for long enough"
+        );
+        assert_eq!(
+            l.phase(&sc, &view(after, &on, &mates, &[]), NO_PATH, &Hops::default()),
+            Phase::Regroup(Vector2::new(3.0, 0.0))
+        );
         let c = l.steer(&sc, &view(after, &on, &mates, &[]), NO_PATH, &Hops::default(), flock());
-        assert!(c.yaw_rate.abs() > 0.0 && c.vectors.cohesion + c.vectors.separation > 0.0, "turns back, still flocking: {c:?}");
+        assert!(
+            c.yaw_rate.abs() > 0.0 && c.vectors.cohesion + c.vectors.separation > 0.0,
+            "turns back, still flocking: {c:?}"
+        );
         let there = odom(3.5, 0.0, 0.0, None);
         assert_eq!(l.phase(&sc, &view(after + 20.0, &there, &mates, &[]), NO_PATH, &Hops::default()), Phase::Hold);
-        assert_eq!(l.phase(&sc, &view(after + 21.0, &odom(5.0, 0.0, 0.0, None), &mates, &[]), NO_PATH, &Hops::default()), Phase::Hold, "sticky");
-        assert_eq!(l.phase(&sc, &view(after + 22.0, &there, &mates, &[]), 3, &Hops::default()), Phase::Flock, "a path again: flock");
+        assert_eq!(
+            l.phase(&sc, &view(after + 21.0, &odom(5.0, 0.0, 0.0, None), &mates, &[]), NO_PATH, &Hops::default()),
+            Phase::Hold,
+            "sticky"
+        );
+        assert_eq!(
+            l.phase(&sc, &view(after + 22.0, &there, &mates, &[]), 3, &Hops::default()),
+            Phase::Flock,
+            "a path again: flock"
+        );
         let informed = odom(8.0, 0.0, 0.0, Some([30.0, 0.0]));
         let mut i = LostContact::new();
         i.phase(&sc, &view(0.0, &informed, &mates, &[]), 0, &Hops::default());
-        assert_eq!(i.phase(&sc, &view(100.0, &informed, &mates, &[]), NO_PATH, &Hops::default()), Phase::Flock, "the informed fly on");
+        assert_eq!(
+            i.phase(&sc, &view(100.0, &informed, &mates, &[]), NO_PATH, &Hops::default()),
+            Phase::Flock,
+            "the informed fly on"
+        );
         let mut never = LostContact::new();
-        assert_eq!(never.phase(&sc, &view(100.0, &on, &mates, &[]), NO_PATH, &Hops::default()), Phase::Flock, "never had a path: nowhere to go");
+        assert_eq!(
+            never.phase(&sc, &view(100.0, &on, &mates, &[]), NO_PATH, &Hops::default()),
+            Phase::Flock,
+            "never had a path: nowhere to go"
+        );
     }
 
     #[test]
@@ -302,7 +362,10 @@ mod tests {
         l.phase(&sc, &view(0.0, &o, &[neighbour(2.0, 0.0)], &[]), NO_PATH, &Hops::default());
         let heard = [neighbour(reach + 3.0, 0.0)];
         assert_eq!(l.phase(&sc, &view(1.0, &o, &heard, &[]), NO_PATH, &Hops::default()), Phase::Flock, "not lost yet");
-        assert_eq!(l.phase(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &Hops::default()), Phase::Approach(Vector2::new(reach + 3.0, 0.0)));
+        assert_eq!(
+            l.phase(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &Hops::default()),
+            Phase::Approach(Vector2::new(reach + 3.0, 0.0))
+        );
         let c = l.steer(&sc, &view(sc.lost_contact.after_s, &o, &heard, &[]), NO_PATH, &Hops::default(), flock());
         assert!(c.xy.x > sc.lost_contact.speed_mps, "at the flock's speed: {c:?}");
     }

@@ -52,9 +52,9 @@ use nalgebra::{Point2, Rotation2, Vector2};
 use swarm_config::{LfFrame, M23Params, Topology};
 
 // ROS costmap_2d values, as the costmap writes them (NO_INFORMATION counts as free here).
-use crate::planning::{CostQuery, INSCRIBED_INFLATED_OBSTACLE as INSCRIBED, NO_INFORMATION};
 #[cfg(test)]
 use crate::planning::LETHAL_OBSTACLE as LETHAL;
+use crate::planning::{CostQuery, INSCRIBED_INFLATED_OBSTACLE as INSCRIBED, NO_INFORMATION};
 
 /// Lengths below this are treated as zero.
 const EPS: f64 = 1e-9;
@@ -133,9 +133,7 @@ fn lf_target(me: &UavState, leader: &UavState, p: &M23Params) -> Option<Formatio
     let offset = Vector2::new(ox, oy);
     let offset_in_world = match p.lf_frame {
         LfFrame::World => offset,
-        LfFrame::LeaderHeading if leader.heading.is_finite() => {
-            Rotation2::new(leader.heading) * offset
-        }
+        LfFrame::LeaderHeading if leader.heading.is_finite() => Rotation2::new(leader.heading) * offset,
         LfFrame::LeaderHeading => return None,
     };
     // seed 004 Fig. 42d lines 353–354: x = leader_x + offset_x, y = leader_y + offset_y.
@@ -146,10 +144,8 @@ fn lf_target(me: &UavState, leader: &UavState, p: &M23Params) -> Option<Formatio
 /// PF goal (seed 004 Fig. 41b, Fig. 42a lines 622–624, Fig. 42e lines 453–457): the known UAV
 /// immediately before this one in the formation order, pulled back by `pf_distance_m`.
 fn pf_target(me: &UavState, known: &[UavState], p: &M23Params) -> Option<FormationTarget> {
-    let predecessor = known
-        .iter()
-        .filter(|u| precedes(u.id, me.id, p.leader_id))
-        .max_by_key(|u| rank(u.id, p.leader_id))?;
+    let predecessor =
+        known.iter().filter(|u| precedes(u.id, me.id, p.leader_id)).max_by_key(|u| rank(u.id, p.leader_id))?;
     let goal = pull_back(predecessor.position, me.position, p.pf_distance_m);
     Some(FormationTarget { goal, reference: predecessor.position })
 }
@@ -158,8 +154,7 @@ fn pf_target(me: &UavState, known: &[UavState], p: &M23Params) -> Option<Formati
 /// nearest to this UAV, their centre pulled back by `tnpf_distance_m`; with one predecessor, PF
 /// on it with the same distance (Fig. 42e lines 438–440). Equal distances: the earlier in order.
 fn tnpf_target(me: &UavState, known: &[UavState], p: &M23Params) -> Option<FormationTarget> {
-    let mut predecessors: Vec<&UavState> =
-        known.iter().filter(|u| precedes(u.id, me.id, p.leader_id)).collect();
+    let mut predecessors: Vec<&UavState> = known.iter().filter(|u| precedes(u.id, me.id, p.leader_id)).collect();
     // seed 004 Fig. 42f lines 501–512: the nearest and the second nearest by distance2d.
     predecessors.sort_by(|a, b| {
         let da = (a.position - me.position).norm_squared();
@@ -286,11 +281,7 @@ fn ring(k: i64) -> Vec<(i64, i64)> {
 /// COSTMAP_THRES; else the nearest cheap point within SEARCHING_RADIUS of the midpoint between
 /// the goal and the reference (Fig. 42d lines 374–376); `None` when there is none, and the caller
 /// keeps its previous goal (Fig. 40 "no updated goal").
-pub fn validate_goal(
-    target: &FormationTarget,
-    costs: &impl CostQuery,
-    p: &M23Params,
-) -> Option<Point2<f64>> {
+pub fn validate_goal(target: &FormationTarget, costs: &impl CostQuery, p: &M23Params) -> Option<Point2<f64>> {
     if !finite_point(&target.goal) {
         return None;
     }
@@ -351,11 +342,7 @@ pub fn follower_goal(
 /// Whether any follower is farther than `max_distance_m` from the leader ("is there far
 /// followers" of seed 004 Fig. 39 line 789: distance > MAX_DISTANCE). Non-finite positions are
 /// ignored.
-pub fn any_follower_far(
-    leader: Point2<f64>,
-    followers: &[Point2<f64>],
-    max_distance_m: f64,
-) -> bool {
+pub fn any_follower_far(leader: Point2<f64>, followers: &[Point2<f64>], max_distance_m: f64) -> bool {
     followers.iter().filter(|f| finite_point(f)).any(|f| (f - leader).norm() > max_distance_m)
 }
 
@@ -407,9 +394,7 @@ impl LeaderWait {
         }
         self.state = match (self.state, far) {
             (LeaderState::Going, Some(true)) => LeaderState::Waiting { since_secs: t_secs },
-            (LeaderState::Waiting { .. } | LeaderState::TimedOut, Some(false)) => {
-                LeaderState::Going
-            }
+            (LeaderState::Waiting { .. } | LeaderState::TimedOut, Some(false)) => LeaderState::Going,
             (state, _) => state,
         };
         if let LeaderState::Waiting { since_secs } = self.state {
@@ -448,25 +433,17 @@ pub struct TrackerOutput {
 
 /// The point `lookahead_m` along `path` after the projection of `position`, and the distance
 /// left to the path's end measured from `position` through the projection.
-fn carrot_on(
-    path: &[Point2<f64>],
-    position: Point2<f64>,
-    lookahead_m: f64,
-) -> Option<(Point2<f64>, f64)> {
+fn carrot_on(path: &[Point2<f64>], position: Point2<f64>, lookahead_m: f64) -> Option<(Point2<f64>, f64)> {
     let (&last, _) = path.split_last()?;
     let nearest = |(i, w): (usize, &[Point2<f64>])| {
         let (a, b) = (w[0], w[1]);
         let ab = b - a;
-        let t = if ab.norm_squared() > EPS {
-            ((position - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let t =
+            if ab.norm_squared() > EPS { ((position - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0) } else { 0.0 };
         let q = a + t * ab;
         (i, q, (position - q).norm())
     };
-    let Some((seg, proj, off_path)) =
-        path.windows(2).enumerate().map(nearest).min_by(|a, b| a.2.total_cmp(&b.2))
+    let Some((seg, proj, off_path)) = path.windows(2).enumerate().map(nearest).min_by(|a, b| a.2.total_cmp(&b.2))
     else {
         return Some((last, (last - position).norm()));
     };
@@ -486,11 +463,7 @@ fn carrot_on(
 
 /// The path-following velocity: towards the carrot at min(max speed, √(2·a·d_left)), so the UAV
 /// can brake to rest at the path's end; zero within `goal_tolerance_m` of the end.
-fn desired_velocity(
-    path: &[Point2<f64>],
-    position: Point2<f64>,
-    p: &M23Params,
-) -> (Vector2<f64>, Option<Point2<f64>>) {
+fn desired_velocity(path: &[Point2<f64>], position: Point2<f64>, p: &M23Params) -> (Vector2<f64>, Option<Point2<f64>>) {
     let Some((carrot, left)) = carrot_on(path, position, p.lookahead_m) else {
         return (Vector2::zeros(), None);
     };
@@ -530,13 +503,7 @@ fn blocks(cost: Option<u8>, own: Option<u8>) -> bool {
 /// Admissible velocity (the dynamic window's obstacle condition): the straight segment flown in
 /// this step plus the braking distance |v|²/(2a) crosses no blocking cell, sampled every half
 /// cell. Standing still is always admissible.
-fn admissible(
-    c: Vector2<f64>,
-    position: Point2<f64>,
-    dt_secs: f64,
-    costs: &impl CostQuery,
-    p: &M23Params,
-) -> bool {
+fn admissible(c: Vector2<f64>, position: Point2<f64>, dt_secs: f64, costs: &impl CostQuery, p: &M23Params) -> bool {
     let speed = c.norm();
     if speed <= EPS {
         return true;
@@ -575,8 +542,7 @@ pub fn track(
     if !finite_point(&position) {
         return stop;
     }
-    let v =
-        if velocity.x.is_finite() && velocity.y.is_finite() { velocity } else { Vector2::zeros() };
+    let v = if velocity.x.is_finite() && velocity.y.is_finite() { velocity } else { Vector2::zeros() };
     let dt = if dt_secs.is_finite() && dt_secs > 0.0 { dt_secs } else { 0.0 };
     let finite_path: Vec<Point2<f64>> = path.iter().copied().filter(finite_point).collect();
     let (desired, carrot) = desired_velocity(&finite_path, position, p);
@@ -625,12 +591,7 @@ mod tests {
         fn set(&mut self, cx: i64, cy: i64, cost: u8) {
             self.cells[(cy * self.w + cx) as usize] = cost;
         }
-        fn fill_rect(
-            &mut self,
-            xs: std::ops::RangeInclusive<i64>,
-            ys: std::ops::RangeInclusive<i64>,
-            cost: u8,
-        ) {
+        fn fill_rect(&mut self, xs: std::ops::RangeInclusive<i64>, ys: std::ops::RangeInclusive<i64>, cost: u8) {
             for cx in xs {
                 for cy in ys.clone() {
                     self.set(cx, cy, cost);
@@ -684,8 +645,7 @@ mod tests {
     fn lf_adds_the_table_7_offset_in_world_axes() {
         let p = params();
         let leader = UavState { id: 1, position: pt(10.0, 5.0), heading: 0.7 };
-        let goal =
-            |id| formation_goal(Topology::Lf, &uav(id, 0.0, 0.0), Some(&leader), &[], &p).unwrap();
+        let goal = |id| formation_goal(Topology::Lf, &uav(id, 0.0, 0.0), Some(&leader), &[], &p).unwrap();
         // Offsets (−2, 0), (0, −2), (−2, −2); heading 0.7 ignored in the world frame.
         close(goal(2), pt(8.0, 5.0));
         close(goal(3), pt(10.0, 3.0));
@@ -761,13 +721,7 @@ mod tests {
     #[test]
     fn pf_at_the_reference_pulls_back_along_minus_x() {
         // atan2(0, 0) = 0: (4, 4) − 2·(1, 0) = (2, 4).
-        let g = formation_goal(
-            Topology::Pf,
-            &uav(2, 4.0, 4.0),
-            Some(&uav(1, 4.0, 4.0)),
-            &[],
-            &params(),
-        );
+        let g = formation_goal(Topology::Pf, &uav(2, 4.0, 4.0), Some(&uav(1, 4.0, 4.0)), &[], &params());
         close(g.unwrap(), pt(2.0, 4.0));
     }
 
@@ -789,13 +743,7 @@ mod tests {
     fn tnpf_with_one_predecessor_is_pf() {
         let p = M23Params { tnpf_distance_m: 1.0, ..params() };
         // Only the leader precedes uav2: (0, 3) − 1·(0, 1) = (0, 2).
-        let g = formation_goal(
-            Topology::Tnpf,
-            &uav(2, 0.0, 0.0),
-            Some(&uav(1, 0.0, 3.0)),
-            &[uav(3, 0.0, 1.0)],
-            &p,
-        );
+        let g = formation_goal(Topology::Tnpf, &uav(2, 0.0, 0.0), Some(&uav(1, 0.0, 3.0)), &[uav(3, 0.0, 1.0)], &p);
         close(g.unwrap(), pt(0.0, 2.0));
     }
 
@@ -804,10 +752,7 @@ mod tests {
         let p = params();
         let known = [uav(2, f64::NAN, 0.0), uav(1, 0.0, 5.0)];
         // uav2 ignored: PF on the leader, (0, 5) − 2·(0, 1) = (0, 3).
-        close(
-            formation_goal(Topology::Pf, &uav(3, 0.0, 0.0), None, &known, &p).unwrap(),
-            pt(0.0, 3.0),
-        );
+        close(formation_goal(Topology::Pf, &uav(3, 0.0, 0.0), None, &known, &p).unwrap(), pt(0.0, 3.0));
         assert_eq!(formation_goal(Topology::Pf, &uav(3, f64::NAN, 0.0), None, &known, &p), None);
     }
 
@@ -1013,10 +958,7 @@ mod tests {
         for _ in 0..300 {
             let out = track(&path, pos, v, dt, &g, &p);
             assert!(out.velocity.norm() <= p.max_speed_mps + 1e-9);
-            assert!(
-                (out.velocity - v).norm() <= p.max_accel_mps2 * dt + 1e-9,
-                "{out:?} from {v:?}"
-            );
+            assert!((out.velocity - v).norm() <= p.max_accel_mps2 * dt + 1e-9, "{out:?} from {v:?}");
             let next = pos + out.velocity * dt;
             for k in 0..=100 {
                 let q = pos + (next - pos) * (k as f64 / 100.0);
@@ -1034,14 +976,8 @@ mod tests {
     fn tracker_stops_when_no_velocity_of_the_window_can_stop_in_time() {
         // 1.5 m/s, wall 0.2 m ahead: every window velocity has |v| ≥ 1.4 and a reach of at
         // least 0.14 + 1.4²/2 = 1.12 m along ≈ +x.
-        let out = track(
-            &[pt(4.8, 4.0), pt(9.0, 4.0)],
-            pt(4.8, 4.0),
-            Vector2::new(1.5, 0.0),
-            0.1,
-            &wall_grid(),
-            &params(),
-        );
+        let out =
+            track(&[pt(4.8, 4.0), pt(9.0, 4.0)], pt(4.8, 4.0), Vector2::new(1.5, 0.0), 0.1, &wall_grid(), &params());
         assert_eq!(out.safety, Safety::Stopped);
         assert_eq!(out.velocity, Vector2::zeros());
     }
@@ -1052,37 +988,16 @@ mod tests {
         // free side is allowed, the path leads there.
         let mut g = wall_grid();
         g.fill_rect(40..=49, 0..=79, INSCRIBED);
-        let out = track(
-            &[pt(4.5, 4.0), pt(1.0, 4.0)],
-            pt(4.5, 4.0),
-            Vector2::zeros(),
-            0.1,
-            &g,
-            &params(),
-        );
+        let out = track(&[pt(4.5, 4.0), pt(1.0, 4.0)], pt(4.5, 4.0), Vector2::zeros(), 0.1, &g, &params());
         assert_eq!(out.safety, Safety::Clear);
         assert!((out.velocity - Vector2::new(-0.1, 0.0)).norm() < 1e-12);
         // Towards the wall it may move inside the band but not into the wall: from x = 4.99 the
         // path velocity (0.1, 0) reaches 0.1·0.1 + 0.1²/2 = 0.015 m, to x = 5.005, lethal.
-        let out = track(
-            &[pt(4.99, 4.0), pt(9.0, 4.0)],
-            pt(4.99, 4.0),
-            Vector2::zeros(),
-            0.1,
-            &g,
-            &params(),
-        );
+        let out = track(&[pt(4.99, 4.0), pt(9.0, 4.0)], pt(4.99, 4.0), Vector2::zeros(), 0.1, &g, &params());
         assert_eq!(out.safety, Safety::Adjusted);
         let reach = out.velocity.norm() * 0.1 + out.velocity.norm_squared() / 2.0;
         assert!(4.99 + reach * out.velocity.x / out.velocity.norm().max(1e-12) < 5.0, "{out:?}");
-        let out = track(
-            &[pt(4.9, 4.0), pt(9.0, 4.0)],
-            pt(4.9, 4.0),
-            Vector2::zeros(),
-            0.1,
-            &g,
-            &params(),
-        );
+        let out = track(&[pt(4.9, 4.0), pt(9.0, 4.0)], pt(4.9, 4.0), Vector2::zeros(), 0.1, &g, &params());
         assert_eq!(out.safety, Safety::Clear);
     }
 
@@ -1092,8 +1007,7 @@ mod tests {
         let out = track(&straight_path(), pt(f64::NAN, 0.0), Vector2::zeros(), 0.1, &Free, &p);
         assert_eq!((out.velocity, out.safety), (Vector2::zeros(), Safety::Stopped));
         // A NaN velocity is taken as rest; a NaN dt as a zero window: the command stays at rest.
-        let out =
-            track(&straight_path(), pt(0.0, 0.0), Vector2::new(f64::NAN, 0.0), f64::NAN, &Free, &p);
+        let out = track(&straight_path(), pt(0.0, 0.0), Vector2::new(f64::NAN, 0.0), f64::NAN, &Free, &p);
         assert_eq!(out.velocity, Vector2::zeros());
         let out = track(&[], pt(0.0, 0.0), Vector2::new(1.0, 0.0), 0.1, &Free, &p);
         assert!((out.velocity - Vector2::new(0.9, 0.0)).norm() < 1e-12);

@@ -35,7 +35,7 @@ mod p17;
 pub(crate) mod pilot;
 
 pub use arrival::Arrival;
+pub use controller::{Controller, Controllers, MakeController, UnknownController};
 pub use hops::Hops;
 pub use lost_contact::LostContact;
-pub use controller::{Controller, Controllers, MakeController, UnknownController};
 pub use pilot::{Command, View};

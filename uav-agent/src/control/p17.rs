@@ -78,7 +78,6 @@
 //! 1.05 and 1.15) the pure navigation loop does not converge and only the loop-distance limit
 //! bounds it; Table 2 (c2 = 0) converges.
 
-
 use nalgebra::{Matrix2, Vector2};
 use swarm_config::P17Values;
 
@@ -300,12 +299,7 @@ pub fn cohesion(v: &P17Values, p0: Vector2<f64>, neighbours: &[Neighbour]) -> Ve
 /// μ = R/|p0 − c|, p_q = μ p0 + (1 − μ) c (the closest border point), v_q = b1 μ P v0 with
 /// P = I − n nᵀ, n = (p0 − c)/|p0 − c|. Inside the cylinder p_q = c and μ = 1 (see the module
 /// doc). `None` at the centre or for non-finite or negative data.
-pub fn beta_cylinder(
-    v: &P17Values,
-    p0: Vector2<f64>,
-    v0: Vector2<f64>,
-    c: &Cylinder,
-) -> Option<BetaAgent> {
+pub fn beta_cylinder(v: &P17Values, p0: Vector2<f64>, v0: Vector2<f64>, c: &Cylinder) -> Option<BetaAgent> {
     if !(is_finite(&c.centre) && c.radius_m.is_finite() && c.radius_m >= 0.0) {
         return None;
     }
@@ -436,20 +430,14 @@ pub fn obstacle_avoidance(
     goal: Option<Vector2<f64>>,
 ) -> (Vector2<f64>, Vector2<f64>) {
     let v0 = per_loop(v, prev_vel_mps);
-    let cyl = cylinders
-        .iter()
-        .filter_map(|c| beta_cylinder(v, p0, v0, c).map(|q| (q, tau_cylinder(c, p0, goal))));
-    let wall =
-        walls.iter().filter_map(|w| beta_wall(v, p0, v0, w).map(|q| (q, tau_wall(w, p0, goal))));
+    let cyl = cylinders.iter().filter_map(|c| beta_cylinder(v, p0, v0, c).map(|q| (q, tau_cylinder(c, p0, goal))));
+    let wall = walls.iter().filter_map(|w| beta_wall(v, p0, v0, w).map(|q| (q, tau_wall(w, p0, goal))));
     let (mut sep, mut align, mut n) = (Vector2::zeros(), Vector2::zeros(), 0usize);
     for (q, tau) in cyl.chain(wall).filter(|(q, _)| (q.pos - p0).norm() <= v.r) {
         // seed 001 eq. 28–29 and Fig. 22: σ_j (p0 − p_qj)/|p0 − p_qj| as a barrier (the module
         // doc), σ_j (p0 − p_qj) as typeset; and τ_j v_qj.
-        sep += if v.obstacle_barrier {
-            push(|x| sigma(v, x) / x, p0 - q.pos)
-        } else {
-            push(|x| sigma(v, x), p0 - q.pos)
-        };
+        sep +=
+            if v.obstacle_barrier { push(|x| sigma(v, x) / x, p0 - q.pos) } else { push(|x| sigma(v, x), p0 - q.pos) };
         align += tau * q.vel;
         n += 1;
     }
@@ -491,12 +479,7 @@ pub fn keep_off_obstacles(
 ///
 /// Static: c1 (p_G − p0) − c2 v0. Dynamic: c1 (p_G(t) − p0) + c2 (v_G(t) − v0), with v0 and v_G
 /// as moves of one loop.
-pub fn navigation(
-    v: &P17Values,
-    p0: Vector2<f64>,
-    prev_vel_mps: Vector2<f64>,
-    goal: Option<Goal>,
-) -> Vector2<f64> {
+pub fn navigation(v: &P17Values, p0: Vector2<f64>, prev_vel_mps: Vector2<f64>, goal: Option<Goal>) -> Vector2<f64> {
     let Some(g) = goal else {
         return Vector2::zeros();
     };
@@ -570,11 +553,11 @@ pub fn step(v: &P17Values, input: &Input) -> Output {
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests {
+    use super::super::neighbour_velocity::VelocityTracker;
     use super::*;
     use proptest::prelude::*;
     use proptest::test_runner::RngSeed;
     use swarm_config::P17Preset;
-    use super::super::neighbour_velocity::VelocityTracker;
 
     /// Table 1, Fig. 28/29/35: r 10, k1 10, d 4, b1 10, b2 4; the X fields from forest_9:
     /// k2 25, w 4, c1 0.15, c2 0.9; 5 Hz, 0.75 m. A velocity of 5 m/s is 1 m per loop.
@@ -669,11 +652,7 @@ mod tests {
         let p = boids();
         let x = 1.0 / 0.36;
         let ns = [nb(x, 0.0)];
-        close(
-            separation(&p, v(0.0, 0.0), &ns) + cohesion(&p, v(0.0, 0.0), &ns),
-            v(0.0, 0.0),
-            1e-12,
-        );
+        close(separation(&p, v(0.0, 0.0), &ns) + cohesion(&p, v(0.0, 0.0), &ns), v(0.0, 0.0), 1e-12);
         // Closer pushes apart, farther pulls together.
         let f = |d: f64| {
             let ns = [nb(d, 0.0)];
@@ -1116,12 +1095,7 @@ mod tests {
 
     fn nearest_spacing(pos: &[Vector2<f64>]) -> Spacing {
         let nn: Vec<f64> = (0..pos.len())
-            .map(|i| {
-                (0..pos.len())
-                    .filter(|&j| j != i)
-                    .map(|j| (pos[i] - pos[j]).norm())
-                    .fold(f64::INFINITY, f64::min)
-            })
+            .map(|i| (0..pos.len()).filter(|&j| j != i).map(|j| (pos[i] - pos[j]).norm()).fold(f64::INFINITY, f64::min))
             .collect();
         Spacing {
             mean: nn.iter().sum::<f64>() / nn.len() as f64,
@@ -1193,8 +1167,7 @@ mod tests {
         let run = lattice(4, 400, 50);
         let means: Vec<f64> = run.tail.iter().map(|s| s.mean).collect();
         let mean = means.iter().sum::<f64>() / means.len() as f64;
-        let spread = means.iter().copied().fold(0.0, f64::max)
-            - means.iter().copied().fold(f64::INFINITY, f64::min);
+        let spread = means.iter().copied().fold(0.0, f64::max) - means.iter().copied().fold(f64::INFINITY, f64::min);
         println!(
             "P17 lattice, 4 agents, d = 4 m, 20 Hz: mean nearest-neighbour spacing {mean:.3} m \
              (spread over the last 50 loops {spread:.4} m; seed 001: ξ = 2.80 ± 0.15 m in 3D; \

@@ -26,12 +26,14 @@
 //!   and subtracts `damping_per_s`·v from eq. 1's acceleration (the seed's tracker damps; ours
 //!   is a bare double integrator).
 
+use super::controller::Controller;
 use super::m23::{self, FollowerInput, LeaderWait, UavState};
 use super::neighbour_velocity::VelocityTracker;
-use super::controller::Controller;
 use super::{a21, k21, p17};
 use crate::geometry::{wrap_angle, Pose2};
-use crate::planning::{CostQuery, Costmap, GridParams, Heuristic, OccupancyGrid, PlanParams, SocialAgent, LETHAL_OBSTACLE};
+use crate::planning::{
+    CostQuery, Costmap, GridParams, Heuristic, OccupancyGrid, PlanParams, SocialAgent, LETHAL_OBSTACLE,
+};
 use crate::world_model::{Circle, Estimate, Segment};
 use nalgebra::{Point2, Rotation2, Vector2};
 use std::sync::Arc;
@@ -140,7 +142,11 @@ pub struct A21Pilot {
 impl A21Pilot {
     pub(super) fn new(sc: &Scenario) -> A21Pilot {
         let a = &sc.controller.a21;
-        let grid = GridParams { resolution_m: a.grid_resolution_m, max_range_m: sc.lidar.max_range_m, ..GridParams::default() };
+        let grid = GridParams {
+            resolution_m: a.grid_resolution_m,
+            max_range_m: sc.lidar.max_range_m,
+            ..GridParams::default()
+        };
         let period_s = 1.0 / sc.time.control_hz;
         // A swarm of one has no flock to wait for (`phi_alone`'s reason): it flies its path.
         let params = if sc.count() == 1 { swarm_config::A21Params { phi_alone: 1.0, ..a.clone() } } else { a.clone() };
@@ -205,7 +211,12 @@ fn pose(odom: &Odom) -> (Vector2<f64>, Rotation2<f64>) {
     (Vector2::new(odom.x, odom.y), Rotation2::new(odom.yaw))
 }
 
-fn fly_p17(values: &swarm_config::P17Values, v: &View, prev_vel: &mut Vector2<f64>, tracker: &mut VelocityTracker) -> Command {
+fn fly_p17(
+    values: &swarm_config::P17Values,
+    v: &View,
+    prev_vel: &mut Vector2<f64>,
+    tracker: &mut VelocityTracker,
+) -> Command {
     let (p0, rot) = pose(v.odom);
     let to_odom = |b: Vector2<f64>| p0 + rot * b;
     tracker.forget_stale(v.t_secs);
@@ -221,8 +232,11 @@ fn fly_p17(values: &swarm_config::P17Values, v: &View, prev_vel: &mut Vector2<f6
         .collect();
     let cylinders: Vec<p17::Cylinder> =
         v.trees.iter().map(|c| p17::Cylinder { centre: to_odom(c.center.coords), radius_m: c.radius }).collect();
-    let walls: Vec<p17::Wall> =
-        v.walls.iter().map(|s| p17::Wall { a: to_odom(s.a.coords), b: to_odom(s.b.coords), thickness_m: 0.0 }).collect();
+    let walls: Vec<p17::Wall> = v
+        .walls
+        .iter()
+        .map(|s| p17::Wall { a: to_odom(s.a.coords), b: to_odom(s.b.coords), thickness_m: 0.0 })
+        .collect();
     // seed 001 eq. 38 (static goal) or eq. 39 (a goal that moves).
     let goal = v.odom.goal.map(|g| {
         let pos = Vector2::new(g[0], g[1]);
@@ -233,7 +247,14 @@ fn fly_p17(values: &swarm_config::P17Values, v: &View, prev_vel: &mut Vector2<f6
     });
     let out = p17::step(
         values,
-        &p17::Input { pos: p0, prev_vel_mps: *prev_vel, neighbours: &neighbours, cylinders: &cylinders, walls: &walls, goal },
+        &p17::Input {
+            pos: p0,
+            prev_vel_mps: *prev_vel,
+            neighbours: &neighbours,
+            cylinders: &cylinders,
+            walls: &walls,
+            goal,
+        },
     );
     *prev_vel = out.velocity_mps;
     let f = &out.forces;
@@ -267,7 +288,8 @@ fn fly_a21(
     let direction = v.odom.goal.and_then(|g| {
         let due = planned_at.is_none_or(|t| v.t_secs - t >= a.replan_period_s - 1e-9);
         if due {
-            let params = PlanParams { heuristic: Heuristic::A21, inflation_radius_m: a.inflation_m, ..PlanParams::default() };
+            let params =
+                PlanParams { heuristic: Heuristic::A21, inflation_radius_m: a.inflation_m, ..PlanParams::default() };
             *path = grid.plan(Point2::from(p0), Point2::new(g[0], g[1]), &params).map(|p| p.points).unwrap_or_default();
             *planned_at = Some(v.t_secs);
         }
@@ -277,7 +299,10 @@ fn fly_a21(
     let neighbours: Vec<Vector2<f64>> = v.neighbours.iter().map(|e| e.pos_in_body).collect();
     let obstacle_points: Vec<Vector2<f64>> =
         v.static_points.iter().map(|p| p.coords).filter(|p| p.norm() <= a.dr_m).collect();
-    let out = a21::step(a, &a21::Input { neighbours: &neighbours, obstacle_points: &obstacle_points, path_direction: direction });
+    let out = a21::step(
+        a,
+        &a21::Input { neighbours: &neighbours, obstacle_points: &obstacle_points, path_direction: direction },
+    );
     // The damping the seed's trajectory tracker provides (see `A21Params::damping_per_s`).
     let vel_body = rot.inverse() * Vector2::new(v.odom.vx, v.odom.vy);
     let acceleration = out.acceleration - a.damping_per_s * vel_body;
@@ -351,7 +376,8 @@ impl M23Pilot {
         let mut social = Vec::new();
         for e in v.neighbours {
             let pos = p0 + rot * e.pos_in_body;
-            let vel = e.id.and_then(|id| self.tracker.update(id, pos, v.t_secs - e.age_secs)).unwrap_or_else(Vector2::zeros);
+            let vel =
+                e.id.and_then(|id| self.tracker.update(id, pos, v.t_secs - e.age_secs)).unwrap_or_else(Vector2::zeros);
             social.push(SocialAgent { position: Point2::from(pos), velocity: vel });
             if let Some(id) = e.id {
                 known.push(UavState { id, position: Point2::from(pos), heading: v.odom.yaw + e.heading });
@@ -367,10 +393,15 @@ impl M23Pilot {
         // The tracker sees the neighbours where they are now as lethal discs, as seed 004's local
         // planner saw them in its LIDAR's obstacle layer.
         let others = social.iter().map(|a| a.position);
-        let costs = WithNeighbours::new(&self.costmap, others, Point2::from(p0), 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M);
+        let costs =
+            WithNeighbours::new(&self.costmap, others, Point2::from(p0), 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M);
         let out = m23::track(path, Point2::from(p0), vel_odom, sc.dt_secs(), &costs, p);
         let speed = out.velocity.norm() as f32;
-        odom_velocity(rot, out.velocity, VectorMagnitudes { navigation: speed, output: speed, ..VectorMagnitudes::default() })
+        odom_velocity(
+            rot,
+            out.velocity,
+            VectorMagnitudes { navigation: speed, output: speed, ..VectorMagnitudes::default() },
+        )
     }
 
     /// The leader's wait (seed 004 Fig. 38): while a follower is farther than MAX_DISTANCE, at
@@ -408,7 +439,8 @@ impl M23Pilot {
         // A follower that has never known its reference (anonymous ICP neighbours, or nobody in
         // range yet) flies to its own goal rather than hovering.
         self.goal = m23::follower_goal(p.topology, &input, &self.costmap, p).or(Some(own));
-        self.path = self.goal.and_then(|g| self.costmap.plan(me.position, g)).map(|path| path.points).unwrap_or_default();
+        self.path =
+            self.goal.and_then(|g| self.costmap.plan(me.position, g)).map(|path| path.points).unwrap_or_default();
     }
 }
 
@@ -437,7 +469,12 @@ struct WithNeighbours<'a> {
 }
 
 impl<'a> WithNeighbours<'a> {
-    fn new(map: &'a Costmap, others: impl Iterator<Item = Point2<f64>>, me: Point2<f64>, radius_m: f64) -> WithNeighbours<'a> {
+    fn new(
+        map: &'a Costmap,
+        others: impl Iterator<Item = Point2<f64>>,
+        me: Point2<f64>,
+        radius_m: f64,
+    ) -> WithNeighbours<'a> {
         WithNeighbours { map, others: others.map(|o| (o, radius_m.min((o - me).norm()))).collect() }
     }
 }

@@ -51,7 +51,18 @@ impl Broadcast {
 
 /// What UAV `from` tells its neighbours of its fix `g`: the same pose, signed.
 pub(crate) fn pose_share(from: u32, g: &Gnss) -> PoseShare {
-    PoseShare { from, tick: g.tick, t_secs: g.t_secs, x: g.x, y: g.y, yaw: g.yaw, vx: g.vx, vy: g.vy, hops: swarm_wire::NO_PATH, arrival: swarm_wire::NO_PATH }
+    PoseShare {
+        from,
+        tick: g.tick,
+        t_secs: g.t_secs,
+        x: g.x,
+        y: g.y,
+        yaw: g.yaw,
+        vx: g.vx,
+        vy: g.vy,
+        hops: swarm_wire::NO_PATH,
+        arrival: swarm_wire::NO_PATH,
+    }
 }
 
 /// Newest broadcast pose per neighbour.
@@ -128,7 +139,21 @@ mod tests {
     fn the_share_is_the_fix_signed_by_its_sender() {
         let g = Gnss { tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1 };
         let p = pose_share(4, &g);
-        assert_eq!(p, PoseShare { from: 4, tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1, hops: swarm_wire::NO_PATH, arrival: swarm_wire::NO_PATH });
+        assert_eq!(
+            p,
+            PoseShare {
+                from: 4,
+                tick: 3,
+                t_secs: 0.3,
+                x: 1.0,
+                y: 2.0,
+                yaw: 0.5,
+                vx: 0.1,
+                vy: -0.1,
+                hops: swarm_wire::NO_PATH,
+                arrival: swarm_wire::NO_PATH
+            }
+        );
     }
 
     #[test]

@@ -15,7 +15,12 @@ pub(crate) fn estimates(frame: &SensorFrame) -> Vec<Estimate> {
             .iter()
             .map(|s| {
                 let (r, b) = (f64::from(s.range_m), f64::from(s.bearing_rad));
-                Estimate { id: Some(s.id), pos_in_body: r * Vector2::new(b.cos(), b.sin()), heading: 0.0, age_secs: 0.0 }
+                Estimate {
+                    id: Some(s.id),
+                    pos_in_body: r * Vector2::new(b.cos(), b.sin()),
+                    heading: 0.0,
+                    age_secs: 0.0,
+                }
             })
             .collect()
     })

@@ -47,9 +47,16 @@ pub(super) struct ExternalLink {
 
 impl ExternalLink {
     /// Subscribes to UAV `id`'s command key and watches its controller's token.
-    pub(super) async fn open(s: &zenoh::Session, keys: &Keys, id: u32, sc: &Scenario) -> Result<ExternalLink, AgentError> {
+    pub(super) async fn open(
+        s: &zenoh::Session,
+        keys: &Keys,
+        id: u32,
+        sc: &Scenario,
+    ) -> Result<ExternalLink, AgentError> {
         let (tx, cmds) = mpsc::unbounded_channel();
-        let cmd_sub = plumbing::subscribe(s, keys.ext_cmd(id), tx, |sample| Some(ExtCmd::parse(&plumbing::payload(sample)))).await?;
+        let cmd_sub =
+            plumbing::subscribe(s, keys.ext_cmd(id), tx, |sample| Some(ExtCmd::parse(&plumbing::payload(sample))))
+                .await?;
         let (controller_alive, alive_sub) = plumbing::watch_token(s, keys.alive_ext(id)).await?;
         let view_key = s.declare_keyexpr(keys.ext_view(id)).await.map_err(WireError::zenoh)?;
         let wait = match sc.time.mode {
@@ -92,7 +99,11 @@ impl ExternalLink {
         }
         // serde_json writes a non-finite number as null; a view has none (see `finite`).
         let text = serde_json::to_vec(&ext_view(tick, view)).expect("a view serializes");
-        self.session.put(self.view_key.clone(), text).encoding(Encoding::APPLICATION_JSON).await.map_err(WireError::zenoh)?;
+        self.session
+            .put(self.view_key.clone(), text)
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+            .map_err(WireError::zenoh)?;
         let deadline = tokio::time::Instant::now() + self.wait;
         loop {
             match tokio::time::timeout_at(deadline, self.cmds.recv()).await {
@@ -121,10 +132,24 @@ fn ext_view(tick: u64, v: &View) -> ExtView {
         neighbours: v
             .neighbours
             .iter()
-            .map(|e| ExtNeighbour { id: e.id, x: finite(e.pos_in_body.x), y: finite(e.pos_in_body.y), heading: finite(e.heading), age_s: finite(e.age_secs) })
+            .map(|e| ExtNeighbour {
+                id: e.id,
+                x: finite(e.pos_in_body.x),
+                y: finite(e.pos_in_body.y),
+                heading: finite(e.heading),
+                age_s: finite(e.age_secs),
+            })
             .collect(),
-        trees: v.trees.iter().map(|c| ExtTree { x: finite(c.center.x), y: finite(c.center.y), r: finite(c.radius) }).collect(),
-        walls: v.walls.iter().map(|w| ExtWall { ax: finite(w.a.x), ay: finite(w.a.y), bx: finite(w.b.x), by: finite(w.b.y) }).collect(),
+        trees: v
+            .trees
+            .iter()
+            .map(|c| ExtTree { x: finite(c.center.x), y: finite(c.center.y), r: finite(c.radius) })
+            .collect(),
+        walls: v
+            .walls
+            .iter()
+            .map(|w| ExtWall { ax: finite(w.a.x), ay: finite(w.a.y), bx: finite(w.b.x), by: finite(w.b.y) })
+            .collect(),
     }
 }
 
@@ -136,7 +161,12 @@ fn command_of(c: &ExtCmd) -> Command {
     // Beyond f32 the wire's command would be infinite; nothing flies that fast anyway.
     let clamp = |v: f64| v.clamp(-1e6, 1e6);
     let xy = Vector2::new(clamp(c.x), clamp(c.y));
-    Command { kind, xy, yaw_rate: clamp(c.yaw_rate), vectors: VectorMagnitudes { output: xy.norm() as f32, ..VectorMagnitudes::default() } }
+    Command {
+        kind,
+        xy,
+        yaw_rate: clamp(c.yaw_rate),
+        vectors: VectorMagnitudes { output: xy.norm() as f32, ..VectorMagnitudes::default() },
+    }
 }
 
 /// `v`, or 0 where it is not a number a JSON reader can take.
@@ -151,7 +181,11 @@ fn finite(v: f64) -> f64 {
 impl Drop for ExternalLink {
     fn drop(&mut self) {
         if self.missed > 0 || self.malformed > 0 {
-            info!(missed = self.missed, malformed = self.malformed, "external controller: ticks without its command, and payloads that were not one");
+            info!(
+                missed = self.missed,
+                malformed = self.malformed,
+                "external controller: ticks without its command, and payloads that were not one"
+            );
         }
     }
 }

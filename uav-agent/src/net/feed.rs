@@ -267,7 +267,14 @@ impl ShareFeed {
         let mut d = inner.declared.lock().unwrap_or_else(PoisonError::into_inner);
         let Some(key) = self.key_locked(&mut d, from)? else { return Ok(None) };
         // The listener first: a share that arrives as soon as the subscription exists finds it.
-        inner.listeners.lock().unwrap_or_else(PoisonError::into_inner).by_sender.entry(from).or_default().push((me, mailbox.clone()));
+        inner
+            .listeners
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .by_sender
+            .entry(from)
+            .or_default()
+            .push((me, mailbox.clone()));
         if let Some((_, count)) = d.subs.get_mut(&from) {
             *count += 1;
             return Ok(Some(Listening { feed: self.clone(), from, me }));
@@ -307,7 +314,12 @@ pub(crate) struct SessionShared {
 impl SessionShared {
     /// Declares the keys every agent of session `s` uses, for scenario `sc`; the session flies
     /// the UAVs `ids`.
-    pub(crate) async fn open(s: &zenoh::Session, keys: &Keys, sc: &Scenario, ids: &[u32]) -> Result<Arc<SessionShared>, AgentError> {
+    pub(crate) async fn open(
+        s: &zenoh::Session,
+        keys: &Keys,
+        sc: &Scenario,
+        ids: &[u32],
+    ) -> Result<Arc<SessionShared>, AgentError> {
         let netem_rules = s.declare_keyexpr(keys.netem_rules()).await.map_err(WireError::zenoh)?;
         Ok(Arc::new(SessionShared { feed: ShareFeed::new(s, keys, sc, ids), netem_rules, zid: s.zid().to_string() }))
     }
@@ -355,8 +367,14 @@ mod tests {
         let got: Vec<Vec<Arrived>> = mailboxes.iter().map(taken).collect();
         assert!(got.iter().all(|g| g.len() == 3), "each listener gets all three: {got:?}");
         let first = got[0][0].share.clone().expect("a good share");
-        assert!(got.iter().all(|g| g[0].share.as_ref().is_some_and(|s| Arc::ptr_eq(s, &first)) && g[0].len == bytes.len()), "one decode, shared");
-        assert!(got.iter().all(|g| g[1..].iter().all(|a| a.share.is_none() && a.from == 7)), "a share whose sender is not its key's, or garbage, is malformed for each");
+        assert!(
+            got.iter().all(|g| g[0].share.as_ref().is_some_and(|s| Arc::ptr_eq(s, &first)) && g[0].len == bytes.len()),
+            "one decode, shared"
+        );
+        assert!(
+            got.iter().all(|g| g[1..].iter().all(|a| a.share.is_none() && a.from == 7)),
+            "a share whose sender is not its key's, or garbage, is malformed for each"
+        );
     }
 
     #[test]
@@ -431,7 +449,10 @@ mod tests {
         let (one, two) = (wait_for(&m1, Some(100), 2, 500).await, wait_for(&m2, Some(100), 1, 500).await);
         assert_eq!(one.iter().map(|a| a.from).collect::<Vec<_>>(), [3, 4], "agent 1 hears 3 and 4");
         assert_eq!(two.iter().map(|a| a.from).collect::<Vec<_>>(), [3], "agent 2 hears 3 only");
-        assert!(Arc::ptr_eq(one[0].share.as_ref().expect("share"), two[0].share.as_ref().expect("share")), "decoded once for both");
+        assert!(
+            Arc::ptr_eq(one[0].share.as_ref().expect("share"), two[0].share.as_ref().expect("share")),
+            "decoded once for both"
+        );
         drop(a);
         assert_eq!(subs(), 2, "agent 2 still listens to 3");
         drop(b);
@@ -440,7 +461,10 @@ mod tests {
         assert_eq!(subs(), 0);
         put(3, 200);
         put(4, 200);
-        assert!(wait_for(&m1, Some(200), 1, 30).await.is_empty() && wait_for(&m2, Some(200), 1, 1).await.is_empty(), "nobody hears anything any more");
+        assert!(
+            wait_for(&m1, Some(200), 1, 30).await.is_empty() && wait_for(&m2, Some(200), 1, 1).await.is_empty(),
+            "nobody hears anything any more"
+        );
         let t = feed.traffic().snapshot("s", (0, 0));
         assert!(t.shares >= 3 && t.remote_shares == t.shares, "3 and 4 fly on other sessions: {t:?}");
         let _ = client.close().await;
@@ -448,6 +472,17 @@ mod tests {
     }
 
     fn pose(from: u32) -> swarm_wire::PoseShare {
-        swarm_wire::PoseShare { from, tick: 4, t_secs: 0.4, x: 1.0, y: 2.0, yaw: 0.3, vx: 0.1, vy: 0.0, hops: 0, arrival: 0 }
+        swarm_wire::PoseShare {
+            from,
+            tick: 4,
+            t_secs: 0.4,
+            x: 1.0,
+            y: 2.0,
+            yaw: 0.3,
+            vx: 0.1,
+            vy: 0.0,
+            hops: 0,
+            arrival: 0,
+        }
     }
 }

@@ -13,8 +13,8 @@
 
 use super::feed::SessionShared;
 use super::node::{self, AgentExit, Flight};
-use crate::control::Controllers;
 use super::AgentError;
+use crate::control::Controllers;
 use std::future::Future;
 use std::sync::Arc;
 use swarm_config::Scenario;

@@ -250,7 +250,13 @@ async fn declare_inputs(
 }
 
 /// The command, share and state writers of UAV `id`.
-async fn declare_outputs(s: &zenoh::Session, keys: &Keys, shared: &SessionShared, id: u32, sc: &Scenario) -> Result<Outputs, AgentError> {
+async fn declare_outputs(
+    s: &zenoh::Session,
+    keys: &Keys,
+    shared: &SessionShared,
+    id: u32,
+    sc: &Scenario,
+) -> Result<Outputs, AgentError> {
     let cc = match sc.time.mode {
         TimeMode::Lockstep => CongestionControl::Block,
         TimeMode::Realtime => CongestionControl::Drop,
@@ -261,18 +267,31 @@ async fn declare_outputs(s: &zenoh::Session, keys: &Keys, shared: &SessionShared
         Some(key) => Writer::new(s, key, cc).await?,
         None => Writer::new(s, keys.share_pose(id), cc).await?,
     };
-    Ok(Outputs { cmd: Writer::new(s, keys.cmd(id), CongestionControl::Block).await?, share, state: Writer::new(s, keys.state(id), cc).await? })
+    Ok(Outputs {
+        cmd: Writer::new(s, keys.cmd(id), CongestionControl::Block).await?,
+        share,
+        state: Writer::new(s, keys.state(id), cc).await?,
+    })
 }
 
 impl Node {
-    async fn start(s: zenoh::Session, keys: Keys, shared: Arc<SessionShared>, agent: Agent, sc: Scenario) -> Result<Node, AgentError> {
+    async fn start(
+        s: zenoh::Session,
+        keys: Keys,
+        shared: Arc<SessionShared>,
+        agent: Agent,
+        sc: Scenario,
+    ) -> Result<Node, AgentError> {
         let id = agent.id();
         let (tx, rx) = mpsc::unbounded_channel();
         let own_bytes = Arc::new(AtomicU64::new(0));
         let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx, &own_bytes).await?;
         let publish = declare_outputs(&s, &keys, &shared, id, &sc).await?;
-        let external =
-            if sc.controller.external.contains(&id) { Some(ExternalLink::open(&s, &keys, id, &sc).await?) } else { None };
+        let external = if sc.controller.external.contains(&id) {
+            Some(ExternalLink::open(&s, &keys, id, &sc).await?)
+        } else {
+            None
+        };
         let shares = crate::localization::share_key(sc.localization.mode, &keys, id).is_some();
         Ok(Node {
             sensors: agent.frame_collector(),
@@ -415,7 +434,8 @@ impl Node {
     async fn try_step(&mut self) -> Result<(), AgentError> {
         let Some(frame) = self.sensors.take_ready() else { return Ok(()) };
         let tick = frame.tick();
-        let due = self.admission.begin_step(tick, frame.scan.t_secs).map_err(|w| AgentError::TickWentBack(w.last, w.tick))?;
+        let due =
+            self.admission.begin_step(tick, frame.scan.t_secs).map_err(|w| AgentError::TickWentBack(w.last, w.tick))?;
         for share in due {
             self.agent.on_share(&share);
         }

@@ -62,16 +62,21 @@ impl Path {
         goal: Point2<f64>,
         center_of: impl Fn(Cell) -> Point2<f64>,
     ) -> Path {
-        let mut points: Vec<Point2<f64>> = std::iter::once(start)
-            .chain(cells.cells.iter().skip(1).map(|&c| center_of(c)))
-            .collect();
+        let mut points: Vec<Point2<f64>> =
+            std::iter::once(start).chain(cells.cells.iter().skip(1).map(|&c| center_of(c))).collect();
         if cells.reached_goal {
             if cells.cells.len() > 1 {
                 points.pop();
             }
             points.push(goal);
         }
-        Path { points, cells: cells.cells, cost: cells.cost, reached_goal: cells.reached_goal, expanded: cells.expanded }
+        Path {
+            points,
+            cells: cells.cells,
+            cost: cells.cost,
+            reached_goal: cells.reached_goal,
+            expanded: cells.expanded,
+        }
     }
 }
 
@@ -171,7 +176,14 @@ struct AStar<C, H> {
 
 impl<C: FnMut(Cell) -> Option<f64>, H: FnMut(Cell) -> f64> AStar<C, H> {
     fn new(window: CellBox, cell_cost: C, heuristic: H) -> Self {
-        AStar { window, cell_cost, heuristic, costs: CellMap::default(), nodes: CellMap::default(), open: BinaryHeap::new() }
+        AStar {
+            window,
+            cell_cost,
+            heuristic,
+            costs: CellMap::default(),
+            nodes: CellMap::default(),
+            open: BinaryHeap::new(),
+        }
     }
 
     /// The unit cost of entering `c`, cached; `None` outside the window or if blocked.

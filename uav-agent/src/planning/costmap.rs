@@ -46,10 +46,10 @@
 use nalgebra::{Point2, Vector2};
 use swarm_config::CostmapParams;
 
-use crate::geometry::Pose2;
 use super::astar::{octile_cells, CellSearch, Path};
 use super::cells::{Cell, CellSet, TileMap};
 use super::grid::{CellState, GridChanges, GridParams, OccupancyGrid};
+use crate::geometry::Pose2;
 
 /// costmap_2d: no cost.
 pub const FREE_SPACE: u8 = 0;
@@ -216,9 +216,7 @@ impl Costmap {
 
     /// Replaces the neighbours of the social layer (odometry frame); non-finite ones are ignored.
     pub fn set_neighbours(&mut self, agents: &[SocialAgent]) {
-        let finite = |a: &&SocialAgent| {
-            a.position.coords.iter().chain(a.velocity.iter()).all(|v| v.is_finite())
-        };
+        let finite = |a: &&SocialAgent| a.position.coords.iter().chain(a.velocity.iter()).all(|v| v.is_finite());
         // The kernel is below the cut-off beyond s·sqrt(2 ln(A/cut-off)) along each axis.
         let reach = (2.0 * (self.params.social_amplitude / self.params.social_cutoff).ln()).max(0.0).sqrt();
         self.social = agents
@@ -293,7 +291,12 @@ impl Costmap {
     /// `radius_m` around `p` (the goal search of seed 004 Fig. 42b, taking the truly nearest cell
     /// rather than the first one its loop meets). `p` itself if its own cell is accepted, else the
     /// centre of the nearest accepted cell (ties: lowest row, then column); `None` if none is.
-    pub fn nearest_cell_where(&self, p: &Point2<f64>, radius_m: f64, accept: impl Fn(u8) -> bool) -> Option<Point2<f64>> {
+    pub fn nearest_cell_where(
+        &self,
+        p: &Point2<f64>,
+        radius_m: f64,
+        accept: impl Fn(u8) -> bool,
+    ) -> Option<Point2<f64>> {
         let center = self.grid.cell_of(p)?;
         let ratio = radius_m / self.grid.resolution_m();
         let k_max = if ratio.is_finite() { (ratio.floor() as i32).clamp(0, MAX_RING_CELLS) } else { 0 };
@@ -470,8 +473,8 @@ mod tests {
     #[test]
     fn the_social_kernel_is_eq_11() {
         let p = params(); // A = 150, σ = 0.3, f = 7, cut-off 10
-        // v = (1, 0): deviation along x σ·f·|v_x| = 0.3·7·1 = 2.1 m; along y σ·f·0 = 0, floored
-        // to σ = 0.3 m.
+                          // v = (1, 0): deviation along x σ·f·|v_x| = 0.3·7·1 = 2.1 m; along y σ·f·0 = 0, floored
+                          // to σ = 0.3 m.
         let a = agent(0.0, 0.0, 1.0, 0.0);
         let at = |x: f64, y: f64| social_kernel(&Point2::new(x, y), &a, &p);
         let cost = |x: f64, y: f64| social_cost(&Point2::new(x, y), &a, &p);
@@ -524,8 +527,8 @@ mod tests {
         assert_eq!(m.inflation_cost_of(c(60, 16)), 92); // 0.8 m
         assert_eq!(m.inflation_cost_of(c(72, 16)), 34); // hypot(12, 16) = 20 cells = 1.0 m
         assert_eq!(m.inflation_cost_of(c(60, 21)), FREE_SPACE); // 1.05 m
-        // Behind the obstacle, never seen: inflated cells still carry their cost, the rest is
-        // unknown; on the beam, seen free and beyond the inflation: free.
+                                                                // Behind the obstacle, never seen: inflated cells still carry their cost, the rest is
+                                                                // unknown; on the beam, seen free and beyond the inflation: free.
         assert_eq!(m.cost(c(74, 0)), 152);
         assert_eq!(m.cost(c(82, 0)), NO_INFORMATION);
         assert_eq!(m.cost(c(30, 0)), FREE_SPACE);
@@ -539,11 +542,8 @@ mod tests {
         let occupied: Vec<Cell> = m.grid().occupied_cells().collect();
         cells
             .map(|x| {
-                let cost = occupied
-                    .iter()
-                    .map(|o| inflation_cost(x.dist2(*o).sqrt() * res, m.params()))
-                    .max()
-                    .unwrap_or(0);
+                let cost =
+                    occupied.iter().map(|o| inflation_cost(x.dist2(*o).sqrt() * res, m.params())).max().unwrap_or(0);
                 (x, cost)
             })
             .collect()
@@ -725,4 +725,3 @@ mod tests {
         assert_eq!(m.cost_at(&g), 126);
     }
 }
-

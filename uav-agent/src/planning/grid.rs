@@ -587,7 +587,7 @@ mod tests {
     fn beams_clear_a_cell_after_enough_passes_and_values_are_clamped() {
         let mut g = grid(0.5);
         let pose = Pose2::new(0.25, 0.25, 0.0); // sensor cell (0, 0)
-        // Scan 1 hits (4, 0): world (2.25, 0.25).
+                                                // Scan 1 hits (4, 0): world (2.25, 0.25).
         g.update(pose, &[Point2::new(2.0, 0.0)]);
         // Then every scan hits (8, 0) and passes through (4, 0).
         for k in 1..=6 {

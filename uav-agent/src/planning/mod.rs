@@ -17,5 +17,7 @@ mod cells;
 mod costmap;
 mod grid;
 
-pub(crate) use costmap::{CostQuery, Costmap, SocialAgent, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION};
+pub(crate) use costmap::{
+    CostQuery, Costmap, SocialAgent, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION,
+};
 pub(crate) use grid::{GridParams, Heuristic, OccupancyGrid, PlanParams};

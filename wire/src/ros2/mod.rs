@@ -156,12 +156,25 @@ mod tests {
             data_key(0, "/uav3/scan", &LASER_SCAN),
             "0/uav3/scan/sensor_msgs::msg::dds_::LaserScan_/RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828"
         );
-        let node = Entity { domain: 0, zid: "aac3", node_id: 3, entity_id: 3, kind: Kind::Node, namespace: "/uav3", node: "swarm", topic: None };
+        let node = Entity {
+            domain: 0,
+            zid: "aac3",
+            node_id: 3,
+            entity_id: 3,
+            kind: Kind::Node,
+            namespace: "/uav3",
+            node: "swarm",
+            topic: None,
+        };
         assert_eq!(node.token_key(), "@ros2_lv/0/aac3/3/3/NN/%/%uav3/swarm");
-        let publisher = Entity { entity_id: 7, kind: Kind::Publisher, topic: Some(("/uav3/scan", LASER_SCAN, QOS_SENSOR)), ..node };
+        let publisher =
+            Entity { entity_id: 7, kind: Kind::Publisher, topic: Some(("/uav3/scan", LASER_SCAN, QOS_SENSOR)), ..node };
         assert_eq!(
             publisher.token_key(),
-            format!("@ros2_lv/0/aac3/3/7/MP/%/%uav3/swarm/%uav3%scan/sensor_msgs::msg::dds_::LaserScan_/{}/2::,5:,:,:,,", LASER_SCAN.hash)
+            format!(
+                "@ros2_lv/0/aac3/3/7/MP/%/%uav3/swarm/%uav3%scan/sensor_msgs::msg::dds_::LaserScan_/{}/2::,5:,:,:,,",
+                LASER_SCAN.hash
+            )
         );
     }
 

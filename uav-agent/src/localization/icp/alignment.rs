@@ -47,9 +47,9 @@
 //!   and sums by binary exponent) proved 83 % of a crowd grid's starts unable to rank, but cost
 //!   half a sort to compute, so the plain sort stays.
 
+use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
-use crate::geometry::wrap_angle;
 use swarm_config::IcpParams;
 
 /// The rigid transform `agent_from_neighbour`: it maps points from the neighbour's body frame
@@ -380,7 +380,10 @@ fn icp_core(
             / kept.len() as f64;
         let d_rot = r[(1, 0)].atan2(r[(0, 0)]);
         // seed 000, eq. 3.12 (tranSource) composed onto the estimate: p_R = ΔRot (Rot p_S + t) + Δt.
-        let candidate = AgentFromNeighbour { rotation_rad: wrap_angle(t.rotation_rad + d_rot), translation_m: rot(d_rot) * t.translation_m + tr };
+        let candidate = AgentFromNeighbour {
+            rotation_rad: wrap_angle(t.rotation_rad + d_rot),
+            translation_m: rot(d_rot) * t.translation_m + tr,
+        };
         iterations += 1;
         let e_next = evaluate(reference, source, &candidate, moved, next, weights, k_min);
         if !matches!(e_next.frmsd.partial_cmp(&e.frmsd), Some(Ordering::Less | Ordering::Equal)) {
@@ -561,12 +564,17 @@ pub const DISTINCT_RAD: f64 = 0.3;
 /// True when `a` and `b` are different alignments (in place or in heading): the runner-up's
 /// test here, and a jump's in [`super::placement::judge_long`].
 pub(super) fn distinct(a: &AgentFromNeighbour, b: &AgentFromNeighbour) -> bool {
-    (a.translation_m - b.translation_m).norm() > DISTINCT_M || wrap_angle(a.rotation_rad - b.rotation_rad).abs() > DISTINCT_RAD
+    (a.translation_m - b.translation_m).norm() > DISTINCT_M
+        || wrap_angle(a.rotation_rad - b.rotation_rad).abs() > DISTINCT_RAD
 }
 
 /// [`initial_icp`] with its runner-up: how well the second-best different alignment fits tells an
 /// unambiguous match (one basin fits) from an ambiguous one (several places fit about as well).
-pub fn initial_icp_ranked(reference: &[Point2<f64>], source: &[Point2<f64>], p: &IcpParams) -> Result<Ranked, NoEstimate> {
+pub fn initial_icp_ranked(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    p: &IcpParams,
+) -> Result<Ranked, NoEstimate> {
     let k_min = validate(reference, source, p)?;
     if !p.grid_spacing_m.is_finite() {
         return Err(NoEstimate::NonFinite);
@@ -594,14 +602,16 @@ pub fn initial_icp_ranked(reference: &[Point2<f64>], source: &[Point2<f64>], p: 
         let mut best_here: Option<Start> = None;
         for (g, d2) in cells.iter().zip(by_cell.chunks_exact_mut(n)) {
             let score = first_pass_score(d2, &ws.weights, k_min);
-            let s = Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: *g } };
+            let s =
+                Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: *g } };
             if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
                 best_here = Some(s);
             }
             offer(&mut shortlist, SHORTLIST, suppress2, s);
         }
         // The best start of this heading, unless the shortlist already has it.
-        per_heading.extend(best_here.filter(|b| !shortlist.iter().any(|q| q.agent_from_neighbour == b.agent_from_neighbour)));
+        per_heading
+            .extend(best_here.filter(|b| !shortlist.iter().any(|q| q.agent_from_neighbour == b.agent_from_neighbour)));
     }
 
     // Second pass: full ICP from the shortlist and the per-heading bests; lowest FRMSD wins.
@@ -755,7 +765,10 @@ mod tests {
         let e = evaluate(reference, source, t, &mut ws.moved, &mut ws.cur, &ws.weights, k_min);
         let step = estimate(reference, &ws.moved, &ws.cur[..e.kept]).map(|(r, tr)| {
             let d = r[(1, 0)].atan2(r[(0, 0)]);
-            AgentFromNeighbour { rotation_rad: wrap_angle(t.rotation_rad + d), translation_m: rot(d) * t.translation_m + tr }
+            AgentFromNeighbour {
+                rotation_rad: wrap_angle(t.rotation_rad + d),
+                translation_m: rot(d) * t.translation_m + tr,
+            }
         });
         (e, step)
     }
@@ -851,9 +864,12 @@ mod tests {
         // eq. 3.12: the centroids map onto each other.
         assert!((r * c_s + t - c_r).norm() < 1e-12);
         // And ICP on the mirrored set still returns a proper (finite) transform or an error.
-        if let Ok(m) =
-            icp(&reference, &moved, AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::zeros() }, &IcpParams::default())
-        {
+        if let Ok(m) = icp(
+            &reference,
+            &moved,
+            AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::zeros() },
+            &IcpParams::default(),
+        ) {
             assert!(m.agent_from_neighbour.rotation_rad.is_finite() && m.frmsd.is_finite());
         }
     }
@@ -892,7 +908,10 @@ mod tests {
             let mut by_bits = v.clone();
             by_bits.sort_unstable_by_key(|d| d.to_bits());
             v.sort_unstable_by(f64::total_cmp);
-            assert_eq!(v.iter().map(|d| d.to_bits()).collect::<Vec<_>>(), by_bits.iter().map(|d| d.to_bits()).collect::<Vec<_>>());
+            assert_eq!(
+                v.iter().map(|d| d.to_bits()).collect::<Vec<_>>(),
+                by_bits.iter().map(|d| d.to_bits()).collect::<Vec<_>>()
+            );
         }
     }
 

@@ -183,12 +183,7 @@ pub struct EntryEstimate {
 
 impl From<EntryEstimate> for Estimate {
     fn from(e: EntryEstimate) -> Self {
-        Estimate {
-            id: e.id,
-            pos_in_body: e.pos_in_body,
-            heading: e.heading,
-            age_secs: e.age_secs,
-        }
+        Estimate { id: e.id, pos_in_body: e.pos_in_body, heading: e.heading, age_secs: e.age_secs }
     }
 }
 
@@ -385,9 +380,7 @@ impl Database {
             self.order_crowd_longs(now, &mut longs);
         }
         longs.sort_by(|a, b| {
-            b.0.partial_cmp(&a.0)
-                .unwrap_or(Ordering::Equal)
-                .then(self.entries[a.1].key.cmp(&self.entries[b.1].key))
+            b.0.partial_cmp(&a.0).unwrap_or(Ordering::Equal).then(self.entries[a.1].key.cmp(&self.entries[b.1].key))
         });
         let mut ran = 0u32;
         let mut over_budget = false;
@@ -455,12 +448,7 @@ impl Database {
 
     /// The received sets this step uses, in sender order: not older than `stale_after_s`, at
     /// least `min_points` points, the newest per sender (a link delivers one neighbour's sets).
-    fn usable_sets<'a>(
-        &self,
-        now: f64,
-        received: &'a [Received],
-        counts: &mut StepCounts,
-    ) -> Vec<&'a Received> {
+    fn usable_sets<'a>(&self, now: f64, received: &'a [Received], counts: &mut StepCounts) -> Vec<&'a Received> {
         let min_points = usize::try_from(self.params.min_points).unwrap_or(usize::MAX);
         let mut newest: BTreeMap<u32, &Received> = BTreeMap::new();
         for r in received {
@@ -545,16 +533,16 @@ impl Database {
                 counts.matching += 1;
                 if let Some(found) = m.short(&self.entries[idx].id_set, &sets[*s].points, IDENTITY) {
                     let shift = found.agent_from_neighbour.translation_m.norm();
-                    let plausible = shift <= self.params.match_shift_m && found.agent_from_neighbour.rotation_rad.abs() <= max_turn;
+                    let plausible =
+                        shift <= self.params.match_shift_m && found.agent_from_neighbour.rotation_rad.abs() <= max_turn;
                     if found.frmsd <= self.params.match_frmsd && plausible {
                         candidates.push((shift, found.frmsd, *s, idx));
                     }
                 }
             }
         }
-        candidates.sort_by(|a, b| {
-            a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)).then(a.3.cmp(&b.3))
-        });
+        candidates
+            .sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)).then(a.3.cmp(&b.3)));
         for (_, _, s, idx) in candidates {
             if by_set[s].is_none() && !taken[idx] {
                 by_set[s] = Some(idx);
@@ -571,7 +559,13 @@ impl Database {
     /// Crowd rules: a set whose link has exactly one entry goes to that entry without a
     /// findBestMatch ICP. A placed, unsuspended entry's sICP still checks the set; an unplaced or
     /// suspended one's next full-grid ICP (its retry) does, as a new entry's would have.
-    fn trust_links(&self, sets: &[&Received], counts: &mut StepCounts, by_set: &mut [Option<usize>], taken: &mut [bool]) {
+    fn trust_links(
+        &self,
+        sets: &[&Received],
+        counts: &mut StepCounts,
+        by_set: &mut [Option<usize>],
+        taken: &mut [bool],
+    ) {
         for (s, set) in sets.iter().enumerate() {
             let mut on_link = self.entries.iter().enumerate().filter(|(_, e)| e.sender == set.from);
             let (Some((idx, _)), None) = (on_link.next(), on_link.next()) else { continue };
@@ -809,7 +803,13 @@ fn trace_full_grid(now: f64, entry: u64, set: &Received, ranked: Option<&Ranked>
     if !tracing::enabled!(target: "icp_provenance", tracing::Level::TRACE) {
         return;
     }
-    let xy = |m: &Match| (m.agent_from_neighbour.translation_m.x, m.agent_from_neighbour.translation_m.y, m.agent_from_neighbour.rotation_rad);
+    let xy = |m: &Match| {
+        (
+            m.agent_from_neighbour.translation_m.x,
+            m.agent_from_neighbour.translation_m.y,
+            m.agent_from_neighbour.rotation_rad,
+        )
+    };
     let best = ranked.map(|r| (xy(&r.best), r.best.frmsd, r.best.pairs));
     let runner_up = ranked.and_then(|r| r.runner_up).map(|u| (xy(&u), u.frmsd, u.pairs));
     tracing::trace!(target: "icp_provenance", now, entry, from = set.from, points = set.points.len(), ?best, ?runner_up, "full grid");
@@ -1004,8 +1004,7 @@ mod tests {
         assert_eq!(d.len(), 2);
         let est = d.estimates(0.9);
         assert_eq!(est.len(), 2);
-        let mut pos: Vec<(Option<u32>, f64)> =
-            est.iter().map(|e| (e.id, e.pos_in_body.x)).collect();
+        let mut pos: Vec<(Option<u32>, f64)> = est.iter().map(|e| (e.id, e.pos_in_body.x)).collect();
         pos.sort_by(|a, b| a.1.total_cmp(&b.1));
         assert_eq!(pos, vec![(Some(50), 2.0), (Some(40), 3.0)]);
         assert_eq!(m.count(Kind::Long), 2, "one iICP each, then sICPs");
@@ -1060,7 +1059,14 @@ mod tests {
             let (k, _) = tag(source);
             let offset = if is_own(reference) { 0.0 } else { (f64::from(k) - f64::from(tag(reference).0)).abs() };
             let frmsd = if offset > 0.0 { 0.05 } else { 0.1 }; // the wrong entry even aligns better
-            Some(Match { agent_from_neighbour: AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(offset, 0.0) }, frmsd, pairs: 5 })
+            Some(Match {
+                agent_from_neighbour: AgentFromNeighbour {
+                    rotation_rad: 0.0,
+                    translation_m: Vector2::new(offset, 0.0),
+                },
+                frmsd,
+                pairs: 5,
+            })
         }
         fn long(&mut self, _: &[Point2<f64>], _: &[Point2<f64>]) -> Option<Match> {
             Some(Match { agent_from_neighbour: IDENTITY, frmsd: 0.1, pairs: 5 })
@@ -1135,7 +1141,8 @@ mod tests {
         // Without the gate, 20's set would go to 1's entry (same shift, lower FRMSD) and 1's to 20's.
         d.step(0.1, &own_set(), &[recv(1, 1, 0.1), recv(20, 20, 0.1)], &mut m, &mut || 0.0);
         assert_eq!(m.tried, vec![(1, 1), (20, 20)], "each set tried only against the entry near its sender");
-        let placed: Vec<(u64, Option<u32>, f64)> = d.estimates(0.1).iter().map(|e| (e.entry, e.id, e.pos_in_body.x)).collect();
+        let placed: Vec<(u64, Option<u32>, f64)> =
+            d.estimates(0.1).iter().map(|e| (e.entry, e.id, e.pos_in_body.x)).collect();
         assert_eq!(placed, vec![(0, Some(1), 1.0), (1, Some(20), 20.0)]);
     }
 
@@ -1147,7 +1154,12 @@ mod tests {
         runner_up: Option<f64>,
     }
     impl Matcher for Crowded {
-        fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: AgentFromNeighbour) -> Option<Match> {
+        fn short(
+            &mut self,
+            reference: &[Point2<f64>],
+            source: &[Point2<f64>],
+            initial: AgentFromNeighbour,
+        ) -> Option<Match> {
             self.inner.short(reference, source, initial)
         }
         fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {
@@ -1156,7 +1168,10 @@ mod tests {
         fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
             let best = self.long(reference, source)?;
             let runner_up = self.runner_up.map(|frmsd| Match {
-                agent_from_neighbour: AgentFromNeighbour { translation_m: best.agent_from_neighbour.translation_m + Vector2::new(1.6, 0.0), ..best.agent_from_neighbour },
+                agent_from_neighbour: AgentFromNeighbour {
+                    translation_m: best.agent_from_neighbour.translation_m + Vector2::new(1.6, 0.0),
+                    ..best.agent_from_neighbour
+                },
                 frmsd,
                 pairs: 3,
             });
@@ -1218,7 +1233,12 @@ mod tests {
         assert_eq!((c.trusted, c.created), (11, 0), "link 1 now has two entries: not trusted");
         assert!(m.neighbours(Kind::Match).contains(&13), "{:?}", m.calls);
         // Below the crowd size, seed 000's findBestMatch for every set.
-        let c = step(&mut d, &mut m, 1.0, &sets[..9].iter().map(|r| Received { t_secs: 1.0, ..r.clone() }).collect::<Vec<_>>());
+        let c = step(
+            &mut d,
+            &mut m,
+            1.0,
+            &sets[..9].iter().map(|r| Received { t_secs: 1.0, ..r.clone() }).collect::<Vec<_>>(),
+        );
         assert_eq!(c.trusted, 0);
         assert!(c.matching >= 9, "{c:?}");
     }
@@ -1236,7 +1256,11 @@ mod tests {
         assert!((15..=4 + 21).contains(&long), "{long} lICPs in 20 s");
         assert!(counts.iter().all(|c| c.long <= 2));
         let per_entry = |k: u32| m.calls.iter().filter(|c| c.kind == Kind::Long && c.neighbour == k).count();
-        assert!(ks.iter().all(|&k| per_entry(k) >= 1), "none starved: {:?}", ks.iter().map(|&k| per_entry(k)).collect::<Vec<_>>());
+        assert!(
+            ks.iter().all(|&k| per_entry(k) >= 1),
+            "none starved: {:?}",
+            ks.iter().map(|&k| per_entry(k)).collect::<Vec<_>>()
+        );
         assert_eq!(d.estimates(20.5).len(), 12, "deferred re-checks fall back to sICP");
     }
 
@@ -1259,12 +1283,8 @@ mod tests {
     fn newest_set_per_sender_is_used_and_old_or_small_sets_are_ignored() {
         let (mut d, mut m) = (db(), Scripted::default());
         let small = Received { from: 3, t_secs: 1.0, points: set_of(3, 1.0)[..2].to_vec() };
-        let c = step(
-            &mut d,
-            &mut m,
-            1.0,
-            &[recv(1, 1, 0.9), recv(1, 1, 0.95), recv(1, 1, 0.8), recv(2, 2, 0.4), small],
-        );
+        let c =
+            step(&mut d, &mut m, 1.0, &[recv(1, 1, 0.9), recv(1, 1, 0.95), recv(1, 1, 0.8), recv(2, 2, 0.4), small]);
         assert_eq!(c.ignored, 4);
         assert_eq!(d.len(), 1);
         assert!((d.estimates(1.0)[0].age_secs - 0.05).abs() < 1e-12, "the set of t = 0.95");
@@ -1301,8 +1321,7 @@ mod tests {
         let (mut d, mut m) = (db(), Scripted { out_of_range: vec![2], ..Scripted::default() });
         let counts = run(&mut d, &mut m, &[2], 0.0, 10.0);
         let fulls: Vec<u32> = counts.iter().map(|c| c.initial).collect();
-        let at: Vec<usize> =
-            fulls.iter().enumerate().filter(|(_, &n)| n > 0).map(|(i, _)| i).collect();
+        let at: Vec<usize> = fulls.iter().enumerate().filter(|(_, &n)| n > 0).map(|(i, _)| i).collect();
         assert_eq!(at, vec![0, 50, 100], "iICP at 0 s, then retries at 5 s and 10 s");
         assert_eq!(d.len(), 1);
     }
@@ -1329,12 +1348,8 @@ mod tests {
     fn long_icp_every_long_every_s_short_otherwise() {
         let (mut d, mut m) = (db(), Scripted::default());
         let counts = run(&mut d, &mut m, &[1], 0.0, 12.0);
-        let full: Vec<usize> = counts
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.long + c.initial > 0)
-            .map(|(i, _)| i)
-            .collect();
+        let full: Vec<usize> =
+            counts.iter().enumerate().filter(|(_, c)| c.long + c.initial > 0).map(|(i, _)| i).collect();
         assert_eq!(full, vec![0, 50, 100]);
         assert_eq!(counts[0].initial, 1);
         assert_eq!(counts[50].long, 1);
@@ -1497,7 +1512,11 @@ mod tests {
         assert_eq!((c.created, c.initial, c.suspended, c.ambiguous), (1, 1, 1, 0));
         run(&mut d, &mut m, &[1], 0.1, 4.9);
         let c = step(&mut d, &mut m, 5.0, &[recv(1, 1, 5.0)]);
-        assert_eq!((c.created, c.initial, c.suspended), (0, 1, 0), "retried at suspend_s, refused again (already suspended)");
+        assert_eq!(
+            (c.created, c.initial, c.suspended),
+            (0, 1, 0),
+            "retried at suspend_s, refused again (already suspended)"
+        );
         assert!(d.estimates(5.0).is_empty());
         m.frmsd_own.insert(1, 0.3);
         run(&mut d, &mut m, &[1], 5.1, 9.9);

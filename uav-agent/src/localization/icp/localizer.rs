@@ -100,7 +100,12 @@ impl IcpLocalizer {
 struct IcpMatcher<'a>(&'a IcpParams);
 
 impl Matcher for IcpMatcher<'_> {
-    fn short(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], initial: AgentFromNeighbour) -> Option<Match> {
+    fn short(
+        &mut self,
+        reference: &[Point2<f64>],
+        source: &[Point2<f64>],
+        initial: AgentFromNeighbour,
+    ) -> Option<Match> {
         icp(reference, source, initial, self.0).ok()
     }
     fn long(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Match> {

@@ -33,6 +33,10 @@ mod gate;
 mod localizer;
 mod placement;
 
-pub use alignment::{icp, initial_icp, initial_icp_ranked, AgentFromNeighbour, Match, NoEstimate, Ranked, DISTINCT_M, DISTINCT_RAD};
+pub use alignment::{
+    icp, initial_icp, initial_icp_ranked, AgentFromNeighbour, Match, NoEstimate, Ranked, DISTINCT_M, DISTINCT_RAD,
+};
 pub(crate) use localizer::IcpLocalizer;
-pub use placement::{judge_initial, judge_long, place_unknown, Placement, Recheck, AMBIGUITY_RATIO, INITIAL_FRMSD_MAX_M};
+pub use placement::{
+    judge_initial, judge_long, place_unknown, Placement, Recheck, AMBIGUITY_RATIO, INITIAL_FRMSD_MAX_M,
+};

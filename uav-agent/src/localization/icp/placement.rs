@@ -105,7 +105,11 @@ mod tests {
     use nalgebra::Vector2;
 
     fn m(frmsd: f64, x: f64) -> Match {
-        Match { agent_from_neighbour: AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(x, 0.0) }, frmsd, pairs: 6 }
+        Match {
+            agent_from_neighbour: AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(x, 0.0) },
+            frmsd,
+            pairs: 6,
+        }
     }
 
     fn ranked(best: f64, runner_up: Option<f64>) -> Option<Ranked> {
@@ -124,7 +128,11 @@ mod tests {
         assert_eq!(judge_initial(ranked(1.2, None), 1.0), Placement::NoFit(Some(m(1.2, 2.0))));
         // Within seed 000's threshold but above the cap on a first placement.
         assert_eq!(judge_initial(ranked(0.35, None), 1.0), Placement::NoFit(Some(m(0.35, 2.0))));
-        assert_eq!(judge_initial(ranked(0.25, None), 0.2), Placement::NoFit(Some(m(0.25, 2.0))), "a tighter match_frmsd still rules");
+        assert_eq!(
+            judge_initial(ranked(0.25, None), 0.2),
+            Placement::NoFit(Some(m(0.25, 2.0))),
+            "a tighter match_frmsd still rules"
+        );
         assert!(matches!(judge_initial(ranked(1.2, Some(1.5)), 1.0), Placement::Ambiguous(_)));
     }
 
@@ -136,9 +144,19 @@ mod tests {
         assert_eq!(judge_long(&at(2.0, 0.0), None, 1.0), Recheck::Agrees(None));
         assert_eq!(judge_long(&at(2.3, 0.2), ranked(0.9, Some(0.95)), 1.0), Recheck::Agrees(Some(m(0.9, 2.0))));
         assert_eq!(judge_long(&at(5.0, 0.0), ranked(0.2, None), 1.0), Recheck::Jumps(m(0.2, 2.0)));
-        assert_eq!(judge_long(&at(2.0, 0.5), ranked(0.2, None), 1.0), Recheck::Jumps(m(0.2, 2.0)), "a turn is a jump too");
-        assert_eq!(judge_long(&at(5.0, 0.0), ranked(0.6, None), 1.0), Recheck::Refused(Placement::NoFit(Some(m(0.6, 2.0)))));
-        assert!(matches!(judge_long(&at(5.0, 0.0), ranked(0.2, Some(0.25)), 1.0), Recheck::Refused(Placement::Ambiguous(_))));
+        assert_eq!(
+            judge_long(&at(2.0, 0.5), ranked(0.2, None), 1.0),
+            Recheck::Jumps(m(0.2, 2.0)),
+            "a turn is a jump too"
+        );
+        assert_eq!(
+            judge_long(&at(5.0, 0.0), ranked(0.6, None), 1.0),
+            Recheck::Refused(Placement::NoFit(Some(m(0.6, 2.0))))
+        );
+        assert!(matches!(
+            judge_long(&at(5.0, 0.0), ranked(0.2, Some(0.25)), 1.0),
+            Recheck::Refused(Placement::Ambiguous(_))
+        ));
     }
 
     /// A square lattice looks the same a quarter turn round: the true alignment and a turned one
@@ -146,16 +164,22 @@ mod tests {
     #[test]
     fn place_unknown_refuses_a_lattice_and_places_an_irregular_set() {
         let p = IcpParams::default();
-        let lattice: Vec<Point2<f64>> = (0..16).map(|k| Point2::new(-3.0 + 2.0 * f64::from(k / 4), -3.0 + 2.0 * f64::from(k % 4))).collect();
+        let lattice: Vec<Point2<f64>> =
+            (0..16).map(|k| Point2::new(-3.0 + 2.0 * f64::from(k / 4), -3.0 + 2.0 * f64::from(k % 4))).collect();
         let shifted: Vec<Point2<f64>> = lattice.iter().map(|q| Point2::new(q.x - 2.0, q.y)).collect();
         assert!(matches!(place_unknown(&lattice, &shifted, &p), Placement::Ambiguous(_)));
-        let trees = [(3.1, 0.4), (-1.7, 2.9), (0.6, -3.8), (4.9, 3.3), (-4.2, -1.1), (2.2, 5.6), (-2.9, -4.7), (6.3, -2.0)];
+        let trees =
+            [(3.1, 0.4), (-1.7, 2.9), (0.6, -3.8), (4.9, 3.3), (-4.2, -1.1), (2.2, 5.6), (-2.9, -4.7), (6.3, -2.0)];
         let reference: Vec<Point2<f64>> = trees.iter().map(|&(x, y)| Point2::new(x, y)).collect();
         // The neighbour at (2, −1), turned 0.7 rad: p_S = Rot(−0.7) (p_R − t).
         let (s, c) = 0.7_f64.sin_cos();
-        let source: Vec<Point2<f64>> =
-            trees.iter().map(|&(x, y)| Point2::new(c * (x - 2.0) + s * (y + 1.0), -s * (x - 2.0) + c * (y + 1.0))).collect();
-        let Placement::Placed(found) = place_unknown(&reference, &source, &p) else { panic!("an irregular set is placed") };
+        let source: Vec<Point2<f64>> = trees
+            .iter()
+            .map(|&(x, y)| Point2::new(c * (x - 2.0) + s * (y + 1.0), -s * (x - 2.0) + c * (y + 1.0)))
+            .collect();
+        let Placement::Placed(found) = place_unknown(&reference, &source, &p) else {
+            panic!("an irregular set is placed")
+        };
         assert!((found.agent_from_neighbour.translation_m - Vector2::new(2.0, -1.0)).norm() < 1e-3, "{found:?}");
         assert!((found.agent_from_neighbour.rotation_rad - 0.7).abs() < 1e-3, "{found:?}");
     }
