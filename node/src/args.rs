@@ -57,7 +57,7 @@ impl ZenohArgs {
 }
 
 /// The first line of a password file, trimmed; an empty one is an error.
-pub fn read_password(file: &std::path::Path) -> Result<String> {
+pub(crate) fn read_password(file: &std::path::Path) -> Result<String> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| anyhow::anyhow!("cannot read password file {}: {e}", file.display()))?;
     let password = text.lines().next().unwrap_or_default().trim().to_string();
@@ -66,7 +66,7 @@ pub fn read_password(file: &std::path::Path) -> Result<String> {
 }
 
 /// The `--cfg` overrides that log a client session in as `user` (Zenoh's usrpwd).
-pub fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
+pub(crate) fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
     let quote = |s: &str| serde_json::Value::String(s.to_string()).to_string();
     vec![
         format!("transport/auth/usrpwd/user:{}", quote(user)),

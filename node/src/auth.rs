@@ -221,7 +221,7 @@ fn write_private(path: &Path, text: &str) -> Result<()> {
 }
 
 /// The user names of a dictionary file (`user:password` lines; blank lines skipped).
-pub fn users_of(dictionary: &Path) -> Result<Vec<String>> {
+pub(crate) fn users_of(dictionary: &Path) -> Result<Vec<String>> {
     let text = std::fs::read_to_string(dictionary).with_context(|| format!("cannot read {}", dictionary.display()))?;
     text.lines()
         .map(str::trim)

@@ -1,7 +1,7 @@
 //! The `swarm-node` command line: only the processes a run is made of (`hub`, `agent`, `router`)
 //! and `credentials`, with the same arguments as `swarm hub | agent | router | credentials`. It
-//! links no recorder, live view or figures: the binary for an agent host, a UAV's companion
-//! computer or a container (docs/hosts-and-containers.md). It knows the built-in controllers
+//! links no recorder, live view or figures: the binary for an agent host or a UAV's companion
+//! computer (docs/hosts-and-containers.md). It knows the built-in controllers
 //! only; a program with controllers of its own is its own agent binary (docs/own-controller.md).
 
 use crate::{auth, pieces, process, router};

@@ -1,8 +1,10 @@
 //! The processes a run is made of, and what every command shares below them: the `swarm hub`,
-//! `swarm agent` and `swarm router` commands, the arguments they and every other command take,
-//! and who may touch what. It links neither the recorder, the live view nor the figures, so the
-//! `swarm-node` binary built from it is what an agent host or a container needs and no more
-//! (docs/hosts-and-containers.md); the `swarm` command dispatches the same three commands here.
+//! `swarm agent`, `swarm router` and `swarm credentials` commands, the arguments they and every
+//! other command take, and who may touch what. It links neither the recorder, the live view nor
+//! the figures, so the `swarm-node` binary built from it is what an agent host or a UAV's
+//! companion computer needs and no more (docs/hosts-and-containers.md); the `swarm` command
+//! dispatches the same four commands here. (The container image still ships the whole `swarm`,
+//! whose recorder the compose file runs too.)
 //!
 //! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
 //!   `--cfg`, `--user` and `--password-file`), run ids, UAV id lists, scenario values on the

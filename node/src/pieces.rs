@@ -64,7 +64,7 @@ pub struct AgentArgs {
 }
 
 /// Resolves when Ctrl-C arrives or, with `watch_stdin`, when standard input closes.
-pub async fn shutdown_signal(watch_stdin: bool) {
+pub(crate) async fn shutdown_signal(watch_stdin: bool) {
     let stdin_closed = async {
         if watch_stdin {
             use tokio::io::AsyncReadExt;

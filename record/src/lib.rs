@@ -6,7 +6,7 @@
 //! - [`recorder`]: subscribes to ground truth and agent states, writes trajectories (CSV),
 //!   `run.mcap` and the journal, folds the metrics of [`summary`] (pure, in `recorder::metrics`);
 //!   `swarm record` runs it alone and `swarm recover` makes a killed run's folder whole.
-//! - [`checks`]: the run's invariants (no collision, separation, no stale or phantom neighbour,
+//! - `checks`: the run's invariants (no collision, separation, no stale or phantom neighbour,
 //!   reconnection after heals, connected at the end, the goal), judged from what the recorder
 //!   sees, with the first failing moment of each; `summary.json`'s `checks[]`.
 //! - [`scene`]: the run as a Foxglove scene (the SDK's schemas on an explicit context): what the
@@ -14,12 +14,12 @@
 //! - [`summary`]: the `summary.json` schema (`swarm.summary.v1`) and its human rendering, for
 //!   programs that read run folders too.
 //!
-//! `recorder` folds into `checks` and `summary` and logs into `scene`; `checks` reads the
-//! recorder's metrics and writes `summary`'s check results; `scene` imports nothing of the crate.
+//! `recorder` feeds `checks` beside its metrics, folds into `summary` and logs into `scene`;
+//! `checks` writes `summary`'s check results; `scene` imports nothing of the crate.
 //!
 //! Invariant: the recorder is the only reader of `truth/**` besides tools a person points at it.
 
-pub mod checks;
+mod checks;
 pub mod recorder;
 pub mod scene;
 pub mod summary;

@@ -12,7 +12,9 @@
 //! - ARCHITECTURE.md's codemap has a section per crate, naming each of the crate's top-level
 //!   modules;
 //! - ARCHITECTURE.md's crate-dependency list says what each member's `Cargo.toml` depends on,
-//!   and its picture draws every member above each member it depends on;
+//!   and its picture draws every member above each member it depends on, naming each once;
+//! - the `swarm-node` binary links none of the upper floors' heavy packages (MCAP, Foxglove,
+//!   plotters), asked of `cargo tree`;
 //! - no function in the agent's node, the hub's node or the launcher is over 60 lines;
 //! - in `uav-agent`, only the modules under `src/net/` name `zenoh`: the onboard stages stay pure;
 //! - every member declares the workspace's `rust-version`, the `Dockerfile` builds with that
@@ -391,17 +393,20 @@ fn crate_dependency_list_matches_the_manifests() {
     assert!(wrong.is_empty(), "the crate dependencies and ARCHITECTURE.md disagree:\n{}", wrong.join("\n"));
 }
 
-/// The picture of `## Crate dependencies` (its first fenced block): the line each crate's name
-/// first stands on, as package -> line number. Names are whole words (`swarm` is not found in
-/// `swarm-node`), so a crate's description must not name another crate.
-fn picture_rows(text: &str, packages: &BTreeSet<String>) -> BTreeMap<String, usize> {
+/// The picture of `## Crate dependencies` (its first fenced block): the lines each crate's name
+/// stands on, as package -> line numbers (each line once). Names are whole words (`swarm` is not
+/// found in `swarm-node`); a name on two lines (a description naming another crate) is an error.
+fn picture_rows(text: &str, packages: &BTreeSet<String>) -> BTreeMap<String, Vec<usize>> {
     let lines = section(text, "Crate dependencies");
     let block = lines.iter().skip_while(|l| !l.starts_with("```")).skip(1).take_while(|l| !l.starts_with("```"));
-    let mut rows = BTreeMap::new();
+    let mut rows: BTreeMap<String, Vec<usize>> = BTreeMap::new();
     for (row, line) in block.enumerate() {
         for word in line.split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '_')) {
             if packages.contains(word) {
-                rows.entry(word.to_string()).or_insert(row);
+                let lines = rows.entry(word.to_string()).or_default();
+                if lines.last() != Some(&row) {
+                    lines.push(row);
+                }
             }
         }
     }
@@ -412,12 +417,19 @@ fn picture_rows(text: &str, packages: &BTreeSet<String>) -> BTreeMap<String, usi
 fn crate_dependency_picture_draws_every_crate_above_what_it_uses() {
     let actual = manifest_dependencies();
     let packages: BTreeSet<String> = actual.keys().cloned().collect();
-    let rows = picture_rows(&architecture(), &packages);
+    let drawn = picture_rows(&architecture(), &packages);
     let mut wrong: Vec<String> = packages
         .iter()
-        .filter(|p| !rows.contains_key(*p))
+        .filter(|p| !drawn.contains_key(*p))
         .map(|p| format!("ARCHITECTURE.md: draw `{p}` in the crate-dependency picture"))
         .collect();
+    for (package, lines) in drawn.iter().filter(|(_, lines)| lines.len() > 1) {
+        wrong.push(format!(
+            "ARCHITECTURE.md: the crate-dependency picture names `{package}` on {} lines; name each crate once",
+            lines.len()
+        ));
+    }
+    let rows: BTreeMap<&String, usize> = drawn.iter().map(|(p, lines)| (p, lines[0])).collect();
     for (package, deps) in &actual {
         for dep in deps {
             if let (Some(a), Some(b)) = (rows.get(package), rows.get(dep)) {
@@ -433,12 +445,12 @@ fn crate_dependency_picture_draws_every_crate_above_what_it_uses() {
 }
 
 #[test]
-fn picture_rows_finds_whole_names_on_their_first_line() {
+fn picture_rows_finds_whole_names_on_every_line() {
     let packages: BTreeSet<String> = ["swarm", "swarm-node"].iter().map(|s| s.to_string()).collect();
-    let text = "## Crate dependencies\n\n```\n  swarm-node   the pieces\n  swarm  (swarm-node)\n```\n";
+    let text = "## Crate dependencies\n\n```\n  swarm   the command\n    |\n  swarm-node  (below swarm)\n```\n";
     let rows = picture_rows(text, &packages);
-    assert_eq!(rows.get("swarm-node"), Some(&0));
-    assert_eq!(rows.get("swarm"), Some(&1));
+    assert_eq!(rows.get("swarm"), Some(&vec![0, 2]), "`swarm` is drawn, and named again in a description");
+    assert_eq!(rows.get("swarm-node"), Some(&vec![2]), "`swarm` inside `swarm-node` is not `swarm`");
 }
 
 /// The files whose functions must stay short: the three places where Zenoh plumbing and control
@@ -637,5 +649,28 @@ fn rust_version_covers_every_locked_dependency() {
         "Cargo.toml's rust-version {ours} is below what the locked graph needs; raise it (and the Dockerfile's rust image) to \
          the highest of:\n{}",
         above.join("\n")
+    );
+}
+
+/// What only the command's upper floors may link: the MCAP writer and reader, the Foxglove SDK
+/// (and its WebSocket server), plotters, the progress bars.
+const UPPER_FLOOR_PACKAGES: [&str; 5] = ["mcap", "foxglove", "plotters", "indicatif", "tokio-tungstenite"];
+
+#[test]
+fn the_node_binary_links_no_recorder_view_or_figures() {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let out = std::process::Command::new(&cargo)
+        .args(["tree", "-p", "swarm-node", "-e", "normal", "--prefix", "none", "--locked", "--offline"])
+        .current_dir(root())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run `{cargo} tree`: {e}"));
+    assert!(out.status.success(), "`cargo tree -p swarm-node` failed: {}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let names: BTreeSet<&str> = text.lines().filter_map(|l| l.split_whitespace().next()).collect();
+    assert!(names.contains("zenoh") && names.contains("uav-agent"), "is `cargo tree`'s output read right? {names:?}");
+    let linked: Vec<&str> = UPPER_FLOOR_PACKAGES.iter().copied().filter(|p| names.contains(p)).collect();
+    assert!(
+        linked.is_empty(),
+        "swarm-node (the hub, agent and router binary) links {linked:?}; they belong to swarm-record, swarm-view or swarm-plot"
     );
 }

@@ -97,7 +97,8 @@ fn tick_length(run: &Path) -> f64 {
 }
 
 /// The trails a page holds (`{id: [[x, y, t], ...]}`): one per UAV, each reaching from at most
-/// `from_s` to at least `to_s` with no gap over 0.5 s, and every point on the run's truth at its
+/// `from_s` to at least `to_s` (its points before the page's last within 1 s of it) with no gap
+/// over 0.5 s, and every point on the run's truth at its
 /// time (within 1 cm).
 fn assert_trails_on_truth(trails: &Value, from_s: f64, to_s: f64, truth: &BTreeMap<(u64, u64), (f64, f64)>, dt: f64) {
     let trails = trails.as_object().unwrap_or_else(|| panic!("trails: {trails}"));
@@ -115,6 +116,10 @@ fn assert_trails_on_truth(trails: &Value, from_s: f64, to_s: f64, truth: &BTreeM
             first <= from_s && last >= to_s,
             "UAV {id}'s trail spans {first} to {last} s, not {from_s} to {to_s} s"
         );
+        // The last point may be the page's own, from the frame it drew; the one before it came
+        // with the trails the server handed over, which must reach up to that frame too.
+        let handed = points[points.len().saturating_sub(2)][2];
+        assert!(handed >= to_s - 1.0, "UAV {id}'s trail from the server ends at {handed} s, long before {to_s} s");
         assert!(
             points.windows(2).all(|w| w[1][2] > w[0][2] && w[1][2] - w[0][2] <= 0.5 + 1e-9),
             "UAV {id}'s trail has a gap: {points:?}"

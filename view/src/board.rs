@@ -20,12 +20,19 @@ pub struct Board {
     lost: BTreeMap<u32, f64>,
     /// The scenario's goal radius [m], drawn around the goal.
     goal_radius_m: f64,
+    /// The scenario's controller by name (`k21`, ...): what the panels' numbers mean.
+    controller: String,
 }
 
 impl Board {
     /// A board for `sc` (its netem timeline until the hub says otherwise).
     pub fn new(sc: &swarm_config::Scenario) -> Board {
-        Board { timeline: netem::Timeline::from_scenario(sc), goal_radius_m: sc.end.goal_radius_m, ..Board::default() }
+        Board {
+            timeline: netem::Timeline::from_scenario(sc),
+            goal_radius_m: sc.end.goal_radius_m,
+            controller: sc.controller.kind.name().to_string(),
+            ..Board::default()
+        }
     }
 
     /// The world frame the page draws first.
@@ -33,6 +40,7 @@ impl Board {
         self.world = Some(json!({
             "kind": "world", "run": run, "trees": w.trees, "walls": w.walls, "goal": w.goal,
             "starts": w.starts, "body_radius_m": w.body_radius_m, "goal_radius_m": self.goal_radius_m,
+            "controller": self.controller,
         }));
     }
 
@@ -123,13 +131,14 @@ mod tests {
     }
 
     #[test]
-    fn the_world_carries_the_scenarios_goal_radius() {
+    fn the_world_carries_the_scenarios_goal_radius_and_controller() {
         let sc = swarm_config::Scenario::from_arg("forest-5").expect("built-in").0;
         let mut b = Board::new(&sc);
         let w = TruthWorld { trees: vec![], walls: vec![], starts: vec![], goal: [30.0, 0.0], body_radius_m: 0.3 };
         b.on_world("r", &w);
         assert_eq!(b.world().expect("world")["goal_radius_m"], sc.end.goal_radius_m);
         assert_ne!(sc.end.goal_radius_m, 1.0, "forest-5's disc is not the 1 m the page drew before");
+        assert_eq!(b.world().expect("world")["controller"], "k21");
     }
 
     #[test]

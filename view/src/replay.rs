@@ -9,8 +9,9 @@
 //! when the page asks, is `/uav/{id}/scan` at the shown frame's time, placed by that UAV's `/tf`
 //! of the same time; the trails a page starts with (as it connects, and after each seek) are the
 //! frames' positions over the last seconds before the shown frame. The world tells the page the
-//! first and last tick and the tick length, so the seek bar shows sim times, and the goal radius
-//! of the `scenario.toml` beside the recording (the recording has none).
+//! first and last tick and the tick length, so the seek bar shows sim times, the goal radius and
+//! the controller (from `/swarm/world`; for a recording made before it carried the radius, from
+//! the `scenario.toml` beside it).
 
 use super::http::{self, Command, Snapshot};
 use super::scans::{ScanPicture, ScanSource};
@@ -254,6 +255,7 @@ fn load(path: &Path) -> Result<Recording> {
     if let Some(r) = head["goal_radius_m"].as_f64().or_else(|| goal_radius_beside(path)) {
         world["goal_radius_m"] = json!(r);
     }
+    world["controller"] = head["controller"].clone();
     let frames = frames(&messages, &|m| topic(m), dt);
     world["replay"] = replay_span(&frames, dt);
     let mut scans: BTreeMap<u32, Vec<usize>> = BTreeMap::new();

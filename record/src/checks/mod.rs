@@ -21,7 +21,7 @@ const RECENT_TICKS: usize = 64;
 
 /// The sim times of the heals of a scenario's `[[netem]]` timeline: a per-link rule with no
 /// impairment, or the end of a partition (several at one instant count once).
-pub fn heal_times(sc: &Scenario) -> Vec<f64> {
+pub(crate) fn heal_times(sc: &Scenario) -> Vec<f64> {
     let is_heal = |r: &&swarm_config::NetemRule| match &r.partition {
         None => r.rule.is_identity(),
         Some(p) => *p == swarm_config::Partition::Healed {},

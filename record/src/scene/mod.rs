@@ -57,7 +57,7 @@ pub const TRAIL_S: f64 = 20.0;
 const NUMBERS_SCHEMA: &str = r#"{"type":"object","properties":{"t_s":{"type":"number"},"step_time_ms":{"type":"number"},"neighbours":{"type":"integer"},"in_radio_range":{"type":"integer"},"cohesion":{"type":"number"},"separation":{"type":"number"},"avoidance":{"type":"number"},"navigation":{"type":"number"},"output":{"type":"number"},"localization_error_m":{"type":["number","null"]}}}"#;
 
 /// The JSON schema of `/swarm/world`.
-const WORLD_SCHEMA: &str = r#"{"type":"object","properties":{"world":{"type":"object"},"dt_s":{"type":"number"},"name":{"type":"string"},"goal_radius_m":{"type":"number"}}}"#;
+const WORLD_SCHEMA: &str = r#"{"type":"object","properties":{"world":{"type":"object"},"dt_s":{"type":"number"},"name":{"type":"string"},"goal_radius_m":{"type":"number"},"controller":{"type":"string"}}}"#;
 
 /// One UAV's channels.
 struct UavChannels {
@@ -76,6 +76,8 @@ pub struct Scene {
     dt_s: f64,
     /// The scenario's goal radius [m]: the hub's world does not carry it.
     goal_radius_m: f64,
+    /// The scenario's controller by name: what `/uav/{id}/numbers`' magnitudes mean.
+    controller: String,
     name: String,
     tf: Channel<FrameTransforms>,
     trails_ch: Channel<SceneUpdate>,
@@ -165,6 +167,7 @@ impl Scene {
                 .context("cannot make the world channel")?,
             dt_s: sc.dt_secs(),
             goal_radius_m: sc.end.goal_radius_m,
+            controller: sc.controller.kind.name().to_string(),
             name: sc.name.clone(),
             tf: ctx.channel_builder("/tf").build(),
             trails_ch: ctx.channel_builder("/trails").build(),
@@ -229,7 +232,7 @@ impl Scene {
         let update = shapes::world(w, self.goal_radius_m);
         self.world.log_with_time(&update, 0u64);
         self.world_update = Some(update);
-        let json = serde_json::json!({ "world": w, "dt_s": self.dt_s, "name": self.name, "goal_radius_m": self.goal_radius_m });
+        let json = serde_json::json!({ "world": w, "dt_s": self.dt_s, "name": self.name, "goal_radius_m": self.goal_radius_m, "controller": self.controller });
         self.world_json.log_with_meta(json.to_string().as_bytes(), PartialMetadata::with_log_time(0u64));
     }
 

@@ -1,7 +1,7 @@
 //! `swarm fuzz`: Jepsen for swarms. From one seed, generate scenarios ([`case`]: forest density
 //! and layout, start layout, swarm size, controller and localization mode, a nemesis schedule of
 //! `netem::nemesis`), fly each in lockstep through the study runner (`study::run_variant`, `--jobs`
-//! at a time), judge the invariants of `checks`, and shrink each failure ([`shrink`]) while the same
+//! at a time), judge the invariants of `swarm_record::checks`, and shrink each failure ([`shrink`]) while the same
 //! check still fails. The minimal failing scenario is written as a TOML file anyone can
 //! `swarm run`, and printed; `fuzz.json` lists every case and finding. `--jobs` cases fly at once,
 //! polled together in one task.
