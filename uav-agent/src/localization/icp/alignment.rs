@@ -43,10 +43,12 @@
 //!   eight grid cells at once (independent lanes the compiler packs into SIMD): with ≈ 20–50
 //!   points this is faster than any spatial index (a sorted-by-x candidate window tried on a
 //!   crowd's 45-point sets cost more to pick the candidates than it saved). Each start's
-//!   distances are sorted for eq. 3.16's prefixes; a sort-free lower bound on the score (counts
-//!   and sums by binary exponent) proved 83 % of a crowd grid's starts unable to rank, but cost
-//!   half a sort to compute, so the plain sort stays.
+//!   distances are sorted for eq. 3.16's prefixes, eight starts at once by a sorting network on
+//!   the same lanes ([`super::network`]: the same scores as a sort, without its mispredicted
+//!   branches); a sort-free lower bound on the score (counts and sums by binary exponent) proved
+//!   83 % of a crowd grid's starts unable to rank, but cost half a sort to compute.
 
+use super::network::{block_scores, Network, LANES};
 use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
@@ -470,8 +472,9 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
 /// crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`). Both functions are also
 /// compiled for AVX2 (four lanes) and pick that version at run time where the CPU has it
 /// (`multiversion`): the same operations in the same order per lane (no fused multiply-add is
-/// enabled), so the distances are bit for bit those of the baseline build.
-const BLOCK: usize = 8;
+/// enabled), so the distances are bit for bit those of the baseline build. The first pass's
+/// blocks are then scored lane by lane too ([`super::network`]).
+const BLOCK: usize = LANES;
 
 /// The shifts of the grid of seed 000 5.1 and Figure 5.1: cell (i, j) shifts by
 /// g = (i, j)·spacing, i, j ∈ [−h, h], centred on the agent, in cell order
@@ -489,12 +492,19 @@ fn block_shifts(cells: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>) {
 
 /// First pass, one heading: for every source point `s` (pre-rotated) and every cell `c` (shift
 /// `(cx[c], cy[c])`), the squared distance from `rotated[s] + g_c` to the nearest reference point
-/// (seed 000 eq. 3.17 squared), into `out[c·|S| + s]`. Each distance is computed as a
+/// (seed 000 eq. 3.17 squared), into `out[b·|S| + s][l]` for cell c = b·[`BLOCK`] + l (a block's
+/// distances as rows of lanes, as [`block_scores`] takes them). Each distance is computed as a
 /// start-by-start loop would, operation for operation, so the scores are bit-identical; only
 /// the loops are turned around (cells in blocks of [`BLOCK`], innermost). `cx`/`cy` are padded
 /// to whole blocks; padded cells are computed and dropped.
 #[multiversion::multiversion(targets("x86_64+avx2"))]
-fn nearest_by_cell(reference: &[Point2<f64>], rotated: &[Vector2<f64>], cx: &[f64], cy: &[f64], out: &mut [f64]) {
+fn nearest_by_cell(
+    reference: &[Point2<f64>],
+    rotated: &[Vector2<f64>],
+    cx: &[f64],
+    cy: &[f64],
+    out: &mut [[f64; BLOCK]],
+) {
     let n = rotated.len();
     for (b, (bx, by)) in cx.chunks_exact(BLOCK).zip(cy.chunks_exact(BLOCK)).enumerate() {
         for (s, q) in rotated.iter().enumerate() {
@@ -512,13 +522,25 @@ fn nearest_by_cell(reference: &[Point2<f64>], rotated: &[Vector2<f64>], cx: &[f6
                     best[l] = if d < best[l] { d } else { best[l] };
                 }
             }
-            for (l, d) in best.into_iter().enumerate() {
-                if let Some(slot) = out.get_mut((b * BLOCK + l) * n + s) {
-                    *slot = d;
-                }
+            if let Some(row) = out.get_mut(b * n + s) {
+                *row = best;
             }
         }
     }
+}
+
+/// First-pass scores of one block of cells from their distances `rows` (as [`nearest_by_cell`]
+/// leaves them; sorted in place): by the sorting network on lanes, or, for a block with a NaN,
+/// start by start with [`first_pass_score`]. The same scores either way.
+fn block_first_pass(rows: &mut [[f64; BLOCK]], net: &Network, weights: &[f64], k_min: usize) -> [f64; BLOCK] {
+    block_scores(rows, net, weights, k_min, TIE_M * TIE_M).unwrap_or_else(|| {
+        let mut lane = Vec::with_capacity(rows.len());
+        std::array::from_fn(|l| {
+            lane.clear();
+            lane.extend(rows.iter().map(|r| r[l]));
+            first_pass_score(&mut lane, weights, k_min)
+        })
+    })
 }
 
 /// First-pass score of one start from its nearest squared distances `d2` (any order; sorted in
@@ -591,7 +613,8 @@ pub fn initial_icp_ranked(
     let cells = grid_cells(h, p.grid_spacing_m);
     let (cx, cy) = block_shifts(&cells);
     let n = source.len();
-    let mut by_cell = vec![0.0; cells.len() * n];
+    let mut by_cell = vec![[0.0; BLOCK]; cells.len().div_ceil(BLOCK) * n];
+    let net = Network::new(n);
     for k in 0..headings {
         // seed 000, 5.1 ("all relative headings"): θ_k = 2π·k/H, evenly spaced.
         let heading = wrap_angle(std::f64::consts::TAU * f64::from(k) / f64::from(headings));
@@ -600,8 +623,8 @@ pub fn initial_icp_ranked(
         ws.rotated.extend(source.iter().map(|q| r * q.coords));
         nearest_by_cell(reference, &ws.rotated, &cx, &cy, &mut by_cell);
         let mut best_here: Option<Start> = None;
-        for (g, d2) in cells.iter().zip(by_cell.chunks_exact_mut(n)) {
-            let score = first_pass_score(d2, &ws.weights, k_min);
+        let scores = by_cell.chunks_exact_mut(n).flat_map(|rows| block_first_pass(rows, &net, &ws.weights, k_min));
+        for (g, score) in cells.iter().zip(scores) {
             let s =
                 Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: *g } };
             if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
@@ -1168,6 +1191,26 @@ mod tests {
             prop_assert_eq!(key(&got), key(&want));
         }
 
+        /// A block's scores by the sorting network equal bit for bit the start-by-start sort
+        /// and prefix scan, ties, +∞ and NaN lanes included.
+        #[test]
+        fn prop_block_scores_are_the_start_by_start_scores(seed in any::<u64>(), n in 3usize..60, k_min in 3usize..8, coarse in any::<bool>(), nan in any::<bool>()) {
+            let mut rng = Rng(seed);
+            let ws = Workspace::new(n, 1.3, k_min.min(n));
+            let mut rows: Vec<[f64; BLOCK]> = (0..n)
+                .map(|_| std::array::from_fn(|_| if coarse { (rng.range(0.0, 8.0) as u32) as f64 } else { rng.range(0.0, 30.0).powi(2) }))
+                .collect();
+            rows[n / 2][3] = f64::INFINITY;
+            if nan {
+                rows[n - 1][5] = f64::NAN;
+            }
+            let want: Vec<u64> = (0..BLOCK)
+                .map(|l| first_pass_score(&mut rows.iter().map(|r| r[l]).collect::<Vec<_>>(), &ws.weights, ws.k_min).to_bits())
+                .collect();
+            let got = block_first_pass(&mut rows, &Network::new(n), &ws.weights, ws.k_min);
+            prop_assert_eq!(got.map(f64::to_bits).to_vec(), want);
+        }
+
         /// The first pass's distances, cells in SIMD blocks, equal bit for bit the ones of a
         /// start-by-start loop (`q + g` first, then the difference to each reference point).
         #[test]
@@ -1177,13 +1220,13 @@ mod tests {
             let rotated: Vec<Vector2<f64>> = (0..n_src).map(|_| Vector2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
             let cells = grid_cells(h, spacing);
             let (cx, cy) = block_shifts(&cells);
-            let mut out = vec![f64::NAN; cells.len() * n_src];
+            let mut out = vec![[f64::NAN; BLOCK]; cells.len().div_ceil(BLOCK) * n_src];
             nearest_by_cell(&reference, &rotated, &cx, &cy, &mut out);
             for (c, g) in cells.iter().enumerate() {
                 for (s, q) in rotated.iter().enumerate() {
                     let (qx, qy) = (q.x + g.x, q.y + g.y);
                     let want = reference.iter().map(|a| (a.x - qx) * (a.x - qx) + (a.y - qy) * (a.y - qy)).fold(f64::INFINITY, f64::min);
-                    prop_assert_eq!(out[c * n_src + s].to_bits(), want.to_bits(), "cell {} source {}", c, s);
+                    prop_assert_eq!(out[c / BLOCK * n_src + s][c % BLOCK].to_bits(), want.to_bits(), "cell {} source {}", c, s);
                 }
             }
         }
