@@ -804,3 +804,57 @@ proptest::proptest! {
         }
     }
 }
+
+/// Beam points come from each scan's own layout, also when a thread's scans change layout (the
+/// directions are kept per thread for the last layout seen).
+#[test]
+fn beam_points_follow_each_scans_own_layout() {
+    for (angle_min, increment, n) in [(0.0, 0.1, 63), (-1.0, 0.05, 63), (0.0, 0.1, 10), (0.0, 0.1, 63)] {
+        let ranges = (0..n).map(|i| if i % 7 == 3 { f32::INFINITY } else { 1.0 + i as f32 * 0.1 }).collect();
+        let scan = scan_from(angle_min, increment, ranges);
+        for (i, p) in beam_points(&scan).into_iter().enumerate() {
+            let r = f64::from(scan.ranges_m[i]);
+            let theta = f64::from(scan.angle_min) + i as f64 * f64::from(scan.angle_increment);
+            assert_eq!(p, r.is_finite().then(|| Point2::new(r * theta.cos(), r * theta.sin())), "beam {i}");
+        }
+    }
+}
+
+/// The conditioning test's shortcut decides as the eigenvalues do: on the normal matrices of
+/// arcs, lines and near-lines from well inside to far beyond the limit.
+#[test]
+fn conditioning_shortcut_agrees_with_the_eigenvalues() {
+    let by_eigenvalues = |ata: &nalgebra::Matrix3<f64>| {
+        let eig = ata.symmetric_eigenvalues();
+        let max_eig = eig.iter().fold(0.0_f64, |m, e| m.max(e.abs()));
+        let min_eig = eig.iter().fold(f64::INFINITY, |m, e| m.min(*e));
+        max_eig.is_finite() && max_eig > 0.0 && min_eig > MIN_RCOND * max_eig
+    };
+    let mut noise = Noise::new(7);
+    let (mut passed, mut refused) = (0, 0);
+    for case in 0..4000 {
+        let n = 3 + case % 20;
+        let bend = [0.0, 1e-9, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 0.1, 1.0][case % 10];
+        let points: Vec<Point2<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64 / n as f64 - 0.5 + 1e-3 * noise.uniform();
+                Point2::new(t, bend * t * t + bend * 1e-3 * noise.uniform())
+            })
+            .collect();
+        let mean = points.iter().fold(Vector2::zeros(), |acc, p| acc + p.coords) / n as f64;
+        let mut ata = nalgebra::Matrix3::<f64>::zeros();
+        for p in &points {
+            let u = (p.coords - mean) * 3.0;
+            let row = nalgebra::Vector3::new(2.0 * u.x, 2.0 * u.y, 1.0);
+            ata += row * row.transpose();
+        }
+        let want = by_eigenvalues(&ata);
+        assert_eq!(well_conditioned(&ata), want, "case {case}: {ata}");
+        if want {
+            passed += 1;
+        } else {
+            refused += 1;
+        }
+    }
+    assert!(passed > 500 && refused > 500, "both sides of the limit exercised: {passed} passed, {refused} refused");
+}
