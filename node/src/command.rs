@@ -44,5 +44,23 @@ pub async fn dispatch(cmd: NodeCmd, controllers: Controllers) -> anyhow::Result<
 /// Entry point of the `swarm-node` binary (and of the end-to-end tests' copy of it).
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    zenoh_threads(&cli.cmd);
     process::run(dispatch(cli.cmd, Controllers::builtin()))
+}
+
+/// Zenoh's threads for this process, chosen before its first session opens: a process that runs
+/// one agent hands Zenoh's reception, transmission, accept and network work to its application
+/// runtime, one thread, unless `ZENOH_RUNTIME` says otherwise. One agent's traffic is a few
+/// messages a tick, and each handoff between Zenoh's threads (the socket's readiness on one, the
+/// reading on another, the sending on a third) is a wake-up and a context switch: forest-5 in
+/// lockstep, one process per agent, made half as many context switches and ran faster (see
+/// docs/performance.md). Agent hosts, the hub and routers keep Zenoh's default threads: they
+/// route and decode for hundreds of UAVs, and the hub's blocking puts must not wait on the
+/// thread that would send them.
+pub fn zenoh_threads(cmd: &NodeCmd) {
+    const ONE_THREAD: &str = "(rx: (handover: app), tx: (handover: app), acc: (handover: app), net: (handover: app))";
+    if matches!(cmd, NodeCmd::Agent(a) if a.id.is_some()) && std::env::var_os("ZENOH_RUNTIME").is_none() {
+        // Before any thread of ours or Zenoh's exists (the runtime is built after this).
+        std::env::set_var("ZENOH_RUNTIME", ONE_THREAD);
+    }
 }

@@ -90,6 +90,9 @@ pub fn main() -> ExitCode {
 /// starts are this same executable, so they know the same controllers.
 pub fn main_with(controllers: Controllers) -> ExitCode {
     let cli = Cli::parse();
+    if let Cmd::Node(c) = &cli.cmd {
+        swarm_node::command::zenoh_threads(c);
+    }
     swarm_node::process::run(dispatch(cli, controllers))
 }
 
