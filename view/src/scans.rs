@@ -139,16 +139,7 @@ mod tests {
             agent_distance_m: 1.0,
             colliding: false,
         };
-        let step = |tick| TruthStep {
-            tick,
-            t_secs: tick as f64 * 0.1,
-            bodies: vec![body(tick)],
-            collisions: vec![],
-            goal_reached_at: None,
-            ended: None,
-            wall_secs: 0.0,
-            timing: Box::default(),
-        };
+        let step = |tick| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(tick)], ..Default::default() };
         let scan = Scan {
             tick: 5,
             t_secs: 0.5,

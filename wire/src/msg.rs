@@ -519,8 +519,9 @@ pub struct CollisionEvent {
     pub y: f64,
 }
 
-/// Ground truth after tick `tick`, for the recorder.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// Ground truth after tick `tick`, for the recorder. `Default` is tick 0 with no body, for tests
+/// that set only what they look at.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct TruthStep {
     /// Tick just integrated.
     pub tick: u64,

@@ -28,16 +28,7 @@ fn step(tick: u64, mut bodies: Vec<TruthBody>) -> TruthStep {
         b.agent_distance_m =
             copy.iter().filter(|o| o.id != b.id).map(|o| (o.x - b.x).hypot(o.y - b.y)).fold(f64::INFINITY, f64::min);
     }
-    TruthStep {
-        tick,
-        t_secs: 0.1 * tick as f64,
-        bodies,
-        collisions: vec![],
-        goal_reached_at: None,
-        ended: None,
-        wall_secs: 0.0,
-        timing: Default::default(),
-    }
+    TruthStep { tick, t_secs: 0.1 * tick as f64, bodies, ..Default::default() }
 }
 
 fn state(id: u32, tick: u64, of: &[u32]) -> AgentState {

@@ -1039,16 +1039,7 @@ mod tests {
         b1.yaw = std::f64::consts::FRAC_PI_2;
         let mut b2 = body(2, 0.0, 5.0, 2.0, true);
         b2.y = 2.0;
-        let truth = |tick| TruthStep {
-            tick,
-            t_secs: 0.1 * tick as f64,
-            bodies: vec![b1, b2],
-            collisions: vec![],
-            goal_reached_at: None,
-            ended: None,
-            wall_secs: 0.0,
-            timing: Default::default(),
-        };
+        let truth = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], ..Default::default() };
         let state = |tick, x: f32, n: usize| AgentState {
             id: 1,
             tick,
@@ -1104,16 +1095,7 @@ mod tests {
         b2.y = 10.0;
         // As the hub would report it: each one's nearest UAV is now 10 m away.
         (b1.agent_distance_m, b2.agent_distance_m) = (10.0, 10.0);
-        let far = |tick| TruthStep {
-            tick,
-            t_secs: 0.1 * tick as f64,
-            bodies: vec![b1, b2],
-            collisions: vec![],
-            goal_reached_at: None,
-            ended: None,
-            wall_secs: 0.0,
-            timing: Default::default(),
-        };
+        let far = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], ..Default::default() };
         m.on_step(&far(6));
         m.on_state(state(6, 10.0, 1));
         let s = m.summary("r", &sc);

@@ -495,16 +495,7 @@ mod tests {
             agent_distance_m: 1.0,
             colliding: false,
         };
-        TruthStep {
-            tick,
-            t_secs: tick as f64 * 0.1,
-            bodies: vec![body],
-            collisions: vec![],
-            goal_reached_at: None,
-            ended: None,
-            wall_secs: 0.0,
-            timing: Box::default(),
-        }
+        TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], ..Default::default() }
     }
 
     #[test]
