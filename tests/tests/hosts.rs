@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{alive_changes, run_id, start_hub, summary, swarm_run, tap, Proc};
+use common::{alive_changes, run_id, start_hub, start_recorder, summary, swarm_run, tap, Proc};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -58,21 +58,7 @@ fn a_killed_agent_host_takes_its_agents_down_and_a_new_one_brings_them_back() {
     let run = run_id("hostkill");
     let (mut hub, loc) = start_hub("open-field-5", &run, dir.path());
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(
-        &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc],
-        &dir.path().join("rec.log"),
-    );
-    let up = tap(&[
-        &format!("swarm/{run}/alive/recorder"),
-        "--alive",
-        "--connect",
-        &loc,
-        "--count",
-        "1",
-        "--duration",
-        "30",
-    ]);
-    assert!(up.contains("\"alive\":true"), "recorder is subscribed: {up}");
+    let mut rec = start_recorder(&run, &loc, &out, dir.path());
     let agent = |flag: &str, ids: &str, log: &str| {
         Proc::start(&["agent", "--run", &run, flag, ids, "--connect", &loc, "--exit-with-stdin"], &dir.path().join(log))
     };

@@ -23,20 +23,7 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
     let run = run_id("mcap");
     let (mut hub, loc) = start_hub(&sc, &run, dir.path());
     let out = dir.path().join("rec");
-    let out_s = out.to_str().expect("utf8");
-    let mut rec =
-        Proc::start(&["record", "--run", &run, "--out", out_s, "--connect", &loc], &dir.path().join("rec.log"));
-    let alive = common::tap(&[
-        &format!("swarm/{run}/alive/recorder"),
-        "--alive",
-        "--connect",
-        &loc,
-        "--count",
-        "1",
-        "--duration",
-        "30",
-    ]);
-    assert!(alive.contains("true"), "the recorder came up: {alive}");
+    let mut rec = common::start_recorder(&run, &loc, &out, dir.path());
     let scans = common::tap_listening(&[
         &format!("swarm/{run}/uav/1/sense/scan"),
         "--connect",

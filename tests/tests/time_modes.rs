@@ -62,22 +62,7 @@ fn lockstep_goes_on_when_an_agent_dies() {
     let run = run_id("die");
     let (mut hub, loc) = start_hub(&sc, &run, dir.path());
     let out = dir.path().join("rec");
-    let mut rec = Proc::start(
-        &["record", "--run", &run, "--out", out.to_str().expect("utf8"), "--connect", &loc],
-        &dir.path().join("rec.log"),
-    );
-    let tap = common::tap;
-    assert!(tap(&[
-        &format!("swarm/{run}/alive/recorder"),
-        "--alive",
-        "--connect",
-        &loc,
-        "--count",
-        "1",
-        "--duration",
-        "30"
-    ])
-    .contains("true"));
+    let mut rec = common::start_recorder(&run, &loc, &out, dir.path());
     // The hub ticks only once both agents are alive, and may then fly hundreds of ticks in less
     // than a tap takes to start: listen to the clock before the second agent comes.
     let clock =
