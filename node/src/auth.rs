@@ -4,7 +4,7 @@
 //!
 //! A user's role is read from its name, so the hub needs nothing but the dictionary file of
 //! `user:password` lines to build its rules ([`router_cfg`]):
-//! - `uav{id}`: one agent. It may subscribe to its own `uav/{id}/sense/**` and `radio/{id}`,
+//! - `uav{id}`: one agent. It may subscribe to its own `uav/{id}/sense` (its sensor frames),
 //!   `clock`, `netem/rules` and every UAV's `share/**`, ask for `scenario`, watch `alive/hub`;
 //!   publish only its own `cmd`, `share/**` and `state`; hold only `alive/uav/{id}`. Nothing
 //!   else, `truth/**` least of all (the default is deny).
@@ -31,13 +31,13 @@
 //! everyone (clients need them to know a publication has a reader; they carry no data).
 //!
 //! One exception keeps the router cheap at 1000 UAVs: the egress rule for sensor data is one
-//! wildcard for every agent (`uav/*/sense/**`, `radio/*`), not a list of each user's own keys.
-//! Zenoh admits a subscriber only if its key is *included* in a key its user may subscribe to
-//! (a broader subscription, such as `uav/*/sense/scan` or `**`, is refused whole, and another
-//! UAV's `radio/{id}` too: tested in `tests/tests/security.rs`), and data reaches a client only through its subscribers, so a
-//! user's ingress list already bounds what it receives. The per-user egress list cost the
-//! router a walk of two keys per UAV of a host for every share it forwarded to that host (those
-//! decisions are not cached): 18–35 % of the hub's CPU on open-1000 (docs/performance.md).
+//! wildcard for every agent (`uav/*/sense`), not a list of each user's own keys. Zenoh admits a
+//! subscriber only if its key is *included* in a key its user may subscribe to (a broader
+//! subscription, such as `uav/*/sense` or `**`, is refused whole, and another UAV's
+//! `uav/{id}/sense` too: tested in `tests/tests/security.rs`), and data reaches a client only
+//! through its subscribers, so a user's ingress list already bounds what it receives. The
+//! per-user egress list cost the router a walk of two keys per UAV of a host for every share it
+//! forwarded to that host (those decisions are not cached): 18–35 % of the hub's CPU on open-1000 (docs/performance.md).
 //!
 //! [`Credentials`] makes fresh users and passwords: `swarm run` for each run (in the run folder,
 //! readable by its owner only), `swarm credentials` for pieces started by hand.
@@ -267,12 +267,7 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
         rule("agent-sub", "ingress", &["declare_subscriber"], agent_common_keys(&r)),
         rule("agent-data", "egress", &["put"], agent_common_keys(&r)),
         // Bounded by each agent's own ingress list, as the sensors (see the module doc).
-        rule(
-            "agent-sensors-out",
-            "egress",
-            &["put"],
-            vec![format!("{r}/uav/*/sense/**"), format!("{r}/radio/*"), format!("{r}/uav/*/ext/cmd")],
-        ),
+        rule("agent-sensors-out", "egress", &["put"], vec![format!("{r}/uav/*/sense"), format!("{r}/uav/*/ext/cmd")]),
         rule("agent-ext-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
         rule("agent-ask", "ingress", &["query"], vec![format!("{r}/scenario")]),
         rule("agent-answer", "egress", &["reply"], vec![format!("{r}/scenario")]),
@@ -404,11 +399,10 @@ fn agent_common_keys(r: &str) -> Vec<String> {
 }
 
 /// The rules of the agents of `ids` (under subject id `subject`): subscribing to their own
-/// sensors and radio, their own command, shares and state out, their own liveliness tokens.
+/// sensor frames, their own command, shares and state out, their own liveliness tokens.
 fn own_rules(r: &str, subject: &str, ids: &[u32]) -> Vec<Value> {
     let keys = |f: &dyn Fn(u32) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
-    let sensors =
-        keys(&|i| vec![format!("{r}/uav/{i}/sense/**"), format!("{r}/radio/{i}"), format!("{r}/uav/{i}/ext/cmd")]);
+    let sensors = keys(&|i| vec![format!("{r}/uav/{i}/sense"), format!("{r}/uav/{i}/ext/cmd")]);
     let out = keys(&|i| {
         vec![
             format!("{r}/uav/{i}/cmd"),

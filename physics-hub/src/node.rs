@@ -1,8 +1,8 @@
 //! The hub on the network: a Zenoh router that runs [`Sim`] and speaks the lockstep protocol.
 //!
 //! One tick k in `lockstep` mode (SPEC section 2, refined):
-//! 1. publish the clock, then for every UAV its radio set, odometry, GNSS (broadcast mode) and
-//!    scan, in that order on one session, so an agent that has the scan has the rest;
+//! 1. publish the clock, then every UAV's sensor frame (radio set, odometry, GNSS in broadcast
+//!    mode, UVDAR in uvdar mode and the scan, in one message on `uav/{id}/sense`);
 //! 2. wait until every agent holding a liveliness token has sent its command for tick k, or
 //!    `time.tick_timeout_ms` passes (a missing agent keeps its last command; a UAV whose agent
 //!    lost its liveliness token hovers);
@@ -19,7 +19,7 @@
 //! `swarm_wire::session::Writer`).
 
 use crate::lateness::Lateness;
-use crate::sim::{Sensors, Sim, Stepped};
+use crate::sim::{Sim, Stepped};
 use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -93,21 +93,14 @@ impl Pacer {
     }
 }
 
-struct UavWriters {
-    radio: Writer,
-    odom: Writer,
-    gnss: Writer,
-    uvdar: Writer,
-    scan: Writer,
-}
-
 struct Net {
     session: zenoh::Session,
     keys: Keys,
     clock: Writer,
     truth_world: Writer,
     truth_step: Writer,
-    uavs: Vec<UavWriters>,
+    /// Each UAV's `uav/{id}/sense` writer, in id order.
+    sense: Vec<Writer>,
     alive: Arc<Mutex<BTreeSet<u32>>>,
     /// Bumped (under the `alive` lock) on every change of `alive`: the barrier re-reads the set
     /// only when this moved, so its cost per command does not grow with the agents.
@@ -120,27 +113,6 @@ struct Net {
     ignored: Arc<AtomicU64>,
     netem_rules: Writer,
     netem_added: mpsc::UnboundedReceiver<Vec<u8>>,
-}
-
-/// One UAV's sensor messages of a tick, encoded (on the worker thread that computed them).
-struct EncodedSensors {
-    radio: Vec<u8>,
-    odom: Vec<u8>,
-    gnss: Option<Vec<u8>>,
-    uvdar: Option<Vec<u8>>,
-    scan: Vec<u8>,
-}
-
-impl EncodedSensors {
-    fn of(s: Sensors) -> Result<EncodedSensors, WireError> {
-        Ok(EncodedSensors {
-            radio: Msg::Radio(s.radio).encode()?,
-            odom: Msg::Odom(s.odom).encode()?,
-            gnss: s.gnss.map(|g| Msg::Gnss(g).encode()).transpose()?,
-            uvdar: s.uvdar.map(|u| Msg::Uvdar(u).encode()).transpose()?,
-            scan: Msg::Scan(s.scan).encode()?,
-        })
-    }
 }
 
 async fn put(p: &Writer, msg: &Msg) -> Result<(), WireError> {
@@ -213,23 +185,17 @@ struct Subs {
     _agent_keys: Vec<zenoh::key_expr::KeyExpr<'static>>,
 }
 
-/// The sensor writers of every UAV of the scenario, in id order.
-async fn uav_writers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<UavWriters>, WireError> {
+/// The sensor-frame writer of every UAV of the scenario, in id order.
+async fn sense_writers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<Writer>, WireError> {
     let sensors_cc = match sc.time.mode {
         TimeMode::Lockstep => CongestionControl::Block,
         TimeMode::Realtime => CongestionControl::Drop,
     };
-    let mut uavs = Vec::with_capacity(sc.count());
+    let mut writers = Vec::with_capacity(sc.count());
     for id in sc.uav_ids() {
-        uavs.push(UavWriters {
-            radio: Writer::new(s, keys.radio(id), sensors_cc).await?,
-            odom: Writer::new(s, keys.odom(id), sensors_cc).await?,
-            gnss: Writer::new(s, keys.gnss(id), sensors_cc).await?,
-            uvdar: Writer::new(s, keys.uvdar(id), sensors_cc).await?,
-            scan: Writer::new(s, keys.scan(id), sensors_cc).await?,
-        });
+        writers.push(Writer::new(s, keys.sense(id), sensors_cc).await?);
     }
-    Ok(uavs)
+    Ok(writers)
 }
 
 /// The UAV id in `key` when it is one of the scenario's `1..=count`: ids are checked at the door,
@@ -340,7 +306,7 @@ async fn watch_agents(
 
 impl Net {
     async fn declare(s: zenoh::Session, keys: Keys, sc: &Scenario) -> Result<(Net, Subs), WireError> {
-        let uavs = uav_writers(&s, &keys, sc).await?;
+        let sense = sense_writers(&s, &keys, sc).await?;
         let agent_keys = declare_agent_keys(&s, &keys, sc).await?;
         let malformed = Arc::new(AtomicU64::new(0));
         let ignored = Arc::new(AtomicU64::new(0));
@@ -360,7 +326,7 @@ impl Net {
             truth_step: Writer::new(&s, keys.truth_step(), CongestionControl::Block).await?,
             session: s,
             keys,
-            uavs,
+            sense,
             alive,
             alive_gen,
             alive_changed,
@@ -541,27 +507,17 @@ impl Net {
         let ids: Vec<u32> = alive
             .iter()
             .copied()
-            .filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.uavs.len()))
+            .filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.sense.len()))
             .collect();
         tokio::task::block_in_place(|| {
-            sim.sensors_each(&ids, |_, s| EncodedSensors::of(s), |id, e| self.put_sensors(id, e?))
+            sim.sensors_each(&ids, |_, s| Msg::Sense(Box::new(s)).encode(), |id, e| self.put_sensors(id, e?))
         })
     }
 
-    /// Publishes UAV `id`'s encoded sensors: radio set, odometry, GNSS, UVDAR, then the scan, so
-    /// an agent that has the scan has the rest.
-    fn put_sensors(&self, id: u32, e: EncodedSensors) -> Result<(), WireError> {
-        let p = &self.uavs[(id - 1) as usize];
-        // Blocking puts (the caller is inside `block_in_place`), unlike the async `put` above.
-        p.radio.put_now(e.radio)?;
-        p.odom.put_now(e.odom)?;
-        if let Some(g) = e.gnss {
-            p.gnss.put_now(g)?;
-        }
-        if let Some(u) = e.uvdar {
-            p.uvdar.put_now(u)?;
-        }
-        p.scan.put_now(e.scan)
+    /// Publishes UAV `id`'s encoded sensor frame.
+    fn put_sensors(&self, id: u32, frame: Vec<u8>) -> Result<(), WireError> {
+        // A blocking put (the caller is inside `block_in_place`), unlike the async `put` above.
+        self.sense[(id - 1) as usize].put_now(frame)
     }
 
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors

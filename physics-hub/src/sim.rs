@@ -20,24 +20,9 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{GoalRule, LocalizationMode, OnCollision, Scenario};
 use swarm_wire::{
-    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, HubTiming, Odom, RadioSet, Scan, TruthBody, TruthStep,
-    TruthWorld, Uvdar, UvdarSeen,
+    Clock, Cmd, CmdKind, CollisionEvent, EndReason, Gnss, HubTiming, Odom, RadioSet, Scan, SenseFrame, TruthBody,
+    TruthStep, TruthWorld, Uvdar, UvdarSeen,
 };
-
-/// Sensor messages of one UAV for the current tick.
-#[derive(Debug, Clone)]
-pub struct Sensors {
-    /// Radio set.
-    pub radio: RadioSet,
-    /// Odometry (own start frame).
-    pub odom: Odom,
-    /// World pose, only in `broadcast` localization mode.
-    pub gnss: Option<Gnss>,
-    /// LIDAR scan (body frame).
-    pub scan: Scan,
-    /// Onboard relative sensing, only in `uvdar` localization mode.
-    pub uvdar: Option<Uvdar>,
-}
 
 /// The seeded random streams of one UAV's sensors.
 struct UavRngs {
@@ -189,16 +174,16 @@ impl Sim {
         }
     }
 
-    /// Sensor messages of UAV `id` (1-based) for the current tick.
+    /// The sensor frame of UAV `id` (1-based) for the current tick.
     #[cfg(test)]
-    pub fn sensors(&mut self, id: u32) -> Sensors {
+    pub fn sensors(&mut self, id: u32) -> SenseFrame {
         self.sensors_all(&[id]).pop().expect("one UAV asked, one answer")
     }
 
-    /// Sensor messages of the UAVs `ids` (1-based, each at most once) for the current tick, in
+    /// The sensor frames of the UAVs `ids` (1-based, each at most once) for the current tick, in
     /// the order given. Large swarms are spread over the cores (see [`Sim::sensors_each`]); each
     /// UAV draws only from its own streams, so the result does not depend on the split.
-    pub fn sensors_all(&mut self, ids: &[u32]) -> Vec<Sensors> {
+    pub fn sensors_all(&mut self, ids: &[u32]) -> Vec<SenseFrame> {
         let mut out = Vec::with_capacity(ids.len());
         let done: Result<(), std::convert::Infallible> = self.sensors_each(
             ids,
@@ -214,7 +199,7 @@ impl Sim {
         }
     }
 
-    /// The sensor messages of the UAVs `ids` (1-based, each at most once) for the current tick,
+    /// The sensor frames of the UAVs `ids` (1-based, each at most once) for the current tick,
     /// each turned into a `T` by `prepare` on the thread that computed it (the hub encodes them
     /// there), then handed to `sink` on the calling thread, one UAV at a time in the order of
     /// `ids`. From [`PARALLEL_FROM_UAVS`] UAVs on, worker threads (one per core) compute chunks
@@ -226,7 +211,7 @@ impl Sim {
     pub fn sensors_each<T: Send, E>(
         &mut self,
         ids: &[u32],
-        prepare: impl Fn(u32, Sensors) -> T + Sync,
+        prepare: impl Fn(u32, SenseFrame) -> T + Sync,
         sink: impl FnMut(u32, T) -> Result<(), E>,
     ) -> Result<(), E> {
         let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -239,7 +224,7 @@ impl Sim {
         &mut self,
         ids: &[u32],
         workers: usize,
-        prepare: impl Fn(u32, Sensors) -> T + Sync,
+        prepare: impl Fn(u32, SenseFrame) -> T + Sync,
         mut sink: impl FnMut(u32, T) -> Result<(), E>,
     ) -> Result<(), E> {
         let mut rngs = std::mem::take(&mut self.rngs);
@@ -269,7 +254,7 @@ impl Sim {
         &self,
         jobs: &mut [(u32, &mut UavRngs)],
         workers: usize,
-        prepare: &(impl Fn(u32, Sensors) -> T + Sync),
+        prepare: &(impl Fn(u32, SenseFrame) -> T + Sync),
         sink: &mut impl FnMut(u32, T) -> Result<(), E>,
     ) -> Result<(), E> {
         let mut per_worker: Vec<Vec<Chunk<'_, '_>>> = (0..workers).map(|_| Vec::new()).collect();
@@ -311,8 +296,8 @@ impl Sim {
         })
     }
 
-    /// Sensor messages of UAV `id`, drawing from its streams `r`.
-    fn sensors_of(&self, id: u32, r: &mut UavRngs) -> Sensors {
+    /// The sensor frame of UAV `id`, drawing from its streams `r`.
+    fn sensors_of(&self, id: u32, r: &mut UavRngs) -> SenseFrame {
         let i = (id - 1) as usize;
         let (tick, t_secs) = (self.tick, self.t_secs());
         let b = self.bodies[i];
@@ -340,7 +325,7 @@ impl Sim {
         let loss = self.radio.losses(i);
         let uvdar =
             (self.sc.localization.mode == LocalizationMode::Uvdar).then(|| self.uvdar(i, tick, t_secs, &mut r.uvdar));
-        Sensors { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, scan, uvdar }
+        SenseFrame { radio: RadioSet { tick, id, in_range, loss }, odom, gnss, uvdar, scan }
     }
 
     /// UAV index `i`'s LIDAR scan: the world and the other UAVs the beams can reach (found in the

@@ -210,7 +210,7 @@ impl KeySpace {
 /// One key family's row.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FamilyRow {
-    /// `uav/{id}/sense/scan`: numeric ids written `{id}`.
+    /// `uav/{id}/sense`: numeric ids written `{id}`.
     pub family: String,
     /// Sessions that declared a publisher, or a writer's querier, on a key of it.
     pub publishers: Vec<String>,
@@ -414,11 +414,11 @@ mod tests {
         add("@/x/router/token/swarm/r/alive/uav/3", r#"{"clients":["hh"]}"#);
         add("@/x/router/token/swarm/r/alive/uav/4", r#"{"clients":["hh"]}"#);
         add("@/h/router/token/swarm/r/alive/recorder", r#"{"clients":["rec"]}"#);
-        add("@/h/router/publisher/swarm/r/uav/1/sense/scan", r#"{"clients":["h"]}"#);
-        add("@/h/router/publisher/swarm/r/uav/2/sense/scan", r#"{"clients":["h"]}"#);
-        add("@/h/router/subscriber/swarm/r/uav/1/sense/scan", r#"{"clients":["a1"]}"#);
-        add("@/h/router/subscriber/swarm/r/uav/2/sense/scan", r#"{"clients":["a2"]}"#);
-        add("@/h/router/subscriber/swarm/r/uav/*/sense/scan", r#"{"clients":["rec"]}"#);
+        add("@/h/router/publisher/swarm/r/uav/1/sense", r#"{"clients":["h"]}"#);
+        add("@/h/router/publisher/swarm/r/uav/2/sense", r#"{"clients":["h"]}"#);
+        add("@/h/router/subscriber/swarm/r/uav/1/sense", r#"{"clients":["a1"]}"#);
+        add("@/h/router/subscriber/swarm/r/uav/2/sense", r#"{"clients":["a2"]}"#);
+        add("@/h/router/subscriber/swarm/r/uav/*/sense", r#"{"clients":["rec"]}"#);
         add("@/h/router/querier/swarm/r/uav/1/share/pose", r#"{"clients":["a1"]}"#);
         add("@/h/router/subscriber/swarm/r/uav/1/share/pose", r#"{"routers":["x"],"clients":["a2"]}"#);
         add("@/x/router/subscriber/swarm/r/uav/1/share/pose", r#"{"clients":["hh"]}"#);
@@ -431,9 +431,9 @@ mod tests {
 
     #[test]
     fn families_write_ids_and_their_wildcards_alike() {
-        assert_eq!(family("uav/12/sense/scan"), "uav/{id}/sense/scan");
+        assert_eq!(family("uav/12/sense"), "uav/{id}/sense");
         assert_eq!(family("uav/*/share/pose"), "uav/{id}/share/pose");
-        assert_eq!(family("radio/3"), "radio/{id}");
+        assert_eq!(family("alive/uav/3"), "alive/uav/{id}");
         assert_eq!(family("truth/step"), "truth/step");
         assert_eq!(family("truth/**"), "truth/**");
     }
@@ -461,11 +461,11 @@ mod tests {
         s.traffic.insert("uav/{id}/share/pose".into(), (40, 4000));
         let rows = s.rows();
         let names: Vec<&str> = rows.iter().map(|r| r.family.as_str()).collect();
-        assert_eq!(names, ["uav/{id}/sense/scan", "uav/{id}/share/pose"]);
-        let scan = &rows[0];
-        assert_eq!(scan.publishers, ["hub"]);
-        assert_eq!(scan.subscribers, ["recorder", "uav1", "uav2"]);
-        assert_eq!((scan.subscribed_keys, scan.msgs_per_s), (3, Some(0.0)));
+        assert_eq!(names, ["uav/{id}/sense", "uav/{id}/share/pose"]);
+        let sense = &rows[0];
+        assert_eq!(sense.publishers, ["hub"]);
+        assert_eq!(sense.subscribers, ["recorder", "uav1", "uav2"]);
+        assert_eq!((sense.subscribed_keys, sense.msgs_per_s), (3, Some(0.0)));
         let pose = &rows[1];
         assert_eq!(pose.publishers, ["uav1"]);
         assert_eq!(pose.subscribers, ["uav2", "uavs3-4"], "the host once, with its two senders");

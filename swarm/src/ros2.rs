@@ -25,7 +25,7 @@ use swarm_wire::ros2::{
     attachment, data_key, Entity, Kind, RosType, LASER_SCAN, ODOMETRY, QOS_DEFAULT, QOS_SENSOR, TWIST,
 };
 use swarm_wire::session::{self, Role};
-use swarm_wire::{Keys, Msg, WireError};
+use swarm_wire::{Keys, Msg, SenseFrame, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{info, warn};
 use zenoh::liveliness::LivelinessToken;
@@ -58,8 +58,8 @@ pub async fn ros2(a: Ros2Args) -> Result<ExitCode> {
 
 /// What reaches the bridge, in one channel.
 enum Event {
-    /// A UAV's scan or odometry.
-    Sense(u32, Msg),
+    /// A UAV's sensor frame (the bridge takes its odometry and scan).
+    Sense(u32, Box<SenseFrame>),
     /// An external UAV's view (JSON).
     View(u32, Vec<u8>),
     /// A Twist from ROS for an external UAV (CDR).
@@ -95,10 +95,8 @@ impl Bridge {
         let sc = Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?;
         let (tx, rx) = mpsc::unbounded_channel();
         let mut subs = Vec::new();
-        for key in [keys.scan_any(), keys.odom_any()] {
-            let keys2 = keys.clone();
-            subs.push(plumbing::subscribe(&s, key, tx.clone(), move |sample| sense_event(&keys2, sample)).await?);
-        }
+        let keys2 = keys.clone();
+        subs.push(plumbing::subscribe(&s, keys.sense_any(), tx.clone(), move |x| sense_event(&keys2, x)).await?);
         let mut tokens = graph(&s, &sc, domain).await?;
         for &id in &sc.controller.external {
             subs.push(
@@ -160,20 +158,11 @@ impl Bridge {
 
     async fn on_event(&mut self, ev: Event) -> Result<()> {
         match ev {
-            Event::Sense(id, Msg::Scan(scan)) => {
-                let frame = format!("uav{id}/base_link");
-                self.publish(id, "scan", LASER_SCAN, laser_scan(&scan, &frame, self.scan_period_s)).await
+            Event::Sense(id, f) => {
+                let base = format!("uav{id}/base_link");
+                self.publish(id, "odom", ODOMETRY, odometry(&f.odom, &format!("uav{id}/odom"), &base)).await?;
+                self.publish(id, "scan", LASER_SCAN, laser_scan(&f.scan, &base, self.scan_period_s)).await
             }
-            Event::Sense(id, Msg::Odom(o)) => {
-                self.publish(
-                    id,
-                    "odom",
-                    ODOMETRY,
-                    odometry(&o, &format!("uav{id}/odom"), &format!("uav{id}/base_link")),
-                )
-                .await
-            }
-            Event::Sense(..) => Ok(()),
             Event::CmdVel(id, bytes) => {
                 match Twist::decode(&bytes) {
                     Ok(t) if t.linear.iter().chain(&t.angular).all(|v| v.is_finite()) => {
@@ -230,11 +219,11 @@ struct ViewTick {
     tick: u64,
 }
 
-/// A UAV's sensor message from its key; scans and odometry only.
+/// A UAV's sensor frame from its key.
 fn sense_event(keys: &Keys, sample: &zenoh::sample::Sample) -> Option<Event> {
     let id = keys.uav_id_of(sample.key_expr().as_str())?;
     match plumbing::decode(sample) {
-        Ok(m @ (Msg::Scan(_) | Msg::Odom(_))) => Some(Event::Sense(id, m)),
+        Ok(Msg::Sense(f)) => Some(Event::Sense(id, f)),
         _ => None,
     }
 }

@@ -156,8 +156,12 @@ fn each_agent_session_subscribes_to_the_share_keys_of_its_radio_set_only() {
         "one subscription per neighbour, not per UAV: {pose}"
     );
     assert!(pose["msgs_per_s"].as_f64().expect("a rate") > 40.0, "eight UAVs share at 10 Hz: {pose}");
-    let scan = families.get("uav/{id}/sense/scan").expect("scans");
-    assert_eq!(scan["publishers"], serde_json::json!(["hub"]), "the hub's writers are seen by their queriers: {scan}");
+    let sense = families.get("uav/{id}/sense").expect("sensor frames");
+    assert_eq!(
+        sense["publishers"],
+        serde_json::json!(["hub"]),
+        "the hub's writers are seen by their queriers: {sense}"
+    );
     let pose_writers: Vec<&str> =
         pose["publishers"].as_array().expect("publishers").iter().filter_map(|n| n.as_str()).collect();
     assert_eq!(pose_writers, names, "every agent writes its own share: {pose}");

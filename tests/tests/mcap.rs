@@ -25,7 +25,7 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
     let out = dir.path().join("rec");
     let mut rec = common::start_recorder(&run, &loc, &out, dir.path());
     let scans = common::tap_listening(&[
-        &format!("swarm/{run}/uav/1/sense/scan"),
+        &format!("swarm/{run}/uav/1/sense"),
         "--connect",
         &loc,
         "--count",
@@ -48,9 +48,9 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
         .output()
         .lines()
         .map(|l| serde_json::from_str::<Value>(l).expect("tap json"))
-        .find(|v| v["msg"]["Scan"]["tick"] == TICK)
+        .find(|v| v["msg"]["Sense"]["scan"]["tick"] == TICK)
         .unwrap_or_else(|| panic!("tap saw no scan of tick {TICK}"));
-    let wire = &wire["msg"]["Scan"];
+    let wire = &wire["msg"]["Sense"]["scan"];
     let t_secs = wire["t_secs"].as_f64().expect("t_secs");
 
     let py = common::output_within(

@@ -146,8 +146,16 @@ fn children_die_with_a_killed_launcher() {
     }
 }
 
+/// A sensor frame that decodes but whose parts are of different ticks (scan 1, odometry 2).
+const MIXED_TICKS: &str = r#"{"Sense": {
+    "radio": {"tick": 1, "id": 1, "in_range": [], "loss": []},
+    "odom": {"tick": 2, "t_secs": 0.2, "x": 0.0, "y": 0.0, "yaw": 0.0, "vx": 0.0, "vy": 0.0, "goal": null, "goal_vel": null},
+    "gnss": null, "uvdar": null,
+    "scan": {"tick": 1, "t_secs": 0.1, "angle_min": 0.0, "angle_increment": 0.1, "max_range_m": 12.0, "ranges_m": []}}}"#;
+
 /// Garbage on the wire is counted and dropped, never a panic: malformed payloads on an agent's
-/// sensor key and on the hub's command keys (including id 0, which has no body), mid-flight.
+/// sensor key (bytes that do not decode, and a frame whose parts disagree on the tick) and on
+/// the hub's command keys (including id 0, which has no body), mid-flight.
 #[test]
 fn malformed_messages_are_counted_and_dropped() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -172,8 +180,8 @@ fn malformed_messages_are_counted_and_dropped() {
         let o = output_within(Command::new(SWARM).args(["put", &key, "--connect", &loc]).args(payload), TOOL_LIMIT);
         assert!(o.status.success(), "put: {}", String::from_utf8_lossy(&o.stderr));
     };
-    put(format!("swarm/{run}/uav/1/sense/scan"), &["--hex", "ff ff ff ff 01"]);
-    put(format!("swarm/{run}/uav/1/sense/odom"), &["--hex", "01"]);
+    put(format!("swarm/{run}/uav/1/sense"), &["--hex", "ff ff ff ff 01"]);
+    put(format!("swarm/{run}/uav/1/sense"), &["--json", MIXED_TICKS]);
     put(format!("swarm/{run}/uav/1/cmd"), &["--hex", "05 02"]);
     put(
         format!("swarm/{run}/uav/0/cmd"),
@@ -187,7 +195,7 @@ fn malformed_messages_are_counted_and_dropped() {
     assert!(rec.wait_for(Duration::from_secs(120)).expect("the run ends").success());
     let s = common::summary(&out);
     assert_eq!(s["end_reason"], "time_limit", "the run went on to its end: {s:#}");
-    assert_eq!(s["agents"][0]["malformed_messages"], 2, "scan and odom garbage counted: {s:#}");
+    assert_eq!(s["agents"][0]["malformed_messages"], 2, "the garbage and the mixed frame counted: {s:#}");
     assert!(s["agents"][0]["path_length_m"].as_f64().expect("n") > 5.0, "the agent kept flying: {s:#}");
     assert!(hub.wait_for(Duration::from_secs(20)).expect("hub exits").success(), "hub did not panic");
     assert!(agent.wait_for(Duration::from_secs(20)).expect("agent exits").success(), "agent did not panic");

@@ -134,11 +134,11 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
 
     // Agent: its own sensors, never truth, nor another UAV's sensors. A subscription broader
     // than its keys (`swarm/{run}/**`) is refused whole by the router: it receives nothing.
-    assert_eq!(f.tap_as("uav3", "uav/3/sense/scan", &["--count", "3", "--duration", "30"]).lines().count(), 3);
+    assert_eq!(f.tap_as("uav3", "uav/3/sense", &["--count", "3", "--duration", "30"]).lines().count(), 3);
     assert_eq!(
-        f.tap_as("uav3", "uav/2/sense/scan", &["--duration", "3"]).lines().count(),
+        f.tap_as("uav3", "uav/2/sense", &["--duration", "3"]).lines().count(),
         0,
-        "UAV 2's scan is not UAV 3's"
+        "UAV 2's sensors are not UAV 3's"
     );
     assert_eq!(
         f.tap_as("uav3", "**", &["--duration", "3"]).lines().count(),
@@ -146,17 +146,12 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
         "a subscription to everything is refused"
     );
     // The router forwards every agent's sensor data under one wildcard rule (node/src/auth.rs):
-    // what keeps UAV 2's scan from UAV 3 is that a subscription broader than UAV 3's own keys is
-    // refused.
+    // what keeps UAV 2's sensors from UAV 3 is that a subscription broader than UAV 3's own keys
+    // is refused.
     assert_eq!(
-        f.tap_as("uav3", "uav/*/sense/scan", &["--duration", "3"]).lines().count(),
+        f.tap_as("uav3", "uav/*/sense", &["--duration", "3"]).lines().count(),
         0,
-        "a subscription to every UAV's scan is refused"
-    );
-    assert_eq!(
-        f.tap_as("uav3", "radio/2", &["--duration", "3"]).lines().count(),
-        0,
-        "UAV 2's radio set is not UAV 3's"
+        "a subscription to every UAV's sensors is refused"
     );
     assert_eq!(f.tap_as("uav3", "truth/**", &["--duration", "3"]).lines().count(), 0, "UAV 3 reads no truth");
     // Observer: everything, truth included.
@@ -165,7 +160,7 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
         3,
         "truth was flowing"
     );
-    assert!(f.tap_as("observer", "uav/2/sense/scan", &["--count", "1", "--duration", "30"]).contains("Scan"));
+    assert!(f.tap_as("observer", "uav/2/sense", &["--count", "1", "--duration", "30"]).contains("Sense"));
 
     // UAV 3's puts on UAV 2's command key (garbage, and a command) are refused by the router;
     // the same on its own key reaches the hub (the counts below show both).
@@ -175,7 +170,7 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     // An external controller, the ROS 2 bridge and a ROS machine read none of the run's data
     // keys but their own, and none of them may command a UAV through the hub's key.
     assert_eq!(f.tap_as("ext3", "clock", &["--duration", "3"]).lines().count(), 0, "ext3 reads only its view");
-    assert_eq!(f.tap_as("ext3", "uav/3/sense/scan", &["--duration", "3"]).lines().count(), 0, "ext3 reads no sensor");
+    assert_eq!(f.tap_as("ext3", "uav/3/sense", &["--duration", "3"]).lines().count(), 0, "ext3 reads no sensor");
     assert_eq!(f.tap_as("ros", "clock", &["--duration", "3"]).lines().count(), 0, "ros reads nothing of the run");
     assert_eq!(
         f.tap_as("bridge", "clock", &["--count", "1", "--duration", "30"]).lines().count(),
@@ -219,12 +214,12 @@ fn a_python_client_no_one_here_wrote_is_held_to_its_role() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON line");
     assert_eq!(v["refused"], true, "no credentials: refused: {v}");
     assert_eq!(v["wrong_password_refused"], true, "{v}");
-    assert!(v["scan"].as_u64().expect("n") > 0, "UAV 3 receives its scan: {v}");
+    assert!(v["frames"].as_u64().expect("n") > 0, "UAV 3 receives its sensor frames: {v}");
     assert_eq!(v["truth"], 0, "and nothing on truth/**: {v}");
     // Its subscription to `swarm/{run}/**` is refused by the router; the session still hands it
     // what reaches the session for its other subscriptions, and its own puts.
     let keys: Vec<&str> = v["keys"].as_array().expect("keys").iter().filter_map(|k| k.as_str()).collect();
-    assert!(keys.iter().all(|k| !k.contains("/truth/") && !k.contains("/uav/2/sense/")), "{keys:?}");
+    assert!(keys.iter().all(|k| !k.contains("/truth/") && !k.contains("/uav/2/sense")), "{keys:?}");
     let log = f.finish();
     assert!(log.contains("malformed_cmds=1"), "its garbage on uav/3/cmd arrived, on uav/2/cmd it did not: {log}");
     assert!(

@@ -18,7 +18,7 @@
 use crate::control::{Arrival, Command, Controller, Controllers, Hops, LostContact, UnknownController, View};
 use crate::localization::{Localizer, Share};
 use crate::perception::{self, Extracted};
-use crate::sensing::{FrameCollector, SensorFrame};
+use crate::sensing::{Needs, SensorFrame};
 use crate::world_model::{Circle, Estimate};
 use nalgebra::Point2;
 use std::time::Instant;
@@ -128,9 +128,9 @@ impl Agent {
         self.id
     }
 
-    /// A collector of the sensor frames this agent's localizer needs.
-    pub fn frame_collector(&self) -> FrameCollector {
-        FrameCollector::new(self.localizer.needs())
+    /// The sensors a frame must carry for this agent's localizer.
+    pub fn needs(&self) -> Needs {
+        self.localizer.needs()
     }
 
     /// Takes a neighbour's share that the link has delivered (our own echo is ignored). By

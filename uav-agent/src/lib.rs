@@ -3,8 +3,8 @@
 //!
 //! A tour, in the order a tick flows through it:
 //!
-//! - `sensing`: the [`SensorFrame`] of one tick, assembled from separate sensor messages by a
-//!   pure [`FrameCollector`].
+//! - `sensing`: the [`SensorFrame`] of one tick, checked and split from the hub's one message
+//!   per UAV and tick.
 //! - `perception`: the scan becomes obstacle circles (least-squares circle fit, seed 000 3.2),
 //!   wall segments and points, in the body frame.
 //! - `localization`: where the neighbours are relative to this UAV; one localizer per mode
@@ -55,5 +55,5 @@ pub use control::{Command, Controller, Controllers, MakeController, UnknownContr
 pub use localization::icp;
 pub use localization::Share;
 pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions};
-pub use sensing::{FrameCollector, Needs, SensorFrame};
+pub use sensing::{Needs, SensorFrame};
 pub use world_model::{Circle, Estimate, Segment};

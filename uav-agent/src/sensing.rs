@@ -1,10 +1,10 @@
-//! The sensor frame of one tick, and the pure collector that assembles it from messages arriving
-//! one at a time. Why a type of its own: the node receives scan, odometry, GNSS and UVDAR as
-//! separate messages in wire order; a step may run only once every sensor its localizer needs has
-//! reported the scan's tick. Keeping that matching here, free of Zenoh, makes it testable and
-//! gives the agent one value per tick instead of loose arguments.
+//! The sensor frame of one tick as a step takes it, and the check that makes it from the hub's
+//! wire frame (`uav/{id}/sense`, one message per UAV and tick). Why a module of its own: the wire
+//! frame also carries the radio set, which goes to the admission rather than the step, and a
+//! frame whose parts disagree on the tick, or that lacks a sensor the localizer needs, is
+//! malformed (counted and dropped, never stepped on). Free of Zenoh, so testable.
 
-use swarm_wire::{Gnss, Msg, Odom, Scan, Uvdar};
+use swarm_wire::{Gnss, Odom, RadioSet, Scan, SenseFrame, Uvdar};
 
 /// Everything one step senses, all of the same tick.
 #[derive(Debug, Clone, PartialEq)]
@@ -13,9 +13,9 @@ pub struct SensorFrame {
     pub scan: Scan,
     /// Own odometry (odometry frame), of the scan's tick.
     pub odom: Odom,
-    /// Own GNSS fix (world frame), when one of the scan's tick came in.
+    /// Own GNSS fix (world frame), in broadcast mode.
     pub gnss: Option<Gnss>,
-    /// Onboard relative sensing, when one of the scan's tick came in.
+    /// Onboard relative sensing, in uvdar mode.
     pub uvdar: Option<Uvdar>,
 }
 
@@ -24,64 +24,36 @@ impl SensorFrame {
     pub fn tick(&self) -> u64 {
         self.scan.tick
     }
+
+    /// Splits the hub's frame into its radio set and the frame a step takes; an error names what
+    /// makes it malformed: parts of different ticks, or a sensor `needs` asks for missing.
+    pub fn from_wire(wire: SenseFrame, needs: Needs) -> Result<(RadioSet, SensorFrame), &'static str> {
+        let SenseFrame { radio, odom, gnss, uvdar, scan } = wire;
+        let tick = scan.tick;
+        let other_tick = radio.tick != tick
+            || odom.tick != tick
+            || gnss.as_ref().is_some_and(|g| g.tick != tick)
+            || uvdar.as_ref().is_some_and(|u| u.tick != tick);
+        if other_tick {
+            return Err("its parts are of different ticks");
+        }
+        if needs.gnss && gnss.is_none() {
+            return Err("it has no GNSS fix, which broadcast localization needs");
+        }
+        if needs.uvdar && uvdar.is_none() {
+            return Err("it has no UVDAR sensing, which uvdar localization needs");
+        }
+        Ok((radio, SensorFrame { scan, odom, gnss, uvdar }))
+    }
 }
 
-/// Which sensors a step waits for besides scan and odometry (the localizer decides).
+/// Which sensors a step needs besides scan and odometry (the localizer decides).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Needs {
-    /// Wait for the tick's GNSS fix (`broadcast`).
+    /// The tick's GNSS fix (`broadcast`).
     pub gnss: bool,
-    /// Wait for the tick's UVDAR sensing (`uvdar`).
+    /// The tick's UVDAR sensing (`uvdar`).
     pub uvdar: bool,
-}
-
-/// Holds the newest message of each sensor until a frame is complete.
-///
-/// A frame is ready when the newest scan's tick has odometry and every needed sensor of the same
-/// tick. Taking it consumes the scan and the UVDAR sensing; odometry and GNSS stay (a later scan
-/// of their tick never comes, but they are overwritten by the next tick's anyway).
-#[derive(Debug, Clone, Default)]
-pub struct FrameCollector {
-    needs: Needs,
-    scan: Option<Scan>,
-    odom: Option<Odom>,
-    gnss: Option<Gnss>,
-    uvdar: Option<Uvdar>,
-}
-
-impl FrameCollector {
-    /// A collector waiting for scan, odometry and `needs`.
-    pub fn new(needs: Needs) -> FrameCollector {
-        FrameCollector { needs, ..FrameCollector::default() }
-    }
-
-    /// Keeps a sensor message; gives it back when it is not one (radio, rules, ...).
-    pub fn offer(&mut self, msg: Msg) -> Option<Msg> {
-        match msg {
-            Msg::Scan(s) => self.scan = Some(s),
-            Msg::Odom(o) => self.odom = Some(o),
-            Msg::Gnss(g) => self.gnss = Some(g),
-            Msg::Uvdar(u) => self.uvdar = Some(u),
-            other => return Some(other),
-        }
-        None
-    }
-
-    /// The frame of the newest scan, once everything it needs of its tick is in.
-    pub fn take_ready(&mut self) -> Option<SensorFrame> {
-        let tick = self.scan.as_ref()?.tick;
-        let odom_ready = self.odom.as_ref().is_some_and(|o| o.tick == tick);
-        let gnss_ready = !self.needs.gnss || self.gnss.as_ref().is_some_and(|g| g.tick == tick);
-        let uvdar_ready = !self.needs.uvdar || self.uvdar.as_ref().is_some_and(|u| u.tick == tick);
-        if !(odom_ready && gnss_ready && uvdar_ready) {
-            return None;
-        }
-        let scan = self.scan.take()?;
-        let odom = self.odom?;
-        let gnss = self.gnss.filter(|g| g.tick == tick);
-        let uvdar = self.uvdar.take().filter(|u| u.tick == tick);
-        Some(SensorFrame { scan, odom, gnss, uvdar })
-    }
 }
 
 #[cfg(test)]
@@ -111,56 +83,43 @@ pub(crate) mod tests {
         Uvdar { tick, t_secs: tick as f64 * 0.1, seen: Vec::new() }
     }
 
+    fn radio(tick: u64) -> RadioSet {
+        RadioSet { tick, id: 1, in_range: vec![2, 3], loss: vec![] }
+    }
+
     /// A frame of `tick` with an empty scan, still odometry and nothing else.
     pub(crate) fn frame_at(tick: u64) -> SensorFrame {
         SensorFrame { scan: scan(tick), odom: odom(tick), gnss: None, uvdar: None }
     }
 
-    #[test]
-    fn a_frame_waits_for_scan_and_odometry_of_one_tick() {
-        let mut c = FrameCollector::new(Needs::default());
-        assert!(c.offer(Msg::Scan(scan(2))).is_none());
-        assert_eq!(c.take_ready(), None, "no odometry yet");
-        c.offer(Msg::Odom(odom(1)));
-        assert_eq!(c.take_ready(), None, "odometry of another tick");
-        c.offer(Msg::Odom(odom(2)));
-        assert_eq!(c.take_ready(), Some(frame_at(2)));
-        assert_eq!(c.take_ready(), None, "the scan is consumed");
+    fn wire(tick: u64) -> SenseFrame {
+        SenseFrame { radio: radio(tick), odom: odom(tick), gnss: None, uvdar: None, scan: scan(tick) }
     }
 
     #[test]
-    fn gnss_is_waited_for_only_when_needed_and_kept_only_for_its_tick() {
-        let mut c = FrameCollector::new(Needs { gnss: true, uvdar: false });
-        c.offer(Msg::Gnss(gnss(1)));
-        c.offer(Msg::Scan(scan(2)));
-        c.offer(Msg::Odom(odom(2)));
-        assert_eq!(c.take_ready(), None);
-        c.offer(Msg::Gnss(gnss(2)));
-        assert_eq!(c.take_ready().and_then(|f| f.gnss), Some(gnss(2)));
-        let mut free = FrameCollector::new(Needs::default());
-        free.offer(Msg::Gnss(gnss(1)));
-        free.offer(Msg::Scan(scan(2)));
-        free.offer(Msg::Odom(odom(2)));
-        assert_eq!(free.take_ready().map(|f| f.gnss), Some(None), "a stale fix is left out");
+    fn a_frame_splits_into_its_radio_set_and_the_step_frame() {
+        assert_eq!(SensorFrame::from_wire(wire(2), Needs::default()), Ok((radio(2), frame_at(2))));
+        let full = SenseFrame { gnss: Some(gnss(2)), uvdar: Some(uvdar(2)), ..wire(2) };
+        let (_, f) = SensorFrame::from_wire(full, Needs { gnss: true, uvdar: true }).expect("complete");
+        assert_eq!((f.gnss, f.uvdar), (Some(gnss(2)), Some(uvdar(2))));
     }
 
     #[test]
-    fn uvdar_is_waited_for_when_needed_and_used_once() {
-        let mut c = FrameCollector::new(Needs { gnss: false, uvdar: true });
-        c.offer(Msg::Scan(scan(3)));
-        c.offer(Msg::Odom(odom(3)));
-        assert_eq!(c.take_ready(), None);
-        c.offer(Msg::Uvdar(uvdar(3)));
-        assert_eq!(c.take_ready().and_then(|f| f.uvdar), Some(uvdar(3)));
-        c.offer(Msg::Scan(scan(4)));
-        c.offer(Msg::Odom(odom(4)));
-        assert_eq!(c.take_ready(), None, "the tick-3 sensing was used up");
+    fn parts_of_another_tick_make_a_frame_malformed() {
+        let needs = Needs::default();
+        assert!(SensorFrame::from_wire(SenseFrame { odom: odom(1), ..wire(2) }, needs).is_err());
+        assert!(SensorFrame::from_wire(SenseFrame { radio: radio(3), ..wire(2) }, needs).is_err());
+        assert!(SensorFrame::from_wire(SenseFrame { gnss: Some(gnss(1)), ..wire(2) }, needs).is_err());
+        assert!(SensorFrame::from_wire(SenseFrame { uvdar: Some(uvdar(1)), ..wire(2) }, needs).is_err());
     }
 
     #[test]
-    fn other_messages_are_handed_back() {
-        let mut c = FrameCollector::new(Needs::default());
-        let rules = Msg::NetemRules(String::new());
-        assert_eq!(c.offer(rules.clone()), Some(rules));
+    fn a_sensor_the_localizer_needs_must_be_there() {
+        let err = SensorFrame::from_wire(wire(2), Needs { gnss: true, uvdar: false }).expect_err("no fix");
+        assert!(err.contains("GNSS"), "{err}");
+        let err = SensorFrame::from_wire(wire(2), Needs { gnss: false, uvdar: true }).expect_err("no sensing");
+        assert!(err.contains("UVDAR"), "{err}");
+        let extra = SenseFrame { gnss: Some(gnss(2)), ..wire(2) };
+        assert!(SensorFrame::from_wire(extra, Needs::default()).is_ok(), "a sensor not needed may come along");
     }
 }

@@ -118,7 +118,7 @@ async fn foxglove_server(
 pub struct Live {
     /// Held: the subscriptions live as long as their session.
     _session: zenoh::Session,
-    subs: [Ring; 5],
+    subs: [Ring; 4],
     shown: Shown,
     page_port: u16,
     _foxglove: foxglove::WebSocketServerHandle,
@@ -145,8 +145,7 @@ impl Live {
         let subs = [
             ring(&session, keys.truth_all()).await?,
             ring(&session, keys.state_any()).await?,
-            ring(&session, keys.scan_any()).await?,
-            ring(&session, keys.radio_any()).await?,
+            ring(&session, keys.sense_any()).await?,
             ring(&session, keys.netem_rules()).await?,
         ];
         let text = plumbing::fetch_scenario_text(&session, &keys, ASK_WAIT).await?;
@@ -184,7 +183,7 @@ impl Live {
         let mut world = tokio::time::interval(WORLD_EVERY);
         let mut shown = None;
         loop {
-            let [truth, states, scans, radio, rules] = &self.subs;
+            let [truth, states, sensed, rules] = &self.subs;
             tokio::select! {
                 Ok(s) = truth.recv_async() => self.shown.truth(&plumbing::payload(&s)),
                 Ok(s) = states.recv_async() => {
@@ -193,17 +192,12 @@ impl Live {
                         self.shown.board.on_state(*st);
                     }
                 }
-                Ok(s) = scans.recv_async() => {
+                Ok(s) = sensed.recv_async() => {
                     let id = self.shown.keys.uav_id_of(s.key_expr().as_str());
-                    if let (Some(id), Ok(Msg::Scan(scan))) = (id, plumbing::decode(&s)) {
-                        self.shown.scene.on_scan(id, &scan);
-                        self.shown.scans.on_scan(id, scan);
-                    }
-                }
-                Ok(s) = radio.recv_async() => {
-                    if let Ok(Msg::Radio(r)) = plumbing::decode(&s) {
-                        self.shown.board.on_radio(&r);
-                        self.shown.scene.on_extra(Extra::Radio(r));
+                    if let (Some(id), Ok(Msg::Sense(f))) = (id, plumbing::decode(&s)) {
+                        self.shown.board.on_radio(&f.radio);
+                        self.shown.scans.on_scan(id, f.scan.clone());
+                        self.shown.scene.on_extra(Extra::Sense(id, f));
                     }
                 }
                 Ok(s) = rules.recv_async() => {

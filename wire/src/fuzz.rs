@@ -121,34 +121,67 @@ fn structured() -> impl Strategy<Value = Msg> {
             .prop_map(|(from, tick, t_secs, centres_cm, [hops, arrival])| {
                 Msg::Obstacles(ObstacleShare { from, tick, t_secs, centres_cm, hops, arrival })
             }),
-        (any::<u64>(), any::<u32>(), prop::collection::vec(any::<u32>(), 0..20), prop::collection::vec(f32s(), 0..20))
-            .prop_map(|(tick, id, in_range, loss)| Msg::Radio(RadioSet { tick, id, in_range, loss })),
-        (any::<u64>(), prop::array::uniform4(f32s()), prop::collection::vec(f32s(), 0..100)).prop_map(
-            |(tick, a, r)| {
-                Msg::Scan(Scan {
-                    tick,
-                    t_secs: f64::from(a[0]),
-                    angle_min: a[1],
-                    angle_increment: a[2],
-                    max_range_m: a[3],
-                    ranges_m: r,
-                })
-            }
-        ),
-        (any::<u64>(), f64s(), prop::collection::vec((any::<u32>(), f32s(), f32s()), 0..10)).prop_map(
-            |(tick, t_secs, s)| {
-                Msg::Uvdar(Uvdar {
-                    tick,
-                    t_secs,
-                    seen: s
-                        .into_iter()
-                        .map(|(id, range_m, bearing_rad)| UvdarSeen { id, range_m, bearing_rad })
-                        .collect(),
-                })
-            }
+        radio_sets().prop_map(Msg::Radio),
+        scans().prop_map(Msg::Scan),
+        uvdars().prop_map(Msg::Uvdar),
+        (radio_sets(), odoms(), prop::option::of(gnss_fixes()), prop::option::of(uvdars()), scans()).prop_map(
+            |(radio, odom, gnss, uvdar, scan)| Msg::Sense(Box::new(SenseFrame { radio, odom, gnss, uvdar, scan }))
         ),
         ".{0,200}".prop_map(Msg::NetemRules),
     ]
+}
+
+fn radio_sets() -> impl Strategy<Value = RadioSet> {
+    (any::<u64>(), any::<u32>(), prop::collection::vec(any::<u32>(), 0..20), prop::collection::vec(f32s(), 0..20))
+        .prop_map(|(tick, id, in_range, loss)| RadioSet { tick, id, in_range, loss })
+}
+
+fn scans() -> impl Strategy<Value = Scan> {
+    (any::<u64>(), prop::array::uniform4(f32s()), prop::collection::vec(f32s(), 0..100)).prop_map(|(tick, a, r)| Scan {
+        tick,
+        t_secs: f64::from(a[0]),
+        angle_min: a[1],
+        angle_increment: a[2],
+        max_range_m: a[3],
+        ranges_m: r,
+    })
+}
+
+fn uvdars() -> impl Strategy<Value = Uvdar> {
+    (any::<u64>(), f64s(), prop::collection::vec((any::<u32>(), f32s(), f32s()), 0..10)).prop_map(
+        |(tick, t_secs, s)| Uvdar {
+            tick,
+            t_secs,
+            seen: s.into_iter().map(|(id, range_m, bearing_rad)| UvdarSeen { id, range_m, bearing_rad }).collect(),
+        },
+    )
+}
+
+fn odoms() -> impl Strategy<Value = Odom> {
+    (any::<u64>(), prop::array::uniform6(f64s()), prop::option::of(any::<[i32; 2]>()), prop::option::of(f64s()))
+        .prop_map(|(tick, v, goal, goal_vx)| Odom {
+            tick,
+            t_secs: v[0],
+            x: v[1],
+            y: v[2],
+            yaw: v[3],
+            vx: v[4],
+            vy: v[5],
+            goal: goal.map(|g| g.map(f64::from)),
+            goal_vel: goal_vx.map(|vx| [vx, 0.0]),
+        })
+}
+
+fn gnss_fixes() -> impl Strategy<Value = Gnss> {
+    (any::<u64>(), prop::array::uniform6(f64s())).prop_map(|(tick, v)| Gnss {
+        tick,
+        t_secs: v[0],
+        x: v[1],
+        y: v[2],
+        yaw: v[3],
+        vx: v[4],
+        vy: v[5],
+    })
 }
 
 /// Equality that holds for NaN fields: the same bytes on the wire.

@@ -4,13 +4,13 @@
 //! Each method's doc shows the key it builds. ARCHITECTURE.md's key table says what travels on
 //! each key and from whom to whom; `tests/tests/tidy.rs` fails when the table and these methods
 //! disagree (a method added here needs its row there). The families:
-//! - run-wide: `clock`, `scenario` (a queryable answering the scenario TOML), `radio/{id}`,
-//!   `netem/rules` and `netem/add` (the `[[netem]]` and `[[failures]]` timeline, as JSON text);
-//! - one UAV's: `uav/{id}/sense/{scan,odom,gnss,uvdar}` (hub -> agent), `uav/{id}/cmd`
+//! - run-wide: `clock`, `scenario` (a queryable answering the scenario TOML), `netem/rules` and
+//!   `netem/add` (the `[[netem]]` and `[[failures]]` timeline, as JSON text);
+//! - one UAV's: `uav/{id}/sense` (its sensor frame, hub -> agent), `uav/{id}/cmd`
 //!   (agent -> hub), `uav/{id}/share/{pose,obstacles}` (agent -> neighbours), `uav/{id}/state`;
 //! - ground truth for the recorder: `truth/world`, `truth/step`;
 //! - liveliness tokens: `alive/hub`, `alive/uav/{id}`, `alive/recorder`;
-//! - wildcards for subscribers: `uav/{id}/sense/**`, `uav/*/cmd`, `uav/*/state`, `truth/**`,
+//! - wildcards for subscribers: `uav/*/sense`, `uav/*/cmd`, `uav/*/state`, `truth/**`,
 //!   `alive/uav/*`.
 //!
 //! Run ids are checked ([`check_component`]), and [`Keys::uav_id_of`] reads a UAV id back from a
@@ -52,25 +52,13 @@ impl Keys {
     pub fn scenario(&self) -> String {
         format!("{}/scenario", self.prefix)
     }
-    /// `swarm/{run}/uav/{id}/sense/scan`
-    pub fn scan(&self, id: u32) -> String {
-        format!("{}/uav/{id}/sense/scan", self.prefix)
+    /// `swarm/{run}/uav/{id}/sense`
+    pub fn sense(&self, id: u32) -> String {
+        format!("{}/uav/{id}/sense", self.prefix)
     }
-    /// `swarm/{run}/uav/{id}/sense/odom`
-    pub fn odom(&self, id: u32) -> String {
-        format!("{}/uav/{id}/sense/odom", self.prefix)
-    }
-    /// `swarm/{run}/uav/{id}/sense/gnss`
-    pub fn gnss(&self, id: u32) -> String {
-        format!("{}/uav/{id}/sense/gnss", self.prefix)
-    }
-    /// `swarm/{run}/uav/{id}/sense/uvdar`
-    pub fn uvdar(&self, id: u32) -> String {
-        format!("{}/uav/{id}/sense/uvdar", self.prefix)
-    }
-    /// `swarm/{run}/uav/{id}/sense/**`
-    pub fn sense_all(&self, id: u32) -> String {
-        format!("{}/uav/{id}/sense/**", self.prefix)
+    /// `swarm/{run}/uav/*/sense`: every UAV's sensor frames.
+    pub fn sense_any(&self) -> String {
+        format!("{}/uav/*/sense", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/cmd`
     pub fn cmd(&self, id: u32) -> String {
@@ -95,22 +83,6 @@ impl Keys {
     /// `swarm/{run}/uav/*/state`
     pub fn state_any(&self) -> String {
         format!("{}/uav/*/state", self.prefix)
-    }
-    /// `swarm/{run}/radio/{id}`
-    pub fn radio(&self, id: u32) -> String {
-        format!("{}/radio/{id}", self.prefix)
-    }
-    /// `swarm/{run}/radio/*`
-    pub fn radio_any(&self) -> String {
-        format!("{}/radio/*", self.prefix)
-    }
-    /// `swarm/{run}/uav/*/sense/scan`
-    pub fn scan_any(&self) -> String {
-        format!("{}/uav/*/sense/scan", self.prefix)
-    }
-    /// `swarm/{run}/uav/*/sense/odom`
-    pub fn odom_any(&self) -> String {
-        format!("{}/uav/*/sense/odom", self.prefix)
     }
     /// `swarm/{run}/uav/*/share/pose`: every UAV's broadcast pose.
     pub fn share_pose_any(&self) -> String {
@@ -193,7 +165,7 @@ mod tests {
     #[test]
     fn keys_are_under_the_run_prefix() {
         let k = Keys::new("r-1_a").expect("valid run id");
-        assert_eq!(k.scan(3), "swarm/r-1_a/uav/3/sense/scan");
+        assert_eq!(k.sense(3), "swarm/r-1_a/uav/3/sense");
         assert_eq!(k.cmd_any(), "swarm/r-1_a/uav/*/cmd");
         assert_eq!(k.truth_step(), "swarm/r-1_a/truth/step");
         assert_eq!(k.alive_uav(7), "swarm/r-1_a/alive/uav/7");

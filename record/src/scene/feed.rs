@@ -1,20 +1,19 @@
-//! What a scene needs beyond the recorder's truth and states: every UAV's scan, every radio
-//! set and the netem timeline in force, subscribed on an existing session into one channel.
+//! What a scene needs beyond the recorder's truth and states: every UAV's sensor frame (its scan
+//! and radio set) and the netem timeline in force, subscribed on an existing session into one
+//! channel.
 //! Plain callbacks into an unbounded channel: the subscriber never pushes back on the hub.
 
 use super::Scene;
 use anyhow::Result;
-use swarm_wire::msg::{RadioSet, Scan};
+use swarm_wire::msg::SenseFrame;
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::{Keys, Msg};
 use tokio::sync::mpsc;
 
 /// One message for the scene.
 pub enum Extra {
-    /// A scan the hub sent UAV `.0`.
-    Scan(u32, Scan),
-    /// A radio set.
-    Radio(RadioSet),
+    /// The sensor frame the hub sent UAV `.0`.
+    Sense(u32, Box<SenseFrame>),
     /// The netem timeline in force.
     Timeline(swarm_config::Timeline),
 }
@@ -23,25 +22,20 @@ pub enum Extra {
 pub struct Feed {
     /// Messages in arrival order.
     pub rx: mpsc::UnboundedReceiver<Extra>,
-    _subs: [Subscription; 3],
+    _subs: [Subscription; 2],
 }
 
 impl Feed {
-    /// Subscribes to scans, radio sets and `netem/rules` of the run `keys` on `session`.
+    /// Subscribes to sensor frames and `netem/rules` of the run `keys` on `session`.
     pub async fn subscribe(session: &zenoh::Session, keys: &Keys) -> Result<Feed> {
         let (tx, rx) = mpsc::unbounded_channel();
         let k = keys.clone();
-        let scans = plumbing::subscribe(session, keys.scan_any(), tx.clone(), move |s| {
+        let frames = plumbing::subscribe(session, keys.sense_any(), tx.clone(), move |s| {
             let id = k.uav_id_of(s.key_expr().as_str())?;
             match plumbing::decode(s) {
-                Ok(Msg::Scan(scan)) => Some(Extra::Scan(id, scan)),
+                Ok(Msg::Sense(frame)) => Some(Extra::Sense(id, frame)),
                 _ => None,
             }
-        })
-        .await?;
-        let radio = plumbing::subscribe(session, keys.radio_any(), tx.clone(), |s| match plumbing::decode(s) {
-            Ok(Msg::Radio(r)) => Some(Extra::Radio(r)),
-            _ => None,
         })
         .await?;
         let rules = plumbing::subscribe(session, keys.netem_rules(), tx, |s| match plumbing::decode(s) {
@@ -49,7 +43,7 @@ impl Feed {
             _ => None,
         })
         .await?;
-        Ok(Feed { rx, _subs: [scans, radio, rules] })
+        Ok(Feed { rx, _subs: [frames, rules] })
     }
 }
 
@@ -57,8 +51,10 @@ impl Scene {
     /// Takes one message of a [`Feed`].
     pub fn on_extra(&mut self, e: Extra) {
         match e {
-            Extra::Scan(id, s) => self.on_scan(id, &s),
-            Extra::Radio(r) => self.on_radio(&r),
+            Extra::Sense(id, f) => {
+                self.on_radio(&f.radio);
+                self.on_scan(id, &f.scan);
+            }
             Extra::Timeline(t) => self.on_timeline(t),
         }
     }

@@ -8,8 +8,9 @@ Prints one JSON line:
    "radio": {"<id>": [[tick, [ids...]], ...]},  # radio sets from 1 s (10 ticks) before the query to 0.5 s after
    "share_wildcards": [...],                    # share subscriptions with a wildcard, by anyone
    "sessions": n}                               # agent sessions named by their alive/uav token
-Radio sets are decoded from the postcard bytes by hand: a varint tag (4), then tick (varint),
-id (varint), in_range (varint length, varints), loss (varint length, little-endian f32s).
+Radio sets are decoded from the sensor frames' postcard bytes by hand: a varint tag (13, the
+frame), then the frame's first field, the radio set: tick (varint), id (varint), in_range (varint
+length, varints); the rest of the frame is not read.
 """
 import json
 import sys
@@ -34,7 +35,7 @@ def varint(b, i):
 
 def radio_set(b):
     tag, i = varint(b, 0)
-    if tag != 4:
+    if tag != 13:
         return None
     tick, i = varint(b, i)
     uav, i = varint(b, i)
@@ -68,7 +69,7 @@ def on_radio(sample):
         del radio[uav][:-50]
 
 
-sub = s.declare_subscriber(f"swarm/{run}/radio/*", on_radio)
+sub = s.declare_subscriber(f"swarm/{run}/uav/*/sense", on_radio)
 deadline = time.time() + 60
 while time.time() < deadline:
     with lock:

@@ -2,7 +2,7 @@
 
 Usage: client.py LOCATOR RUN PASSWORD_OF_UAV3 SECONDS
 Prints one JSON line: whether a session without credentials was refused, and what UAV 3's
-credentials received in SECONDS (own scan samples, truth samples, and every key seen by a
+credentials received in SECONDS (own sensor frames, truth samples, and every key seen by a
 subscription to the whole run: the router refuses it, as broader than UAV 3's keys, so it sees
 only what the session receives for its other subscriptions and its own puts).
 It also puts garbage on uav/2/cmd (another UAV's: the router must drop it) and on uav/3/cmd (its
@@ -44,12 +44,12 @@ try:
 except Exception:
     wrong_password_refused = True
 
-scan, truth, keys = 0, 0, set()
+frames, truth, keys = 0, 0, set()
 
 
-def on_scan(_sample):
-    global scan
-    scan += 1
+def on_frame(_sample):
+    global frames
+    frames += 1
 
 
 def on_truth(_sample):
@@ -63,7 +63,7 @@ def on_any(sample):
 
 s = zenoh.open(config("uav3", password))
 subs = [
-    s.declare_subscriber(f"swarm/{run}/uav/3/sense/scan", on_scan),
+    s.declare_subscriber(f"swarm/{run}/uav/3/sense", on_frame),
     s.declare_subscriber(f"swarm/{run}/truth/**", on_truth),
     s.declare_subscriber(f"swarm/{run}/**", on_any),
 ]
@@ -80,7 +80,7 @@ s.close()
 print(json.dumps({
     "refused": refused,
     "wrong_password_refused": wrong_password_refused,
-    "scan": scan,
+    "frames": frames,
     "truth": truth,
     "keys": sorted(keys),
 }))

@@ -135,7 +135,7 @@ impl Localizer {
         }
     }
 
-    /// The sensors a step waits for besides scan and odometry.
+    /// The sensors a step needs besides scan and odometry.
     pub(crate) fn needs(&self) -> Needs {
         match self {
             Localizer::Broadcast(_) => Needs { gnss: true, uvdar: false },

@@ -3,9 +3,10 @@
 //!
 //! - It fetches the scenario from the hub (`swarm/{run}/scenario`) unless given one, so an agent
 //!   on another machine needs only the hub's endpoint, the run id and its UAV id.
-//! - It subscribes to its own `sense/{scan,odom,gnss,uvdar}` and `radio/{id}` keys, through
-//!   declared key expressions ([`subscribe_declared`]), so an agent host's session hands each
-//!   sensor message to its subscriber without testing every subscriber of the session.
+//! - It subscribes to its own `sense` key (the tick's sensor frame: radio set, odometry, GNSS or
+//!   UVDAR by mode, and the scan, in one message), through a declared key expression
+//!   ([`subscribe_declared`]), so an agent host's session hands each frame to its subscriber
+//!   without testing every subscriber of the session.
 //! - It listens to the shares (`share/pose` or `share/obstacles`, by localization mode) of
 //!   exactly the UAVs in its radio set, starting and stopping as the set changes: the session's
 //!   [`ShareFeed`] holds one Zenoh subscription per sender its agents listen to, and posts each
@@ -25,7 +26,7 @@ use super::AgentError;
 use crate::admission::{Admission, Arrived};
 use crate::agent::{Agent, StepOutput};
 use crate::control::Controllers;
-use crate::sensing::FrameCollector;
+use crate::sensing::{Needs, SensorFrame};
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -129,14 +130,13 @@ pub(crate) async fn fetch_scenario(s: &zenoh::Session, keys: &Keys, run: &str) -
     Ok(Scenario::from_toml_str(&text, &format!("hub:{}", keys.scenario()))?)
 }
 
-/// What the node's own subscriptions deliver, in one channel so wire order is kept: a sensor,
-/// radio or netem-rules message (`None`: malformed). Shares come through the [`Mailbox`].
+/// What the node's own subscriptions deliver, in one channel so wire order is kept: a sensor
+/// frame or netem-rules message (`None`: malformed). Shares come through the [`Mailbox`].
 type Incoming = Option<Msg>;
 
 /// The subscriptions a node holds for its whole life (dropping one undeclares it).
 struct Inputs {
-    _sense: Vec<Subscriber>,
-    _radio: Subscriber,
+    _sense: Subscriber,
     _rules: Subscriber,
     _hub_watch: Subscriber,
 }
@@ -155,8 +155,8 @@ struct Node {
     keys: Keys,
     id: u32,
     agent: Agent,
-    /// Assembles each tick's sensor frame from the sensor messages.
-    sensors: FrameCollector,
+    /// The sensors a frame must carry for this agent's localizer.
+    needs: Needs,
     /// Which shares count and when each is delivered (pure).
     admission: Admission,
     /// Kept so the channel stays open for the node's life.
@@ -178,7 +178,7 @@ struct Node {
     _token: Option<zenoh::liveliness::LivelinessToken>,
     /// Counted among the session's agents while the node lives.
     _flying: Flying,
-    /// Payload bytes of this agent's own samples (sensors, radio, rules), counted by their
+    /// Payload bytes of this agent's own samples (sensor frames, rules), counted by their
     /// subscriptions' callbacks.
     own_bytes: Arc<AtomicU64>,
     /// Shares posted to this agent's mailbox so far, and their bytes.
@@ -218,7 +218,7 @@ async fn subscribe_declared<T: Send + 'static>(
     plumbing::subscribe(s, declared, tx, map).await
 }
 
-/// Subscribes the node's own sensor, radio and netem-rule keys into `tx`, and watches the hub's
+/// Subscribes the node's own sensor-frame and netem-rule keys into `tx`, and watches the hub's
 /// liveliness token. Every sample's bytes are counted in the session's traffic and `own_bytes`.
 async fn declare_inputs(
     s: &zenoh::Session,
@@ -237,16 +237,12 @@ async fn declare_inputs(
         own.fetch_add(len as u64, Ordering::Relaxed);
         Some(plumbing::decode(sample).ok())
     };
-    let mut sense_subs = Vec::with_capacity(4);
-    for key in [keys.scan(id), keys.odom(id), keys.gnss(id), keys.uvdar(id)] {
-        sense_subs.push(subscribe_declared(s, key, tx.clone(), decode.clone()).await?);
-    }
-    let radio_sub = subscribe_declared(s, keys.radio(id), tx.clone(), decode.clone()).await?;
+    let sense = subscribe_declared(s, keys.sense(id), tx.clone(), decode.clone()).await?;
     // The rules in force, republished by the hub whenever `swarm netem` changes them; on the key
     // the session declared once for all its agents.
     let rules_sub = plumbing::subscribe(s, shared.netem_rules.clone(), tx.clone(), decode).await?;
     let (hub_alive, hub_watch) = plumbing::watch_token(s, keys.alive_hub()).await?;
-    Ok((Inputs { _sense: sense_subs, _radio: radio_sub, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
+    Ok((Inputs { _sense: sense, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
 }
 
 /// The command, share and state writers of UAV `id`.
@@ -294,7 +290,7 @@ impl Node {
         };
         let shares = crate::localization::share_key(sc.localization.mode, &keys, id).is_some();
         Ok(Node {
-            sensors: agent.frame_collector(),
+            needs: agent.needs(),
             admission: Admission::new(id, sc.seed, sc.dt_secs(), netem::Timeline::from_scenario(&sc), shares),
             agent,
             _tx: tx,
@@ -337,7 +333,7 @@ impl Node {
         loop {
             tokio::select! {
                 m = self.rx.recv() => match m {
-                    Some(Some(msg)) => self.on_sense(msg).await?,
+                    Some(Some(msg)) => self.on_hub(msg).await?,
                     Some(None) => { self.admission.count_malformed(); debug!("dropped malformed sensor message"); }
                     None => return Ok(AgentExit::Stopped),
                 },
@@ -389,16 +385,26 @@ impl Node {
         self.posted = posted;
     }
 
-    async fn on_sense(&mut self, msg: Msg) -> Result<(), AgentError> {
+    /// A message from the hub: a sensor frame (this tick's radio set, then the step) or the
+    /// netem rules in force.
+    async fn on_hub(&mut self, msg: Msg) -> Result<(), AgentError> {
         self.take_shares();
         self.admission.admit_early();
-        match self.sensors.offer(msg) {
-            None => {}
-            Some(Msg::Radio(r)) => self.on_radio(r.tick, &r.in_range, &r.loss)?,
-            Some(Msg::NetemRules(json)) => self.on_netem_rules(&json),
-            Some(other) => trace!(kind = other.kind(), "ignored"),
+        match msg {
+            Msg::Sense(wire) => match SensorFrame::from_wire(*wire, self.needs) {
+                Ok((radio, frame)) => {
+                    self.on_radio(radio.tick, &radio.in_range, &radio.loss)?;
+                    self.step(frame).await?;
+                }
+                Err(why) => {
+                    self.admission.count_malformed();
+                    debug!("dropped a malformed sensor frame: {why}");
+                }
+            },
+            Msg::NetemRules(json) => self.on_netem_rules(&json),
+            other => trace!(kind = other.kind(), "ignored"),
         }
-        self.try_step().await
+        Ok(())
     }
 
     /// The radio set of `tick`: listens to the shares of exactly the UAVs in range (see
@@ -430,9 +436,8 @@ impl Node {
         }
     }
 
-    /// Steps once the sensor frame of a tick is complete.
-    async fn try_step(&mut self) -> Result<(), AgentError> {
-        let Some(frame) = self.sensors.take_ready() else { return Ok(()) };
+    /// Steps on the sensor frame of a tick.
+    async fn step(&mut self, frame: SensorFrame) -> Result<(), AgentError> {
         let tick = frame.tick();
         let due =
             self.admission.begin_step(tick, frame.scan.t_secs).map_err(|w| AgentError::TickWentBack(w.last, w.tick))?;
