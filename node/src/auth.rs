@@ -37,7 +37,8 @@
 //! `uav/{id}/sense` too: tested in `tests/tests/security.rs`), and data reaches a client only
 //! through its subscribers, so a user's ingress list already bounds what it receives. The
 //! per-user egress list cost the router a walk of two keys per UAV of a host for every share it
-//! forwarded to that host (those decisions are not cached): 18–35 % of the hub's CPU on open-1000 (docs/performance.md).
+//! forwarded to that host (those decisions are not cached): 18–35 % of the hub's CPU on
+//! open-1000 (docs/performance.md).
 //!
 //! [`Credentials`] makes fresh users and passwords: `swarm run` for each run (in the run folder,
 //! readable by its owner only), `swarm credentials` for pieces started by hand.

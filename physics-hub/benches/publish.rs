@@ -1,7 +1,8 @@
 //! The hub's sensor publication over real Zenoh: one tick of every UAV's sensors, put by a router
 //! session as the hub puts them (`Writer::put_now`) and received by a client session holding a
 //! subscription to each UAV's own keys, as an agent host does. Two layouts of the same payloads:
-//! one message per sensor (radio set, odometry, GNSS and scan on four keys, the layout before
+//! one message per sensor (the radio set on `radio/{id}`, odometry, GNSS and scan on
+//! `uav/{id}/sense/{odom,gnss,scan}`: four keys in broadcast mode, the layout before
 //! `Msg::Sense`) and one sensor frame per UAV on `uav/{id}/sense`. Each iteration is one tick:
 //! it ends when the client has received the tick's last message. Throughput is UAVs per tick.
 //!
@@ -51,7 +52,10 @@ fn per_sensor(prefix: &str, id: u32, f: &SenseFrame) -> Vec<(String, Vec<u8>)> {
         ("scan", Msg::Scan(f.scan.clone())),
     ]
     .into_iter()
-    .map(|(k, m)| (format!("{prefix}/uav/{id}/sense/{k}"), m.encode().expect("encodes")))
+    .map(|(k, m)| {
+        let key = if k == "radio" { format!("{prefix}/radio/{id}") } else { format!("{prefix}/uav/{id}/sense/{k}") };
+        (key, m.encode().expect("encodes"))
+    })
     .collect()
 }
 

@@ -32,7 +32,7 @@
 //! localization → sensing, agent → perception; the stages reach one another's types only below
 //! themselves, in `world_model` and `geometry`, which import nothing of the crate, never sideways;
 //! nothing below points back up to the agent or the node. Architecture invariant: an
-//! agent sees the world only through its own sensor keys and its neighbours' shares; it never
+//! agent sees the world only through its own sensor frames and its neighbours' shares; it never
 //! reads `truth/**`.
 
 // The algorithm modules keep the whole of their seed's method, tested beside it, though one
@@ -55,5 +55,5 @@ pub use control::{Command, Controller, Controllers, MakeController, UnknownContr
 pub use localization::icp;
 pub use localization::Share;
 pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions};
-pub use sensing::{Needs, SensorFrame};
+pub use sensing::{MalformedFrame, Needs, SensorFrame};
 pub use world_model::{Circle, Estimate, Segment};

@@ -25,26 +25,41 @@ impl SensorFrame {
         self.scan.tick
     }
 
-    /// Splits the hub's frame into its radio set and the frame a step takes; an error names what
-    /// makes it malformed: parts of different ticks, or a sensor `needs` asks for missing.
-    pub fn from_wire(wire: SenseFrame, needs: Needs) -> Result<(RadioSet, SensorFrame), &'static str> {
+    /// Splits the hub's frame into its radio set and the frame a step takes, or says why it is
+    /// malformed: parts of different ticks, or a sensor `needs` asks for missing.
+    pub fn from_wire(wire: SenseFrame, needs: Needs) -> Result<(RadioSet, SensorFrame), MalformedFrame> {
+        let tick = wire.tick();
         let SenseFrame { radio, odom, gnss, uvdar, scan } = wire;
-        let tick = scan.tick;
         let other_tick = radio.tick != tick
             || odom.tick != tick
             || gnss.as_ref().is_some_and(|g| g.tick != tick)
             || uvdar.as_ref().is_some_and(|u| u.tick != tick);
         if other_tick {
-            return Err("its parts are of different ticks");
+            return Err(MalformedFrame::MixedTicks);
         }
         if needs.gnss && gnss.is_none() {
-            return Err("it has no GNSS fix, which broadcast localization needs");
+            return Err(MalformedFrame::NoGnss);
         }
         if needs.uvdar && uvdar.is_none() {
-            return Err("it has no UVDAR sensing, which uvdar localization needs");
+            return Err(MalformedFrame::NoUvdar);
         }
         Ok((radio, SensorFrame { scan, odom, gnss, uvdar }))
     }
+}
+
+/// Why a sensor frame is not stepped on. Never propagated: the node counts the frame as
+/// malformed, logs this and drops it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum MalformedFrame {
+    /// Its parts are of different ticks.
+    #[error("its parts are of different ticks")]
+    MixedTicks,
+    /// Broadcast localization needs a GNSS fix, and it has none.
+    #[error("it has no GNSS fix, which broadcast localization needs")]
+    NoGnss,
+    /// UVDAR localization needs the onboard sensing, and it has none.
+    #[error("it has no UVDAR sensing, which uvdar localization needs")]
+    NoUvdar,
 }
 
 /// Which sensors a step needs besides scan and odometry (the localizer decides).
@@ -107,18 +122,22 @@ pub(crate) mod tests {
     #[test]
     fn parts_of_another_tick_make_a_frame_malformed() {
         let needs = Needs::default();
-        assert!(SensorFrame::from_wire(SenseFrame { odom: odom(1), ..wire(2) }, needs).is_err());
-        assert!(SensorFrame::from_wire(SenseFrame { radio: radio(3), ..wire(2) }, needs).is_err());
-        assert!(SensorFrame::from_wire(SenseFrame { gnss: Some(gnss(1)), ..wire(2) }, needs).is_err());
-        assert!(SensorFrame::from_wire(SenseFrame { uvdar: Some(uvdar(1)), ..wire(2) }, needs).is_err());
+        for bad in [
+            SenseFrame { odom: odom(1), ..wire(2) },
+            SenseFrame { radio: radio(3), ..wire(2) },
+            SenseFrame { gnss: Some(gnss(1)), ..wire(2) },
+            SenseFrame { uvdar: Some(uvdar(1)), ..wire(2) },
+        ] {
+            assert_eq!(SensorFrame::from_wire(bad, needs), Err(MalformedFrame::MixedTicks));
+        }
     }
 
     #[test]
     fn a_sensor_the_localizer_needs_must_be_there() {
-        let err = SensorFrame::from_wire(wire(2), Needs { gnss: true, uvdar: false }).expect_err("no fix");
-        assert!(err.contains("GNSS"), "{err}");
-        let err = SensorFrame::from_wire(wire(2), Needs { gnss: false, uvdar: true }).expect_err("no sensing");
-        assert!(err.contains("UVDAR"), "{err}");
+        let gnss_needed = Needs { gnss: true, uvdar: false };
+        assert_eq!(SensorFrame::from_wire(wire(2), gnss_needed), Err(MalformedFrame::NoGnss));
+        let uvdar_needed = Needs { gnss: false, uvdar: true };
+        assert_eq!(SensorFrame::from_wire(wire(2), uvdar_needed), Err(MalformedFrame::NoUvdar));
         let extra = SenseFrame { gnss: Some(gnss(2)), ..wire(2) };
         assert!(SensorFrame::from_wire(extra, Needs::default()).is_ok(), "a sensor not needed may come along");
     }

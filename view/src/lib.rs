@@ -38,7 +38,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use swarm_config::Scenario;
 use swarm_node::args::ZenohArgs;
-use swarm_record::scene::{Extra, Scene};
+use swarm_record::scene::Scene;
 use swarm_wire::session::{self, Role};
 use swarm_wire::{plumbing, Keys, Msg, WireError};
 use tokio::sync::watch;
@@ -196,8 +196,9 @@ impl Live {
                     let id = self.shown.keys.uav_id_of(s.key_expr().as_str());
                     if let (Some(id), Ok(Msg::Sense(f))) = (id, plumbing::decode(&s)) {
                         self.shown.board.on_radio(&f.radio);
-                        self.shown.scans.on_scan(id, f.scan.clone());
-                        self.shown.scene.on_extra(Extra::Sense(id, f));
+                        self.shown.scene.on_radio(&f.radio);
+                        self.shown.scene.on_scan(id, &f.scan);
+                        self.shown.scans.on_scan(id, f.scan);
                     }
                 }
                 Ok(s) = rules.recv_async() => {

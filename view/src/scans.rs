@@ -1,7 +1,7 @@
 //! Scans on demand: the page asks `/scan?id=N` for UAV N's latest scan only while its "scan"
 //! toggle is on and N is selected, so the frames stay small (a scan is 750 ranges per UAV per
 //! tick) and nothing is converted that nobody looks at. A [`ScanSource`] answers: [`LiveScans`]
-//! from the scan topic of a live run, paired with the truth pose of the scan's own tick;
+//! from the sensor frames of a live run, paired with the truth pose of the scan's own tick;
 //! `replay` from the recording's `/uav/{id}/scan` and `/tf` at the playback time.
 
 use serde_json::json;

@@ -2,8 +2,8 @@
 //! The stages it feeds ([`crate::agent`], [`crate::admission`], [`crate::sensing`]) are pure; a
 //! tidy test keeps `zenoh` out of every module outside this folder.
 //!
-//! - `node`: one agent's node: its sensor and radio subscriptions feeding the frame collector,
-//!   listening to the shares of its radio set, liveliness, the hub watch, its writers. Entry
+//! - `node`: one agent's node: its sensor-frame subscription (each frame checked by
+//!   [`crate::sensing`] before the step), listening to the shares of its radio set, liveliness, the hub watch, its writers. Entry
 //!   point: [`run`].
 //! - `host`: many agents in one process on one shared Zenoh session, each with its own node
 //!   ([`run_host`]).
