@@ -6,7 +6,7 @@
 //! `Msg::Sense`) and one sensor frame per UAV on `uav/{id}/sense`. Each iteration is one tick:
 //! it ends when the client has received the tick's last message. Throughput is UAVs per tick.
 //!
-//! The payloads are open-1000's crowd (see the `tick` bench), computed and encoded once before
+//! The payloads are open-1000's crowd (`common/crowd.rs`), computed and encoded once before
 //! the timing, so only the wire is measured: the puts, the router, the TCP loopback and the
 //! subscriber's callbacks.
 //!
@@ -15,30 +15,14 @@
 use criterion::{criterion_main, BenchmarkId, Criterion, Throughput};
 use physics_hub::sim::Sim;
 use std::sync::mpsc;
-use swarm_config::Scenario;
 use swarm_wire::plumbing::Subscription;
 use swarm_wire::session::{self, Role, Writer};
 use swarm_wire::{Msg, SenseFrame};
 use tokio::runtime::Runtime;
 use zenoh::qos::CongestionControl;
 
-/// open-1000's crowd scaled to `n` UAVs (about 18 m² each), broadcast localization.
-fn scenario(n: usize) -> Scenario {
-    let radius_m = 75.0 * (n as f64 / 1000.0).sqrt();
-    let text = format!(
-        r#"
-name = "publish-bench"
-seed = 1000
-[swarm]
-count = {n}
-start_area = {{ center = [0.0, 0.0], radius_m = {radius_m}, min_spacing_m = 3.0 }}
-goal = [60.0, 0.0]
-[localization]
-mode = "broadcast"
-"#
-    );
-    Scenario::from_toml_str(&text, "publish-bench").expect("valid bench scenario")
-}
+#[path = "common/crowd.rs"]
+mod crowd;
 
 /// How a UAV's sensors go on the wire: keys and encoded payloads, in put order.
 type Layout = fn(prefix: &str, id: u32, f: &SenseFrame) -> Vec<(String, Vec<u8>)>;
@@ -109,7 +93,7 @@ fn bench_publish(c: &mut Criterion) {
     let wire = Wire::new();
     let mut group = c.benchmark_group("publish");
     for n in [100usize, 1000] {
-        let sc = scenario(n);
+        let sc = crowd::scenario(n, "publish-bench");
         let ids: Vec<u32> = sc.uav_ids().collect();
         let frames = Sim::new(&sc).sensors_all(&ids);
         group.throughput(Throughput::Elements(n as u64));

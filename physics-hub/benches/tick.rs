@@ -12,34 +12,15 @@
 
 use criterion::{black_box, criterion_main, BenchmarkId, Criterion, Throughput};
 use physics_hub::sim::Sim;
-use swarm_config::Scenario;
 use swarm_wire::{Cmd, CmdKind};
 
-/// open-1000's crowd scaled to `n` UAVs: the same area per UAV (about 18 m²).
-fn scenario(n: usize) -> Scenario {
-    let radius_m = 75.0 * (n as f64 / 1000.0).sqrt();
-    let text = format!(
-        r#"
-name = "tick-bench"
-seed = 1000
-[swarm]
-count = {n}
-start_area = {{ center = [0.0, 0.0], radius_m = {radius_m}, min_spacing_m = 3.0 }}
-goal = [60.0, 0.0]
-informed = "all"
-[localization]
-mode = "broadcast"
-[end]
-time_limit_s = 1000000.0
-"#
-    );
-    Scenario::from_toml_str(&text, "tick-bench").expect("valid bench scenario")
-}
+#[path = "common/crowd.rs"]
+mod crowd;
 
 fn bench_tick(c: &mut Criterion) {
     let mut group = c.benchmark_group("hub_tick");
     for n in [40usize, 100, 1000] {
-        let sc = scenario(n);
+        let sc = crowd::scenario(n, "tick-bench");
         let mut sim = Sim::new(&sc);
         let ids: Vec<u32> = sc.uav_ids().collect();
         let forward = Some(Cmd { tick: 0, kind: CmdKind::Velocity, x: 0.5, y: 0.0, yaw_rate: 0.0 });
