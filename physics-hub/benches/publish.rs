@@ -6,9 +6,9 @@
 //! `Msg::Sense`) and one sensor frame per UAV on `uav/{id}/sense`. Each iteration is one tick:
 //! it ends when the client has received the tick's last message. Throughput is UAVs per tick.
 //!
-//! The payloads are open-1000's crowd (`common/crowd.rs`), computed and encoded once before
-//! the timing, so only the wire is measured: the puts, the router, the TCP loopback and the
-//! subscriber's callbacks.
+//! The payloads are open-1000's crowd (`crowd`, shared with the `tick` bench), computed and
+//! encoded once before the timing, so only the wire is measured: the puts, the router, the TCP
+//! loopback and the subscriber's callbacks.
 //!
 //! Run: `cargo bench --workspace --bench publish -- --warm-up-time 1 --measurement-time 5`
 

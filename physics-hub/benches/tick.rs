@@ -2,9 +2,9 @@
 //! network: every UAV's sensors (radio set, odometry, GNSS, 750-beam scan against the other UAVs)
 //! then one integration step (radio links, contacts, ground truth with nearest distances).
 //!
-//! The swarm is open-1000's: a start disc holding the UAVs at least 3 m apart (about 18 m² each,
-//! so a UAV hears about 18 others within the 10 m radio range), broadcast localization, every UAV
-//! flying 0.5 m/s forward. Each iteration is one tick of the running simulation, so the crowd
+//! The swarm is open-1000's, scaled (`crowd`, shared with the `publish` bench): a start disc
+//! holding the UAVs at least 3 m apart (about 18 m² each, so a UAV hears about 18 others within
+//! the 10 m radio range), broadcast localization, every UAV flying 0.5 m/s forward. Each iteration is one tick of the running simulation, so the crowd
 //! moves as the bench goes on. Throughput is the UAVs per tick, so criterion prints UAVs/s.
 //!
 //! Run: `cargo bench --workspace --bench tick -- --warm-up-time 1 --measurement-time 5`
