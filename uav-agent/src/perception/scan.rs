@@ -94,7 +94,9 @@ pub(super) fn group_beams(beams: &[Option<Point2<f64>>], angle_increment: f64, g
     let n = beams.len();
 
     let mut groups: Vec<Vec<Point2<f64>>> = Vec::new();
-    let mut current: Vec<Point2<f64>> = Vec::new();
+    // The group being read keeps its buffer; each finished group is copied out at its size, one
+    // allocation per group instead of a vector grown push by push.
+    let mut current: Vec<Point2<f64>> = Vec::with_capacity(n);
     // Does groups[0] start at beam 0?
     let mut first_starts_at_beam_zero = false;
 
@@ -103,7 +105,8 @@ pub(super) fn group_beams(beams: &[Option<Point2<f64>>], angle_increment: f64, g
             None => {
                 // No return: the obstacle (if any) ends here.
                 if !current.is_empty() {
-                    groups.push(std::mem::take(&mut current));
+                    groups.push(current.clone());
+                    current.clear();
                 }
             }
             Some(p) => {
@@ -111,7 +114,8 @@ pub(super) fn group_beams(beams: &[Option<Point2<f64>>], angle_increment: f64, g
                     // seed 000, Algorithm 2: dist ← distance(p, next point); same group iff dist < 1.
                     let joins = (p - prev).norm() < gap_m;
                     if !joins {
-                        groups.push(std::mem::take(&mut current));
+                        groups.push(current.clone());
+                        current.clear();
                     }
                 }
                 if i == 0 {
