@@ -52,6 +52,7 @@ use super::network::{block_scores, Network, LANES};
 use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
+use std::rc::Rc;
 use swarm_config::IcpParams;
 
 /// The rigid transform `agent_from_neighbour`: it maps points from the neighbour's body frame
@@ -153,7 +154,7 @@ struct Workspace {
     /// Pairing at the candidate estimate.
     next: Vec<Pair>,
     /// FRMSD² weights: `weights[i−1] = f^(−2λ) / i`, f = i/|D| (eq. 3.16 squared).
-    weights: Vec<f64>,
+    weights: Rc<[f64]>,
     /// Smallest prefix that may be kept: max(3, `min_points`).
     k_min: usize,
     /// First-pass scratch: the source rotated by one grid heading.
@@ -176,13 +177,15 @@ impl Workspace {
 
 /// The FRMSD² weight table of [`Workspace::weights`] for `n_source` points and `lambda`.
 ///
-/// Each thread keeps the tables it made, by set size and λ: every ICP needs one, a crowd's short
-/// ICPs run by the hundred per step on sets of a few dozen sizes, and `powf` per entry was 2 % of
-/// an agent host's CPU at 100 UAVs (`perf`). The same calls on the same values, so the same bits.
-fn frmsd_weights(n_source: usize, lambda: f64) -> Vec<f64> {
+/// Each thread keeps the tables it made, by set size and λ, and hands out shared references to
+/// them: every ICP needs one, a crowd's short ICPs run by the hundred per step on sets of a few
+/// dozen sizes, and `powf` per entry was 2 % of an agent host's CPU at 100 UAVs (`perf`). The
+/// same calls on the same values, so the same bits.
+fn frmsd_weights(n_source: usize, lambda: f64) -> Rc<[f64]> {
+    /// Tables by (set size, λ's bits).
+    type Tables = std::collections::HashMap<(usize, u64), Rc<[f64]>>;
     thread_local! {
-        static TABLES: std::cell::RefCell<std::collections::HashMap<(usize, u64), Vec<f64>>> =
-            std::cell::RefCell::new(std::collections::HashMap::new());
+        static TABLES: std::cell::RefCell<Tables> = std::cell::RefCell::new(Tables::new());
     }
     TABLES.with_borrow_mut(|tables| {
         tables
