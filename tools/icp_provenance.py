@@ -35,7 +35,7 @@ def relative(me, other):
 def outcomes(run, truth):
     """(me, entry, tick, sender, kind, error m, FRMSD, pairs) per accepted ICP outcome, sorted."""
     out = []
-    for path in glob.glob(f"{run}/logs/agent-*.log"):
+    for path in glob.glob(f"{run}/logs/agent*.log"):
         for line in open(path):
             m = LINE.search(line)
             if not m:

@@ -648,9 +648,19 @@ impl IcpParams {
             ("match_turn_deg", self.match_turn_deg),
             ("suspend_s", self.suspend_s),
             ("long_every_s", self.long_every_s),
+            ("tight_long_every_s", self.tight_long_every_s),
             ("step_budget_ms", self.step_budget_ms),
         ] {
             positive(&format!("{at}.{name}"), v)?;
+        }
+        if self.tight_long_every_s < self.long_every_s {
+            return Err((
+                format!("{at}.tight_long_every_s"),
+                format!(
+                    "must be at least long_every_s ({}), got {}: a tight fit is re-checked less often, not more",
+                    self.long_every_s, self.tight_long_every_s
+                ),
+            ));
         }
         if self.max_iterations == 0 || self.max_iterations > 1000 {
             return Err((

@@ -963,9 +963,14 @@ pub struct IcpParams {
     /// An entry whose neighbour could not be placed is left alone this long [s] (5).
     #[serde(default = "d_five")]
     pub suspend_s: f64,
-    /// An entry gets a long ICP (full grid) this often [s] (5).
+    /// An entry gets a long ICP (full grid, lICP) this often [s] (seed 000 5.1, Algorithm 6: 5) ...
     #[serde(default = "d_five")]
     pub long_every_s: f64,
+    /// ... unless every short ICP since its last full grid fit tightly (FRMSD ≤ 0.3 m, the fit a
+    /// first placement needs): then this often [s] (30; our choice, seed 000 re-checks on the
+    /// clock alone). Equal to `long_every_s` gives seed 000's schedule.
+    #[serde(default = "d_tight_long_every")]
+    pub tight_long_every_s: f64,
     /// At most this many long or initial ICPs per control step (seed 000 6.2: 2).
     #[serde(default = "d_max_long")]
     pub max_long_per_step: u32,
@@ -1006,6 +1011,9 @@ fn one_f() -> f64 {
 fn d_five() -> f64 {
     5.0
 }
+fn d_tight_long_every() -> f64 {
+    30.0
+}
 fn d_turn() -> f64 {
     30.0
 }
@@ -1035,6 +1043,7 @@ impl Default for IcpParams {
             match_turn_deg: d_turn(),
             suspend_s: 5.0,
             long_every_s: 5.0,
+            tight_long_every_s: d_tight_long_every(),
             max_long_per_step: d_max_long(),
             step_budget_ms: d_budget(),
             min_points: d_min_points_icp(),

@@ -41,8 +41,8 @@
 //!    - never placed and not suspended (new): wants an iICP;
 //!    - suspended for less than `suspend_s`: left alone;
 //!    - suspended for `suspend_s` or more: wants a full-grid retry;
-//!    - else `now − last_long ≥ long_every_s`: wants an lICP, otherwise an sICP from the entry's
-//!      transform.
+//!    - else `now − last_long ≥ long_every_s` (`tight_long_every_s` for a tight track, next
+//!      section): wants an lICP, otherwise an sICP from the entry's transform.
 //! 5. The sICPs run. Then the wanted full-grid ICPs run most stale first (priority
 //!    `now − last_long`; never placed = infinitely stale; ties: oldest entry first), at most
 //!    `max_long_per_step` of them, and none once `elapsed_ms() > step_budget_ms` (the failsafe of
@@ -88,6 +88,26 @@
 //! tried before: no gain in the crowd lab, and forest-7-failed flew closer to the trees (0.40 m
 //! against 0.77 m without it).
 //!
+//! # Re-checks by need (deviation from seed 000 5.1 and Algorithm 6's 5 s clock)
+//!
+//! Seed 000 re-checks every tracked neighbour with an lICP every 5 s, because an sICP can lock
+//! onto a wrong place and "it is difficult to determine when this happens" (5.1). Outside a
+//! crowd that check almost never finds one. Of the accepted lICPs of a whole flight (the
+//! `icp_provenance` TRACE events), 1 of 376 in `forest-5` and 1 of 1 721 in `forest-9-dense`
+//! moved the estimate more than `DISTINCT_M` (the latter to a wrong place); the median
+//! correction was 3 cm, within an sICP's noise. The 160 false estimates of `forest-9-dense` came
+//! in 21 runs, 20 started by an sICP or a placement, one by an lICP jump; their fits were poor
+//! (the false sICPs' median FRMSD is 0.69 m, a right sICP's p99 0.27 m), and each run ended at
+//! the next sICP, by a suspension and a retry, or with the entry, never by an lICP. Yet the
+//! lICPs were a fifth of `forest-5`'s wall time.
+//!
+//! So the clock runs at seed 000's pace only for an entry in doubt: one whose sICPs since its
+//! last full grid did not all fit within [`TIGHT_FRMSD_M`], or whose last lICP found a better
+//! fit elsewhere and refused it. An entry whose sICPs all fit tightly is re-checked every
+//! `tight_long_every_s` (30 s) instead; setting it to `long_every_s` gives seed 000's schedule.
+//! A crowd (the crowd rules below) keeps the clock: there a tight fit is no sign of a right
+//! track (look-alike places fit as well), and the rules' budget already spaces the re-checks.
+//!
 //! # Fewer ICPs in a crowd (issue 11; seed 000 stops at 40 UAVs on the controller alone)
 //!
 //! In a crowd every neighbour costs about 100 µs of CPU per step (40 UAVs: about 4 ms per agent
@@ -126,7 +146,7 @@
 
 use super::alignment::{AgentFromNeighbour, Match, Ranked};
 use super::gate::Gate;
-use super::placement::{judge_initial, judge_long, Placement, Recheck};
+use super::placement::{judge_initial, judge_long, Placement, Recheck, INITIAL_FRMSD_MAX_M};
 use crate::geometry::wrap_angle;
 use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
@@ -248,6 +268,8 @@ struct Entry {
     estimate_t: f64,
     /// Sender id of the set before the last one (trace only: a change is a re-identification).
     prev_sender: u32,
+    /// Worst FRMSD accepted since the last full-grid ICP (+∞: in doubt; re-checks by need).
+    worst_frmsd: f64,
 }
 
 impl Entry {
@@ -296,6 +318,12 @@ const CROWD_FULL_GRIDS_PER_S: f64 = 1.0;
 
 /// ... saved up to this many (so a few due together still go at seed 000 6.2's two per step).
 const CROWD_FULL_GRID_BURST: f64 = 4.0;
+
+/// Re-checks by need (module doc): a track whose sICPs all fit within this is tight, and waits
+/// `tight_long_every_s` for its lICP. The fit a first placement needs: a right sICP's FRMSD is
+/// under it 99 % of the time (`forest-5` p99 0.17 m, `forest-9-dense` 0.27 m), a false one's
+/// median is 0.69 m.
+const TIGHT_FRMSD_M: f64 = INITIAL_FRMSD_MAX_M;
 
 /// Slack on time comparisons, so that steps on a 0.1 s grid hit 5 s and 0.5 s thresholds.
 const EPS: f64 = 1e-9;
@@ -367,7 +395,7 @@ impl Database {
         // Algorithm 6 body: suspension check, then lICP or sICP.
         let mut longs: Vec<(f64, usize, &Received)> = Vec::new();
         for &(idx, set) in &work {
-            match self.plan(now, idx) {
+            match self.plan(now, idx, crowd) {
                 Want::Nothing => {}
                 Want::Short => self.run_short(now, own, idx, set, m, &mut counts),
                 Want::Long(priority) => longs.push((priority, idx, set)),
@@ -632,13 +660,14 @@ impl Database {
             frmsd: f64::INFINITY,
             estimate_t: set.t_secs,
             prev_sender: set.from,
+            worst_frmsd: f64::INFINITY,
         });
         self.next_key += 1;
         self.entries.len() - 1
     }
 
     /// The body of Algorithm 6 for one matched entry: what it wants this step.
-    fn plan(&self, now: f64, idx: usize) -> Want {
+    fn plan(&self, now: f64, idx: usize, crowd: bool) -> Want {
         let e = &self.entries[idx];
         let staleness = now - e.last_long; // +∞ if never placed
         if e.suspended {
@@ -647,10 +676,21 @@ impl Database {
             } else {
                 Want::Long(staleness)
             }
-        } else if e.agent_from_neighbour.is_none() || staleness + EPS >= self.params.long_every_s {
+        } else if e.agent_from_neighbour.is_none() || staleness + EPS >= self.recheck_every(e, crowd) {
             Want::Long(staleness)
         } else {
             Want::Short
+        }
+    }
+
+    /// How long a tracked entry waits for its lICP [s]: `tight_long_every_s` while its sICPs fit
+    /// tightly, outside a crowd; `long_every_s` (seed 000) otherwise (module doc "Re-checks by
+    /// need").
+    fn recheck_every(&self, e: &Entry, crowd: bool) -> f64 {
+        if !crowd && e.worst_frmsd <= TIGHT_FRMSD_M {
+            self.params.tight_long_every_s
+        } else {
+            self.params.long_every_s
         }
     }
 
@@ -700,7 +740,10 @@ impl Database {
                     counts.refused_jumps += 1;
                     // Checked: the track stands until the next lICP, and this step's update is
                     // the sICP from it (as for a deferred lICP).
+                    // A better fit elsewhere leaves the track in doubt: the next check comes on
+                    // seed 000's clock.
                     self.entries[idx].last_long = now;
+                    self.entries[idx].worst_frmsd = f64::INFINITY;
                     self.run_short(now, own, idx, set, m, counts);
                     return;
                 }
@@ -741,6 +784,9 @@ impl Database {
                 e.suspended = false;
                 if full_grid {
                     e.last_long = now;
+                    e.worst_frmsd = found.frmsd;
+                } else {
+                    e.worst_frmsd = e.worst_frmsd.max(found.frmsd);
                 }
             }
             _ => {
@@ -927,8 +973,10 @@ mod tests {
         }
     }
 
+    /// Seed 000's schedule (every tracked entry re-checked every `long_every_s`); the tests of
+    /// re-checks by need set `tight_long_every_s` back.
     fn params() -> IcpParams {
-        IcpParams { min_points: 3, step_budget_ms: 50.0, ..IcpParams::default() }
+        IcpParams { min_points: 3, step_budget_ms: 50.0, tight_long_every_s: 5.0, ..IcpParams::default() }
     }
 
     fn db() -> Database {
@@ -1348,9 +1396,7 @@ mod tests {
     fn long_icp_every_long_every_s_short_otherwise() {
         let (mut d, mut m) = (db(), Scripted::default());
         let counts = run(&mut d, &mut m, &[1], 0.0, 12.0);
-        let full: Vec<usize> =
-            counts.iter().enumerate().filter(|(_, c)| c.long + c.initial > 0).map(|(i, _)| i).collect();
-        assert_eq!(full, vec![0, 50, 100]);
+        assert_eq!(full_grid_ticks(&counts), vec![0, 50, 100]);
         assert_eq!(counts[0].initial, 1);
         assert_eq!(counts[50].long, 1);
         assert_eq!(counts.iter().map(|c| c.short).sum::<u32>(), 121 - 3);
@@ -1555,6 +1601,70 @@ mod tests {
         let c = step(&mut d, &mut m, 15.0, &[recv(1, 1, 15.0)]);
         assert_eq!((c.long, c.jumped, c.refused_jumps), (1, 0, 0));
         assert_eq!(d.estimates(15.0)[0].pos_in_body, Vector2::new(1.3, 0.5));
+    }
+
+    /// Ticks (0.1 s steps from 0) of `counts` that ran a full-grid ICP.
+    fn full_grid_ticks(counts: &[StepCounts]) -> Vec<usize> {
+        counts.iter().enumerate().filter(|(_, c)| c.long + c.initial > 0).map(|(i, _)| i).collect()
+    }
+
+    /// The shipped default: re-checks by need.
+    fn by_need() -> Database {
+        Database::new(IcpParams { tight_long_every_s: 30.0, ..params() }, 0.5)
+    }
+
+    /// Re-checks by need: a track whose sICPs fit within `TIGHT_FRMSD_M` (the scripted 0.2 m)
+    /// waits `tight_long_every_s` for its lICP; one that does not is re-checked on seed 000's clock.
+    #[test]
+    fn a_tight_track_is_rechecked_every_tight_long_every_s_a_loose_one_every_long_every_s() {
+        let (mut d, mut m) = (by_need(), Scripted::default());
+        let tight = run(&mut d, &mut m, &[1], 0.0, 61.0);
+        assert_eq!(full_grid_ticks(&tight), vec![0, 300, 600]);
+
+        let (mut d, mut m) = (by_need(), Scripted::default());
+        m.frmsd_own.insert(1, 0.35);
+        let loose = run(&mut d, &mut m, &[1], 0.0, 12.0);
+        assert_eq!(full_grid_ticks(&loose), vec![0, 50, 100]);
+    }
+
+    /// One loose sICP since the last full grid puts the track in doubt: the lICP comes as soon as
+    /// `long_every_s` has passed, and a tight lICP lets it wait `tight_long_every_s` again.
+    #[test]
+    fn one_loose_fit_brings_the_recheck_forward_to_long_every_s() {
+        let (mut d, mut m) = (by_need(), Scripted::default());
+        run(&mut d, &mut m, &[1], 0.0, 5.9);
+        m.frmsd_own.insert(1, 0.35);
+        let c = step(&mut d, &mut m, 6.0, &[recv(1, 1, 6.0)]);
+        assert_eq!((c.long, c.short), (0, 1), "the loose sICP");
+        m.frmsd_own.insert(1, 0.2);
+        let c = step(&mut d, &mut m, 6.1, &[recv(1, 1, 6.1)]);
+        assert_eq!((c.long, c.short), (1, 0), "6.1 s since the placement: due in doubt");
+        let after: Vec<StepCounts> = run(&mut d, &mut m, &[1], 6.2, 36.1);
+        let longs: Vec<usize> = full_grid_ticks(&after);
+        assert_eq!(longs, vec![299], "the next at 36.1 s, 30 s after the tight lICP");
+    }
+
+    /// An lICP that finds a better fit elsewhere and refuses it leaves the track in doubt, though
+    /// the sICP after it fits tightly: the next check comes `long_every_s` later.
+    #[test]
+    fn a_refused_jump_leaves_the_track_in_doubt() {
+        let (mut d, mut m) = (by_need(), Scripted::default());
+        run(&mut d, &mut m, &[1], 0.0, 29.9);
+        (m.long_shift, m.long_frmsd) = (3.0, Some(0.6));
+        let c = step(&mut d, &mut m, 30.0, &[recv(1, 1, 30.0)]);
+        assert_eq!((c.long, c.refused_jumps, c.short), (1, 1, 1));
+        (m.long_shift, m.long_frmsd) = (0.0, None);
+        let after = run(&mut d, &mut m, &[1], 30.1, 40.0);
+        assert_eq!(full_grid_ticks(&after), vec![49], "checked again at 35 s");
+    }
+
+    /// The crowd rules keep seed 000's clock (their budget spaces the re-checks).
+    #[test]
+    fn in_a_crowd_a_tight_track_keeps_seed_000s_clock() {
+        let (mut d, mut m) = (by_need(), Scripted::default());
+        d.crowd_from_sets = 1;
+        let counts = run(&mut d, &mut m, &[1], 0.0, 12.0);
+        assert_eq!(full_grid_ticks(&counts), vec![0, 50, 100]);
     }
 
     #[test]
