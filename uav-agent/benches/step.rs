@@ -4,9 +4,10 @@
 //! mode. The ICP bench advances sim time by one tick per iteration, so its mean includes the
 //! long ICPs the database schedules (at most 2 per step; seed 000 6.2 reports 31.7 ms for 8
 //! UAVs): by need (the shipped default, every 30 s per tightly fitting neighbour) and, in the
-//! `_seed_clock` variants, on seed 000's clock (every 5 s per neighbour). `agent/step_icp_crowd/N` is the ICP-mode step with N = 8, 16,
-//! 32, 64 neighbours in a crowd in a larger forest, to show how the step grows with the crowd;
-//! after it, the same steps' mean CPU time is printed (the wall clock of a shared machine is noisy).
+//! `_seed_clock` variants, on seed 000's clock (every 5 s per neighbour).
+//! `agent/step_icp_crowd/N` is the ICP-mode step with N = 8, 16, 32, 64 neighbours in a crowd in
+//! a larger forest, to show how the step grows with the crowd; after it, the same steps' mean
+//! CPU time is printed (the wall clock of a shared machine is noisy).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;

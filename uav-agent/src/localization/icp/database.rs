@@ -617,7 +617,7 @@ impl Database {
             } else if e.agent_from_neighbour.is_none() {
                 f64::INFINITY
             } else {
-                now - e.last_long - self.params.long_every_s
+                now - e.last_long - self.recheck_every(e, true)
             };
         }
     }
@@ -739,9 +739,8 @@ impl Database {
                 Recheck::Refused(_) => {
                     counts.refused_jumps += 1;
                     // Checked: the track stands until the next lICP, and this step's update is
-                    // the sICP from it (as for a deferred lICP).
-                    // A better fit elsewhere leaves the track in doubt: the next check comes on
-                    // seed 000's clock.
+                    // the sICP from it (as for a deferred lICP). A better fit elsewhere leaves
+                    // the track in doubt: the next check comes on seed 000's clock.
                     self.entries[idx].last_long = now;
                     self.entries[idx].worst_frmsd = f64::INFINITY;
                     self.run_short(now, own, idx, set, m, counts);
@@ -1639,9 +1638,8 @@ mod tests {
         m.frmsd_own.insert(1, 0.2);
         let c = step(&mut d, &mut m, 6.1, &[recv(1, 1, 6.1)]);
         assert_eq!((c.long, c.short), (1, 0), "6.1 s since the placement: due in doubt");
-        let after: Vec<StepCounts> = run(&mut d, &mut m, &[1], 6.2, 36.1);
-        let longs: Vec<usize> = full_grid_ticks(&after);
-        assert_eq!(longs, vec![299], "the next at 36.1 s, 30 s after the tight lICP");
+        let after = run(&mut d, &mut m, &[1], 6.2, 36.1);
+        assert_eq!(full_grid_ticks(&after), vec![299], "the next at 36.1 s, 30 s after the tight lICP");
     }
 
     /// An lICP that finds a better fit elsewhere and refuses it leaves the track in doubt, though
