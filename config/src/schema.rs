@@ -717,6 +717,15 @@ pub struct K21Params {
     /// more than 1.1 m from every trunk's surface and 1.3 m from each other.
     #[serde(default = "one")]
     pub barrier_m: f64,
+    /// The barrier's reach for a body known only by its nearest point [m]. Seed 000's grouping
+    /// (Algorithm 2) joins points less than 1 m apart, so UAVs packed closer than about 1.6 m, or
+    /// a UAV beside a trunk, make one group whose circle lies off every body in it: the barrier
+    /// on centres misses a UAV 0.4 m away (forest-100-icp's goal-point contacts). Such a group is
+    /// split into its bodies (`uav-agent/src/perception/bodies.rs`): one whose points a circle
+    /// fits is a centre under `barrier_m`, any other is its nearest point under this. 0.7 m is
+    /// `barrier_m` less a UAV's 0.3 m radius. Our extension; 0 turns it off.
+    #[serde(default = "d_barrier_surface")]
+    pub barrier_surface_m: f64,
     /// Arrival, our extension (seed 000 is silent on it): an informed UAV within this distance
     /// of its goal [m] has arrived, and slows towards the goal's centre. Once one has, every UAV
     /// with a path of shares to it turns to what is closer to the arrival (an informed UAV to the
@@ -751,6 +760,9 @@ fn d_true() -> bool {
 }
 fn one() -> f64 {
     1.0
+}
+fn d_barrier_surface() -> f64 {
+    0.7
 }
 fn d_kf() -> f64 {
     0.4
@@ -797,6 +809,7 @@ impl Default for K21Params {
             separation_combine: SeparationCombine::ClippedSum,
             obstacle_priority: true,
             barrier_m: one(),
+            barrier_surface_m: d_barrier_surface(),
             arrival_radius_m: None,
         }
     }

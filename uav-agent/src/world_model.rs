@@ -1,6 +1,7 @@
 //! The agent's model of what is around it, in its body frame, as one stage hands it to the next:
 //! obstacles as perception finds them in the scan ([`Circle`] for a trunk, [`Segment`] for a
-//! wall face) and neighbours as localization places them ([`Estimate`]).
+//! wall face, [`Body`] for one of several it grouped together) and neighbours as localization places
+//! them ([`Estimate`]).
 //!
 //! Why a module of its own: these types are what the stages share. Perception makes the
 //! obstacles; localization matches its own circles (the reference set of the ICP) and makes the
@@ -11,6 +12,16 @@
 //! stages.
 
 use nalgebra::{Point2, Vector2};
+
+/// One body close to the UAV inside a group of scan points that joins several, body frame: what
+/// K21's barrier keeps off.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Body {
+    /// The centre of the circle that fits the body's points.
+    Centre(Vector2<f64>),
+    /// The body's nearest point, where no circle fits.
+    Nearest(Vector2<f64>),
+}
 
 /// A circular obstacle (a trunk cut by the plane of flight), body frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

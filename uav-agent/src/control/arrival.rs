@@ -121,7 +121,16 @@ mod tests {
     }
 
     fn view<'a>(o: &'a Odom, n: &'a [Estimate]) -> View<'a> {
-        View { id: 1, t_secs: 1.0, odom: o, neighbours: n, trees: &[], walls: &[], static_points: &[] }
+        View {
+            id: 1,
+            t_secs: 1.0,
+            odom: o,
+            neighbours: n,
+            trees: &[],
+            walls: &[],
+            static_points: &[],
+            near_bodies: &[],
+        }
     }
 
     fn flock() -> Command {

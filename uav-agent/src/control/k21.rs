@@ -47,6 +47,9 @@ pub struct Input<'a> {
     /// Angle of the goal in the body frame [rad] (eq. 4.15 minus own heading); `None` for an
     /// uninformed UAV.
     pub goal_heading: Option<f64>,
+    /// The bodies inside scan groups that join several (body frame): barriers too, a centre
+    /// closer than `barrier_m`, a nearest point closer than `barrier_surface_m`.
+    pub bodies: &'a [Body],
 }
 
 /// The result of one control step, with the four component vectors for logging and tests.
@@ -67,6 +70,7 @@ pub struct Output {
 }
 
 use crate::geometry::{is_finite, EPS};
+use crate::world_model::Body;
 
 /// Clip to unit length: v/|v| if |v| > 1, else v (seed 000, eq. 4.6, 4.13 and 4.2 share it).
 fn clip_unit(v: Vector2<f64>) -> Vector2<f64> {
@@ -225,23 +229,20 @@ pub fn avoidance(p: &K21Params, obstacles: &[Vector2<f64>], desired: Vector2<f64
     clip_unit(v_dir * (p.avoidance_gain_m / dist))
 }
 
-/// `v` without its component towards any obstacle centre closer than `radius_m` (body frame):
-/// our extension of seed 000 section 4.4, whose avoidance (eq. 4.10–4.13) looks at the closest
-/// obstacle only and so may push a UAV squeezing between two obstacles into the farther one.
-/// Each close obstacle is a half-plane constraint v·ŷ ≤ 0; the constraints are applied in turn
-/// until none is violated (a few rounds: in 2D at most two are active at once). Where they leave
-/// no direction at all (hemmed in on every side), the UAV stops.
-pub fn barrier(v: Vector2<f64>, obstacles: impl IntoIterator<Item = Vector2<f64>>, radius_m: f64) -> Vector2<f64> {
-    if radius_m <= 0.0 {
-        return v;
-    }
+/// `v` without its component towards any of `close` (body frame): our extension of seed 000
+/// section 4.4, whose avoidance (eq. 4.10–4.13) looks at the closest obstacle only and so may
+/// push a UAV squeezing between two obstacles into the farther one. Each close obstacle is a
+/// half-plane constraint v·ŷ ≤ 0; the constraints are applied in turn until none is violated (a
+/// few rounds: in 2D at most two are active at once). Where they leave no direction at all
+/// (hemmed in on every side), the UAV stops. The caller picks what is close ([`within`]).
+pub fn barrier(v: Vector2<f64>, close: impl IntoIterator<Item = Vector2<f64>>) -> Vector2<f64> {
     // Usually empty: no allocation unless something is this close.
-    let close: Vec<Vector2<f64>> = obstacles
+    let close: Vec<Vector2<f64>> = close
         .into_iter()
         .filter(is_finite)
         .filter_map(|y| {
             let d = y.norm();
-            (d > EPS && d < radius_m).then(|| y / d)
+            (d > EPS).then(|| y / d)
         })
         .collect();
     let mut v = v;
@@ -263,6 +264,14 @@ pub fn barrier(v: Vector2<f64>, obstacles: impl IntoIterator<Item = Vector2<f64>
     } else {
         v
     }
+}
+
+/// The points of `points` closer than `radius_m` (none when it is 0: that barrier is off).
+pub fn within<'a>(
+    points: impl IntoIterator<Item = &'a Vector2<f64>>,
+    radius_m: f64,
+) -> impl Iterator<Item = Vector2<f64>> {
+    points.into_iter().copied().filter(move |y| y.norm() < radius_m)
 }
 
 /// Navigation vector v_n (seed 000, section 4.5, eq. 4.16–4.17).
@@ -335,7 +344,7 @@ pub fn not_towards(v: Vector2<f64>, y: Vector2<f64>) -> Vector2<f64> {
 /// ([`not_towards`]). Separation uses the body x axis as the desired direction. Then p = v_c + v_s + v_n1 with v_n1 = navigation(v_c, v_s, 0), v_o = avoidance(p),
 /// v_n = navigation(v_c, v_s, v_o), v = kc·v_c + ks·v_s + ko·v_o + kn·v_n, normalised if |v| > 1,
 /// times kf, then with no component towards an obstacle or a neighbour closer than
-/// `p.barrier_m` ([`barrier`]).
+/// `p.barrier_m`, nor towards a body of `input.bodies` ([`barrier`]).
 /// yaw_rate = heading_gain·α. A non-finite velocity or yaw rate (only possible with
 /// non-finite parameters) is replaced by zero.
 pub fn step(p: &K21Params, input: &Input) -> Output {
@@ -359,9 +368,13 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     // seed 000, eq. 4.1: v = kc·v_c + ks·v_s + ko·v_o + kn·v_n.
     let v = p.kc * vc + p.ks * vs + p.ko * vo + p.kn * vn;
     // seed 000, eq. 4.2: v_f = v/|v|·kf if |v| > 1, else v·kf.
-    // Our extension: every obstacle, and every neighbour, closer than barrier_m is a barrier.
-    let close = input.obstacles.iter().copied().chain(input.neighbours.iter().map(|n| n.pos));
-    let mut velocity = barrier(clip_unit(v) * p.kf, close, p.barrier_m);
+    // Our extension: every obstacle, neighbour and body centre closer than barrier_m is a
+    // barrier, and so is every body's nearest point closer than barrier_surface_m.
+    let body_centres = input.bodies.iter().filter_map(|b| if let Body::Centre(c) = b { Some(c) } else { None });
+    let surfaces = input.bodies.iter().filter_map(|b| if let Body::Nearest(n) = b { Some(n) } else { None });
+    let centres = input.obstacles.iter().chain(input.neighbours.iter().map(|n| &n.pos)).chain(body_centres);
+    let close = within(centres, p.barrier_m).chain(within(surfaces, p.barrier_surface_m));
+    let mut velocity = barrier(clip_unit(v) * p.kf, close);
     if !is_finite(&velocity) {
         velocity = Vector2::zeros();
     }
@@ -567,7 +580,7 @@ mod tests {
             .flat_map(|i| (-3..=3).map(move |j| nb(-2.1 * f64::from(i), 2.1 * f64::from(j))))
             .filter(|n| n.pos.norm() > 0.0)
             .collect();
-        let input = Input { neighbours: &ns, obstacles: &[], goal_heading: Some(0.0) };
+        let input = Input { neighbours: &ns, obstacles: &[], goal_heading: Some(0.0), bodies: &[] };
         // Within 5 m: 12 neighbours, c = (−21.32,0)/13 = (−1.77692,0), inside 2.5 m → v_c = 0;
         // none within 2 m → v_s = 0; v_n = (1,0) → (0.4,0).
         let out = step(&params(), &input);
@@ -586,7 +599,7 @@ mod tests {
         // Neighbour abeam at (0,−1.2) → v_s = (0,1) (k = −1); tree centre at (0,2) is nearby
         // (2 m < 2.5 m) and 90° off the desired direction, so v_o is tangential, (1,0)·(2/2) = (1,0).
         let ns = [nb(0.0, -1.2)];
-        let input = Input { neighbours: &ns, obstacles: &[v(0.0, 2.0)], goal_heading: Some(0.0) };
+        let input = Input { neighbours: &ns, obstacles: &[v(0.0, 2.0)], goal_heading: Some(0.0), bodies: &[] };
         // With priority v_s loses its part towards the tree → 0; p = (1,0), v_o = (1,0), v_n = 0:
         // v_f = (0.4,0), along the tree.
         let out = step(&params(), &input);
@@ -662,18 +675,40 @@ mod tests {
     fn barrier_keeps_a_uav_off_both_obstacles_it_squeezes_between() {
         // A frozen UAV 0.8 m to the left, a trunk 0.85 m to the right: it slides on between them.
         let beside = [v(0.0, 0.8), v(0.0, -0.85)];
-        close(barrier(v(0.2, -0.3), beside, 1.0), v(0.2, 0.0), 1e-12);
+        close(barrier(v(0.2, -0.3), within(&beside, 1.0)), v(0.2, 0.0), 1e-12);
         // The trunk a little ahead on the right: no component towards either is left.
         let ahead = [v(0.0, 0.8), v(0.3, -0.85)];
-        let out = barrier(v(0.2, -0.3), ahead, 1.0);
+        let out = barrier(v(0.2, -0.3), within(&ahead, 1.0));
         for y in &ahead {
             assert!(out.dot(&(y / y.norm())) <= 1e-9, "{out} moves towards {y}");
         }
-        close(barrier(v(0.2, -0.3), ahead, 0.0), v(0.2, -0.3), 1e-12);
-        close(barrier(v(0.4, 0.0), [v(3.0, 0.0)], 1.0), v(0.4, 0.0), 1e-12);
+        close(barrier(v(0.2, -0.3), within(&ahead, 0.0)), v(0.2, -0.3), 1e-12);
+        close(barrier(v(0.4, 0.0), within(&[v(3.0, 0.0)], 1.0)), v(0.4, 0.0), 1e-12);
         // Hemmed in on three sides with the velocity into the corner: it stops.
         let corner = [v(0.5, 0.0), v(-0.25, 0.45), v(-0.25, -0.45)];
-        close(barrier(v(0.3, 0.1), corner, 1.0), Vector2::zeros(), 1e-9);
+        close(barrier(v(0.3, 0.1), within(&corner, 1.0)), Vector2::zeros(), 1e-9);
+    }
+
+    #[test]
+    fn the_barrier_keeps_off_the_bodies_of_a_joined_group() {
+        // A crowd's group fitted as one circle 1.13 m ahead and right, a neighbour to cohere with
+        // ahead and left, and inside the group a UAV 0.78 m ahead and left.
+        let p = params();
+        let uav = v(0.72, 0.3);
+        let ns = [nb(2.2, 0.9)];
+        let obstacles = [v(1.1, -0.25)];
+        let towards = |bodies: &[Body]| {
+            let out = step(&p, &Input { neighbours: &ns, obstacles: &obstacles, goal_heading: None, bodies });
+            out.velocity.dot(&uav.normalize())
+        };
+        assert!(towards(&[]) > 0.05, "without the body it flies into the UAV");
+        assert!(towards(&[Body::Centre(uav)]) <= 1e-9);
+        // Known only by its nearest point, 0.48 m ahead and left.
+        let nearest = uav * (1.0 - 0.3 / uav.norm());
+        assert!(towards(&[Body::Nearest(nearest)]) <= 1e-9);
+        // Beyond reach: a centre at 1 m or more, a nearest point at 0.7 m or more.
+        assert!(towards(&[Body::Centre(uav * 1.3)]) > 0.05);
+        assert!(towards(&[Body::Nearest(uav.normalize() * 0.75)]) > 0.05);
     }
 
     #[test]
@@ -733,17 +768,17 @@ mod tests {
     #[test]
     fn step_free_flight_goal_ahead() {
         // No neighbours, no obstacles: v_c = v_s = v_o = 0, v_n = (1,0), v = (1,0), v_f = 0.4·(1,0).
-        let out = step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.0) });
+        let out = step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.0), bodies: &[] });
         close(out.velocity, v(0.4, 0.0), 1e-15);
         assert_eq!(out.yaw_rate, 0.0);
         close(out.navigation, v(1.0, 0.0), 1e-15);
         // Goal to the left: same velocity, yaw rate = 1·0.7.
-        let out = step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.7) });
+        let out = step(&params(), &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.7), bodies: &[] });
         close(out.velocity, v(0.4, 0.0), 1e-15);
         assert!((out.yaw_rate - 0.7).abs() < 1e-12);
         // kf and heading_gain scale the outputs.
         let p = K21Params { kf: 1.5, heading_gain: 2.0, ..params() };
-        let out = step(&p, &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.7) });
+        let out = step(&p, &Input { neighbours: &[], obstacles: &[], goal_heading: Some(0.7), bodies: &[] });
         close(out.velocity, v(1.5, 0.0), 1e-15);
         assert!((out.yaw_rate - 1.4).abs() < 1e-12);
     }
@@ -755,7 +790,7 @@ mod tests {
         // v_n1 = (1 − 0.5)·x̂ = (0.5,0); p = (0,0) → no obstacle anyway, v_o = 0.
         // v_n = (0.5,0); v = 0 + (−0.5,0) + 0 + (0.5,0) = 0 → hover. α = 0.2 → yaw 0.2.
         let ns = [Neighbour { pos: v(2.0, 0.0), heading: 0.2 }];
-        let out = step(&params(), &Input { neighbours: &ns, obstacles: &[], goal_heading: None });
+        let out = step(&params(), &Input { neighbours: &ns, obstacles: &[], goal_heading: None, bodies: &[] });
         close(out.separation, v(-0.5, 0.0), 1e-12);
         close(out.navigation, v(0.5, 0.0), 1e-12);
         close(out.velocity, v(0.0, 0.0), 1e-12);
@@ -768,14 +803,17 @@ mod tests {
         // v_o = (0.4,−0.8) (see avoidance_tangential_hand_computed), |v_o| = 0.89443,
         // v_n = (1 − 0.89443, 0) = (0.10557,0), v = (0.50557,−0.8), |v| = 0.94636 ≤ 1,
         // v_f = 0.4·v = (0.20223,−0.32).
-        let out = step(&params(), &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0) });
+        let out = step(
+            &params(),
+            &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0), bodies: &[] },
+        );
         close(out.avoidance, v(0.4, -0.8), 1e-12);
         let kn = 1.0 - 0.8f64.sqrt();
         close(out.navigation, v(kn, 0.0), 1e-12);
         close(out.velocity, 0.4 * v(0.4 + kn, -0.8), 1e-12);
         // Weights: ko = 2 → v = (0.8 + 0.10557, −1.6), |v| > 1 → normalised, × 0.4.
         let p = K21Params { ko: 2.0, ..params() };
-        let out = step(&p, &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0) });
+        let out = step(&p, &Input { neighbours: &[], obstacles: &[v(2.0, 1.0)], goal_heading: Some(0.0), bodies: &[] });
         close(out.velocity, 0.4 * v(0.8 + kn, -1.6).normalize(), 1e-12);
     }
 
@@ -786,13 +824,13 @@ mod tests {
         let ns = [nb(0.0, 20.0), nb(6.0, 0.0)];
         // Both neighbours beyond the default 5 m reach: widen it so that they count.
         let wide = K21Params { neighbour_radius_m: 100.0, ..params() };
-        let out = step(&wide, &Input { neighbours: &ns, obstacles: &[v(-2.0, 0.0)], goal_heading: None });
+        let out = step(&wide, &Input { neighbours: &ns, obstacles: &[v(-2.0, 0.0)], goal_heading: None, bodies: &[] });
         close(out.cohesion, v(0.5, 0.0), 1e-12);
         close(out.avoidance, v(0.0, 0.0), 1e-15);
         // v_s = 0 ((6,0) beyond 2 m, (0,20) beyond 2 m; N = 2); v_n = (0.5,0); v = (1,0) → (0.4,0).
         close(out.velocity, v(0.4, 0.0), 1e-12);
         // Without the obstacle all neighbours count and v_c = c/|c| (clipped).
-        let out = step(&wide, &Input { neighbours: &ns, obstacles: &[], goal_heading: None });
+        let out = step(&wide, &Input { neighbours: &ns, obstacles: &[], goal_heading: None, bodies: &[] });
         close(out.cohesion, v(2.0, 20.0 / 3.0).normalize(), 1e-12);
     }
 
@@ -800,7 +838,8 @@ mod tests {
     fn step_ignores_non_finite_inputs() {
         let ns = [Neighbour { pos: v(f64::NAN, 1.0), heading: f64::NAN }];
         let obs = [v(f64::INFINITY, 0.0), v(f64::NAN, f64::NAN)];
-        let out = step(&params(), &Input { neighbours: &ns, obstacles: &obs, goal_heading: Some(f64::NAN) });
+        let out =
+            step(&params(), &Input { neighbours: &ns, obstacles: &obs, goal_heading: Some(f64::NAN), bodies: &[] });
         close(out.velocity, v(0.4, 0.0), 1e-15);
         assert_eq!(out.yaw_rate, 0.0);
     }
@@ -822,7 +861,8 @@ mod tests {
                             ];
                             let obs = [v(ox, oy), v(oy + 0.5, ox - 0.5)];
                             for k in 0..=3 {
-                                let input = Input { neighbours: &ns[..k], obstacles: &obs, goal_heading: goal };
+                                let input =
+                                    Input { neighbours: &ns[..k], obstacles: &obs, goal_heading: goal, bodies: &[] };
                                 let out = step(&p, &input);
                                 assert!(out.velocity.x.is_finite() && out.velocity.y.is_finite(), "{input:?}");
                                 assert!(out.velocity.norm() <= p.kf + 1e-12, "{input:?} → {out:?}");

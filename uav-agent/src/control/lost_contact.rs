@@ -213,7 +213,7 @@ mod tests {
     }
 
     fn view<'a>(t: f64, o: &'a Odom, n: &'a [Estimate], trees: &'a [Circle]) -> View<'a> {
-        View { id: 1, t_secs: t, odom: o, neighbours: n, trees, walls: &[], static_points: &[] }
+        View { id: 1, t_secs: t, odom: o, neighbours: n, trees, walls: &[], static_points: &[], near_bodies: &[] }
     }
 
     fn flock() -> Command {

@@ -34,7 +34,7 @@ use crate::geometry::{wrap_angle, Pose2};
 use crate::planning::{
     CostQuery, Costmap, GridParams, Heuristic, OccupancyGrid, PlanParams, SocialAgent, LETHAL_OBSTACLE,
 };
-use crate::world_model::{Circle, Estimate, Segment};
+use crate::world_model::{Body, Circle, Estimate, Segment};
 use nalgebra::{Point2, Rotation2, Vector2};
 use std::sync::Arc;
 use swarm_config::Scenario;
@@ -59,6 +59,9 @@ pub struct View<'a> {
     /// The scan points that are not a localized neighbour: what goes into a map (empty unless the
     /// controller asks for them, see [`Controller::wants_scan_points`]).
     pub static_points: &'a [Point2<f64>],
+    /// The bodies near the UAV inside scan groups that join several (neighbours or not): what
+    /// K21's barrier keeps off besides the circles.
+    pub near_bodies: &'a [Body],
 }
 
 /// A command in the body frame, with the magnitudes of the controller's terms.
@@ -191,7 +194,8 @@ pub(super) fn k21_command(
         neighbours.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
     let obstacles: Vec<Vector2<f64>> =
         v.trees.iter().map(|c| c.center.coords).chain(more_obstacles.iter().copied()).collect();
-    let out = k21::step(p, &k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading });
+    let input = k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading, bodies: v.near_bodies };
+    let out = k21::step(p, &input);
     Command {
         kind: CmdKind::Velocity,
         xy: out.velocity,

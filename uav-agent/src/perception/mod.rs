@@ -18,15 +18,17 @@
 //! - [`circles`]: the circle fit of eq. 3.13–3.15 and the trunk pipeline ([`extract_obstacles`](circles::extract_obstacles));
 //! - [`walls`]: the split-and-merge segment extractor for what is not a trunk
 //!   ([`segments_in_group`](walls::segments_in_group), [`SegmentParams`]);
-//! - here, [`extract`]: each group to a circle or to segments, the rule that joins the two.
+//! - here, [`extract`]: each group to a circle or to segments, the rule that joins the two;
+//! - [`bodies`]: the bodies inside a group that joins several, for K21's barrier.
 //!
 //! `walls` and `circles` both read `scan`'s groups and know nothing of each other; `extract`
 //! alone decides between them.
 
+pub mod bodies;
 mod circles;
 mod scan;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 mod walls;
 
 pub use walls::SegmentParams;
@@ -51,6 +53,9 @@ pub struct Extracted {
     /// Each beam's point, body frame (`None`: no return); kept as the scan gave them, since
     /// only the map-building controllers want them (see [`Extracted::points`]).
     pub(crate) beams: Vec<Option<Point2<f64>>>,
+    /// The groups that hold several bodies, points in beam order: those with consecutive points
+    /// [`BODY_GAP_M`](bodies::BODY_GAP_M) or more apart ([`bodies`](bodies::bodies) splits them).
+    pub(crate) joined: Vec<Vec<Point2<f64>>>,
 }
 
 impl Extracted {
@@ -70,6 +75,9 @@ pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParam
     let mut out = Extracted::default();
     let beams = beam_points(scan);
     for group in group_beams(&beams, f64::from(scan.angle_increment), perception.group_gap_m) {
+        if bodies::is_joined(&group) {
+            out.joined.push(group.clone());
+        }
         let circle = accepted_circle(&group, perception);
         if let Some(c) = circle.filter(|c| rms_circle_residual(&group, c) <= params.circle_max_rms_m) {
             out.circles.push(c);

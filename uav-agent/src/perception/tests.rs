@@ -69,11 +69,17 @@ fn ray_range(theta: f64, circles: &[(f64, f64, f64)], max_range: f64) -> f64 {
 
 /// A 360° scan of `beams` beams starting at `angle_min`, of the given circles, with optional
 /// Gaussian range noise.
-fn synthetic_scan(beams: usize, angle_min: f64, circles: &[(f64, f64, f64)], noise: Option<(f64, u64)>) -> Scan {
+pub(crate) fn synthetic_scan(
+    beams: usize,
+    angle_min: f64,
+    circles: &[(f64, f64, f64)],
+    noise: Option<(f64, u64)>,
+) -> Scan {
     world_scan(beams, angle_min, circles, &[], noise)
 }
 
-fn arc(cx: f64, cy: f64, r: f64, from: f64, to: f64, n: usize) -> Vec<Point2<f64>> {
+/// `n` points evenly along the arc of the circle (cx, cy, r) from angle `from` to `to`.
+pub(crate) fn arc(cx: f64, cy: f64, r: f64, from: f64, to: f64, n: usize) -> Vec<Point2<f64>> {
     (0..n)
         .map(|i| {
             let a = from + (to - from) * i as f64 / (n - 1) as f64;
