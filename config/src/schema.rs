@@ -713,17 +713,20 @@ pub struct K21Params {
     /// velocity (eq. 4.2) loses its component towards each of them, so avoiding the closest
     /// obstacle (eq. 4.10-4.13) never pushes the UAV into a second one (a frozen UAV on one
     /// side, a trunk on the other), nor separation into another neighbour. Our extension; 0
-    /// turns it off. At 1 m it never engages in seed 000's section 6.1 flights, whose UAVs keep
-    /// more than 1.1 m from every trunk's surface and 1.3 m from each other.
+    /// turns it off, the bodies of `barrier_surface_m` with it. At 1 m it never engages in seed
+    /// 000's section 6.1 flights, whose UAVs keep more than 1.1 m from every trunk's surface and
+    /// 1.3 m from each other.
     #[serde(default = "one")]
     pub barrier_m: f64,
-    /// The barrier's reach for a body known only by its nearest point [m]. Seed 000's grouping
-    /// (Algorithm 2) joins points less than 1 m apart, so UAVs packed closer than about 1.6 m, or
-    /// a UAV beside a trunk, make one group whose circle lies off every body in it: the barrier
-    /// on centres misses a UAV 0.4 m away (forest-100-icp's goal-point contacts). Such a group is
-    /// split into its bodies (`uav-agent/src/perception/bodies.rs`): one whose points a circle
-    /// fits is a centre under `barrier_m`, any other is its nearest point under this. 0.7 m is
-    /// `barrier_m` less a UAV's 0.3 m radius. Our extension; 0 turns it off.
+    /// The barrier's reach for the nearest point of a body inside a scan group that joins
+    /// several [m]. Seed 000's grouping (Algorithm 2) joins points less than 1 m apart, so UAVs
+    /// packed closer than about 1.6 m, or a UAV beside a trunk, make one group whose circle can
+    /// lie off every body in it: the barrier on centres missed a UAV 0.42 m from its surface
+    /// (centre 0.72 m; forest-100-icp's goal-point contacts). Such a group is split into its
+    /// bodies (`uav-agent/src/perception/bodies.rs`): each body's nearest point is a barrier
+    /// under this, and the centre of its circle, where one fits, under `barrier_m`. 0.7 m is
+    /// `barrier_m` less a UAV's 0.3 m radius. Our extension; 0 turns the split off (and so does
+    /// `barrier_m = 0`, with the rest of the barrier).
     #[serde(default = "d_barrier_surface")]
     pub barrier_surface_m: f64,
     /// Arrival, our extension (seed 000 is silent on it): an informed UAV within this distance

@@ -156,9 +156,11 @@ impl Agent {
     /// [`Agent::finish`] takes its command.
     pub fn perceive(&mut self, frame: &SensorFrame) -> Perceived {
         let started = Instant::now();
-        let seen = perception::extract(&frame.scan, &self.sc.perception, &perception::SegmentParams::default());
+        let segments = perception::SegmentParams::default();
+        let seen = perception::extract(&frame.scan, &self.sc.perception, &segments);
         let localized = self.localizer.localize(frame, &seen.circles, started);
-        let around = surroundings(&seen, &localized.estimates, &self.sc, self.pilot.wants_scan_points());
+        let max_rms_m = segments.circle_max_rms_m;
+        let around = surroundings(&seen, &localized.estimates, &self.sc, max_rms_m, self.pilot.wants_scan_points());
         Perceived { started, seen, localized, around }
     }
 
@@ -234,15 +236,21 @@ struct Surroundings {
 /// or point within `match_m` of a neighbour estimate is that neighbour. Also keeps the bodies of
 /// the groups that join several that come within reach of K21's barrier (neighbours or not: a
 /// body is a body, whoever it is).
-fn surroundings(seen: &Extracted, estimates: &[Estimate], sc: &Scenario, with_points: bool) -> Surroundings {
+fn surroundings(
+    seen: &Extracted,
+    estimates: &[Estimate],
+    sc: &Scenario,
+    max_rms_m: f64,
+    with_points: bool,
+) -> Surroundings {
     let match_m = sc.perception.neighbour_match_m;
     let is_neighbour = |p: &Point2<f64>| estimates.iter().any(|e| (e.pos_in_body - p.coords).norm() <= match_m);
     let trees = seen.circles.iter().filter(|c| !is_neighbour(&c.center)).copied().collect();
     let static_points =
         if with_points { seen.points().filter(|p| !is_neighbour(p)).copied().collect() } else { Vec::new() };
     let k21 = &sc.controller.k21;
-    let reach = if k21.barrier_surface_m > 0.0 { k21.barrier_m.max(k21.barrier_surface_m) } else { 0.0 };
-    let max_rms_m = perception::SegmentParams::default().circle_max_rms_m;
+    let on = k21.barrier_m > 0.0 && k21.barrier_surface_m > 0.0;
+    let reach = if on { k21.barrier_m.max(k21.barrier_surface_m) } else { 0.0 };
     let near_bodies = perception::bodies::bodies(&seen.joined, reach, &sc.perception, max_rms_m);
     Surroundings { trees, static_points, near_bodies }
 }
@@ -354,9 +362,9 @@ mod tests {
         };
         let mut sc = scenario();
         sc.perception.neighbour_match_m = 0.5;
-        let around = surroundings(&seen, &[neighbour], &sc, true);
+        let around = surroundings(&seen, &[neighbour], &sc, 0.06, true);
         assert_eq!(around, Surroundings { trees: vec![tree], static_points: vec![tree.center], near_bodies: vec![] });
-        assert!(surroundings(&seen, &[neighbour], &sc, false).static_points.is_empty());
+        assert!(surroundings(&seen, &[neighbour], &sc, 0.06, false).static_points.is_empty());
     }
 
     /// A noiseless 750-beam scan of discs (x, y, r), body frame.
@@ -366,8 +374,9 @@ mod tests {
 
     #[test]
     fn a_uav_joined_into_a_crowds_group_is_a_body_of_its_own() {
-        // A UAV (0.3 m radius) 0.72 m ahead in a crowd 0.85-1 m apart: seed 000's grouping joins
-        // them into one group, whose fitted circle lies 1.13 m off (forest-100-icp's goal point).
+        // A UAV (0.3 m radius) 0.72 m ahead in a crowd 0.72-0.9 m apart: seed 000's grouping
+        // joins them into one group, whose fitted circle lies 1.13 m off (forest-100-icp's goal
+        // point). The UAV straddles beam 0, so the group is also joined across the scan's wrap.
         let crowd = [(0.72, 0.0, 0.3), (1.0, 0.85, 0.3), (1.0, -0.85, 0.3), (1.6, 0.45, 0.3), (1.6, -0.45, 0.3)];
         let sc = scenario();
         let seen = perception::extract(&scan_of(&crowd), &sc.perception, &perception::SegmentParams::default());
@@ -376,22 +385,22 @@ mod tests {
             "the barrier on circle centres misses it: {:?}",
             seen.circles
         );
-        let around = surroundings(&seen, &[], &sc, false);
+        let around = surroundings(&seen, &[], &sc, 0.06, false);
         let ahead = nalgebra::Vector2::new(0.72, 0.0);
         assert!(
-            around.near_bodies.iter().any(|b| matches!(b, Body::Centre(c) if (c - ahead).norm() < 0.01)),
+            around.near_bodies.iter().any(|b| b.centre.is_some_and(|c| (c - ahead).norm() < 0.01)),
             "{:?}",
             around.near_bodies
         );
         // Off with barrier_surface_m = 0.
         let mut off = scenario();
         off.controller.k21.barrier_surface_m = 0.0;
-        assert!(surroundings(&seen, &[], &off, false).near_bodies.is_empty());
+        assert!(surroundings(&seen, &[], &off, 0.06, false).near_bodies.is_empty());
         // Trunks 2 m or more apart, one 0.8 m off: each its own group, nothing joined.
         let trees = [(0.0, 1.1, 0.3), (2.0, 1.5, 0.3), (-1.5, -1.8, 0.2)];
         let seen = perception::extract(&scan_of(&trees), &sc.perception, &perception::SegmentParams::default());
         assert_eq!(seen.circles.len(), 3);
-        assert!(surroundings(&seen, &[], &sc, false).near_bodies.is_empty());
+        assert!(surroundings(&seen, &[], &sc, 0.06, false).near_bodies.is_empty());
     }
 
     #[test]

@@ -56,4 +56,4 @@ pub use localization::icp;
 pub use localization::Share;
 pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions};
 pub use sensing::{MalformedFrame, Needs, SensorFrame};
-pub use world_model::{Circle, Estimate, Segment};
+pub use world_model::{Body, Circle, Estimate, Segment};

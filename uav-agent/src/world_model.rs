@@ -16,11 +16,11 @@ use nalgebra::{Point2, Vector2};
 /// One body close to the UAV inside a group of scan points that joins several, body frame: what
 /// K21's barrier keeps off.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Body {
-    /// The centre of the circle that fits the body's points.
-    Centre(Vector2<f64>),
-    /// The body's nearest point, where no circle fits.
-    Nearest(Vector2<f64>),
+pub struct Body {
+    /// The body's nearest point.
+    pub nearest: Vector2<f64>,
+    /// The centre of the circle that fits the body's points, if one does.
+    pub centre: Option<Vector2<f64>>,
 }
 
 /// A circular obstacle (a trunk cut by the plane of flight), body frame.

@@ -23,7 +23,10 @@
 //! - degenerate geometry (a neighbour or obstacle exactly at the UAV, a desired direction
 //!   pointing straight at the obstacle, headings that cancel) has a defined, finite answer;
 //! - non-finite inputs (a NaN position, an infinite obstacle) are ignored, and a non-finite
-//!   output (possible only with non-finite parameters) becomes zero, i.e. hover.
+//!   output (possible only with non-finite parameters) becomes zero, i.e. hover;
+//! - the final velocity may not point towards an obstacle or neighbour centre closer than
+//!   `barrier_m`, nor towards a body the caller found inside a scan group that joins several
+//!   (`Input::bodies`; [`barrier`]), since eq. 4.10–4.13 avoid the closest obstacle only.
 
 use nalgebra::{Matrix2, Vector2};
 use swarm_config::{K21Params, SeparationCombine};
@@ -48,7 +51,8 @@ pub struct Input<'a> {
     /// uninformed UAV.
     pub goal_heading: Option<f64>,
     /// The bodies inside scan groups that join several (body frame): barriers too, a centre
-    /// closer than `barrier_m`, a nearest point closer than `barrier_surface_m`.
+    /// closer than `barrier_m`, a nearest point closer than `barrier_surface_m` (none of them
+    /// when either is 0).
     pub bodies: &'a [Body],
 }
 
@@ -344,7 +348,8 @@ pub fn not_towards(v: Vector2<f64>, y: Vector2<f64>) -> Vector2<f64> {
 /// ([`not_towards`]). Separation uses the body x axis as the desired direction. Then p = v_c + v_s + v_n1 with v_n1 = navigation(v_c, v_s, 0), v_o = avoidance(p),
 /// v_n = navigation(v_c, v_s, v_o), v = kc·v_c + ks·v_s + ko·v_o + kn·v_n, normalised if |v| > 1,
 /// times kf, then with no component towards an obstacle or a neighbour closer than
-/// `p.barrier_m`, nor towards a body of `input.bodies` ([`barrier`]).
+/// `p.barrier_m`, nor towards a body of `input.bodies` ([`barrier`]); `p.barrier_m = 0` turns
+/// the whole barrier off, `p.barrier_surface_m = 0` the bodies'.
 /// yaw_rate = heading_gain·α. A non-finite velocity or yaw rate (only possible with
 /// non-finite parameters) is replaced by zero.
 pub fn step(p: &K21Params, input: &Input) -> Output {
@@ -370,10 +375,11 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     // seed 000, eq. 4.2: v_f = v/|v|·kf if |v| > 1, else v·kf.
     // Our extension: every obstacle, neighbour and body centre closer than barrier_m is a
     // barrier, and so is every body's nearest point closer than barrier_surface_m.
-    let body_centres = input.bodies.iter().filter_map(|b| if let Body::Centre(c) = b { Some(c) } else { None });
-    let surfaces = input.bodies.iter().filter_map(|b| if let Body::Nearest(n) = b { Some(n) } else { None });
+    let bodies = if p.barrier_m > 0.0 && p.barrier_surface_m > 0.0 { input.bodies } else { &[] };
+    let body_centres = bodies.iter().filter_map(|b| b.centre.as_ref());
     let centres = input.obstacles.iter().chain(input.neighbours.iter().map(|n| &n.pos)).chain(body_centres);
-    let close = within(centres, p.barrier_m).chain(within(surfaces, p.barrier_surface_m));
+    let nearest = bodies.iter().map(|b| &b.nearest);
+    let close = within(centres, p.barrier_m).chain(within(nearest, p.barrier_surface_m));
     let mut velocity = barrier(clip_unit(v) * p.kf, close);
     if !is_finite(&velocity) {
         velocity = Vector2::zeros();
@@ -692,23 +698,28 @@ mod tests {
     #[test]
     fn the_barrier_keeps_off_the_bodies_of_a_joined_group() {
         // A crowd's group fitted as one circle 1.13 m ahead and right, a neighbour to cohere with
-        // ahead and left, and inside the group a UAV 0.78 m ahead and left.
+        // ahead and left, and inside the group a UAV 0.78 m ahead and left (0.48 m to its surface).
         let p = params();
         let uav = v(0.72, 0.3);
+        let surface = uav * (1.0 - 0.3 / uav.norm());
         let ns = [nb(2.2, 0.9)];
         let obstacles = [v(1.1, -0.25)];
-        let towards = |bodies: &[Body]| {
-            let out = step(&p, &Input { neighbours: &ns, obstacles: &obstacles, goal_heading: None, bodies });
+        let towards = |p: &K21Params, bodies: &[Body]| {
+            let out = step(p, &Input { neighbours: &ns, obstacles: &obstacles, goal_heading: None, bodies });
             out.velocity.dot(&uav.normalize())
         };
-        assert!(towards(&[]) > 0.05, "without the body it flies into the UAV");
-        assert!(towards(&[Body::Centre(uav)]) <= 1e-9);
-        // Known only by its nearest point, 0.48 m ahead and left.
-        let nearest = uav * (1.0 - 0.3 / uav.norm());
-        assert!(towards(&[Body::Nearest(nearest)]) <= 1e-9);
-        // Beyond reach: a centre at 1 m or more, a nearest point at 0.7 m or more.
-        assert!(towards(&[Body::Centre(uav * 1.3)]) > 0.05);
-        assert!(towards(&[Body::Nearest(uav.normalize() * 0.75)]) > 0.05);
+        assert!(towards(&p, &[]) > 0.05, "without the body it flies into the UAV");
+        let both = Body { nearest: surface, centre: Some(uav) };
+        assert!(towards(&p, &[both]) <= 1e-9);
+        // Known only by its nearest point; or with a centre fitted too far off to count.
+        assert!(towards(&p, &[Body { nearest: surface, centre: None }]) <= 1e-9);
+        assert!(towards(&p, &[Body { nearest: surface, centre: Some(uav * 2.0) }]) <= 1e-9);
+        // Beyond reach: a centre at 1 m or more with its nearest point at 0.7 m or more.
+        assert!(towards(&p, &[Body { nearest: uav.normalize() * 0.75, centre: Some(uav * 1.3) }]) > 0.05);
+        // Either switch at 0 turns the bodies off.
+        for off in [K21Params { barrier_surface_m: 0.0, ..params() }, K21Params { barrier_m: 0.0, ..params() }] {
+            assert!(towards(&off, &[both]) > 0.05);
+        }
     }
 
     #[test]

@@ -120,7 +120,8 @@ impl ExternalLink {
     }
 }
 
-/// The view as the external controller reads it.
+/// The view as the external controller reads it: neither the scan points nor `near_bodies`,
+/// which are K21's barrier's, go on the wire.
 fn ext_view(tick: u64, v: &View) -> ExtView {
     let o = v.odom;
     ExtView {

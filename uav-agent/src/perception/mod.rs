@@ -76,7 +76,9 @@ pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParam
     let beams = beam_points(scan);
     for group in group_beams(&beams, f64::from(scan.angle_increment), perception.group_gap_m) {
         if bodies::is_joined(&group) {
-            out.joined.push(group.clone());
+            // The whole scan as one group starts at beam 0, inside the body dead ahead.
+            let whole_scan = group.len() == beams.len();
+            out.joined.push(if whole_scan { bodies::ring_from_a_jump(group.clone()) } else { group.clone() });
         }
         let circle = accepted_circle(&group, perception);
         if let Some(c) = circle.filter(|c| rms_circle_residual(&group, c) <= params.circle_max_rms_m) {
