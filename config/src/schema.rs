@@ -723,8 +723,8 @@ pub struct K21Params {
     /// packed closer than about 1.6 m, or a UAV beside a trunk, make one group whose circle can
     /// lie off every body in it: the barrier on centres missed a UAV 0.42 m from its surface
     /// (centre 0.72 m; forest-100-icp's goal-point contacts). Such a group is split into its
-    /// bodies (`uav-agent/src/perception/bodies.rs`): each body's nearest point is a barrier
-    /// under this, and the centre of its circle, where one fits, under `barrier_m`. 0.7 m is
+    /// bodies (`uav-agent/src/perception/bodies.rs`): each body is a barrier by the centre of its
+    /// circle under `barrier_m` where one fits, else by its nearest point under this. 0.7 m is
     /// `barrier_m` less a UAV's 0.3 m radius. Our extension; 0 turns the split off (and so does
     /// `barrier_m = 0`, with the rest of the barrier).
     #[serde(default = "d_barrier_surface")]

@@ -50,9 +50,9 @@ pub struct Input<'a> {
     /// Angle of the goal in the body frame [rad] (eq. 4.15 minus own heading); `None` for an
     /// uninformed UAV.
     pub goal_heading: Option<f64>,
-    /// The bodies inside scan groups that join several (body frame): barriers too, a centre
-    /// closer than `barrier_m`, a nearest point closer than `barrier_surface_m` (none of them
-    /// when either is 0).
+    /// The bodies inside scan groups that join several (body frame): barriers too, by the
+    /// centre when it is closer than `barrier_m`, else by the nearest point when that is closer
+    /// than `barrier_surface_m` (none of them when either is 0).
     pub bodies: &'a [Body],
 }
 
@@ -374,11 +374,13 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     let v = p.kc * vc + p.ks * vs + p.ko * vo + p.kn * vn;
     // seed 000, eq. 4.2: v_f = v/|v|·kf if |v| > 1, else v·kf.
     // Our extension: every obstacle, neighbour and body centre closer than barrier_m is a
-    // barrier, and so is every body's nearest point closer than barrier_surface_m.
+    // barrier, and so is the nearest point closer than barrier_surface_m of a body whose centre
+    // is not (none fits, or one fits so far behind its points that it would miss them).
     let bodies = if p.barrier_m > 0.0 && p.barrier_surface_m > 0.0 { input.bodies } else { &[] };
-    let body_centres = bodies.iter().filter_map(|b| b.centre.as_ref());
+    let centred = |b: &&Body| b.centre.is_some_and(|c| c.norm() < p.barrier_m);
+    let body_centres = bodies.iter().filter(centred).filter_map(|b| b.centre.as_ref());
     let centres = input.obstacles.iter().chain(input.neighbours.iter().map(|n| &n.pos)).chain(body_centres);
-    let nearest = bodies.iter().map(|b| &b.nearest);
+    let nearest = bodies.iter().filter(|b| !centred(b)).map(|b| &b.nearest);
     let close = within(centres, p.barrier_m).chain(within(nearest, p.barrier_surface_m));
     let mut velocity = barrier(clip_unit(v) * p.kf, close);
     if !is_finite(&velocity) {
@@ -711,7 +713,8 @@ mod tests {
         assert!(towards(&p, &[]) > 0.05, "without the body it flies into the UAV");
         let both = Body { nearest: surface, centre: Some(uav) };
         assert!(towards(&p, &[both]) <= 1e-9);
-        // Known only by its nearest point; or with a centre fitted too far off to count.
+        // Known only by its nearest point; or with a centre fitted too far behind its points to
+        // count (a centre within reach stands for the body instead of its nearest point).
         assert!(towards(&p, &[Body { nearest: surface, centre: None }]) <= 1e-9);
         assert!(towards(&p, &[Body { nearest: surface, centre: Some(uav * 2.0) }]) <= 1e-9);
         // Beyond reach: a centre at 1 m or more with its nearest point at 0.7 m or more.

@@ -9,8 +9,9 @@
 //! with a 0.69 m radius, and UAVs touching). Such a group is told by a jump of [`BODY_GAP_M`] or
 //! more between consecutive points (where one body's silhouette ends against another) and split
 //! there, and each part is a body: its nearest point, and the centre of its circle when that
-//! circle fits the part's points. The nearest point is kept either way, since a few points or a
-//! short arc can fit a circle far behind them. A trunk seen alone is one part and gives nothing
+//! circle fits the part's points (K21's barrier takes the centre when it is within reach, else
+//! the nearest point, since a few points can fit a circle far behind them). A trunk seen alone
+//! is one part and gives nothing
 //! here, so a forest without crowds flies as before; a wall seen at a glancing angle can split
 //! where its points spread (0.2 m apart about 4.9 m along a wall 1 m away), and its near part is
 //! then a body too, which only keeps the UAV off the wall.
