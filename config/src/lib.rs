@@ -607,6 +607,12 @@ impl Scenario {
 }
 
 impl K21Params {
+    /// Whether the barrier keeps off the bodies of a scan group that joins several: both
+    /// `barrier_m` and `barrier_surface_m` above 0.
+    pub fn barrier_on_bodies(&self) -> bool {
+        self.barrier_m > 0.0 && self.barrier_surface_m > 0.0
+    }
+
     fn validate(&self, at: &str) -> Check {
         for (name, v) in [("kc", self.kc), ("ks", self.ks), ("ko", self.ko), ("kn", self.kn)] {
             non_negative(&format!("{at}.{name}"), v)?;

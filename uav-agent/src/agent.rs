@@ -249,8 +249,7 @@ fn surroundings(
     let static_points =
         if with_points { seen.points().filter(|p| !is_neighbour(p)).copied().collect() } else { Vec::new() };
     let k21 = &sc.controller.k21;
-    let on = k21.barrier_m > 0.0 && k21.barrier_surface_m > 0.0;
-    let reach = if on { k21.barrier_m.max(k21.barrier_surface_m) } else { 0.0 };
+    let reach = if k21.barrier_on_bodies() { k21.barrier_m.max(k21.barrier_surface_m) } else { 0.0 };
     let near_bodies = perception::bodies::bodies(&seen.joined, reach, &sc.perception, max_rms_m);
     Surroundings { trees, static_points, near_bodies }
 }

@@ -376,7 +376,7 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     // Our extension: every obstacle, neighbour and body centre closer than barrier_m is a
     // barrier, and so is the nearest point closer than barrier_surface_m of a body whose centre
     // is not (none fits, or one fits so far behind its points that it would miss them).
-    let bodies = if p.barrier_m > 0.0 && p.barrier_surface_m > 0.0 { input.bodies } else { &[] };
+    let bodies = if p.barrier_on_bodies() { input.bodies } else { &[] };
     let centred = |b: &&Body| b.centre.is_some_and(|c| c.norm() < p.barrier_m);
     let body_centres = bodies.iter().filter(centred).filter_map(|b| b.centre.as_ref());
     let centres = input.obstacles.iter().chain(input.neighbours.iter().map(|n| &n.pos)).chain(body_centres);
