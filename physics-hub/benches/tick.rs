@@ -7,6 +7,10 @@
 //! the 10 m radio range), broadcast localization, every UAV flying 0.5 m/s forward. Each iteration is one tick of the running simulation, so the crowd
 //! moves as the bench goes on. Throughput is the UAVs per tick, so criterion prints UAVs/s.
 //!
+//! `hub_step` times the integration step alone (radio links, contacts, ground truth): it runs on
+//! the hub's thread after every command is in, while the agents wait, so it is the serial part
+//! of a lockstep tick.
+//!
 //! Run: `cargo bench --workspace --bench tick -- --warm-up-time 1 --measurement-time 5`
 //! (`--workspace`, so Zenoh is built with the features it has everywhere else).
 
@@ -38,8 +42,24 @@ fn bench_tick(c: &mut Criterion) {
     group.finish();
 }
 
+fn bench_step(c: &mut Criterion) {
+    let mut group = c.benchmark_group("hub_step");
+    for n in [100usize, 1000] {
+        let sc = crowd::scenario(n, "step-bench");
+        let mut sim = Sim::new(&sc);
+        let forward = Some(Cmd { tick: 0, kind: CmdKind::Velocity, x: 0.5, y: 0.0, yaw_rate: 0.0 });
+        let cmds = vec![forward; n];
+        let alive = vec![true; n];
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
+            b.iter(|| black_box(sim.step(&cmds, &alive, 0.0)))
+        });
+    }
+    group.finish();
+}
+
 /// The criterion group (in a private module: the macro's generated `pub fn` has no doc).
 mod group {
-    criterion::criterion_group!(benches, super::bench_tick);
+    criterion::criterion_group!(benches, super::bench_tick, super::bench_step);
 }
 criterion_main!(group::benches);

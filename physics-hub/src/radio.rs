@@ -8,6 +8,26 @@
 //! an update costs about n · (UAVs within range + hysteresis) instead of n²/2 pair tests.
 
 use crate::grid::Grid;
+use std::cmp::Ordering;
+
+/// `dx.hypot(dy).partial_cmp(&t)`, bit for bit, without the `hypot` call when the squared
+/// distance is clearly on one side (all but a band of 1e-9 relative around `t`): `hypot` was
+/// 4 % of open-1000's hub (`perf`), and the radio asks it for every candidate pair every tick.
+/// The squared distance and `t²` are each within a few units in the last place of their exact
+/// values, so a margin of 1e-9 decides exactly; `t` is held to a range where `t²` is a normal
+/// number, and NaN or infinite input falls through to `hypot`.
+pub(crate) fn compare_distance(dx: f64, dy: f64, t: f64) -> Option<Ordering> {
+    if (1e-100..=1e100).contains(&t) {
+        let (d2, t2) = (dx * dx + dy * dy, t * t);
+        if d2 < t2 * (1.0 - 1e-9) {
+            return Some(Ordering::Less);
+        }
+        if d2 > t2 * (1.0 + 1e-9) {
+            return Some(Ordering::Greater);
+        }
+    }
+    dx.hypot(dy).partial_cmp(&t)
+}
 
 /// Symmetric radio links between UAVs (indices 0..n).
 #[derive(Debug, Clone)]
@@ -56,26 +76,37 @@ impl Radio {
             self.positions = positions.to_vec();
         }
         self.links.resize(positions.len(), Vec::new());
+        self.links = (0..positions.len()).map(|i| self.links_of(i, grid)).collect();
+    }
+
+    /// UAV index `i`'s links after this update, ascending: up inside range; once up, down only
+    /// beyond range + hysteresis.
+    fn links_of(&self, i: usize, grid: &Grid) -> Vec<usize> {
+        let positions = grid.points();
+        let p = positions[i];
         let keep_m = self.range_m + self.hysteresis_m;
-        let links: Vec<Vec<usize>> = (0..positions.len())
-            .map(|i| {
-                let p = positions[i];
-                grid.near_sorted(i, keep_m)
-                    .into_iter()
-                    .filter(|&j| {
-                        let d = (p[0] - positions[j][0]).hypot(p[1] - positions[j][1]);
-                        // Up inside range; once up, down only beyond range + hysteresis.
-                        let up = self.links[i].binary_search(&j).is_ok();
-                        if up {
-                            d <= keep_m
-                        } else {
-                            d < self.range_m
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        self.links = links;
+        let mut out = Vec::new();
+        grid.for_each_near(p, keep_m, |j| {
+            if j == i {
+                return;
+            }
+            let (dx, dy) = (p[0] - positions[j][0], p[1] - positions[j][1]);
+            let inside_range = compare_distance(dx, dy, self.range_m) == Some(Ordering::Less);
+            let inside_keep = matches!(compare_distance(dx, dy, keep_m), Some(Ordering::Less | Ordering::Equal));
+            // Where both rules agree the previous state does not matter.
+            let linked = if inside_range == inside_keep {
+                inside_range
+            } else if self.links[i].binary_search(&j).is_ok() {
+                inside_keep
+            } else {
+                inside_range
+            };
+            if linked {
+                out.push(j);
+            }
+        });
+        out.sort_unstable();
+        out
     }
 
     /// Indices in range of `i`, sorted.
@@ -87,6 +118,58 @@ impl Radio {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The radio as it was before the grid and the distance shortcut: every pair, `hypot`.
+    fn brute_force(prev: &[Vec<usize>], positions: &[[f64; 2]], range_m: f64, keep_m: f64) -> Vec<Vec<usize>> {
+        (0..positions.len())
+            .map(|i| {
+                (0..positions.len())
+                    .filter(|&j| j != i)
+                    .filter(|&j| {
+                        let d = (positions[i][0] - positions[j][0]).hypot(positions[i][1] - positions[j][1]);
+                        if prev[i].binary_search(&j).is_ok() {
+                            d <= keep_m
+                        } else {
+                            d < range_m
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    proptest::proptest! {
+        /// The shortcut decides as `hypot` does, at the threshold itself too (points placed at
+        /// exactly `t` along an axis, and a hair either side).
+        #[test]
+        fn the_distance_shortcut_compares_as_hypot(dx in -50.0..50.0f64, dy in -50.0..50.0f64, t in 0.0..60.0f64, k in 0usize..4) {
+            let (dx, dy) = match k {
+                0 => (dx, dy),
+                1 => (t, 0.0),
+                2 => (f64::from_bits(t.to_bits() + 1), 0.0),
+                _ => (0.0, f64::from_bits(t.to_bits().saturating_sub(1))),
+            };
+            proptest::prop_assert_eq!(compare_distance(dx, dy, t), dx.hypot(dy).partial_cmp(&t));
+        }
+
+        /// The links are those of every pair tested with `hypot`, over several updates (so links
+        /// in the hysteresis band are kept).
+        #[test]
+        fn links_equal_the_pairwise_rule(seed in 0u64..1000, n in 2usize..200) {
+            use rand::{Rng, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let side = (n as f64 * 18.0).sqrt();
+            let mut pos: Vec<[f64; 2]> = (0..n).map(|_| [rng.gen_range(0.0..side), rng.gen_range(0.0..side)]).collect();
+            let mut r = Radio::new(10.0, 1.0);
+            let mut expect = vec![Vec::new(); n];
+            for _ in 0..3 {
+                r.update(&pos);
+                expect = brute_force(&expect, &pos, 10.0, 11.0);
+                proptest::prop_assert_eq!(&r.links, &expect);
+                pos.iter_mut().for_each(|p| *p = [p[0] + rng.gen_range(-1.5..1.5), p[1] + rng.gen_range(-1.5..1.5)]);
+            }
+        }
+    }
 
     #[test]
     fn links_come_up_in_range_and_drop_only_past_hysteresis() {

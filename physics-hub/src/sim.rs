@@ -329,16 +329,17 @@ impl Sim {
     }
 
     /// UAV index `i`'s LIDAR scan: the world and the other UAVs the beams can reach (found in the
-    /// grid, in index order, so the scan equals one against every other UAV).
+    /// grid; a beam keeps its nearest hit whatever order the discs come in, so the scan equals
+    /// one against every other UAV).
     fn scan(&self, i: usize, tick: u64, t_secs: f64, rng: &mut ChaCha8Rng) -> Scan {
         let b = self.bodies[i];
         let r_uav = self.sc.body.radius_m;
-        let others: Vec<[f64; 3]> = self
-            .grid
-            .near_sorted(i, self.sc.lidar.max_range_m + r_uav.max(0.0))
-            .into_iter()
-            .map(|j| [self.bodies[j].pos.x, self.bodies[j].pos.y, r_uav])
-            .collect();
+        let mut others: Vec<[f64; 3]> = Vec::new();
+        self.grid.for_each_near([b.pos.x, b.pos.y], self.sc.lidar.max_range_m + r_uav.max(0.0), |j| {
+            if j != i {
+                others.push([self.bodies[j].pos.x, self.bodies[j].pos.y, r_uav]);
+            }
+        });
         let mut ranges = Vec::with_capacity(self.sc.lidar.beams as usize);
         lidar::scan(&self.world, [b.pos.x, b.pos.y, b.yaw], &others, &self.sc.lidar, rng, &mut ranges);
         let (angle_min, angle_increment) = lidar::beam_angles(&self.sc.lidar);
