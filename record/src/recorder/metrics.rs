@@ -4,6 +4,7 @@
 //! without a network.
 
 use super::solitude::solitude;
+use super::tally::Tally;
 use crate::summary::{
     AgentSummary, ClassSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, FormationMetrics,
     LocalizationSummary, Reconnection, SessionTrafficSummary, Summary, TimingSummary, TrafficSummary, SCHEMA,
@@ -86,7 +87,7 @@ struct Acc {
     /// Steps it spent alone.
     steps_alone: u64,
     /// Age of each neighbour estimate it held [s].
-    ages: Vec<f64>,
+    ages: Tally,
     /// Link class counts of its earlier incarnations (a restarted agent counts from zero).
     link_base: [ClassCounts; 3],
 }
@@ -115,7 +116,7 @@ impl Default for Acc {
             contacts: Vec::new(),
             reported_while_alone: 0,
             steps_alone: 0,
-            ages: Vec::new(),
+            ages: Tally::default(),
             link_base: [ClassCounts::default(); 3],
         }
     }
@@ -150,7 +151,7 @@ pub struct Metrics {
     /// Per tick: (sim time, for each agent that reported, the ids it has an estimate of).
     known: BTreeMap<u64, (f64, BTreeMap<u32, Vec<u32>>)>,
     /// Delay applied to each delivered copy, per link class [s].
-    delays: [Vec<f64>; 3],
+    delays: [Tally; 3],
     /// Mean nearest-neighbour distance over the UAVs at each tick: (sim time, metres).
     spacing: Vec<(f64, f64)>,
     /// The hub's own work of each tick [µs].
@@ -510,7 +511,7 @@ impl Metrics {
         a.steps += 1;
         a.neighbours_sum += st.neighbours.len() as u64;
         *a.neighbour_counts.entry(st.neighbours.len()).or_default() += 1;
-        a.ages.extend(st.neighbours.iter().map(|e| f64::from(e.age_secs)));
+        st.neighbours.iter().for_each(|e| a.ages.push(f64::from(e.age_secs)));
         for d in &st.delays {
             if let Some(v) = self.delays.get_mut(usize::from(d.class)) {
                 v.push(f64::from(d.delay_s));
@@ -618,7 +619,10 @@ impl Metrics {
         }
         let formation = formation_metrics(&agents);
         let all_errors: Vec<f64> = self.agents.values().flat_map(|a| a.loc_errors.iter().copied()).collect();
-        let all_ages: Vec<f64> = self.agents.values().flat_map(|a| a.ages.iter().copied()).collect();
+        let all_ages = self.agents.values().fold(Tally::default(), |mut t, a| {
+            t.merge(&a.ages);
+            t
+        });
         let (sent_msgs, sent_bytes) = agents.iter().fold((0, 0), |(m, b), a| (m + a.messages_sent, b + a.bytes_sent));
         let localization = LocalizationSummary {
             mode: format!("{:?}", scenario.localization.mode).to_lowercase(),
@@ -628,8 +632,8 @@ impl Metrics {
             stable_neighbour_share: mean_finite(agents.iter().map(|a| a.stable_neighbour_share)),
             bytes_per_share_message: if sent_msgs > 0 { sent_bytes as f64 / sent_msgs as f64 } else { f64::NAN },
             false_estimates: agents.iter().map(|a| a.false_estimates).sum(),
-            mean_info_age_s: mean_finite(all_ages.iter().copied()),
-            p95_info_age_s: quantile(&all_ages, 0.95),
+            mean_info_age_s: all_ages.mean_finite(),
+            p95_info_age_s: all_ages.quantile(0.95),
         };
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
         let connectivity = self.connectivity(scenario);
@@ -726,8 +730,8 @@ impl Metrics {
                 ClassSummary {
                     class: class.name().into(),
                     counts: c,
-                    mean_delay_s: mean_finite(d.iter().copied()),
-                    p95_delay_s: quantile(d, 0.95),
+                    mean_delay_s: d.mean_finite(),
+                    p95_delay_s: d.quantile(0.95),
                 }
             })
             .collect()
@@ -849,8 +853,8 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         contact_events: a.contacts.clone(),
         steps_alone: a.steps_alone,
         neighbours_reported_while_alone: a.reported_while_alone,
-        mean_info_age_s: mean_finite(a.ages.iter().copied()),
-        p95_info_age_s: quantile(&a.ages, 0.95),
+        mean_info_age_s: a.ages.mean_finite(),
+        p95_info_age_s: a.ages.quantile(0.95),
         // Filled in from the track by `Metrics::summary`.
         time_alone_s: 0.0,
         alone_spells: 0,

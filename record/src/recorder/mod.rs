@@ -9,6 +9,8 @@
 //!   tested without a network.
 //! - [`solitude`]: each UAV's time out of radio reach of every other, its rejoining and how far it
 //!   strayed (ground truth; the lost-contact behaviour's yardstick).
+//! - `tally`: a count per distinct value with a running sum, for the quantiles of quantities
+//!   that take few values (estimate ages, share delays) in memory that does not grow with the run.
 //! - `files`: the run folder's files: the CSVs that grow while the run goes, and those written
 //!   at its end.
 //! - `recording`: the Zenoh side, [`Recording`]: session, subscriptions, the loop that ends with
@@ -26,6 +28,7 @@ pub mod metrics;
 mod recording;
 mod recover;
 pub mod solitude;
+mod tally;
 
 pub use recording::{replay, Recording};
 pub use recover::{cut_short, recover, RecoverArgs};
