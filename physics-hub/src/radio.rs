@@ -16,7 +16,7 @@ use std::cmp::Ordering;
 /// The squared distance and `t²` are each within a few units in the last place of their exact
 /// values, so a margin of 1e-9 decides exactly; `t` is held to a range where `t²` is a normal
 /// number, and NaN or infinite input falls through to `hypot`.
-pub(crate) fn compare_distance(dx: f64, dy: f64, t: f64) -> Option<Ordering> {
+fn compare_distance(dx: f64, dy: f64, t: f64) -> Option<Ordering> {
     if (1e-100..=1e100).contains(&t) {
         let (d2, t2) = (dx * dx + dy * dy, t * t);
         if d2 < t2 * (1.0 - 1e-9) {
