@@ -349,7 +349,7 @@ impl NearestLive<'_> {
 }
 
 /// Mean of the finite values (agents with no steps, such as failed UAVs, have NaN), NaN if none.
-fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
+pub(super) fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
     let (sum, n) = v.filter(|x| x.is_finite()).fold((0.0, 0u32), |(s, n), x| (s + x, n + 1));
     if n == 0 {
         f64::NAN
@@ -359,7 +359,7 @@ fn mean_finite(v: impl Iterator<Item = f64>) -> f64 {
 }
 
 /// The `q`-quantile (nearest rank) of unsorted values.
-fn quantile(v: &[f64], q: f64) -> f64 {
+pub(super) fn quantile(v: &[f64], q: f64) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }

@@ -4,10 +4,11 @@
 //!
 //! Why: the recorder kept every neighbour estimate's information age and every delivered share's
 //! delay as an `f64` to take their 95th percentile at the end. At 1000 UAVs on the ICP stack
-//! that is about a million values per sim second (`forest-1000-icp`: 67 shares delivered and 31
+//! that is about a million values per sim second (`forest-1000-icp`: 68 shares delivered and 31
 //! estimates per agent and tick), 8 MB a sim second, most of the recorder's growth, and the end
 //! of a long run sorted copies of them. Both quantities are `f32` on the wire and move in steps
-//! of the tick, so a whole flight has a few hundred distinct values.
+//! of the tick, so they repeat a few values over and over: their memory is one entry per distinct
+//! value, not one per sample.
 //!
 //! The quantile is exactly the one of the sorted values (`f64::total_cmp` order, nearest rank).
 //! The mean sums the finite values as they come, so one tally's mean is the one of its values in
@@ -100,23 +101,13 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// The recorder's earlier way: every value kept, sorted for the quantile.
+    /// The recorder's way for values kept one by one (its localization errors).
     fn quantile_of(v: &[f64], q: f64) -> f64 {
-        if v.is_empty() {
-            return f64::NAN;
-        }
-        let mut s = v.to_vec();
-        s.sort_by(f64::total_cmp);
-        s[((q * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1]
+        super::super::metrics::quantile(v, q)
     }
 
     fn mean_of(v: &[f64]) -> f64 {
-        let (sum, n) = v.iter().filter(|x| x.is_finite()).fold((0.0, 0u32), |(s, n), x| (s + x, n + 1));
-        if n == 0 {
-            f64::NAN
-        } else {
-            sum / f64::from(n)
-        }
+        super::super::metrics::mean_finite(v.iter().copied())
     }
 
     fn special() -> impl Strategy<Value = f64> {
