@@ -21,15 +21,17 @@ use swarm_wire::{Cmd, CmdKind};
 #[path = "common/crowd.rs"]
 mod crowd;
 
+/// open-1000's crowd scaled to `n` UAVs, every UAV commanded 0.5 m/s forward, all alive.
+fn flying(n: usize, name: &str) -> (Sim, Vec<u32>, Vec<Option<Cmd>>, Vec<bool>) {
+    let sc = crowd::scenario(n, name);
+    let forward = Some(Cmd { tick: 0, kind: CmdKind::Velocity, x: 0.5, y: 0.0, yaw_rate: 0.0 });
+    (Sim::new(&sc), sc.uav_ids().collect(), vec![forward; n], vec![true; n])
+}
+
 fn bench_tick(c: &mut Criterion) {
     let mut group = c.benchmark_group("hub_tick");
     for n in [40usize, 100, 1000] {
-        let sc = crowd::scenario(n, "tick-bench");
-        let mut sim = Sim::new(&sc);
-        let ids: Vec<u32> = sc.uav_ids().collect();
-        let forward = Some(Cmd { tick: 0, kind: CmdKind::Velocity, x: 0.5, y: 0.0, yaw_rate: 0.0 });
-        let cmds = vec![forward; n];
-        let alive = vec![true; n];
+        let (mut sim, ids, cmds, alive) = flying(n, "tick-bench");
         group.throughput(Throughput::Elements(n as u64));
         group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
             b.iter(|| {
@@ -45,11 +47,7 @@ fn bench_tick(c: &mut Criterion) {
 fn bench_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("hub_step");
     for n in [100usize, 1000] {
-        let sc = crowd::scenario(n, "step-bench");
-        let mut sim = Sim::new(&sc);
-        let forward = Some(Cmd { tick: 0, kind: CmdKind::Velocity, x: 0.5, y: 0.0, yaw_rate: 0.0 });
-        let cmds = vec![forward; n];
-        let alive = vec![true; n];
+        let (mut sim, _, cmds, alive) = flying(n, "step-bench");
         group.throughput(Throughput::Elements(n as u64));
         group.bench_with_input(BenchmarkId::from_parameter(n), &n, |b, _| {
             b.iter(|| black_box(sim.step(&cmds, &alive, 0.0)))
