@@ -49,17 +49,18 @@ pub fn main() -> ExitCode {
 }
 
 /// Zenoh's threads for this process, chosen before its first session opens: a process that runs
-/// one agent hands Zenoh's reception, transmission, accept and network work to its application
-/// runtime, one thread, unless `ZENOH_RUNTIME` says otherwise. One agent's traffic is a few
-/// messages a tick, and each handoff between Zenoh's threads (the socket's readiness on one, the
-/// reading on another, the sending on a third) is a wake-up and a context switch: forest-5 in
-/// lockstep, one process per agent, made half as many context switches and ran faster (see
-/// docs/performance.md). Agent hosts, the hub and routers keep Zenoh's default threads: they
-/// route and decode for hundreds of UAVs, and the hub's blocking puts must not wait on the
-/// thread that would send them.
+/// agents (one, or a host of many) hands Zenoh's reception, transmission, accept and network work
+/// to its application runtime, one thread, unless `ZENOH_RUNTIME` says otherwise. Each handoff
+/// between Zenoh's threads (the socket's readiness on one, the reading on another, the sending
+/// on a third) is a wake-up and a context switch: forest-5 in lockstep, one process per agent,
+/// made half as many context switches and ran faster, and open-1000's two hosts of 500 spent
+/// about 8 % less CPU (see docs/performance.md). An agent's own work runs on the process's
+/// runtime, not on Zenoh's thread, and its puts are asynchronous. The hub and routers keep
+/// Zenoh's default threads: they route for the whole swarm, and the hub's blocking puts must not
+/// wait on the thread that would send them.
 pub fn zenoh_threads(cmd: &NodeCmd) {
     const ONE_THREAD: &str = "(rx: (handover: app), tx: (handover: app), acc: (handover: app), net: (handover: app))";
-    if matches!(cmd, NodeCmd::Agent(a) if a.id.is_some()) && std::env::var_os("ZENOH_RUNTIME").is_none() {
+    if matches!(cmd, NodeCmd::Agent(_)) && std::env::var_os("ZENOH_RUNTIME").is_none() {
         // Before any thread of ours or Zenoh's exists (the runtime is built after this).
         std::env::set_var("ZENOH_RUNTIME", ONE_THREAD);
     }
