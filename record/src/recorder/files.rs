@@ -3,6 +3,7 @@
 //! `connectivity.csv`: what `swarm plot` reads besides), and the recorder's decoding of what it
 //! receives.
 
+use super::fixed::Fixed;
 use super::metrics::{ComponentsRow, Scored};
 use anyhow::{Context, Result};
 use std::fs::File;
@@ -41,17 +42,17 @@ impl Files {
         for b in &s.bodies {
             writeln!(
                 self.traj,
-                "{},{:.3},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 s.tick,
-                s.t_secs,
+                Fixed(s.t_secs, 3),
                 b.id,
-                b.x,
-                b.y,
-                b.yaw,
-                b.vx,
-                b.vy,
-                b.obstacle_distance_m,
-                b.agent_distance_m,
+                Fixed(b.x, 4),
+                Fixed(b.y, 4),
+                Fixed(b.yaw, 4),
+                Fixed(b.vx, 4),
+                Fixed(b.vy, 4),
+                Fixed(b.obstacle_distance_m, 4),
+                Fixed(b.agent_distance_m, 4),
                 u8::from(b.colliding),
                 u8::from(b.alive),
                 u8::from(b.cmd_on_time)
@@ -67,19 +68,19 @@ impl Files {
         let c = &st.icp;
         writeln!(
             self.states,
-            "{},{:.3},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             st.tick,
-            st.t_secs,
+            Fixed(st.t_secs, 3),
             st.id,
             st.step_time_us,
             st.obstacles,
             st.neighbours.len(),
             st.in_radio_range,
-            v.cohesion,
-            v.separation,
-            v.avoidance,
-            v.navigation,
-            v.output,
+            Fixed(f64::from(v.cohesion), 4),
+            Fixed(f64::from(v.separation), 4),
+            Fixed(f64::from(v.avoidance), 4),
+            Fixed(f64::from(v.navigation), 4),
+            Fixed(f64::from(v.output), 4),
             l.sent_msgs,
             l.sent_bytes,
             l.recv_msgs,
@@ -99,8 +100,14 @@ impl Files {
         for r in rows {
             writeln!(
                 self.loc,
-                "{},{:.3},{},{},{},{:.4},{:.4}",
-                r.tick, r.t_s, r.id, r.neighbours, r.scored, r.mean_error_m, r.max_error_m
+                "{},{},{},{},{},{},{}",
+                r.tick,
+                Fixed(r.t_s, 3),
+                r.id,
+                r.neighbours,
+                r.scored,
+                Fixed(r.mean_error_m, 4),
+                Fixed(r.max_error_m, 4)
             )?;
         }
         Ok(())
@@ -126,7 +133,7 @@ pub fn write_connectivity(dir: &Path, rows: &[ComponentsRow]) -> Result<()> {
     let mut f = create(dir, "connectivity.csv")?;
     writeln!(f, "tick,t_s,reporting,components")?;
     for r in rows {
-        writeln!(f, "{},{:.3},{},{}", r.tick, r.t_s, r.reporting, r.components)?;
+        writeln!(f, "{},{},{},{}", r.tick, Fixed(r.t_s, 3), r.reporting, r.components)?;
     }
     f.flush()?;
     Ok(())

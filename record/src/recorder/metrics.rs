@@ -9,7 +9,7 @@ use crate::summary::{
     AgentSummary, ClassSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, FormationMetrics,
     LocalizationSummary, Reconnection, SessionTrafficSummary, Summary, TimingSummary, TrafficSummary, SCHEMA,
 };
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use swarm_wire::{AgentState, ClassCounts, EndReason, Traffic, TruthBody, TruthStep, TruthWorld};
 
 /// One UAV's samples over the run.
@@ -76,8 +76,6 @@ struct Acc {
     neighbour_counts: BTreeMap<usize, u64>,
     /// Estimates farther than [`FALSE_ESTIMATE_M`] from the truth.
     false_estimates: u64,
-    /// Estimates of this UAV by others, by id, within [`FALSE_ESTIMATE_M`] of the truth.
-    placed_by_others: u64,
     /// Neighbour count at the last scored state.
     last_count: Option<usize>,
     /// Times it lost all neighbours or found one again.
@@ -111,7 +109,6 @@ impl Default for Acc {
             loc_errors: Vec::new(),
             neighbour_counts: BTreeMap::new(),
             false_estimates: 0,
-            placed_by_others: 0,
             last_count: None,
             contacts: Vec::new(),
             reported_while_alone: 0,
@@ -164,6 +161,12 @@ pub struct Metrics {
     late_ms: Vec<f64>,
     /// States scored since the last [`Metrics::take_scored`].
     scored: Vec<Scored>,
+    /// Per UAV, estimates of it by others within [`FALSE_ESTIMATE_M`] of the truth. Kept apart
+    /// from [`Acc`] in a hash map: every placed estimate counts one (about 18 000 a tick at
+    /// open-1000), and a search of the ordered map of every agent's accumulator was the largest
+    /// part of scoring. Every UAV counted here has its [`Acc`] (scoring needs its tick's truth,
+    /// which [`Metrics::on_step`] took body by body).
+    placed_by_others: HashMap<u32, u64>,
     /// What each agent session received, by session id.
     sessions: BTreeMap<String, SessionAcc>,
 }
@@ -462,7 +465,7 @@ impl Metrics {
             })
             .collect();
         for &(id, _) in placed.iter().filter(|(_, e)| *e <= FALSE_ESTIMATE_M) {
-            self.agents.entry(id).or_default().placed_by_others += 1;
+            *self.placed_by_others.entry(id).or_default() += 1;
         }
         let errors: Vec<f64> = placed.iter().map(|&(_, e)| e).collect();
         // Contact lost (some neighbours -> none) or regained, with the true distance to the
@@ -604,7 +607,11 @@ impl Metrics {
             None => "incomplete",
         };
         let goal_at = last.and_then(|s| s.goal_reached_at);
-        let mut agents: Vec<AgentSummary> = self.agents.iter().map(|(&id, a)| agent_summary(id, a)).collect();
+        let mut agents: Vec<AgentSummary> = self
+            .agents
+            .iter()
+            .map(|(&id, a)| agent_summary(id, a, self.placed_by_others.get(&id).copied().unwrap_or(0)))
+            .collect();
         for a in &mut agents {
             if let Some(t) = self.tracks.get(&a.id) {
                 a.blocking_time_s = blocking_time(&t.samples);
@@ -817,7 +824,7 @@ fn formation_metrics(agents: &[AgentSummary]) -> FormationMetrics {
     }
 }
 
-fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
+fn agent_summary(id: u32, a: &Acc, placed_by_others: u64) -> AgentSummary {
     let n = a.n.max(1) as f64;
     let steps = a.steps.max(1) as f64;
     let link = a.last_state.as_ref().map(|s| s.link).unwrap_or_default();
@@ -849,7 +856,7 @@ fn agent_summary(id: u32, a: &Acc) -> AgentSummary {
         p95_localization_error_m: quantile(&a.loc_errors, 0.95),
         stable_neighbour_share: a.neighbour_counts.values().max().map_or(f64::NAN, |&m| m as f64 / steps),
         false_estimates: a.false_estimates,
-        placed_by_others: a.placed_by_others,
+        placed_by_others,
         contact_events: a.contacts.clone(),
         steps_alone: a.steps_alone,
         neighbours_reported_while_alone: a.reported_while_alone,

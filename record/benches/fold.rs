@@ -1,0 +1,183 @@
+//! The recorder's work per tick at 1000 UAVs, without the network: folding a tick (its truth
+//! step, then every agent's state with about 18 neighbour estimates, as open-1000 sends them),
+//! and writing a tick's `trajectories.csv` rows, with std's `{:.N}` and with [`Fixed`] (the same
+//! text) side by side.
+
+use criterion::{criterion_main, BatchSize, Criterion};
+use std::hint::black_box;
+use std::io::Write;
+use swarm_record::recorder::fixed::Fixed;
+use swarm_record::recorder::metrics::Metrics;
+use swarm_wire::{
+    AgentState, IcpCounts, LinkCounters, NeighbourEstimate, Traffic, TruthBody, TruthStep, VectorMagnitudes,
+};
+
+const UAVS: u32 = 1000;
+/// Neighbours each agent estimates (open-1000 hears about 18).
+const NEIGHBOURS: u32 = 18;
+
+/// UAVs on a lattice 3 m apart, moving slowly.
+fn step(tick: u64) -> TruthStep {
+    let side = (f64::from(UAVS)).sqrt().ceil() as u32;
+    let bodies = (1..=UAVS)
+        .map(|id| {
+            let (i, j) = ((id - 1) % side, (id - 1) / side);
+            let drift = tick as f64 * 0.01;
+            TruthBody {
+                id,
+                x: f64::from(i) * 3.0 + drift,
+                y: f64::from(j) * 3.0 - drift * 0.5,
+                yaw: 0.1 * f64::from(id % 7),
+                vx: 0.1 + 0.001 * f64::from(id % 13),
+                vy: -0.05 + 0.0003 * f64::from(id % 11),
+                alive: true,
+                cmd_on_time: true,
+                obstacle_distance_m: f64::INFINITY,
+                agent_distance_m: 3.0 - 0.001 * f64::from(id % 5),
+                colliding: false,
+            }
+        })
+        .collect();
+    TruthStep { tick, t_secs: tick as f64 * 0.1, bodies, ..TruthStep::default() }
+}
+
+/// Every agent's state of `tick`: estimates of the next ids, a few centimetres off the truth.
+fn states(s: &TruthStep) -> Vec<AgentState> {
+    s.bodies
+        .iter()
+        .map(|me| {
+            let neighbours = (1..=NEIGHBOURS)
+                .map(|k| {
+                    let other = &s.bodies[((me.id - 1 + k) % UAVS) as usize];
+                    let (dx, dy) = (other.x - me.x, other.y - me.y);
+                    let (c, sn) = (me.yaw.cos(), me.yaw.sin());
+                    NeighbourEstimate {
+                        id: Some(other.id),
+                        x: (c * dx + sn * dy) as f32 + 0.01 * (k % 3) as f32,
+                        y: (-sn * dx + c * dy) as f32 - 0.02,
+                        heading: 0.0,
+                        age_secs: 0.1 * (k % 2) as f32,
+                    }
+                })
+                .collect();
+            AgentState {
+                id: me.id,
+                tick: s.tick,
+                t_secs: s.t_secs,
+                step_time_us: 10,
+                obstacles: 0,
+                neighbours,
+                in_radio_range: NEIGHBOURS,
+                vectors: VectorMagnitudes {
+                    cohesion: 0.01,
+                    separation: 0.2,
+                    avoidance: 0.0,
+                    navigation: 0.7,
+                    output: 1.0,
+                },
+                link: LinkCounters::default(),
+                icp: IcpCounts::default(),
+                delays: Vec::new(),
+                traffic: Traffic { session: "host-a".into(), ..Traffic::default() },
+            }
+        })
+        .collect()
+}
+
+fn fold(c: &mut Criterion) {
+    let mut g = c.benchmark_group("recorder");
+    g.bench_function("fold_tick/1000", |b| {
+        b.iter_batched(
+            || {
+                let mut m = Metrics::default();
+                let first = step(0);
+                m.on_step(&first);
+                states(&first).into_iter().for_each(|st| m.on_state(st));
+                let next = step(1);
+                let st = states(&next);
+                (m, next, st)
+            },
+            |(mut m, next, st)| {
+                m.on_step(&next);
+                st.into_iter().for_each(|s| m.on_state(s));
+                black_box(m.take_scored().len())
+            },
+            BatchSize::PerIteration,
+        );
+    });
+    g.finish();
+}
+
+/// A tick's trajectory rows as `Files::write_step` wrote them before [`Fixed`].
+fn rows_std(out: &mut Vec<u8>, s: &TruthStep) {
+    for b in &s.bodies {
+        writeln!(
+            out,
+            "{},{:.3},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{}",
+            s.tick,
+            s.t_secs,
+            b.id,
+            b.x,
+            b.y,
+            b.yaw,
+            b.vx,
+            b.vy,
+            b.obstacle_distance_m,
+            b.agent_distance_m,
+            u8::from(b.colliding),
+            u8::from(b.alive),
+            u8::from(b.cmd_on_time)
+        )
+        .expect("a vector takes every byte");
+    }
+}
+
+/// The same rows as `Files::write_step` writes them now.
+fn rows_fixed(out: &mut Vec<u8>, s: &TruthStep) {
+    for b in &s.bodies {
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            s.tick,
+            Fixed(s.t_secs, 3),
+            b.id,
+            Fixed(b.x, 4),
+            Fixed(b.y, 4),
+            Fixed(b.yaw, 4),
+            Fixed(b.vx, 4),
+            Fixed(b.vy, 4),
+            Fixed(b.obstacle_distance_m, 4),
+            Fixed(b.agent_distance_m, 4),
+            u8::from(b.colliding),
+            u8::from(b.alive),
+            u8::from(b.cmd_on_time)
+        )
+        .expect("a vector takes every byte");
+    }
+}
+
+fn rows(c: &mut Criterion) {
+    let s = step(37);
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    rows_std(&mut a, &s);
+    rows_fixed(&mut b, &s);
+    assert_eq!(a, b, "the two ways write the same text");
+    let mut g = c.benchmark_group("trajectory_rows");
+    for (name, write) in [("std/1000", rows_std as fn(&mut Vec<u8>, &TruthStep)), ("fixed/1000", rows_fixed)] {
+        g.bench_function(name, |bench| {
+            let mut out = Vec::with_capacity(1 << 17);
+            bench.iter(|| {
+                out.clear();
+                write(&mut out, &s);
+                black_box(out.len())
+            });
+        });
+    }
+    g.finish();
+}
+
+/// The criterion group (in a private module: the macro's generated `pub fn` has no doc).
+mod group {
+    criterion::criterion_group!(benches, super::fold, super::rows);
+}
+criterion_main!(group::benches);
