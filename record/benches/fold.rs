@@ -1,5 +1,6 @@
-//! The recorder's work per tick at 1000 UAVs, without the network: folding a tick (its truth
-//! step, then every agent's state with about 18 neighbour estimates, as open-1000 sends them),
+//! The recorder's work per tick at 1000 UAVs, without the network: folding a tick (every agent's
+//! state with about 18 neighbour estimates, as open-1000 sends them, then the tick's truth step,
+//! which scores them: in a lockstep run the states of a tick come before its truth),
 //! and writing a tick's `trajectories.csv` rows, with std's `{:.N}` and with [`Fixed`] (the same
 //! text) side by side.
 
@@ -91,15 +92,15 @@ fn fold(c: &mut Criterion) {
             || {
                 let mut m = Metrics::default();
                 let first = step(0);
-                m.on_step(&first);
                 states(&first).into_iter().for_each(|st| m.on_state(st));
+                m.on_step(&first);
                 let next = step(1);
                 let st = states(&next);
                 (m, next, st)
             },
             |(mut m, next, st)| {
-                m.on_step(&next);
                 st.into_iter().for_each(|s| m.on_state(s));
+                m.on_step(&next);
                 black_box(m.take_scored().len())
             },
             BatchSize::PerIteration,
