@@ -1,14 +1,14 @@
 //! The recorder's work per tick at 1000 UAVs, without the network: folding a tick (every agent's
 //! state with about 18 neighbour estimates, as open-1000 sends them, then the tick's truth step,
 //! which scores them: in a lockstep run the states of a tick come before its truth),
-//! and writing a tick's `trajectories.csv` rows, with std's `{:.N}` and with [`Fixed`] (the same
-//! text) side by side.
+//! and writing a tick's `trajectories.csv` rows, with std's `{:.N}` and as the recorder writes them now
+//! (`Fixed` of `record/src/recorder/fixed.rs`, the same text) side by side.
 
 use criterion::{criterion_main, BatchSize, Criterion};
 use std::hint::black_box;
 use std::io::Write;
-use swarm_record::recorder::fixed::Fixed;
 use swarm_record::recorder::metrics::Metrics;
+use swarm_record::recorder::write_trajectory_rows;
 use swarm_wire::{
     AgentState, IcpCounts, LinkCounters, NeighbourEstimate, Traffic, TruthBody, TruthStep, VectorMagnitudes,
 };
@@ -109,7 +109,7 @@ fn fold(c: &mut Criterion) {
     g.finish();
 }
 
-/// A tick's trajectory rows as `Files::write_step` wrote them before [`Fixed`].
+/// A tick's trajectory rows as `Files::write_step` wrote them before `Fixed`.
 fn rows_std(out: &mut Vec<u8>, s: &TruthStep) {
     for b in &s.bodies {
         writeln!(
@@ -135,26 +135,7 @@ fn rows_std(out: &mut Vec<u8>, s: &TruthStep) {
 
 /// The same rows as `Files::write_step` writes them now.
 fn rows_fixed(out: &mut Vec<u8>, s: &TruthStep) {
-    for b in &s.bodies {
-        writeln!(
-            out,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            s.tick,
-            Fixed(s.t_secs, 3),
-            b.id,
-            Fixed(b.x, 4),
-            Fixed(b.y, 4),
-            Fixed(b.yaw, 4),
-            Fixed(b.vx, 4),
-            Fixed(b.vy, 4),
-            Fixed(b.obstacle_distance_m, 4),
-            Fixed(b.agent_distance_m, 4),
-            u8::from(b.colliding),
-            u8::from(b.alive),
-            u8::from(b.cmd_on_time)
-        )
-        .expect("a vector takes every byte");
-    }
+    write_trajectory_rows(out, s).expect("a vector takes every byte");
 }
 
 fn rows(c: &mut Criterion) {

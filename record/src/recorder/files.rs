@@ -39,26 +39,7 @@ impl Files {
 
     /// Appends one step's rows.
     pub fn write_step(&mut self, s: &TruthStep) -> Result<()> {
-        for b in &s.bodies {
-            writeln!(
-                self.traj,
-                "{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                s.tick,
-                Fixed(s.t_secs, 3),
-                b.id,
-                Fixed(b.x, 4),
-                Fixed(b.y, 4),
-                Fixed(b.yaw, 4),
-                Fixed(b.vx, 4),
-                Fixed(b.vy, 4),
-                Fixed(b.obstacle_distance_m, 4),
-                Fixed(b.agent_distance_m, 4),
-                u8::from(b.colliding),
-                u8::from(b.alive),
-                u8::from(b.cmd_on_time)
-            )?;
-        }
-        Ok(())
+        Ok(write_trajectory_rows(&mut self.traj, s)?)
     }
 
     /// Appends one agent state row.
@@ -120,6 +101,30 @@ impl Files {
         self.loc.flush()?;
         Ok(())
     }
+}
+
+/// Writes one step's `trajectories.csv` rows (one per body) to `out`.
+pub fn write_trajectory_rows(out: &mut impl Write, s: &TruthStep) -> std::io::Result<()> {
+    for b in &s.bodies {
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            s.tick,
+            Fixed(s.t_secs, 3),
+            b.id,
+            Fixed(b.x, 4),
+            Fixed(b.y, 4),
+            Fixed(b.yaw, 4),
+            Fixed(b.vx, 4),
+            Fixed(b.vy, 4),
+            Fixed(b.obstacle_distance_m, 4),
+            Fixed(b.agent_distance_m, 4),
+            u8::from(b.colliding),
+            u8::from(b.alive),
+            u8::from(b.cmd_on_time)
+        )?;
+    }
+    Ok(())
 }
 
 /// Writes `world.json` (trees, walls, starts, goal) into `dir`.

@@ -11,7 +11,7 @@
 //!   strayed (ground truth; the lost-contact behaviour's yardstick).
 //! - `tally`: a count per distinct value with a running sum, for the quantiles of quantities
 //!   that take few values (estimate ages, share delays) in memory that does not grow with the run.
-//! - [`fixed`]: numbers with a fixed count of decimals, std's text without std's exact algorithm
+//! - `fixed`: numbers with a fixed count of decimals, std's text without std's exact algorithm
 //!   where it is not needed (the CSVs write about 17 000 a tick at 1000 UAVs).
 //! - `files`: the run folder's files: the CSVs that grow while the run goes, and those written
 //!   at its end.
@@ -25,7 +25,7 @@
 //! recorder alone, for a run whose pieces were started by hand.
 
 mod files;
-pub mod fixed;
+mod fixed;
 pub mod journal;
 pub mod metrics;
 mod recording;
@@ -33,6 +33,7 @@ mod recover;
 pub mod solitude;
 mod tally;
 
+pub use files::write_trajectory_rows;
 pub use recording::{replay, Recording};
 pub use recover::{cut_short, recover, RecoverArgs};
 
