@@ -147,8 +147,15 @@ pub struct Metrics {
     pending: BTreeMap<u64, Vec<(u64, AgentState)>>,
     /// States held in `pending` so far (the next arrival number).
     pending_arrivals: u64,
-    /// Per tick: (sim time, for each agent that reported, the ids it has an estimate of).
+    /// Per tick: (sim time, for each agent that reported, the ids it has an estimate of). With
+    /// [`Metrics::settling`], only the ticks not yet settled.
     known: BTreeMap<u64, (f64, BTreeMap<u32, Vec<u32>>)>,
+    /// What [`Metrics::settling`] keeps of the ticks it settled, in tick order.
+    settled: Vec<SettledTick>,
+    /// The scenario's netem timeline and staleness grace [s], to settle ticks with.
+    settle_by: Option<(netem::Timeline, f64)>,
+    /// States that came for a tick already settled (left out of the connectivity series).
+    settled_late: u64,
     /// Delay applied to each delivered copy, per link class [s].
     delays: [Tally; 3],
     /// Mean nearest-neighbour distance over the UAVs at each tick: (sim time, metres).
@@ -296,6 +303,24 @@ fn components(known: &BTreeMap<u32, Vec<u32>>) -> usize {
     count
 }
 
+/// A tick of the estimate graph, settled: its row of the connectivity series and its estimates
+/// across blocked links.
+#[derive(Debug, Clone, Copy)]
+struct SettledTick {
+    row: ComponentsRow,
+    across: u64,
+}
+
+/// Estimates at sim time `t` across a link that `timeline` had blocked both then and `grace`
+/// before (held over a cut longer than the staleness allows).
+fn across_blocked(timeline: &netem::Timeline, grace: f64, t: f64, known: &BTreeMap<u32, Vec<u32>>) -> u64 {
+    let blocked = |from: u32, to: u32, at: f64| timeline.rule_at(at, from, to).is_some_and(|r| r.blocked);
+    known
+        .iter()
+        .map(|(&i, ids)| ids.iter().filter(|&&j| blocked(j, i, t) && blocked(j, i, t - grace)).count() as u64)
+        .sum()
+}
+
 /// UAV `id`'s body in a truth step's `bodies` (listed in id order, so found by index; searched
 /// only if that ever changes).
 fn body_of(bodies: &[TruthBody], id: u32) -> Option<&TruthBody> {
@@ -383,6 +408,29 @@ fn finite_or_inf(v: f64) -> f64 {
 }
 
 impl Metrics {
+    /// Metrics that settle each tick of the estimate graph once it is [`TRUTH_KEPT`] ticks
+    /// behind the latest truth step (no state that late can be scored either): its connectivity
+    /// row and its estimates across blocked links (by `sc`'s timeline, as
+    /// [`Metrics::summary`] counts them) are kept, its graph dropped. At 1000 UAVs the graph of a
+    /// tick is about 150 kB, so a long run held gigabytes of it; the summary, `connectivity.csv`
+    /// and the checks are the same as with [`Metrics::default`], which keeps every tick, as long
+    /// as no state comes for a settled tick (it is counted and left out).
+    pub fn settling(sc: &swarm_config::Scenario) -> Metrics {
+        let grace = sc.localization.stale_after_s + sc.dt_secs();
+        Metrics { settle_by: Some((netem::Timeline::from_scenario(sc), grace)), ..Metrics::default() }
+    }
+
+    /// Settles the ticks of the estimate graph [`TRUTH_KEPT`] behind tick `now` (see
+    /// [`Metrics::settling`]).
+    fn settle(&mut self, now: u64) {
+        let Some((timeline, grace)) = self.settle_by.as_ref() else { return };
+        while let Some(entry) = self.known.first_entry().filter(|e| e.key().saturating_add(TRUTH_KEPT) <= now) {
+            let (tick, (t, known)) = entry.remove_entry();
+            let row = ComponentsRow { tick, t_s: t, reporting: known.len(), components: components(&known) };
+            self.settled.push(SettledTick { row, across: across_blocked(timeline, *grace, t, &known) });
+        }
+    }
+
     /// Notes the static world; paths are measured from the start poses.
     pub fn on_world(&mut self, w: TruthWorld) {
         for (i, s) in w.starts.iter().enumerate() {
@@ -442,6 +490,7 @@ impl Metrics {
         while self.truth.len() as u64 > TRUTH_KEPT {
             self.truth.pop_first();
         }
+        self.settle(s.tick);
         let later = self.pending.split_off(&s.tick.saturating_add(1));
         let mut ready: Vec<(u64, AgentState)> =
             std::mem::replace(&mut self.pending, later).into_values().flatten().collect();
@@ -532,8 +581,19 @@ impl Metrics {
             a.link_base = std::array::from_fn(|i| a.link_base[i] + before[i]);
         }
         a.last_state = Some((st.tick, st.link));
-        let ids = st.neighbours.iter().filter_map(|e| e.id).collect();
-        self.known.entry(st.tick).or_insert_with(|| (st.t_secs, BTreeMap::new())).1.insert(st.id, ids);
+        if self.settled.last().is_some_and(|s| st.tick <= s.row.tick) {
+            self.settled_late += 1;
+            if self.settled_late == 1 {
+                tracing::warn!(
+                    tick = st.tick,
+                    id = st.id,
+                    "a state for a settled tick: left out of the connectivity series"
+                );
+            }
+        } else {
+            let ids = st.neighbours.iter().filter_map(|e| e.id).collect();
+            self.known.entry(st.tick).or_insert_with(|| (st.t_secs, BTreeMap::new())).1.insert(st.id, ids);
+        }
         if !st.traffic.session.is_empty() {
             // Looked up by reference: the id is copied only for a session seen the first time.
             match self.sessions.get_mut(st.traffic.session.as_str()) {
@@ -566,15 +626,13 @@ impl Metrics {
 
     /// The components of the estimate graph at each tick agents reported, in tick order.
     pub fn components_series(&self) -> Vec<ComponentsRow> {
-        self.known
-            .iter()
-            .map(|(&tick, (t, known))| ComponentsRow {
-                tick,
-                t_s: *t,
-                reporting: known.len(),
-                components: components(known),
-            })
-            .collect()
+        let live = self.known.iter().map(|(&tick, (t, known))| ComponentsRow {
+            tick,
+            t_s: *t,
+            reporting: known.len(),
+            components: components(known),
+        });
+        self.settled.iter().map(|s| s.row).chain(live).collect()
     }
 
     /// Collisions so far.
@@ -757,16 +815,18 @@ impl Metrics {
         let mut across = 0u64;
         let grace = sc.localization.stale_after_s + sc.dt_secs();
         let timeline = netem::Timeline::from_scenario(sc);
-        for (row, (t, known)) in self.components_series().into_iter().zip(self.known.values()) {
-            let n = row.components;
+        let settled = self.settled.iter().map(|s| (s.row, s.across));
+        let live = self.known.iter().map(|(&tick, (t, known))| {
+            let row = ComponentsRow { tick, t_s: *t, reporting: known.len(), components: components(known) };
+            (row, across_blocked(&timeline, grace, *t, known))
+        });
+        for (row, blocked) in settled.chain(live) {
+            let (t, n) = (row.t_s, row.components);
             if changes.last().is_none_or(|c| c.components != n) {
-                changes.push(ComponentsAt { t_s: *t, components: n });
+                changes.push(ComponentsAt { t_s: t, components: n });
             }
-            series.push((*t, n));
-            let blocked = |from: u32, to: u32, at: f64| timeline.rule_at(at, from, to).is_some_and(|r| r.blocked);
-            for (&i, ids) in known {
-                across += ids.iter().filter(|&&j| blocked(j, i, *t) && blocked(j, i, t - grace)).count() as u64;
-            }
+            series.push((t, n));
+            across += blocked;
         }
         let reconnections = crate::checks::heal_times(sc)
             .iter()
@@ -1116,6 +1176,85 @@ mod tests {
         m.on_state(state(6, 10.0, 1));
         let s = m.summary("r", &sc);
         assert_eq!((s.agents[0].steps_alone, s.agents[0].neighbours_reported_while_alone), (1, 1));
+    }
+
+    /// The settling metrics against the ones that keep every tick, over a partition and its heal
+    /// (estimates held across the cut, components splitting and joining) and far more ticks than
+    /// [`TRUTH_KEPT`]: the same summary and connectivity series, and a bounded graph.
+    #[test]
+    fn settled_ticks_give_the_same_summary_as_kept_ones() {
+        let sc = swarm_config::builtin("open-field-7-partition").expect("builtin");
+        let (mut kept, mut settling) = (Metrics::default(), Metrics::settling(&sc));
+        let ticks = 3 * TRUTH_KEPT + 17;
+        let mut most_known = 0;
+        for tick in 1..=ticks {
+            let t = 0.1 * tick as f64;
+            let bodies: Vec<TruthBody> = (1..=7u32)
+                .map(|id| {
+                    let mut b = body(id, f64::from(id) * 2.0 + 0.01 * tick as f64, 5.0, 2.0, true);
+                    b.y = if id <= 3 { 0.0 } else { 1.5 };
+                    b
+                })
+                .collect();
+            let cut = (10.0..30.0).contains(&t);
+            for me in 1..=7u32 {
+                // Across the cut, UAV 1 still holds UAV 4 until 12 s (a stale estimate); the
+                // groups otherwise estimate only each other, and UAV 7 none every fifth tick.
+                let ids: Vec<u32> = (1..=7u32)
+                    .filter(|&j| j != me)
+                    .filter(|&j| !cut || (j <= 3) == (me <= 3) || (me == 1 && j == 4 && t < 12.0))
+                    .filter(|_| !(me == 7 && tick % 5 == 0))
+                    .collect();
+                let neighbours = ids
+                    .iter()
+                    .map(|&j| NeighbourEstimate {
+                        id: Some(j),
+                        x: (f64::from(j) - f64::from(me)) as f32 * 2.0,
+                        y: 0.0,
+                        heading: 0.0,
+                        age_secs: 0.1,
+                    })
+                    .collect();
+                let st = AgentState { tick, t_secs: t, neighbours, in_radio_range: 6, ..blank_state(me) };
+                kept.on_state(st.clone());
+                settling.on_state(st);
+            }
+            let step = TruthStep { tick, t_secs: t, bodies, ..Default::default() };
+            kept.on_step(&step);
+            settling.on_step(&step);
+            most_known = most_known.max(settling.known.len());
+        }
+        assert_eq!(kept.components_series(), settling.components_series());
+        assert!(kept.components_series().iter().any(|r| r.components == 2), "the cut splits the graph");
+        let (a, b) = (kept.summary("r", &sc), settling.summary("r", &sc));
+        assert!(a.connectivity.estimates_across_blocked_links > 0, "the stale estimate is counted");
+        let json = |s: &crate::summary::Summary| serde_json::to_string(s).expect("a summary serializes");
+        assert_eq!(json(&a), json(&b));
+        assert_eq!(settling.settled.len() as u64, ticks - TRUTH_KEPT);
+        assert!(most_known as u64 <= TRUTH_KEPT + 1, "the graph is bounded: {most_known} ticks held");
+        assert_eq!(kept.known.len() as u64, ticks, "the default keeps every tick");
+        // A state for a settled tick is counted and left out; a later tick still counts.
+        settling.on_state(AgentState { tick: 3, ..blank_state(1) });
+        assert_eq!(settling.settled_late, 1);
+        assert_eq!(settling.components_series().len() as u64, ticks);
+    }
+
+    /// A state of UAV `id` with no estimate, at tick 0.
+    fn blank_state(id: u32) -> AgentState {
+        AgentState {
+            id,
+            tick: 0,
+            t_secs: 0.0,
+            step_time_us: 10,
+            obstacles: 0,
+            neighbours: Vec::new(),
+            in_radio_range: 0,
+            vectors: Default::default(),
+            link: Default::default(),
+            icp: Default::default(),
+            delays: Vec::new(),
+            traffic: Default::default(),
+        }
     }
 
     #[test]

@@ -72,7 +72,7 @@ impl<'a> Sink<'a> {
         let files = Files::create(out)?;
         Ok(Sink {
             files,
-            m: Metrics::default(),
+            m: Metrics::settling(sc),
             checks: Checker::new(sc),
             malformed: 0,
             sc,
