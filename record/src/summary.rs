@@ -258,6 +258,11 @@ pub struct Connectivity {
     /// Estimates an agent held of a neighbour whose link to it had been blocked for longer than
     /// the estimate staleness: information that crossed a partition (should be 0).
     pub estimates_across_blocked_links: u64,
+    /// States that came for a tick the recorder had already settled (older than every truth
+    /// step it keeps, 200 ticks), left out of the components and the count above (should be 0;
+    /// absent from summaries written before it was added).
+    #[serde(default)]
+    pub states_left_out: u64,
 }
 
 /// Seed 004 section 3.5's metrics (Table 8 compares LF, PF and TNPF with them).

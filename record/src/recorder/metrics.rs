@@ -408,23 +408,25 @@ fn finite_or_inf(v: f64) -> f64 {
 }
 
 impl Metrics {
-    /// Metrics that settle each tick of the estimate graph once it is [`TRUTH_KEPT`] ticks
-    /// behind the latest truth step (no state that late can be scored either): its connectivity
+    /// Metrics that settle each tick of the estimate graph once it is older than every truth step
+    /// kept (the last [`TRUTH_KEPT`]: no state that late can be scored either): its connectivity
     /// row and its estimates across blocked links (by `sc`'s timeline, as
     /// [`Metrics::summary`] counts them) are kept, its graph dropped. At 1000 UAVs the graph of a
     /// tick is about 150 kB, so a long run held gigabytes of it; the summary, `connectivity.csv`
     /// and the checks are the same as with [`Metrics::default`], which keeps every tick, as long
-    /// as no state comes for a settled tick (it is counted and left out).
+    /// as no state comes for a settled tick (it is counted, `connectivity.states_left_out`, and
+    /// left out).
     pub fn settling(sc: &swarm_config::Scenario) -> Metrics {
         let grace = sc.localization.stale_after_s + sc.dt_secs();
         Metrics { settle_by: Some((netem::Timeline::from_scenario(sc), grace)), ..Metrics::default() }
     }
 
-    /// Settles the ticks of the estimate graph [`TRUTH_KEPT`] behind tick `now` (see
-    /// [`Metrics::settling`]).
-    fn settle(&mut self, now: u64) {
+    /// Settles the ticks of the estimate graph older than every truth step kept (see
+    /// [`Metrics::settling`]); nothing while fewer than [`TRUTH_KEPT`] are kept.
+    fn settle(&mut self) {
         let Some((timeline, grace)) = self.settle_by.as_ref() else { return };
-        while let Some(entry) = self.known.first_entry().filter(|e| e.key().saturating_add(TRUTH_KEPT) <= now) {
+        let Some(&oldest) = self.truth.keys().next().filter(|_| self.truth.len() as u64 >= TRUTH_KEPT) else { return };
+        while let Some(entry) = self.known.first_entry().filter(|e| *e.key() < oldest) {
             let (tick, (t, known)) = entry.remove_entry();
             let row = ComponentsRow { tick, t_s: t, reporting: known.len(), components: components(&known) };
             self.settled.push(SettledTick { row, across: across_blocked(timeline, *grace, t, &known) });
@@ -490,7 +492,7 @@ impl Metrics {
         while self.truth.len() as u64 > TRUTH_KEPT {
             self.truth.pop_first();
         }
-        self.settle(s.tick);
+        self.settle();
         let later = self.pending.split_off(&s.tick.saturating_add(1));
         let mut ready: Vec<(u64, AgentState)> =
             std::mem::replace(&mut self.pending, later).into_values().flatten().collect();
@@ -845,7 +847,12 @@ impl Metrics {
                 }
             })
             .collect();
-        Connectivity { components_changes: changes, reconnections, estimates_across_blocked_links: across }
+        Connectivity {
+            components_changes: changes,
+            reconnections,
+            estimates_across_blocked_links: across,
+            states_left_out: self.settled_late,
+        }
     }
 }
 
@@ -1236,6 +1243,7 @@ mod tests {
         // A state for a settled tick is counted and left out; a later tick still counts.
         settling.on_state(AgentState { tick: 3, ..blank_state(1) });
         assert_eq!(settling.settled_late, 1);
+        assert_eq!(settling.summary("r", &sc).connectivity.states_left_out, 1);
         assert_eq!(settling.components_series().len() as u64, ticks);
     }
 
