@@ -412,10 +412,10 @@ impl Metrics {
     /// kept (the last [`TRUTH_KEPT`]: no state that late can be scored either): its connectivity
     /// row and its estimates across blocked links (by `sc`'s timeline, as
     /// [`Metrics::summary`] counts them) are kept, its graph dropped. At open-1000 the graph of a
-    /// tick is 110-150 kB (the run's peak memory over its 400 settled ticks), and it was held for every tick of a run; the summary, `connectivity.csv`
-    /// and the checks are the same as with [`Metrics::default`], which keeps every tick, as long
-    /// as no state comes for a settled tick (it is counted, `connectivity.states_left_out`, and
-    /// left out).
+    /// tick is 110-150 kB (the run's peak memory over its 400 settled ticks), and it was held for
+    /// every tick of a run. The summary, `connectivity.csv` and the checks are the same as with
+    /// [`Metrics::default`], which keeps every tick, as long as no state comes for a settled tick
+    /// (it is counted, `connectivity.states_left_out`, and left out).
     pub fn settling(sc: &swarm_config::Scenario) -> Metrics {
         let grace = sc.localization.stale_after_s + sc.dt_secs();
         Metrics { settle_by: Some((netem::Timeline::from_scenario(sc), grace)), ..Metrics::default() }
