@@ -9,9 +9,7 @@ use std::hint::black_box;
 use std::io::Write;
 use swarm_record::recorder::metrics::Metrics;
 use swarm_record::recorder::write_trajectory_rows;
-use swarm_wire::{
-    AgentState, IcpCounts, LinkCounters, NeighbourEstimate, Traffic, TruthBody, TruthStep, VectorMagnitudes,
-};
+use swarm_wire::{AgentState, NeighbourEstimate, Traffic, TruthBody, TruthStep, VectorMagnitudes};
 
 const UAVS: u32 = 1000;
 /// Neighbours each agent estimates (open-1000 hears about 18).
@@ -66,7 +64,6 @@ fn states(s: &TruthStep) -> Vec<AgentState> {
                 tick: s.tick,
                 t_secs: s.t_secs,
                 step_time_us: 10,
-                obstacles: 0,
                 neighbours,
                 in_radio_range: NEIGHBOURS,
                 vectors: VectorMagnitudes {
@@ -76,10 +73,8 @@ fn states(s: &TruthStep) -> Vec<AgentState> {
                     navigation: 0.7,
                     output: 1.0,
                 },
-                link: LinkCounters::default(),
-                icp: IcpCounts::default(),
-                delays: Vec::new(),
                 traffic: Traffic { session: "host-a".into(), ..Traffic::default() },
+                ..AgentState::default()
             }
         })
         .collect()

@@ -418,8 +418,9 @@ pub struct VectorMagnitudes {
     pub output: f32,
 }
 
-/// An agent's diagnostics for one step.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// An agent's diagnostics for one step. `Default` is a state of UAV 0 at tick 0 with nothing in
+/// it, for tests and benches to fill in.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct AgentState {
     /// Agent id.
     pub id: u32,

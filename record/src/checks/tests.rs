@@ -37,17 +37,11 @@ fn state(id: u32, tick: u64, of: &[u32]) -> AgentState {
         tick,
         t_secs: 0.1 * tick as f64,
         step_time_us: 1,
-        obstacles: 0,
         neighbours: of
             .iter()
             .map(|&j| NeighbourEstimate { id: Some(j), x: 1.0, y: 0.0, heading: 0.0, age_secs: 0.0 })
             .collect(),
-        in_radio_range: 0,
-        vectors: Default::default(),
-        link: Default::default(),
-        icp: Default::default(),
-        delays: Vec::new(),
-        traffic: Default::default(),
+        ..AgentState::default()
     }
 }
 

@@ -1034,20 +1034,7 @@ mod tests {
         };
         m.on_step(&last);
         assert!(m.awaiting_last_states(), "UAV 1 sent its command of tick 6: its state is due");
-        let mut st = AgentState {
-            id: 1,
-            tick: 6,
-            t_secs: 0.6,
-            step_time_us: 1,
-            obstacles: 0,
-            neighbours: vec![],
-            in_radio_range: 0,
-            vectors: Default::default(),
-            link: Default::default(),
-            icp: Default::default(),
-            delays: Vec::new(),
-            traffic: Default::default(),
-        };
+        let mut st = AgentState { id: 1, tick: 6, t_secs: 0.6, step_time_us: 1, ..AgentState::default() };
         st.tick = 5;
         m.on_state(st.clone());
         assert!(m.awaiting_last_states(), "an older state is not the last");
@@ -1124,18 +1111,10 @@ mod tests {
         b2.y = 2.0;
         let truth = |tick| TruthStep { tick, t_secs: 0.1 * tick as f64, bodies: vec![b1, b2], ..Default::default() };
         let state = |tick, x: f32, n: usize| AgentState {
-            id: 1,
             tick,
-            t_secs: 0.0,
-            step_time_us: 10,
-            obstacles: 0,
             neighbours: vec![NeighbourEstimate { id: Some(2), x, y: 0.0, heading: 0.0, age_secs: 0.0 }; n],
             in_radio_range: 1,
-            vectors: Default::default(),
-            link: Default::default(),
-            icp: Default::default(),
-            delays: Vec::new(),
-            traffic: Default::default(),
+            ..blank_state(1)
         };
         m.on_step(&truth(1));
         m.on_state(state(1, 2.1, 1)); // truth first: scored at once, error 0.1
@@ -1249,20 +1228,7 @@ mod tests {
 
     /// A state of UAV `id` with no estimate, at tick 0.
     fn blank_state(id: u32) -> AgentState {
-        AgentState {
-            id,
-            tick: 0,
-            t_secs: 0.0,
-            step_time_us: 10,
-            obstacles: 0,
-            neighbours: Vec::new(),
-            in_radio_range: 0,
-            vectors: Default::default(),
-            link: Default::default(),
-            icp: Default::default(),
-            delays: Vec::new(),
-            traffic: Default::default(),
-        }
+        AgentState { id, step_time_us: 10, ..AgentState::default() }
     }
 
     #[test]
@@ -1274,13 +1240,7 @@ mod tests {
                 tick,
                 t_secs: 0.1 * tick as f64,
                 step_time_us: 1,
-                obstacles: 0,
-                neighbours: vec![],
-                in_radio_range: 0,
-                vectors: Default::default(),
                 link: swarm_wire::LinkCounters { recv_msgs: counted, ..Default::default() },
-                icp: Default::default(),
-                delays: Vec::new(),
                 traffic: Traffic {
                     session: session.into(),
                     agents: 2,
@@ -1293,6 +1253,7 @@ mod tests {
                     agent_shares: mine.0,
                     agent_bytes: mine.1,
                 },
+                ..AgentState::default()
             };
         let mut m = Metrics::default();
         // A host "h" of agents 1 and 2 over ticks 0..=9, and agent 3 alone on "a" over ticks 5..=9;
