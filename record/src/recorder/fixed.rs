@@ -17,10 +17,11 @@ use std::fmt;
 const LIMIT: f64 = 1e9;
 /// A scaled value this close to a midpoint goes to std, where its rounding is decided exactly.
 const MARGIN: f64 = 1e-6;
-/// The decimals a [`Fixed`] may ask for.
-const MAX_DECIMALS: usize = 9;
+/// 10^N for the decimals a [`Fixed`] may ask for (each exact in `f64`).
+const POW10: [f64; 10] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
 
-/// `value` written with `decimals` decimals (at most 9), as `format!("{:.decimals$}", value)`.
+/// `value` written with `decimals` decimals, as `format!("{:.decimals$}", value)` (std writes
+/// it beyond 9 decimals).
 #[derive(Debug, Clone, Copy)]
 pub struct Fixed(pub f64, pub usize);
 
@@ -36,10 +37,7 @@ impl fmt::Display for Fixed {
 
 /// |value| · 10^decimals rounded to the nearest integer, where that is exact without ties.
 fn fast(value: f64, decimals: usize) -> Option<u64> {
-    if decimals > MAX_DECIMALS {
-        return None;
-    }
-    let scaled = value.abs() * 10f64.powi(decimals as i32);
+    let scaled = value.abs() * *POW10.get(decimals)?;
     // NaN fails the first test too.
     let small = scaled < LIMIT;
     if !small || ((scaled - scaled.floor()) - 0.5).abs() < MARGIN {
@@ -123,7 +121,7 @@ mod tests {
             f64::NEG_INFINITY,
             f64::NAN,
         ];
-        for d in 0..=MAX_DECIMALS + 1 {
+        for d in 0..=POW10.len() {
             for v in edges {
                 check(v, d);
                 check(-v, d);

@@ -303,12 +303,23 @@ fn components(known: &BTreeMap<u32, Vec<u32>>) -> usize {
     count
 }
 
+/// Tick `tick`'s row of the connectivity series, at sim time `t`, from its estimate graph.
+fn components_row(tick: u64, t: f64, known: &BTreeMap<u32, Vec<u32>>) -> ComponentsRow {
+    ComponentsRow { tick, t_s: t, reporting: known.len(), components: components(known) }
+}
+
 /// A tick of the estimate graph, settled: its row of the connectivity series and its estimates
 /// across blocked links.
 #[derive(Debug, Clone, Copy)]
 struct SettledTick {
     row: ComponentsRow,
     across: u64,
+}
+
+/// What counts an estimate as held across a blocked link: `sc`'s netem timeline, and the grace
+/// (the estimate staleness and a tick) for which the link must have been blocked already.
+fn blocked_links(sc: &swarm_config::Scenario) -> (netem::Timeline, f64) {
+    (netem::Timeline::from_scenario(sc), sc.localization.stale_after_s + sc.dt_secs())
 }
 
 /// Estimates at sim time `t` across a link that `timeline` had blocked both then and `grace`
@@ -417,8 +428,7 @@ impl Metrics {
     /// [`Metrics::default`], which keeps every tick, as long as no state comes for a settled tick
     /// (it is counted, `connectivity.states_left_out`, and left out).
     pub fn settling(sc: &swarm_config::Scenario) -> Metrics {
-        let grace = sc.localization.stale_after_s + sc.dt_secs();
-        Metrics { settle_by: Some((netem::Timeline::from_scenario(sc), grace)), ..Metrics::default() }
+        Metrics { settle_by: Some(blocked_links(sc)), ..Metrics::default() }
     }
 
     /// Settles the ticks of the estimate graph older than every truth step kept (see
@@ -428,7 +438,7 @@ impl Metrics {
         let Some(&oldest) = self.truth.keys().next().filter(|_| self.truth.len() as u64 >= TRUTH_KEPT) else { return };
         while let Some(entry) = self.known.first_entry().filter(|e| *e.key() < oldest) {
             let (tick, (t, known)) = entry.remove_entry();
-            let row = ComponentsRow { tick, t_s: t, reporting: known.len(), components: components(&known) };
+            let row = components_row(tick, t, &known);
             self.settled.push(SettledTick { row, across: across_blocked(timeline, *grace, t, &known) });
         }
     }
@@ -628,12 +638,7 @@ impl Metrics {
 
     /// The components of the estimate graph at each tick agents reported, in tick order.
     pub fn components_series(&self) -> Vec<ComponentsRow> {
-        let live = self.known.iter().map(|(&tick, (t, known))| ComponentsRow {
-            tick,
-            t_s: *t,
-            reporting: known.len(),
-            components: components(known),
-        });
+        let live = self.known.iter().map(|(&tick, (t, known))| components_row(tick, *t, known));
         self.settled.iter().map(|s| s.row).chain(live).collect()
     }
 
@@ -815,13 +820,12 @@ impl Metrics {
         let mut changes: Vec<ComponentsAt> = Vec::new();
         let mut series: Vec<(f64, usize)> = Vec::new();
         let mut across = 0u64;
-        let grace = sc.localization.stale_after_s + sc.dt_secs();
-        let timeline = netem::Timeline::from_scenario(sc);
+        let (timeline, grace) = blocked_links(sc);
         let settled = self.settled.iter().map(|s| (s.row, s.across));
-        let live = self.known.iter().map(|(&tick, (t, known))| {
-            let row = ComponentsRow { tick, t_s: *t, reporting: known.len(), components: components(known) };
-            (row, across_blocked(&timeline, grace, *t, known))
-        });
+        let live = self
+            .known
+            .iter()
+            .map(|(&tick, (t, known))| (components_row(tick, *t, known), across_blocked(&timeline, grace, *t, known)));
         for (row, blocked) in settled.chain(live) {
             let (t, n) = (row.t_s, row.components);
             if changes.last().is_none_or(|c| c.components != n) {
