@@ -54,7 +54,7 @@ pub fn main() -> ExitCode {
 /// between Zenoh's threads (the socket's readiness on one, the reading on another, the sending
 /// on a third) is a wake-up and a context switch: forest-5 in lockstep, one process per agent,
 /// made half as many context switches and ran faster, and open-1000's two hosts of 500 spent
-/// about 8 % less CPU (see docs/performance.md). An agent's own work and its puts run on the
+/// 10 % less CPU (see docs/performance.md). An agent's own work and its puts run on the
 /// process's runtime, never on Zenoh's thread (a put may block while the send queue is full,
 /// waiting for that thread, which takes no lock of ours). The hub and routers keep
 /// Zenoh's default threads: they route for the whole swarm, and the hub's blocking puts must not
