@@ -39,15 +39,18 @@
 //!   nearest neighbour, squared FRMSD from a precomputed weight table, so no allocation, no
 //!   `sqrt` and no `powf` in the inner loop); the best few starts, at least one per heading and a
 //!   shortlist overall, are then run through the full ICP, and the lowest final FRMSD wins.
-//!   Nearest-neighbour search is brute force on squared distances, for one heading at a time and
-//!   eight grid cells at once (independent lanes the compiler packs into SIMD): with ≈ 20–50
-//!   points this is faster than any spatial index (a sorted-by-x candidate window tried on a
-//!   crowd's 45-point sets cost more to pick the candidates than it saved). Each start's
+//!   Nearest-neighbour search goes one heading at a time and eight cells of a grid column at
+//!   once (independent lanes the compiler packs into SIMD), against only the reference points
+//!   that can be nearest to that stretch of column ([`super::nearest`]'s table, built once per
+//!   full grid: about 6 of a crowd's 45 points; a sorted-by-x candidate window, tried before,
+//!   cost more to pick the candidates than it saved). The pairing of the full ICP stays brute
+//!   force over every reference point, a block of source points at a time. Each start's
 //!   distances are sorted for eq. 3.16's prefixes, eight starts at once by a sorting network on
 //!   the same lanes ([`super::network`]: the same scores as a sort, without its mispredicted
 //!   branches); a sort-free lower bound on the score (counts and sums by binary exponent) proved
 //!   83 % of a crowd grid's starts unable to rank, but cost half a sort to compute.
 
+use super::nearest::Candidates;
 use super::network::{block_scores, Network, LANES};
 use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
@@ -108,6 +111,9 @@ const TIE_M: f64 = 1e-9;
 /// Starts of the initial grid refined by a full ICP: the best this many of the first pass overall
 /// (in addition to the best start of every heading).
 const SHORTLIST: usize = 24;
+
+/// Raster cell of the first pass's candidate table [m] ([`Candidates`]).
+const RASTER_M: f64 = 1.0;
 
 /// Non-maximum suppression radius of the shortlist, in grid cells (see [`offer`]).
 const SUPPRESS_CELLS: f64 = 2.0;
@@ -489,8 +495,8 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
 }
 
 /// Query points searched together by [`nearest_by_cell`] (grid cells) and [`pair_into`] (source
-/// points): a block's running minima stay in registers while every reference point is visited
-/// once, and its lanes are independent, so the compiler turns the loop into packed SIMD (SSE2's
+/// points): a block's running minima stay in registers while each reference point it searches is
+/// visited once, and its lanes are independent, so the compiler turns the loop into packed SIMD (SSE2's
 /// two lanes on the baseline x86-64 target; the first pass 1.5× faster than start by start on a
 /// crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`). Both functions are also
 /// compiled for AVX2 (four lanes) and pick that version at run time where the CPU has it
@@ -506,50 +512,65 @@ fn grid_cells(h: i64, spacing: f64) -> Vec<Vector2<f64>> {
     (-h..=h).flat_map(|i| (-h..=h).map(move |j| Vector2::new(i as f64, j as f64) * spacing)).collect()
 }
 
-/// The x and y of `cells`' shifts, padded with zeros to whole blocks of [`BLOCK`].
-fn block_shifts(cells: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>) {
-    let padded = cells.len().div_ceil(BLOCK) * BLOCK;
-    let pad = |v: Vec<f64>| v.into_iter().chain(std::iter::repeat(0.0)).take(padded).collect();
-    (pad(cells.iter().map(|g| g.x).collect()), pad(cells.iter().map(|g| g.y).collect()))
-}
-
 /// First pass, one heading: for every source point `s` (pre-rotated) and every cell `c` (shift
-/// `(cx[c], cy[c])`), the squared distance from `rotated[s] + g_c` to the nearest reference point
-/// (seed 000 eq. 3.17 squared), into `out[b·|S| + s][l]` for cell c = b·[`BLOCK`] + l (a block's
-/// distances as rows of lanes, as [`block_scores`] takes them). Each distance is computed as a
-/// start-by-start loop would, operation for operation, so the scores are bit-identical; only
-/// the loops are turned around (cells in blocks of [`BLOCK`], innermost). `cx`/`cy` are padded
-/// to whole blocks; padded cells are computed and dropped.
+/// `cells[c]`), the squared distance from `rotated[s] + g_c` to the nearest reference point (seed
+/// 000 eq. 3.17 squared). Cells go in blocks of [`BLOCK`] consecutive cells of one grid column
+/// (`side` = 2h + 1 cells, so [`blocks_per_column`] blocks, the last one padded with copies of
+/// the column's last cell): cell j of column `col` is lane j % [`BLOCK`] of block b = `col` ·
+/// [`blocks_per_column`] + j / [`BLOCK`], and its distance for source `s` goes to
+/// `out[b·|S| + s]` (a block's distances as rows of lanes, as [`block_scores`] takes them).
+///
+/// Each block is searched against the candidates of [`Candidates`] for its lowest cell (all
+/// points outside the table). Each distance is computed as a start-by-start loop would,
+/// operation for operation (`q + g` first, then the difference to each reference point), and
+/// the nearest one is the least of them over a set that holds every point that could be least,
+/// so the scores are bit-identical; only the loops are turned around and cut short.
 #[multiversion::multiversion(targets("x86_64+avx2"))]
 fn nearest_by_cell(
     reference: &[Point2<f64>],
+    candidates: &Candidates,
     rotated: &[Vector2<f64>],
-    cx: &[f64],
-    cy: &[f64],
+    cells: &[Vector2<f64>],
+    side: usize,
     out: &mut [[f64; BLOCK]],
 ) {
     let n = rotated.len();
-    for (b, (bx, by)) in cx.chunks_exact(BLOCK).zip(cy.chunks_exact(BLOCK)).enumerate() {
-        for (s, q) in rotated.iter().enumerate() {
-            let mut qx = [0.0; BLOCK];
-            let mut qy = [0.0; BLOCK];
-            for l in 0..BLOCK {
-                qx[l] = q.x + bx[l];
-                qy[l] = q.y + by[l];
-            }
-            let mut best = [f64::INFINITY; BLOCK];
-            for a in reference {
-                for l in 0..BLOCK {
-                    let (dx, dy) = (a.x - qx[l], a.y - qy[l]);
-                    let d = dx * dx + dy * dy;
-                    best[l] = if d < best[l] { d } else { best[l] };
+    let per_column = blocks_per_column(side);
+    for (s, q) in rotated.iter().enumerate() {
+        for (col, column) in cells.chunks(side.max(1)).enumerate() {
+            // One column: the same x shift for all its cells.
+            let qx = q.x + column[0].x;
+            for (k, block) in column.chunks(BLOCK).enumerate() {
+                let last = block.len() - 1;
+                let qy: [f64; BLOCK] = std::array::from_fn(|l| q.y + block[l.min(last)].y);
+                // The block's lowest start (the grid's spacing may be negative).
+                let set = candidates.at(qx, qy[0].min(qy[last]));
+                let mut best = [f64::INFINITY; BLOCK];
+                for (w, &word) in set.iter().enumerate() {
+                    let mut bits = word;
+                    while bits != 0 {
+                        let a = reference[w * 64 + bits.trailing_zeros() as usize];
+                        bits &= bits - 1;
+                        let dx = a.x - qx;
+                        let dx2 = dx * dx;
+                        for l in 0..BLOCK {
+                            let dy = a.y - qy[l];
+                            let d = dx2 + dy * dy;
+                            best[l] = if d < best[l] { d } else { best[l] };
+                        }
+                    }
                 }
-            }
-            if let Some(row) = out.get_mut(b * n + s) {
-                *row = best;
+                if let Some(row) = out.get_mut((col * per_column + k) * n + s) {
+                    *row = best;
+                }
             }
         }
     }
+}
+
+/// Blocks of [`BLOCK`] cells in a grid column of `side` cells ([`nearest_by_cell`]).
+fn blocks_per_column(side: usize) -> usize {
+    side.div_ceil(BLOCK)
 }
 
 /// First-pass scores of one block of cells from their distances `rows` (as [`nearest_by_cell`]
@@ -634,9 +655,14 @@ pub fn initial_icp_ranked(
     let mut shortlist: Vec<Start> = Vec::with_capacity(SHORTLIST + 1);
     let mut per_heading: Vec<Start> = Vec::with_capacity(headings as usize);
     let cells = grid_cells(h, p.grid_spacing_m);
-    let (cx, cy) = block_shifts(&cells);
+    let side = (2 * h + 1) as usize;
+    // Every start's anchor lies within the source's reach plus the grid's half width.
+    let reach = source.iter().map(|q| q.coords.norm()).fold(0.0, f64::max) + h as f64 * p.grid_spacing_m.abs();
+    let span_y = (side.min(BLOCK) - 1) as f64 * p.grid_spacing_m.abs();
+    let candidates = Candidates::new(reference, reach * (1.0 + 1e-9), span_y, RASTER_M);
     let n = source.len();
-    let mut by_cell = vec![[0.0; BLOCK]; cells.len().div_ceil(BLOCK) * n];
+    let slots_per_column = blocks_per_column(side) * BLOCK;
+    let mut by_cell = vec![[0.0; BLOCK]; cells.len().div_ceil(side) * blocks_per_column(side) * n];
     let net = Network::new(n);
     for k in 0..headings {
         // seed 000, 5.1 ("all relative headings"): θ_k = 2π·k/H, evenly spaced.
@@ -644,9 +670,15 @@ pub fn initial_icp_ranked(
         let r = rot(heading);
         ws.rotated.clear();
         ws.rotated.extend(source.iter().map(|q| r * q.coords));
-        nearest_by_cell(reference, &ws.rotated, &cx, &cy, &mut by_cell);
+        nearest_by_cell(reference, &candidates, &ws.rotated, &cells, side, &mut by_cell);
         let mut best_here: Option<Start> = None;
-        let scores = by_cell.chunks_exact_mut(n).flat_map(|rows| block_first_pass(rows, &net, &ws.weights, k_min));
+        // Block lanes back to cells, in cell order; padding lanes dropped.
+        let scores = by_cell
+            .chunks_exact_mut(n)
+            .flat_map(|rows| block_first_pass(rows, &net, &ws.weights, k_min))
+            .enumerate()
+            .filter(|(slot, _)| slot % slots_per_column < side)
+            .map(|(_, score)| score);
         for (g, score) in cells.iter().zip(scores) {
             let s =
                 Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: *g } };
@@ -1234,24 +1266,41 @@ mod tests {
             prop_assert_eq!(got.map(f64::to_bits).to_vec(), want);
         }
 
-        /// The first pass's distances, cells in SIMD blocks, equal bit for bit the ones of a
-        /// start-by-start loop (`q + g` first, then the difference to each reference point).
+        /// The first pass's distances, cells in SIMD blocks searched against the candidate
+        /// table, equal bit for bit the ones of a start-by-start loop over every reference point
+        /// (`q + g` first, then the difference to each reference point): whatever the table's
+        /// raster and reach (starts outside it included), on scattered points and on a lattice
+        /// full of ties, for either sign of the grid's spacing, with sets of more than 64 points
+        /// (bit sets of several words).
         #[test]
-        fn prop_nearest_by_cell_is_the_start_by_start_loop(seed in any::<u64>(), n_ref in 3usize..50, n_src in 3usize..50, h in 0i64..6, spacing in 0.05..2.0f64) {
+        fn prop_nearest_by_cell_is_the_start_by_start_loop(seed in any::<u64>(), n_ref in 3usize..150, n_src in 3usize..50, h in 0i64..11, spacing in 0.05..2.0f64, negative in any::<bool>(), lattice in any::<bool>(), raster in 0.05..3.0f64, reach in 0.0..25.0f64) {
             let mut rng = Rng(seed);
-            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
-            let rotated: Vec<Vector2<f64>> = (0..n_src).map(|_| Vector2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
+            let point = |rng: &mut Rng| if lattice {
+                Vector2::new(rng.range(-8.0, 8.0).round() * 0.5, rng.range(-8.0, 8.0).round() * 0.5)
+            } else {
+                Vector2::new(rng.range(-12.0, 12.0), rng.range(-12.0, 12.0))
+            };
+            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| Point2::from(point(&mut rng))).collect();
+            let rotated: Vec<Vector2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
+            let spacing = if negative { -spacing } else { spacing };
             let cells = grid_cells(h, spacing);
-            let (cx, cy) = block_shifts(&cells);
-            let mut out = vec![[f64::NAN; BLOCK]; cells.len().div_ceil(BLOCK) * n_src];
-            nearest_by_cell(&reference, &rotated, &cx, &cy, &mut out);
+            let side = (2 * h + 1) as usize;
+            let span_y = (side.min(BLOCK) - 1) as f64 * spacing.abs();
+            let candidates = Candidates::new(&reference, reach, span_y, raster);
+            let per_column = blocks_per_column(side);
+            let mut out = vec![[f64::NAN; BLOCK]; side * per_column * n_src];
+            nearest_by_cell(&reference, &candidates, &rotated, &cells, side, &mut out);
             for (c, g) in cells.iter().enumerate() {
+                let (col, j) = (c / side, c % side);
                 for (s, q) in rotated.iter().enumerate() {
                     let (qx, qy) = (q.x + g.x, q.y + g.y);
                     let want = reference.iter().map(|a| (a.x - qx) * (a.x - qx) + (a.y - qy) * (a.y - qy)).fold(f64::INFINITY, f64::min);
-                    prop_assert_eq!(out[c / BLOCK * n_src + s][c % BLOCK].to_bits(), want.to_bits(), "cell {} source {}", c, s);
+                    let got = out[(col * per_column + j / BLOCK) * n_src + s][j % BLOCK];
+                    prop_assert_eq!(got.to_bits(), want.to_bits(), "cell {} source {}", c, s);
                 }
             }
+            // Padding lanes repeat their column's last cell: real distances, never NaN.
+            prop_assert!(out.iter().flatten().all(|d| !d.is_nan()));
         }
     }
 

@@ -4,6 +4,8 @@
 //!
 //! - `network`: the full grid's first-pass scores eight starts at a time, their distances sorted
 //!   by a sorting network on SIMD lanes (the same scores as a sort, without its branches).
+//! - `nearest`: the full grid's table of the reference points that can be nearest to each
+//!   stretch of a grid column, so the first pass searches a few points instead of all.
 //! - `alignment`: the ICP itself (Algorithm 1 with FRMSD outlier rejection, the full-grid
 //!   initial estimate and its kernels, the runner-up alignment): how well a received obstacle
 //!   set fits our own at each place, pure geometry.
@@ -22,12 +24,13 @@
 //! placement is a decision with thresholds measured on runs, tested by its rules; the gate is a
 //! geometric shortcut; the database is bookkeeping, tested with scripted matchers and no ICP at
 //! all; the localizer is the thin layer joining them to the agent. Each part uses only parts
-//! listed before it (the network and the gate none), never one listed after it.
+//! listed before it (the network, the table and the gate none), never one listed after it.
 //!
 //! The public surface is what the ICP benchmark and `swarm icp-eval` use (`uav_agent::icp`):
 //! the alignment and the placement policy, re-exported here so no caller names a submodule.
 
 mod alignment;
+mod nearest;
 mod network;
 // Database API kept whole and tested, partly unused by the localizer (see `lib.rs`).
 #[cfg_attr(not(test), allow(dead_code))]
