@@ -6,7 +6,10 @@
 //! - `icp/initial_20pts`: one full-grid initial ICP (21×21 positions × 16 headings);
 //! - `icp/short_20pts`: one short ICP from a nearby estimate (0.3 m, 5° off);
 //! - `icp/initial_45pts`, `icp/short_45pts`: the same on a crowd's set (forest-40-icp,
-//!   forest-100-icp: 40–50 obstacle centres per set), 34 shared + 11 one-sided per side.
+//!   forest-100-icp: 40–50 obstacle centres per set), 34 shared + 11 one-sided per side;
+//! - `icp/initial_12pts`, `icp/initial_16pts` (and their short ICPs): a sparse forest's sets
+//!   (forest-5's own sets hold a median 11 obstacles where a full grid runs), 9 + 3 and 12 + 4,
+//!   either side of where the full grid's first pass starts using its candidate table.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Point2, Rotation2, Vector2};
@@ -88,6 +91,8 @@ fn bench_case(c: &mut Criterion, seed: u64, shared: usize, own: usize) {
 }
 
 fn bench_icp(c: &mut Criterion) {
+    bench_case(c, 5, 9, 3);
+    bench_case(c, 3, 12, 4);
     bench_case(c, 7, 14, 6);
     // A crowd's set (forest-40-icp, forest-100-icp): 40–50 obstacle centres, most of them shared.
     bench_case(c, 11, 34, 11);

@@ -39,12 +39,15 @@
 //!   nearest neighbour, squared FRMSD from a precomputed weight table, so no allocation, no
 //!   `sqrt` and no `powf` in the inner loop); the best few starts, at least one per heading and a
 //!   shortlist overall, are then run through the full ICP, and the lowest final FRMSD wins.
-//!   Nearest-neighbour search goes one heading at a time and eight cells of a grid column at
-//!   once (independent lanes the compiler packs into SIMD), against only the reference points
-//!   that can be nearest to that stretch of column ([`super::nearest`]'s table, built once per
-//!   full grid: about 6 of a crowd's 45 points; a sorted-by-x candidate window, tried before,
-//!   cost more to pick the candidates than it saved). The pairing of the full ICP stays brute
-//!   force over every reference point, a block of source points at a time. Each start's
+//!   Nearest-neighbour search goes one heading at a time and eight cells at once (independent
+//!   lanes the compiler packs into SIMD). From [`TABLE_FROM_POINTS`] reference points the eight
+//!   are a stretch of one grid column, searched against only the reference points that can be
+//!   nearest to it ([`super::nearest`]'s table, built once per full grid: about 6 of a crowd's
+//!   45 points; a sorted-by-x candidate window, tried before, cost more to pick the candidates
+//!   than it saved); a smaller own set (a sparse forest's dozen trunks) is searched whole, in
+//!   blocks that run on across columns, since the columns' padding would cost more than the
+//!   table saves ([`Layout`]). The pairing of the full ICP stays brute force over every
+//!   reference point, a block of source points at a time. Each start's
 //!   distances are sorted for eq. 3.16's prefixes, eight starts at once by a sorting network on
 //!   the same lanes ([`super::network`]: the same scores as a sort, without its mispredicted
 //!   branches); a sort-free lower bound on the score (counts and sums by binary exponent) proved
@@ -114,6 +117,11 @@ const SHORTLIST: usize = 24;
 
 /// Raster cell of the first pass's candidate table [m] ([`Candidates`]).
 const RASTER_M: f64 = 1.0;
+
+/// Own sets of this many points or more are searched through the candidate table
+/// ([`Layout::Columns`]), smaller ones against every point ([`Layout::All`]): `cargo bench -p
+/// uav-agent --bench icp` put the crossover between 12 and 20 points.
+const TABLE_FROM_POINTS: usize = 16;
 
 /// Non-maximum suppression radius of the shortlist, in grid cells (see [`offer`]).
 const SUPPRESS_CELLS: f64 = 2.0;
@@ -494,15 +502,15 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
     list.insert(at, s);
 }
 
-/// Query points searched together by [`nearest_by_cell`] (grid cells) and [`pair_into`] (source
-/// points): a block's running minima stay in registers while each reference point it searches is
-/// visited once, and its lanes are independent, so the compiler turns the loop into packed SIMD (SSE2's
-/// two lanes on the baseline x86-64 target; the first pass 1.5× faster than start by start on a
-/// crowd's 45-point sets, `cargo bench -p uav-agent --bench icp`). Both functions are also
-/// compiled for AVX2 (four lanes) and pick that version at run time where the CPU has it
-/// (`multiversion`): the same operations in the same order per lane (no fused multiply-add is
-/// enabled), so the distances are bit for bit those of the baseline build. The first pass's
-/// blocks are then scored lane by lane too ([`super::network`]).
+/// Query points searched together by [`nearest_all`] and [`nearest_by_column`] (grid cells) and
+/// [`pair_into`] (source points): a block's running minima stay in registers while each reference
+/// point it searches is visited once, and its lanes are independent, so the compiler turns the
+/// loop into packed SIMD (SSE2's two lanes on the baseline x86-64 target; the first pass 1.5×
+/// faster than start by start on a crowd's 45-point sets, `cargo bench -p uav-agent --bench
+/// icp`). The functions are also compiled for AVX2 (four lanes) and pick that version at run
+/// time where the CPU has it (`multiversion`): the same operations in the same order per lane
+/// (no fused multiply-add is enabled), so the distances are bit for bit those of the baseline
+/// build. The first pass's blocks are then scored lane by lane too ([`super::network`]).
 const BLOCK: usize = LANES;
 
 /// The shifts of the grid of seed 000 5.1 and Figure 5.1: cell (i, j) shifts by
@@ -512,13 +520,119 @@ fn grid_cells(h: i64, spacing: f64) -> Vec<Vector2<f64>> {
     (-h..=h).flat_map(|i| (-h..=h).map(move |j| Vector2::new(i as f64, j as f64) * spacing)).collect()
 }
 
-/// First pass, one heading: for every source point `s` (pre-rotated) and every cell `c` (shift
-/// `cells[c]`), the squared distance from `rotated[s] + g_c` to the nearest reference point (seed
-/// 000 eq. 3.17 squared). Cells go in blocks of [`BLOCK`] consecutive cells of one grid column
-/// (`side` = 2h + 1 cells, so [`blocks_per_column`] blocks, the last one padded with copies of
-/// the column's last cell): cell j of column `col` is lane j % [`BLOCK`] of block b = `col` ·
-/// [`blocks_per_column`] + j / [`BLOCK`], and its distance for source `s` goes to
-/// `out[b·|S| + s]` (a block's distances as rows of lanes, as [`block_scores`] takes them).
+/// How the first pass lays out its cells in blocks and searches them.
+enum Layout {
+    /// Cells in cell order, [`BLOCK`] to a block (only the last block padded), each searched
+    /// against every reference point ([`nearest_all`]): a small own set, where the table would
+    /// save less than a column's padding costs. The blocks' shifts, padded with zeros.
+    All { cx: Vec<f64>, cy: Vec<f64> },
+    /// [`BLOCK`] cells of one grid column to a block (each column's last block padded), each
+    /// searched against the table's candidates ([`nearest_by_column`]).
+    Columns(Candidates),
+}
+
+impl Layout {
+    /// The layout for `reference` and the grid `cells` of `side` × `side`: the table from
+    /// `table_from` reference points ([`TABLE_FROM_POINTS`]); `reach` bounds every start's
+    /// anchor (see [`Candidates::new`]).
+    fn new(
+        reference: &[Point2<f64>],
+        cells: &[Vector2<f64>],
+        side: usize,
+        reach: f64,
+        spacing: f64,
+        table_from: usize,
+    ) -> Layout {
+        if reference.len() < table_from {
+            let (cx, cy) = block_shifts(cells);
+            return Layout::All { cx, cy };
+        }
+        let span_y = (side.min(BLOCK) - 1) as f64 * spacing.abs();
+        Layout::Columns(Candidates::new(reference, reach, span_y, RASTER_M))
+    }
+
+    /// Lanes (cells and padding) a grid column takes in this layout; [`Layout::All`] packs the
+    /// columns one after the other.
+    fn slots_per_column(&self, side: usize) -> usize {
+        match self {
+            Layout::All { .. } => side,
+            Layout::Columns(_) => blocks_per_column(side) * BLOCK,
+        }
+    }
+
+    /// Rows of the first pass's distances for `cells` (`side` per column) and `n` source points.
+    fn rows(&self, cells: usize, side: usize, n: usize) -> usize {
+        match self {
+            Layout::All { .. } => cells.div_ceil(BLOCK) * n,
+            Layout::Columns(_) => cells.div_ceil(side) * blocks_per_column(side) * n,
+        }
+    }
+
+    /// Fills `out` with one heading's distances ([`nearest_all`], [`nearest_by_column`]).
+    fn nearest(
+        &self,
+        reference: &[Point2<f64>],
+        rotated: &[Vector2<f64>],
+        cells: &[Vector2<f64>],
+        side: usize,
+        out: &mut [[f64; BLOCK]],
+    ) {
+        match self {
+            Layout::All { cx, cy } => nearest_all(reference, rotated, cx, cy, out),
+            Layout::Columns(table) => nearest_by_column(table, rotated, cells, side, out),
+        }
+    }
+}
+
+/// The x and y of `cells`' shifts, padded with zeros to whole blocks of [`BLOCK`].
+fn block_shifts(cells: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>) {
+    let padded = cells.len().div_ceil(BLOCK) * BLOCK;
+    let pad = |v: Vec<f64>| v.into_iter().chain(std::iter::repeat(0.0)).take(padded).collect();
+    (pad(cells.iter().map(|g| g.x).collect()), pad(cells.iter().map(|g| g.y).collect()))
+}
+
+/// First pass, one heading, for a small reference set ([`Layout::All`]): for every source point
+/// `s` (pre-rotated) and every cell `c` (shift `(cx[c], cy[c])`), the squared distance from
+/// `rotated[s] + g_c` to the nearest reference point (seed 000 eq. 3.17 squared), into
+/// `out[b·|S| + s][l]` for cell c = b·[`BLOCK`] + l (a block's distances as rows of lanes, as
+/// [`block_scores`] takes them), searching every reference point. Each distance is computed as a
+/// start-by-start loop would, operation for operation, so the scores are bit-identical; only
+/// the loops are turned around (cells in blocks of [`BLOCK`], innermost). `cx`/`cy` are padded
+/// to whole blocks; padded cells are computed and dropped.
+#[multiversion::multiversion(targets("x86_64+avx2"))]
+fn nearest_all(reference: &[Point2<f64>], rotated: &[Vector2<f64>], cx: &[f64], cy: &[f64], out: &mut [[f64; BLOCK]]) {
+    let n = rotated.len();
+    for (b, (bx, by)) in cx.chunks_exact(BLOCK).zip(cy.chunks_exact(BLOCK)).enumerate() {
+        for (s, q) in rotated.iter().enumerate() {
+            let mut qx = [0.0; BLOCK];
+            let mut qy = [0.0; BLOCK];
+            for l in 0..BLOCK {
+                qx[l] = q.x + bx[l];
+                qy[l] = q.y + by[l];
+            }
+            let mut best = [f64::INFINITY; BLOCK];
+            for a in reference {
+                for l in 0..BLOCK {
+                    let (dx, dy) = (a.x - qx[l], a.y - qy[l]);
+                    let d = dx * dx + dy * dy;
+                    best[l] = if d < best[l] { d } else { best[l] };
+                }
+            }
+            if let Some(row) = out.get_mut(b * n + s) {
+                *row = best;
+            }
+        }
+    }
+}
+
+/// First pass, one heading, for a larger reference set ([`Layout::Columns`]): for every source
+/// point `s` (pre-rotated) and every cell `c` (shift `cells[c]`), the squared distance from
+/// `rotated[s] + g_c` to the nearest reference point (seed 000 eq. 3.17 squared). Cells go in
+/// blocks of [`BLOCK`] consecutive cells of one grid column (`side` = 2h + 1 cells, so
+/// [`blocks_per_column`] blocks, the last one padded with copies of the column's last cell):
+/// cell j of column `col` is lane j % [`BLOCK`] of block b = `col` · [`blocks_per_column`] +
+/// j / [`BLOCK`], and its distance for source `s` goes to `out[b·|S| + s]` (a block's distances
+/// as rows of lanes, as [`block_scores`] takes them).
 ///
 /// Each block is searched against the candidates of [`Candidates`] for its lowest cell (all
 /// points outside the table). Each distance is computed as a start-by-start loop would,
@@ -526,8 +640,7 @@ fn grid_cells(h: i64, spacing: f64) -> Vec<Vector2<f64>> {
 /// the nearest one is the least of them over a set that holds every point that could be least,
 /// so the scores are bit-identical; only the loops are turned around and cut short.
 #[multiversion::multiversion(targets("x86_64+avx2"))]
-fn nearest_by_cell(
-    reference: &[Point2<f64>],
+fn nearest_by_column(
     candidates: &Candidates,
     rotated: &[Vector2<f64>],
     cells: &[Vector2<f64>],
@@ -543,21 +656,15 @@ fn nearest_by_cell(
             for (k, block) in column.chunks(BLOCK).enumerate() {
                 let last = block.len() - 1;
                 let qy: [f64; BLOCK] = std::array::from_fn(|l| q.y + block[l.min(last)].y);
-                // The block's lowest start (the grid's spacing may be negative).
-                let set = candidates.at(qx, qy[0].min(qy[last]));
                 let mut best = [f64::INFINITY; BLOCK];
-                for (w, &word) in set.iter().enumerate() {
-                    let mut bits = word;
-                    while bits != 0 {
-                        let a = reference[w * 64 + bits.trailing_zeros() as usize];
-                        bits &= bits - 1;
-                        let dx = a.x - qx;
-                        let dx2 = dx * dx;
-                        for l in 0..BLOCK {
-                            let dy = a.y - qy[l];
-                            let d = dx2 + dy * dy;
-                            best[l] = if d < best[l] { d } else { best[l] };
-                        }
+                // Anchored at the block's lowest start (the grid's spacing may be negative).
+                for a in candidates.at(qx, qy[0].min(qy[last])) {
+                    let dx = a[0] - qx;
+                    let dx2 = dx * dx;
+                    for l in 0..BLOCK {
+                        let dy = a[1] - qy[l];
+                        let d = dx2 + dy * dy;
+                        best[l] = if d < best[l] { d } else { best[l] };
                     }
                 }
                 if let Some(row) = out.get_mut((col * per_column + k) * n + s) {
@@ -568,14 +675,14 @@ fn nearest_by_cell(
     }
 }
 
-/// Blocks of [`BLOCK`] cells in a grid column of `side` cells ([`nearest_by_cell`]).
+/// Blocks of [`BLOCK`] cells in a grid column of `side` cells ([`nearest_by_column`]).
 fn blocks_per_column(side: usize) -> usize {
     side.div_ceil(BLOCK)
 }
 
-/// First-pass scores of one block of cells from their distances `rows` (as [`nearest_by_cell`]
-/// leaves them; sorted in place): by the sorting network on lanes, or, for a block with a NaN,
-/// start by start with [`first_pass_score`]. The same scores either way.
+/// First-pass scores of one block of cells from their distances `rows` (as [`nearest_all`] or
+/// [`nearest_by_column`] leaves them; sorted in place): by the sorting network on lanes, or, for
+/// a block with a NaN, start by start with [`first_pass_score`]. The same scores either way.
 fn block_first_pass(rows: &mut [[f64; BLOCK]], net: &Network, weights: &[f64], k_min: usize) -> [f64; BLOCK] {
     block_scores(rows, net, weights, k_min, TIE_M * TIE_M).unwrap_or_else(|| {
         let mut lane = Vec::with_capacity(rows.len());
@@ -641,6 +748,17 @@ pub fn initial_icp_ranked(
     source: &[Point2<f64>],
     p: &IcpParams,
 ) -> Result<Ranked, NoEstimate> {
+    initial_icp_ranked_from(reference, source, p, TABLE_FROM_POINTS)
+}
+
+/// [`initial_icp_ranked`] with the first pass's candidate table from `table_from` reference
+/// points (the tests compare both layouts).
+fn initial_icp_ranked_from(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    p: &IcpParams,
+    table_from: usize,
+) -> Result<Ranked, NoEstimate> {
     let k_min = validate(reference, source, p)?;
     if !p.grid_spacing_m.is_finite() {
         return Err(NoEstimate::NonFinite);
@@ -658,11 +776,10 @@ pub fn initial_icp_ranked(
     let side = (2 * h + 1) as usize;
     // Every start's anchor lies within the source's reach plus the grid's half width.
     let reach = source.iter().map(|q| q.coords.norm()).fold(0.0, f64::max) + h as f64 * p.grid_spacing_m.abs();
-    let span_y = (side.min(BLOCK) - 1) as f64 * p.grid_spacing_m.abs();
-    let candidates = Candidates::new(reference, reach * (1.0 + 1e-9), span_y, RASTER_M);
+    let layout = Layout::new(reference, &cells, side, reach * (1.0 + 1e-9), p.grid_spacing_m, table_from);
     let n = source.len();
-    let slots_per_column = blocks_per_column(side) * BLOCK;
-    let mut by_cell = vec![[0.0; BLOCK]; cells.len().div_ceil(side) * blocks_per_column(side) * n];
+    let slots_per_column = layout.slots_per_column(side);
+    let mut by_cell = vec![[0.0; BLOCK]; layout.rows(cells.len(), side, n)];
     let net = Network::new(n);
     for k in 0..headings {
         // seed 000, 5.1 ("all relative headings"): θ_k = 2π·k/H, evenly spaced.
@@ -670,7 +787,7 @@ pub fn initial_icp_ranked(
         let r = rot(heading);
         ws.rotated.clear();
         ws.rotated.extend(source.iter().map(|q| r * q.coords));
-        nearest_by_cell(reference, &candidates, &ws.rotated, &cells, side, &mut by_cell);
+        layout.nearest(reference, &ws.rotated, &cells, side, &mut by_cell);
         let mut best_here: Option<Start> = None;
         // Block lanes back to cells, in cell order; padding lanes dropped.
         let scores = by_cell
@@ -1266,6 +1383,26 @@ mod tests {
             prop_assert_eq!(got.map(f64::to_bits).to_vec(), want);
         }
 
+        /// The first pass's distances, cells in SIMD blocks, equal bit for bit the ones of a
+        /// start-by-start loop (`q + g` first, then the difference to each reference point).
+        #[test]
+        fn prop_nearest_all_is_the_start_by_start_loop(seed in any::<u64>(), n_ref in 3usize..50, n_src in 3usize..50, h in 0i64..6, spacing in 0.05..2.0f64) {
+            let mut rng = Rng(seed);
+            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
+            let rotated: Vec<Vector2<f64>> = (0..n_src).map(|_| Vector2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))).collect();
+            let cells = grid_cells(h, spacing);
+            let (cx, cy) = block_shifts(&cells);
+            let mut out = vec![[f64::NAN; BLOCK]; cells.len().div_ceil(BLOCK) * n_src];
+            nearest_all(&reference, &rotated, &cx, &cy, &mut out);
+            for (c, g) in cells.iter().enumerate() {
+                for (s, q) in rotated.iter().enumerate() {
+                    let (qx, qy) = (q.x + g.x, q.y + g.y);
+                    let want = reference.iter().map(|a| (a.x - qx) * (a.x - qx) + (a.y - qy) * (a.y - qy)).fold(f64::INFINITY, f64::min);
+                    prop_assert_eq!(out[c / BLOCK * n_src + s][c % BLOCK].to_bits(), want.to_bits(), "cell {} source {}", c, s);
+                }
+            }
+        }
+
         /// The first pass's distances, cells in SIMD blocks searched against the candidate
         /// table, equal bit for bit the ones of a start-by-start loop over every reference point
         /// (`q + g` first, then the difference to each reference point): whatever the table's
@@ -1273,7 +1410,7 @@ mod tests {
         /// full of ties, for either sign of the grid's spacing, with sets of more than 64 points
         /// (bit sets of several words).
         #[test]
-        fn prop_nearest_by_cell_is_the_start_by_start_loop(seed in any::<u64>(), n_ref in 3usize..150, n_src in 3usize..50, h in 0i64..11, spacing in 0.05..2.0f64, negative in any::<bool>(), lattice in any::<bool>(), raster in 0.05..3.0f64, reach in 0.0..25.0f64) {
+        fn prop_nearest_by_column_is_the_start_by_start_loop(seed in any::<u64>(), n_ref in 3usize..150, n_src in 3usize..50, h in 0i64..11, spacing in 0.05..2.0f64, negative in any::<bool>(), lattice in any::<bool>(), raster in 0.05..3.0f64, reach in 0.0..25.0f64) {
             let mut rng = Rng(seed);
             let point = |rng: &mut Rng| if lattice {
                 Vector2::new(rng.range(-8.0, 8.0).round() * 0.5, rng.range(-8.0, 8.0).round() * 0.5)
@@ -1289,7 +1426,7 @@ mod tests {
             let candidates = Candidates::new(&reference, reach, span_y, raster);
             let per_column = blocks_per_column(side);
             let mut out = vec![[f64::NAN; BLOCK]; side * per_column * n_src];
-            nearest_by_cell(&reference, &candidates, &rotated, &cells, side, &mut out);
+            nearest_by_column(&candidates, &rotated, &cells, side, &mut out);
             for (c, g) in cells.iter().enumerate() {
                 let (col, j) = (c / side, c % side);
                 for (s, q) in rotated.iter().enumerate() {
@@ -1315,6 +1452,25 @@ mod tests {
             let (reference, source, truth) = scenario(&mut rng, 0.0);
             let m = initial_icp(&reference, &source, &IcpParams::default());
             prop_assert!(m.is_ok_and(|m| close(&m, &truth, 1e-6, 1e-6) && m.pairs == 14), "{m:?} vs {truth:?}");
+        }
+
+        /// The full grid's outcome is the same whichever way its first pass searches: against
+        /// every point or through the candidate table (own sets on both sides of
+        /// `TABLE_FROM_POINTS`, scattered or on a lattice of look-alike places).
+        #[test]
+        fn prop_both_first_pass_layouts_give_the_same_outcome(seed in any::<u64>(), n_ref in 5usize..40, n_src in 5usize..40, lattice in any::<bool>()) {
+            let mut rng = Rng(seed);
+            let point = |rng: &mut Rng| if lattice {
+                Point2::new(rng.range(-6.0, 6.0).round() * 1.6, rng.range(-6.0, 6.0).round() * 1.6)
+            } else {
+                Point2::new(rng.range(-12.0, 12.0), rng.range(-12.0, 12.0))
+            };
+            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
+            let source: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
+            let p = IcpParams::default();
+            let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX);
+            let table = initial_icp_ranked_from(&reference, &source, &p, 0);
+            prop_assert_eq!(format!("{all:?}"), format!("{table:?}"));
         }
     }
 }

@@ -38,12 +38,16 @@ pub(super) struct Candidates {
     inv_cell: f64,
     /// Raster cells per side.
     n: usize,
-    /// Words of a cell's bit set: reference point k is bit k % 64 of word k / 64.
-    words: usize,
-    /// Cell `(ix, iy)`'s candidates: `sets[(ix·n + iy)·words..][..words]`.
-    sets: Vec<u64>,
-    /// Every reference point: the set outside the raster.
-    everyone: Vec<u64>,
+    /// Cell `(ix, iy)`, k = ix·n + iy, lists `points[starts[k]..starts[k + 1]]`.
+    starts: Vec<usize>,
+    /// The candidates' coordinates, by cell, each cell's in reference order: read in a row,
+    /// with no indirection, by the first pass's innermost loop.
+    points: Vec<[f64; 2]>,
+    /// Their indices into the reference set (the tests).
+    #[cfg(test)]
+    index: Vec<usize>,
+    /// Every reference point: the list outside the raster.
+    everyone: Vec<[f64; 2]>,
 }
 
 impl Candidates {
@@ -52,75 +56,116 @@ impl Candidates {
     /// An empty raster (every block searched against every point) when an input is not finite
     /// or `cell` is not positive.
     pub(super) fn new(reference: &[Point2<f64>], reach: f64, span_y: f64, cell: f64) -> Candidates {
-        let m = reference.len();
-        let words = m.div_ceil(64).max(1);
-        let mut everyone = vec![0u64; words];
-        for k in 0..m {
-            everyone[k / 64] |= 1 << (k % 64);
-        }
+        let everyone: Vec<[f64; 2]> = reference.iter().map(|a| [a.x, a.y]).collect();
         let usable = reach.is_finite() && span_y.is_finite() && cell.is_finite() && cell > 0.0 && span_y >= 0.0;
         let n = if usable { (2.0 * reach.max(0.0) / cell).floor() as usize + 1 } else { 0 };
         let origin = -reach.max(0.0);
-        // Per raster column, each point's largest and least squared x-distance to the column's
-        // region; per raster row the same in y (rows run along the lanes, so those tables are
-        // by point, then row). A cell's region is the product of its column's and its row's, so
-        // its distances are the sums.
-        let (far_x, near_x) = axis(reference, origin, n, cell, 0.0, |a| a.x);
-        let (far_y, near_y) = axis(reference, origin, n, cell, span_y, |a| a.y);
-        let mut sets = vec![0u64; n * n * words];
-        let mut bound = vec![f64::INFINITY; n];
-        let mut bits = vec![0u64; n];
-        for ix in 0..n {
-            // The least farthest distance: every point of the region has a reference point this
-            // close, so a reference point nearer than that to none of the region is never nearest.
-            bound.fill(f64::INFINITY);
-            for k in 0..m {
-                let fx = far_x[k * n + ix];
-                for (b, &fy) in bound.iter_mut().zip(&far_y[k * n..(k + 1) * n]) {
-                    *b = b.min(fx + fy);
+        let words = reference.len().div_ceil(64).max(1);
+        let sets = bit_sets(reference, origin, n, cell, span_y, words);
+        // The bit sets written out as lists of coordinates.
+        let mut starts = Vec::with_capacity(n * n + 1);
+        let mut index = Vec::new();
+        starts.push(0);
+        for cell_set in sets.chunks_exact(words) {
+            for (w, &word) in cell_set.iter().enumerate() {
+                let mut bits = word;
+                while bits != 0 {
+                    index.push(w * 64 + bits.trailing_zeros() as usize);
+                    bits &= bits - 1;
                 }
             }
-            for b in &mut bound {
-                *b *= 1.0 + SLACK;
-            }
-            for w in 0..words {
-                bits.fill(0);
-                for k in w * 64..m.min((w + 1) * 64) {
-                    let (nx, bit) = (near_x[k * n + ix], 1u64 << (k % 64));
-                    for ((set, &ny), &cut) in bits.iter_mut().zip(&near_y[k * n..(k + 1) * n]).zip(&bound) {
-                        *set |= if nx + ny <= cut { bit } else { 0 };
-                    }
-                }
-                for (iy, &set) in bits.iter().enumerate() {
-                    sets[(ix * n + iy) * words + w] = set;
-                }
-            }
+            starts.push(index.len());
         }
-        Candidates { x0: origin, y0: origin, inv_cell: 1.0 / cell, n, words, sets, everyone }
+        let points = index.iter().map(|&k| everyone[k]).collect();
+        Candidates {
+            x0: origin,
+            y0: origin,
+            inv_cell: 1.0 / cell,
+            n,
+            starts,
+            points,
+            #[cfg(test)]
+            index,
+            everyone,
+        }
     }
 
-    /// The candidates of a block anchored at (x, y), as a bit set over the reference points;
+    /// The candidates of a block anchored at (x, y), as (x, y) coordinates in reference order;
     /// every point outside the raster.
     #[inline]
-    pub(super) fn at(&self, x: f64, y: f64) -> &[u64] {
+    pub(super) fn at(&self, x: f64, y: f64) -> &[[f64; 2]] {
+        match self.cell(x, y) {
+            Some(k) => &self.points[self.starts[k]..self.starts[k + 1]],
+            None => &self.everyone,
+        }
+    }
+
+    /// The raster cell of (x, y), if inside.
+    #[inline]
+    fn cell(&self, x: f64, y: f64) -> Option<usize> {
         let fx = (x - self.x0) * self.inv_cell;
         let fy = (y - self.y0) * self.inv_cell;
         if !(fx >= 0.0 && fy >= 0.0) {
-            return &self.everyone;
+            return None;
         }
         let (ix, iy) = (fx as usize, fy as usize);
-        if ix >= self.n || iy >= self.n {
-            return &self.everyone;
+        (ix < self.n && iy < self.n).then_some(ix * self.n + iy)
+    }
+
+    /// The indices of [`Candidates::at`]'s points (all of them outside the raster).
+    #[cfg(test)]
+    fn listed(&self, x: f64, y: f64) -> Vec<usize> {
+        match self.cell(x, y) {
+            Some(k) => self.index[self.starts[k]..self.starts[k + 1]].to_vec(),
+            None => (0..self.everyone.len()).collect(),
         }
-        let k = (ix * self.n + iy) * self.words;
-        &self.sets[k..k + self.words]
     }
 
     /// Mean candidates per cell (the tests).
     #[cfg(test)]
-    pub(super) fn mean_len(&self) -> f64 {
-        self.sets.iter().map(|w| f64::from(w.count_ones())).sum::<f64>() / (self.n * self.n).max(1) as f64
+    fn mean_len(&self) -> f64 {
+        self.points.len() as f64 / (self.n * self.n).max(1) as f64
     }
+}
+
+/// Each raster cell's candidates as a bit set over the reference points (point k is bit k % 64
+/// of the cell's word k / 64; `words` per cell, cell (ix, iy) at (ix·n + iy)·`words`), for the
+/// `n` × `n` raster of `cell` from (`origin`, `origin`) and regions `span_y` taller than a cell.
+fn bit_sets(reference: &[Point2<f64>], origin: f64, n: usize, cell: f64, span_y: f64, words: usize) -> Vec<u64> {
+    let m = reference.len();
+    // A cell's region is the product of its column's x interval and its row's y interval, so
+    // its squared distances to a point are sums of the two axes'.
+    let (far_x, near_x) = axis(reference, origin, n, cell, 0.0, |a| a.x);
+    let (far_y, near_y) = axis(reference, origin, n, cell, span_y, |a| a.y);
+    let mut sets = vec![0u64; n * n * words];
+    let mut cut = vec![f64::INFINITY; n];
+    let mut bits = vec![0u64; n];
+    for ix in 0..n {
+        // Down the raster column: the least farthest distance. Every point of the region has a
+        // reference point this close, so a reference point nearer than that to no point of the
+        // region is never nearest.
+        cut.fill(f64::INFINITY);
+        for k in 0..m {
+            let fx = far_x[k * n + ix];
+            for (c, &fy) in cut.iter_mut().zip(&far_y[k * n..(k + 1) * n]) {
+                *c = c.min(fx + fy);
+            }
+        }
+        cut.iter_mut().for_each(|c| *c *= 1.0 + SLACK);
+        for w in 0..words {
+            bits.fill(0);
+            for k in w * 64..m.min((w + 1) * 64) {
+                let (nx, bit) = (near_x[k * n + ix], 1u64 << (k % 64));
+                for ((set, &ny), &c) in bits.iter_mut().zip(&near_y[k * n..(k + 1) * n]).zip(&cut) {
+                    *set |= if nx + ny <= c { bit } else { 0 };
+                }
+            }
+            for (iy, &set) in bits.iter().enumerate() {
+                sets[(ix * n + iy) * words + w] = set;
+            }
+        }
+    }
+    sets
 }
 
 /// One axis of the raster: for each of `count` intervals `[origin + i·cell, origin + (i + 1)·cell
@@ -182,11 +227,11 @@ mod tests {
             for ix in 0..table.n {
                 for iy in 0..table.n {
                     let (x0, y0) = (table.x0 + ix as f64 * cell, table.y0 + iy as f64 * cell);
-                    let set = table.at(x0 + 0.5 * cell, y0 + 0.5 * cell);
+                    let listed = table.listed(x0 + 0.5 * cell, y0 + 0.5 * cell);
                     let (x1, y1) = (x0 + cell, y0 + cell + span_y);
                     for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1), (x0 + fx * cell, y0 + fy * (y1 - y0))] {
                         let k = nearest(x, y);
-                        prop_assert!(set[k / 64] >> (k % 64) & 1 == 1, "cell ({}, {}): nearest {} to ({}, {}) not listed", ix, iy, k, x, y);
+                        prop_assert!(listed.contains(&k), "cell ({}, {}): nearest {} to ({}, {}) not listed", ix, iy, k, x, y);
                     }
                 }
             }
@@ -207,9 +252,13 @@ mod tests {
             (0..45).map(|_| Point2::new(unit() * 20.0 - 10.0, unit() * 20.0 - 10.0)).collect();
         let table = Candidates::new(&points, 17.0, 3.5, 1.0);
         assert!(table.mean_len() < 10.0, "mean candidates {}", table.mean_len());
-        let all = |set: &[u64]| set.iter().map(|w| w.count_ones()).sum::<u32>();
-        assert!(all(table.at(0.0, 0.0)) < 45);
-        assert_eq!(all(table.at(30.0, 0.0)), 45);
-        assert_eq!(all(table.at(f64::NAN, 0.0)), 45);
+        assert!(table.at(0.0, 0.0).len() < 45);
+        assert_eq!(table.listed(30.0, 0.0).len(), 45);
+        assert_eq!(table.at(f64::NAN, 0.0).len(), 45);
+        // The coordinates are the listed points', in reference order.
+        let listed = table.listed(1.0, -2.0);
+        assert!(listed.windows(2).all(|w| w[0] < w[1]));
+        let want: Vec<[f64; 2]> = listed.iter().map(|&k| [points[k].x, points[k].y]).collect();
+        assert_eq!(table.at(1.0, -2.0), &want[..]);
     }
 }
