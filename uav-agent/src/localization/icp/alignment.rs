@@ -532,23 +532,29 @@ enum Layout {
 }
 
 impl Layout {
-    /// The layout for `reference` and the grid `cells` of `side` × `side`: the table from
-    /// `table_from` reference points ([`TABLE_FROM_POINTS`]); `reach` bounds every start's
-    /// anchor (see [`Candidates::new`]).
+    /// The layout for `reference` and the grid `cells` of `side` × `side` at `headings`
+    /// headings: the table from `table_from` reference points ([`TABLE_FROM_POINTS`]), as long
+    /// as its raster over `reach` (which bounds every start's anchor, see [`Candidates::new`])
+    /// has no more cells than the first pass has starts. Building the table costs about a
+    /// search of every point per raster cell, so a reach far beyond the LIDAR's (a stray far
+    /// point, an absurd grid spacing) would cost more than it saves, or more memory than there is.
     fn new(
         reference: &[Point2<f64>],
         cells: &[Vector2<f64>],
         side: usize,
+        headings: u32,
         reach: f64,
         spacing: f64,
         table_from: usize,
     ) -> Layout {
-        if reference.len() < table_from {
+        let raster_side = (2.0 * reach.max(0.0) / RASTER_M).floor() + 1.0;
+        let starts = cells.len() as f64 * f64::from(headings);
+        let fits = raster_side * raster_side <= starts;
+        if reference.len() < table_from || !fits {
             let (cx, cy) = block_shifts(cells);
             return Layout::All { cx, cy };
         }
-        let span_y = (side.min(BLOCK) - 1) as f64 * spacing.abs();
-        Layout::Columns(Candidates::new(reference, reach, span_y, RASTER_M))
+        Layout::Columns(Candidates::new(reference, reach, block_span(side, spacing), RASTER_M))
     }
 
     /// Lanes (cells and padding) a grid column takes in this layout; [`Layout::All`] packs the
@@ -602,6 +608,7 @@ fn block_shifts(cells: &[Vector2<f64>]) -> (Vec<f64>, Vec<f64>) {
 #[multiversion::multiversion(targets("x86_64+avx2"))]
 fn nearest_all(reference: &[Point2<f64>], rotated: &[Vector2<f64>], cx: &[f64], cy: &[f64], out: &mut [[f64; BLOCK]]) {
     let n = rotated.len();
+    debug_assert!(out.len() >= cx.len() / BLOCK * n, "a row for every block and source point");
     for (b, (bx, by)) in cx.chunks_exact(BLOCK).zip(cy.chunks_exact(BLOCK)).enumerate() {
         for (s, q) in rotated.iter().enumerate() {
             let mut qx = [0.0; BLOCK];
@@ -649,6 +656,10 @@ fn nearest_by_column(
 ) {
     let n = rotated.len();
     let per_column = blocks_per_column(side);
+    debug_assert!(
+        out.len() >= cells.len().div_ceil(side.max(1)) * per_column * n,
+        "a row for every block and source point"
+    );
     for (s, q) in rotated.iter().enumerate() {
         for (col, column) in cells.chunks(side.max(1)).enumerate() {
             // One column: the same x shift for all its cells.
@@ -673,6 +684,12 @@ fn nearest_by_column(
             }
         }
     }
+}
+
+/// How far a block of [`nearest_by_column`] reaches along its grid column beyond its first cell,
+/// for a grid of `side` cells per column and `spacing` [m]: its table regions' extra height.
+fn block_span(side: usize, spacing: f64) -> f64 {
+    (side.min(BLOCK) - 1) as f64 * spacing.abs()
 }
 
 /// Blocks of [`BLOCK`] cells in a grid column of `side` cells ([`nearest_by_column`]).
@@ -776,7 +793,7 @@ fn initial_icp_ranked_from(
     let side = (2 * h + 1) as usize;
     // Every start's anchor lies within the source's reach plus the grid's half width.
     let reach = source.iter().map(|q| q.coords.norm()).fold(0.0, f64::max) + h as f64 * p.grid_spacing_m.abs();
-    let layout = Layout::new(reference, &cells, side, reach * (1.0 + 1e-9), p.grid_spacing_m, table_from);
+    let layout = Layout::new(reference, &cells, side, headings, reach * (1.0 + 1e-9), p.grid_spacing_m, table_from);
     let n = source.len();
     let slots_per_column = layout.slots_per_column(side);
     let mut by_cell = vec![[0.0; BLOCK]; layout.rows(cells.len(), side, n)];
@@ -789,7 +806,8 @@ fn initial_icp_ranked_from(
         ws.rotated.extend(source.iter().map(|q| r * q.coords));
         layout.nearest(reference, &ws.rotated, &cells, side, &mut by_cell);
         let mut best_here: Option<Start> = None;
-        // Block lanes back to cells, in cell order; padding lanes dropped.
+        // Block lanes back to cells, in cell order: the columns' padding lanes dropped by the
+        // filter, the last block's (`Layout::All`) by the zip with the cells.
         let scores = by_cell
             .chunks_exact_mut(n)
             .flat_map(|rows| block_first_pass(rows, &net, &ws.weights, k_min))
@@ -1188,6 +1206,24 @@ mod tests {
         }
     }
 
+    /// The candidate table is built only while its raster has no more cells than the first pass
+    /// has starts: a reach far beyond the LIDAR's leaves the search over every point, and a grid
+    /// spacing of 2e8 m (once a 640 GB table and an abort) runs the full grid as before.
+    #[test]
+    fn a_far_reach_searches_every_point_instead_of_building_a_huge_table() {
+        let reference: Vec<Point2<f64>> =
+            (0..20).map(|i| Point2::new(f64::from(i % 5) * 2.3, f64::from(i / 5) * 1.7 + 0.1 * f64::from(i))).collect();
+        let cells = grid_cells(10, 0.5);
+        let layout = |reach: f64| Layout::new(&reference, &cells, 21, 16, reach, 0.5, TABLE_FROM_POINTS);
+        assert!(matches!(layout(17.0), Layout::Columns(_)));
+        assert!(matches!(layout(500.0), Layout::All { .. }));
+        assert!(matches!(layout(f64::INFINITY), Layout::All { .. }));
+        let source: Vec<Point2<f64>> = reference.iter().map(|q| Point2::new(q.y + 0.4, -q.x + 0.2)).collect();
+        let p = IcpParams { grid_spacing_m: 2e8, ..IcpParams::default() };
+        let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX);
+        assert_eq!(format!("{all:?}"), format!("{:?}", initial_icp_ranked_from(&reference, &source, &p, 0)));
+    }
+
     #[test]
     fn degenerate_inputs_are_rejected() {
         let p = IcpParams::default();
@@ -1422,8 +1458,7 @@ mod tests {
             let spacing = if negative { -spacing } else { spacing };
             let cells = grid_cells(h, spacing);
             let side = (2 * h + 1) as usize;
-            let span_y = (side.min(BLOCK) - 1) as f64 * spacing.abs();
-            let candidates = Candidates::new(&reference, reach, span_y, raster);
+            let candidates = Candidates::new(&reference, reach, block_span(side, spacing), raster);
             let per_column = blocks_per_column(side);
             let mut out = vec![[f64::NAN; BLOCK]; side * per_column * n_src];
             nearest_by_column(&candidates, &rotated, &cells, side, &mut out);
@@ -1454,9 +1489,9 @@ mod tests {
             prop_assert!(m.is_ok_and(|m| close(&m, &truth, 1e-6, 1e-6) && m.pairs == 14), "{m:?} vs {truth:?}");
         }
 
-        /// The full grid's outcome is the same whichever way its first pass searches: against
-        /// every point or through the candidate table (own sets on both sides of
-        /// `TABLE_FROM_POINTS`, scattered or on a lattice of look-alike places).
+        /// The full grid's outcome is the same whichever way its first pass searches, against
+        /// every point or through the candidate table, for own sets of any size, scattered or on
+        /// a lattice of look-alike places.
         #[test]
         fn prop_both_first_pass_layouts_give_the_same_outcome(seed in any::<u64>(), n_ref in 5usize..40, n_src in 5usize..40, lattice in any::<bool>()) {
             let mut rng = Rng(seed);

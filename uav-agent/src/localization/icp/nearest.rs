@@ -8,8 +8,9 @@
 //! a crowd's 45-point sets, two thirds of an agent host's CPU at 1000 UAVs (`perf`). A block of
 //! starts lies on a short segment of one grid column, and only a few reference points can be
 //! nearest to any point of it: those no farther from the segment's surroundings than the point
-//! whose farthest distance to them is least. The table lists them per raster cell, once per own
-//! set, and each block is searched against its anchor cell's list.
+//! whose farthest distance to them is least. The table lists them per raster cell, once per full
+//! grid (its raster covers that grid's starts), and each block is searched against its anchor
+//! cell's list.
 //!
 //! The distances are bit for bit the ones of the search over every point: the caller computes
 //! each candidate's distance with the same operations, and a point left out of a cell's list is
@@ -25,8 +26,13 @@ use nalgebra::Point2;
 const SLACK: f64 = 1e-9;
 
 /// Each region is widened by this much on every side [m], so a start whose rounded raster index
-/// puts it on the wrong side of a cell boundary is still inside its cell's region.
+/// puts it on the wrong side of a cell boundary is still inside its cell's region. (Random
+/// tests do not hit such a start; the margin is there by argument, not by a failing case.)
 const MARGIN_M: f64 = 1e-6;
+
+/// The widest raster built, in cells per side (far beyond any use: a LIDAR's reach is tens of
+/// cells); wider is left empty, so its size cannot overflow.
+const MAX_SIDE: usize = 1 << 12;
 
 /// The candidate table of one reference set.
 #[derive(Debug, Clone)]
@@ -53,12 +59,15 @@ pub(super) struct Candidates {
 impl Candidates {
     /// The table for `reference`, over anchors in `[-reach, reach]²`, for regions of `cell` ×
     /// (`cell` + `span_y`) [m]: a block anchored at (x, y) covers x and y to y + `span_y`.
-    /// An empty raster (every block searched against every point) when an input is not finite
-    /// or `cell` is not positive.
+    /// An empty raster (every block searched against every point) when an input is not finite,
+    /// `cell` is not positive, `span_y` is negative or the raster would be more than
+    /// [`MAX_SIDE`] cells wide. Building costs about a search of every point per raster cell,
+    /// so the caller keeps `reach` / `cell` small ([`super::alignment`]'s `Layout`).
     pub(super) fn new(reference: &[Point2<f64>], reach: f64, span_y: f64, cell: f64) -> Candidates {
         let everyone: Vec<[f64; 2]> = reference.iter().map(|a| [a.x, a.y]).collect();
         let usable = reach.is_finite() && span_y.is_finite() && cell.is_finite() && cell > 0.0 && span_y >= 0.0;
-        let n = if usable { (2.0 * reach.max(0.0) / cell).floor() as usize + 1 } else { 0 };
+        let side = (2.0 * reach.max(0.0) / cell).floor() + 1.0;
+        let n = if usable && side <= MAX_SIDE as f64 { side as usize } else { 0 };
         let origin = -reach.max(0.0);
         let words = reference.len().div_ceil(64).max(1);
         let sets = bit_sets(reference, origin, n, cell, span_y, words);
