@@ -806,21 +806,28 @@ fn initial_icp_ranked_from(
         ws.rotated.extend(source.iter().map(|q| r * q.coords));
         layout.nearest(reference, &ws.rotated, &cells, side, &mut by_cell);
         let mut best_here: Option<Start> = None;
-        // Block lanes back to cells, in cell order: the columns' padding lanes dropped by the
-        // filter, the last block's (`Layout::All`) by the zip with the cells.
-        let scores = by_cell
-            .chunks_exact_mut(n)
-            .flat_map(|rows| block_first_pass(rows, &net, &ws.weights, k_min))
-            .enumerate()
-            .filter(|(slot, _)| slot % slots_per_column < side)
-            .map(|(_, score)| score);
-        for (g, score) in cells.iter().zip(scores) {
-            let s =
-                Start { score, agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: *g } };
-            if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
-                best_here = Some(s);
+        // Block lanes back to cells, in cell order: the columns' padding lanes are skipped by
+        // their slot in the column, the last block's (`Layout::All`) when the cells run out.
+        // A plain loop: as an iterator chain it was not inlined, 5 % of a 12-point full grid.
+        let mut next_cell = cells.iter();
+        let mut slot = 0;
+        for rows in by_cell.chunks_exact_mut(n) {
+            for score in block_first_pass(rows, &net, &ws.weights, k_min) {
+                let padding = slot >= side;
+                slot = if slot + 1 == slots_per_column { 0 } else { slot + 1 };
+                if padding {
+                    continue;
+                }
+                let Some(g) = next_cell.next() else { break };
+                let s = Start {
+                    score,
+                    agent_from_neighbour: AgentFromNeighbour { rotation_rad: heading, translation_m: *g },
+                };
+                if best_here.is_none_or(|b| score.total_cmp(&b.score).is_lt()) {
+                    best_here = Some(s);
+                }
+                offer(&mut shortlist, SHORTLIST, suppress2, s);
             }
-            offer(&mut shortlist, SHORTLIST, suppress2, s);
         }
         // The best start of this heading, unless the shortlist already has it.
         per_heading
