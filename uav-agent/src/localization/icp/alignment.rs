@@ -53,7 +53,7 @@
 //!   branches); a sort-free lower bound on the score (counts and sums by binary exponent) proved
 //!   83 % of a crowd grid's starts unable to rank, but cost half a sort to compute.
 
-use super::nearest::Candidates;
+use super::nearest::{raster_side, Candidates};
 use super::network::{block_scores, Network, LANES};
 use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
@@ -547,9 +547,9 @@ impl Layout {
         spacing: f64,
         table_from: usize,
     ) -> Layout {
-        let raster_side = (2.0 * reach.max(0.0) / RASTER_M).floor() + 1.0;
+        let side_cells = raster_side(reach, RASTER_M);
         let starts = cells.len() as f64 * f64::from(headings);
-        let fits = raster_side * raster_side <= starts;
+        let fits = side_cells * side_cells <= starts;
         if reference.len() < table_from || !fits {
             let (cx, cy) = block_shifts(cells);
             return Layout::All { cx, cy };

@@ -66,7 +66,7 @@ impl Candidates {
     pub(super) fn new(reference: &[Point2<f64>], reach: f64, span_y: f64, cell: f64) -> Candidates {
         let everyone: Vec<[f64; 2]> = reference.iter().map(|a| [a.x, a.y]).collect();
         let usable = reach.is_finite() && span_y.is_finite() && cell.is_finite() && cell > 0.0 && span_y >= 0.0;
-        let side = (2.0 * reach.max(0.0) / cell).floor() + 1.0;
+        let side = raster_side(reach, cell);
         let n = if usable && side <= MAX_SIDE as f64 { side as usize } else { 0 };
         let origin = -reach.max(0.0);
         let words = reference.len().div_ceil(64).max(1);
@@ -135,6 +135,13 @@ impl Candidates {
     fn mean_len(&self) -> f64 {
         self.points.len() as f64 / (self.n * self.n).max(1) as f64
     }
+}
+
+/// Cells per side of the raster of `cell` [m] over anchors in `[-reach, reach]²` (as a float, so
+/// an absurd reach gives a large number, not an overflow): what [`Candidates::new`] builds, and
+/// what its caller weighs against the work the table would save.
+pub(super) fn raster_side(reach: f64, cell: f64) -> f64 {
+    (2.0 * reach.max(0.0) / cell).floor() + 1.0
 }
 
 /// Each raster cell's candidates as a bit set over the reference points (point k is bit k % 64
