@@ -151,7 +151,6 @@ use crate::geometry::wrap_angle;
 use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
-use std::collections::BTreeMap;
 use swarm_config::{IcpParams, Identify};
 
 /// The ICP variants the database needs (seed 000 5.1). Implemented by the real ICP, and by
@@ -478,25 +477,26 @@ impl Database {
     /// least `min_points` points, the newest per sender (a link delivers one neighbour's sets).
     fn usable_sets<'a>(&self, now: f64, received: &'a [Received], counts: &mut StepCounts) -> Vec<&'a Received> {
         let min_points = usize::try_from(self.params.min_points).unwrap_or(usize::MAX);
-        let mut newest: BTreeMap<u32, &Received> = BTreeMap::new();
-        for r in received {
-            let fresh = now - r.t_secs <= self.stale_after_s + EPS;
-            if !fresh || r.points.len() < min_points {
-                counts.ignored += 1;
-                continue;
-            }
-            match newest.get(&r.from) {
-                Some(old) if old.t_secs > r.t_secs => counts.ignored += 1,
-                Some(_) => {
+        let mut fresh: Vec<&Received> = received
+            .iter()
+            .filter(|r| now - r.t_secs <= self.stale_after_s + EPS && r.points.len() >= min_points)
+            .collect();
+        counts.ignored += u32::try_from(received.len() - fresh.len()).unwrap_or(u32::MAX);
+        // Stable: a sender's sets stay in arrival order, and of equally new ones the last wins.
+        fresh.sort_by_key(|r| r.from);
+        let mut newest: Vec<&Received> = Vec::with_capacity(fresh.len());
+        for r in fresh {
+            match newest.last_mut() {
+                Some(held) if held.from == r.from => {
                     counts.ignored += 1;
-                    newest.insert(r.from, r);
+                    if held.t_secs <= r.t_secs {
+                        *held = r;
+                    }
                 }
-                None => {
-                    newest.insert(r.from, r);
-                }
+                _ => newest.push(r),
             }
         }
-        newest.into_values().collect()
+        newest
     }
 
     /// findBestMatch of Algorithm 6 for every set at once: a short ICP of the set against each
@@ -519,7 +519,7 @@ impl Database {
         let mut by_set = vec![None; sets.len()];
         let mut taken = vec![false; self.entries.len()];
         if crowd {
-            self.trust_links(sets, counts, &mut by_set, &mut taken);
+            Self::trust_links(&gate, sets, counts, &mut by_set, &mut taken);
         }
         let mut tried = vec![Vec::new(); sets.len()];
         let first: Vec<(usize, Vec<usize>)> = (0..sets.len())
@@ -588,15 +588,15 @@ impl Database {
     /// findBestMatch ICP. A placed, unsuspended entry's sICP still checks the set; an unplaced or
     /// suspended one's next full-grid ICP (its retry) does, as a new entry's would have.
     fn trust_links(
-        &self,
+        gate: &Gate,
         sets: &[&Received],
         counts: &mut StepCounts,
         by_set: &mut [Option<usize>],
         taken: &mut [bool],
     ) {
         for (s, set) in sets.iter().enumerate() {
-            let mut on_link = self.entries.iter().enumerate().filter(|(_, e)| e.sender == set.from);
-            let (Some((idx, _)), None) = (on_link.next(), on_link.next()) else { continue };
+            let mut on_link = gate.on_link(set.from);
+            let (Some(idx), None) = (on_link.next(), on_link.next()) else { continue };
             if !taken[idx] {
                 by_set[s] = Some(idx);
                 taken[idx] = true;
@@ -863,6 +863,7 @@ fn trace_full_grid(now: f64, entry: u64, set: &Received, ranked: Option<&Ranked>
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BTreeMap;
 
     /// Neighbour `k`'s obstacle set at time `t`: its first point tags the neighbour (x = 100·k)
     /// and the time (y = t), so the scripted matcher can tell sets apart.

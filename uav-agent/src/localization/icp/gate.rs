@@ -8,7 +8,6 @@
 //! placed, so it knows nothing of the database's entries or of the ICP.
 
 use nalgebra::Vector2;
-use std::collections::BTreeMap;
 
 /// Slack of the [`Gate`] beyond `match_shift_m` [m]: what the two neighbours and this agent may
 /// have moved, and the placements may be off, between the estimates the gate compares (entries in
@@ -31,8 +30,10 @@ const GATE_MARGIN_M: f64 = 2.0;
 pub(super) struct Gate {
     /// Per entry, its neighbour's position in this agent's body frame [m], if placed and usable.
     located: Vec<Option<Vector2<f64>>>,
-    /// Entries by the sender of the set they took last.
-    by_sender: BTreeMap<u32, Vec<usize>>,
+    /// (sender of the set it took last, entry) for every entry, sorted: a sender's entries are
+    /// one run, in entry order (a sorted list, not a map of lists: the gate is rebuilt every
+    /// step, and a list per sender was an allocation per entry).
+    by_sender: Vec<(u32, usize)>,
     /// Candidates lie within this distance of an expected position [m].
     radius_m: f64,
 }
@@ -43,18 +44,25 @@ impl Gate {
     /// database's plausible-motion bound, widened here by [`GATE_MARGIN_M`].
     pub(super) fn new(entries: impl Iterator<Item = (u32, Option<Vector2<f64>>)>, match_shift_m: f64) -> Gate {
         let mut located = Vec::new();
-        let mut by_sender: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+        let mut by_sender = Vec::new();
         for (idx, (sender, at)) in entries.enumerate() {
             located.push(at);
-            by_sender.entry(sender).or_default().push(idx);
+            by_sender.push((sender, idx));
         }
+        by_sender.sort_unstable();
         Gate { located, by_sender, radius_m: match_shift_m + GATE_MARGIN_M }
+    }
+
+    /// The entries that took the last set of `sender`'s link, in entry order.
+    pub(super) fn on_link(&self, sender: u32) -> impl Iterator<Item = usize> + '_ {
+        let from = self.by_sender.partition_point(|&(s, _)| s < sender);
+        self.by_sender[from..].iter().take_while(move |&&(s, _)| s == sender).map(|&(_, idx)| idx)
     }
 
     /// The entries a set from `sender` is matched against first, in entry order: the entries that
     /// took the link's last set, and the located entries near where they placed it.
     pub(super) fn candidates(&self, sender: u32) -> Vec<usize> {
-        let on_link: &[usize] = self.by_sender.get(&sender).map_or(&[], Vec::as_slice);
+        let on_link: Vec<usize> = self.on_link(sender).collect();
         let all = 0..self.located.len();
         if on_link.is_empty() {
             return all.collect();

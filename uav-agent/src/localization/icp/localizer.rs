@@ -48,14 +48,16 @@ impl IcpLocalizer {
         if o.from == self.id {
             return;
         }
-        let held = self.received.iter().position(|r| r.from == o.from);
-        if held.is_none_or(|i| o.t_secs > self.received[i].t_secs) {
-            let points = o.centres_m().map(|c| Point2::new(c[0], c[1])).collect();
-            let set = Received { from: o.from, t_secs: o.t_secs, points };
-            match held {
-                Some(i) => self.received[i] = set,
-                None => self.received.push(set),
+        let centres = o.centres_m().map(|c| Point2::new(c[0], c[1]));
+        match self.received.iter_mut().find(|r| r.from == o.from) {
+            // The held set's buffer is refilled: a crowd's agent takes dozens of sets a step.
+            Some(held) if o.t_secs > held.t_secs => {
+                held.t_secs = o.t_secs;
+                held.points.clear();
+                held.points.extend(centres);
             }
+            Some(_) => {}
+            None => self.received.push(Received { from: o.from, t_secs: o.t_secs, points: centres.collect() }),
         }
     }
 
