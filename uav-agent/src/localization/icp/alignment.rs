@@ -46,8 +46,9 @@
 //!   45 points; a sorted-by-x candidate window, tried before, cost more to pick the candidates
 //!   than it saved); a smaller own set (a sparse forest's dozen trunks) is searched whole, in
 //!   blocks that run on across columns, since the columns' padding would cost more than the
-//!   table saves ([`Layout`]). The pairing of the full ICP stays brute force over every
-//!   reference point, a block of source points at a time. Each start's
+//!   table saves ([`Layout`]). The pairing of the full ICP is [`super::pairing`]'s: brute
+//!   force over every reference point at first, then each point's previous partner where it is
+//!   certainly still the nearest. Each start's
 //!   distances are sorted for eq. 3.16's prefixes, eight starts at once by a sorting network on
 //!   the same lanes ([`super::network`]: the same scores as a sort, without its mispredicted
 //!   branches); a sort-free lower bound on the score (counts and sums by binary exponent) proved
@@ -55,6 +56,7 @@
 
 use super::nearest::{raster_side, Candidates};
 use super::network::{block_scores, Network, LANES};
+use super::pairing::{Pair, Pairing};
 use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
@@ -139,17 +141,6 @@ enum Stop {
     MaxIterations,
 }
 
-/// One pair of the nearest-neighbour pairing (seed 000 eq. 3.17).
-#[derive(Debug, Clone, Copy)]
-struct Pair {
-    /// Squared distance d² between the transformed source point and its reference point.
-    d2: f64,
-    /// Index into the source set.
-    s: usize,
-    /// Index into the reference set.
-    r: usize,
-}
-
 /// The FRMSD of one pairing, after rejection.
 #[derive(Debug, Clone, Copy)]
 struct Eval {
@@ -167,8 +158,8 @@ struct Workspace {
     cur: Vec<Pair>,
     /// Pairing at the candidate estimate.
     next: Vec<Pair>,
-    /// A pairing in source order, before [`order_pairs`] sorts it into `cur` or `next`.
-    by_source: Vec<Pair>,
+    /// The pairings' buffers and the reference set's safe radii.
+    pairing: Pairing,
     /// FRMSD² weights: `weights[i−1] = f^(−2λ) / i`, f = i/|D| (eq. 3.16 squared).
     weights: Rc<[f64]>,
     /// The bits of the λ `weights` were made for.
@@ -211,7 +202,7 @@ impl Workspace {
             moved: Vec::with_capacity(n_source),
             cur: Vec::with_capacity(n_source),
             next: Vec::with_capacity(n_source),
-            by_source: Vec::with_capacity(n_source),
+            pairing: Pairing::default(),
             weights,
             lambda_bits: lambda.to_bits(),
             k_min,
@@ -304,70 +295,6 @@ fn apply(t: &AgentFromNeighbour, source: &[Point2<f64>], moved: &mut Vec<Point2<
     moved.extend(source.iter().map(|q| Point2::from(r * q.coords + t.translation_m)));
 }
 
-/// Pairs every moved source point with its nearest reference point (seed 000, Algorithm 1
-/// `pairing`), in source order: `out[s]` is source point s's pair. [`order_pairs`] sorts them.
-#[multiversion::multiversion(targets("x86_64+avx2"))]
-fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &mut Vec<Pair>) {
-    out.clear();
-    // Source points in blocks of BLOCK lanes (the last block padded with copies of the last
-    // point, dropped); each lane keeps the first reference point of least distance, as a
-    // point-by-point loop would.
-    for (b, chunk) in moved.chunks(BLOCK).enumerate() {
-        let last = chunk[chunk.len() - 1];
-        let (mut qx, mut qy) = ([last.x; BLOCK], [last.y; BLOCK]);
-        for (l, q) in chunk.iter().enumerate() {
-            (qx[l], qy[l]) = (q.x, q.y);
-        }
-        let mut best = [f64::INFINITY; BLOCK];
-        let mut at = [0usize; BLOCK];
-        for (r, a) in reference.iter().enumerate() {
-            for l in 0..BLOCK {
-                // seed 000, eq. 3.17 squared: d² = ‖p − µ(p)‖².
-                let (dx, dy) = (a.x - qx[l], a.y - qy[l]);
-                let d2 = dx * dx + dy * dy;
-                let closer = d2 < best[l];
-                best[l] = if closer { d2 } else { best[l] };
-                at[l] = if closer { r } else { at[l] };
-            }
-        }
-        out.extend((0..chunk.len()).map(|l| Pair { d2: best[l], s: b * BLOCK + l, r: at[l] }));
-    }
-}
-
-/// The order of a pairing (seed 000, Algorithm 3 `QuickSort(D)`): by distance, ties by source
-/// index. Squared distances are ≥ +0, so their bit patterns sort as `f64::total_cmp` does.
-fn pair_order(q: &Pair) -> (u64, usize) {
-    (q.d2.to_bits(), q.s)
-}
-
-/// Sorts the pairing `by_source` (in source order, from [`pair_into`]) into `out` by
-/// [`pair_order`], a total order, so the result does not depend on where the sort starts.
-///
-/// Why `hint`: an ICP iteration moves the source a little, so its pairing comes out in nearly
-/// the order of the one before. When `hint` is a sorted pairing of the same source set (the
-/// previous iteration's), `out` starts in its order and an insertion sort finishes it in about
-/// one pass; otherwise (the first pairing of a run) the pairs are sorted from source order.
-/// `perf` of a forest-1000-icp agent host put the sort of every pairing at 13 % of its time.
-fn order_pairs(by_source: &[Pair], hint: &[Pair], out: &mut Vec<Pair>) {
-    out.clear();
-    if hint.len() != by_source.len() {
-        out.extend_from_slice(by_source);
-        out.sort_unstable_by_key(pair_order);
-        return;
-    }
-    out.extend(hint.iter().map(|h| by_source[h.s]));
-    for i in 1..out.len() {
-        let q = out[i];
-        let key = pair_order(&q);
-        let mut j = i;
-        while j > 0 && pair_order(&out[j - 1]) > key {
-            out[j] = out[j - 1];
-            j -= 1;
-        }
-        out[j] = q;
-    }
-}
-
 /// FRMSD outlier rejection on squared distances sorted ascending (seed 000, Algorithm 3): the
 /// prefix of length ≥ `k_min` with the smallest FRMSD, the longest on ties (within [`TIE_M`]).
 /// Returns `(kept, FRMSD²)`, or `(0, +∞)` when no prefix qualifies (too few pairs, or NaN).
@@ -388,23 +315,22 @@ fn best_prefix(sorted_d2: impl Iterator<Item = f64>, weights: &[f64], k_min: usi
     best
 }
 
-/// Transforms the source by `t`, pairs, rejects; leaves the sorted pairing in `pairs`
-/// (`by_source` is scratch; `hint` as in [`order_pairs`]).
+/// Transforms the source by `t`, pairs, rejects; leaves the sorted pairing in `pairs` (`hint`:
+/// the pairing of the iteration before, or empty; [`Pairing::pair`]).
 #[allow(clippy::too_many_arguments)] // the workspace's buffers, borrowed apart
 fn evaluate(
     reference: &[Point2<f64>],
     source: &[Point2<f64>],
     t: &AgentFromNeighbour,
     moved: &mut Vec<Point2<f64>>,
-    by_source: &mut Vec<Pair>,
+    pairing: &mut Pairing,
     hint: &[Pair],
     pairs: &mut Vec<Pair>,
     weights: &[f64],
     k_min: usize,
 ) -> Eval {
     apply(t, source, moved);
-    pair_into(reference, moved, by_source);
-    order_pairs(by_source, hint, pairs);
+    pairing.pair(reference, moved, hint, pairs);
     let (kept, f2) = best_prefix(pairs.iter().map(|q| q.d2), weights, k_min);
     Eval { frmsd: f2.sqrt(), kept }
 }
@@ -462,10 +388,10 @@ fn icp_core(
     p: &IcpParams,
     ws: &mut Workspace,
 ) -> Result<Run, NoEstimate> {
-    let Workspace { moved, cur, next, by_source, weights, k_min, .. } = ws;
+    let Workspace { moved, cur, next, pairing, weights, k_min, .. } = ws;
     let k_min = *k_min;
     let mut t = initial;
-    let mut e = evaluate(reference, source, &t, moved, by_source, &[], cur, weights, k_min);
+    let mut e = evaluate(reference, source, &t, moved, pairing, &[], cur, weights, k_min);
     if !e.frmsd.is_finite() {
         return Err(NoEstimate::NonFinite);
     }
@@ -492,7 +418,7 @@ fn icp_core(
             translation_m: rot(d_rot) * t.translation_m + tr,
         };
         iterations += 1;
-        let e_next = evaluate(reference, source, &candidate, moved, by_source, cur, next, weights, k_min);
+        let e_next = evaluate(reference, source, &candidate, moved, pairing, cur, next, weights, k_min);
         if !matches!(e_next.frmsd.partial_cmp(&e.frmsd), Some(Ordering::Less | Ordering::Equal)) {
             // seed 000, 3.1: stop "when the error in step k + 1 is higher than in step k"; keep
             // step k. `cur` still holds its pairing; `moved` is stale but no longer needed.
@@ -924,14 +850,14 @@ fn initial_icp_ranked_from(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use proptest::prelude::*;
     use proptest::test_runner::RngSeed;
     use std::f64::consts::PI;
 
-    /// SplitMix64: a tiny deterministic PRNG for the tests.
-    struct Rng(u64);
+    /// SplitMix64: a tiny deterministic PRNG for the tests (the pairing's too).
+    pub(in crate::localization::icp) struct Rng(pub(in crate::localization::icp) u64);
     impl Rng {
         fn next_u64(&mut self) -> u64 {
             self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -944,7 +870,7 @@ mod tests {
         fn unit(&mut self) -> f64 {
             (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
         }
-        fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        pub(in crate::localization::icp) fn range(&mut self, lo: f64, hi: f64) -> f64 {
             lo + (hi - lo) * self.unit()
         }
         /// Standard normal (Box–Muller).
@@ -1049,7 +975,7 @@ mod tests {
     ) -> (Eval, Option<AgentFromNeighbour>) {
         let k_min = validate(reference, source, p).expect("valid");
         let mut ws = Workspace::new(source.len(), p.lambda, k_min);
-        let e = evaluate(reference, source, t, &mut ws.moved, &mut ws.by_source, &[], &mut ws.cur, &ws.weights, k_min);
+        let e = evaluate(reference, source, t, &mut ws.moved, &mut ws.pairing, &[], &mut ws.cur, &ws.weights, k_min);
         let step = estimate(reference, &ws.moved, &ws.cur[..e.kept]).map(|(r, tr)| {
             let d = r[(1, 0)].atan2(r[(0, 0)]);
             AgentFromNeighbour {
@@ -1384,7 +1310,7 @@ mod tests {
         assert!(ok as f64 >= 0.95 * cases as f64, "success {ok}/{cases}");
     }
 
-    fn config(cases: u32) -> ProptestConfig {
+    pub(in crate::localization::icp) fn config(cases: u32) -> ProptestConfig {
         ProptestConfig {
             cases,
             rng_seed: RngSeed::Fixed(0x000C_1CF0),
@@ -1441,58 +1367,6 @@ mod tests {
 
     proptest! {
         #![proptest_config(config(64))]
-
-        /// The pairing, source points in SIMD blocks, equals bit for bit (distances, indices,
-        /// order) the one of a point-by-point loop sorted by `total_cmp`.
-        #[test]
-        fn prop_pair_into_is_the_point_by_point_loop(seed in any::<u64>(), n_ref in 1usize..50, n_src in 1usize..50, grid in any::<bool>()) {
-            let mut rng = Rng(seed);
-            // On a grid, many distances tie: the first reference point of least distance wins.
-            let point = |rng: &mut Rng| if grid {
-                Point2::new(rng.range(-4.0, 4.0).round(), rng.range(-4.0, 4.0).round())
-            } else {
-                Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))
-            };
-            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
-            let moved: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
-            let mut want = Vec::new();
-            for (s, q) in moved.iter().enumerate() {
-                let (mut best, mut r_best) = (f64::INFINITY, 0);
-                for (r, a) in reference.iter().enumerate() {
-                    let d2 = (a.x - q.x) * (a.x - q.x) + (a.y - q.y) * (a.y - q.y);
-                    if d2 < best {
-                        (best, r_best) = (d2, r);
-                    }
-                }
-                want.push(Pair { d2: best, s, r: r_best });
-            }
-            let key = |v: &[Pair]| v.iter().map(|q| (q.d2.to_bits(), q.s, q.r)).collect::<Vec<_>>();
-            let mut by_source = Vec::new();
-            pair_into(&reference, &moved, &mut by_source);
-            prop_assert_eq!(key(&by_source), key(&want));
-            want.sort_by(|a, b| a.d2.total_cmp(&b.d2).then(a.s.cmp(&b.s)));
-            let mut got = Vec::new();
-            order_pairs(&by_source, &[], &mut got);
-            prop_assert_eq!(key(&got), key(&want));
-        }
-
-        /// Sorting a pairing from any earlier pairing's order (an ICP iteration's hint) gives
-        /// the order sorted from scratch, ties (a grid) included.
-        #[test]
-        fn prop_hinted_order_is_the_sorted_order(seed in any::<u64>(), n in 1usize..60, grid in any::<bool>()) {
-            let mut rng = Rng(seed);
-            let d2 = |rng: &mut Rng| if grid { rng.range(0.0, 4.0).round() } else { rng.range(0.0, 30.0) };
-            let by_source: Vec<Pair> = (0..n).map(|s| Pair { d2: d2(&mut rng), s, r: s % 7 }).collect();
-            let earlier: Vec<Pair> = (0..n).map(|s| Pair { d2: d2(&mut rng), s, r: 0 }).collect();
-            let mut hint = Vec::new();
-            order_pairs(&earlier, &[], &mut hint);
-            let (mut cold, mut warm) = (Vec::new(), Vec::new());
-            order_pairs(&by_source, &[], &mut cold);
-            order_pairs(&by_source, &hint, &mut warm);
-            let key = |v: &[Pair]| v.iter().map(|q| (q.d2.to_bits(), q.s, q.r)).collect::<Vec<_>>();
-            prop_assert_eq!(key(&warm), key(&cold));
-            prop_assert!(cold.windows(2).all(|w| pair_order(&w[0]) < pair_order(&w[1])));
-        }
 
         /// A block's scores by the sorting network equal bit for bit the start-by-start sort
         /// and prefix scan, ties, +∞ and NaN lanes included.

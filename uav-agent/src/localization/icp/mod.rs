@@ -6,6 +6,8 @@
 //!   by a sorting network on SIMD lanes (the same scores as a sort, without its branches).
 //! - `nearest`: the full grid's table of the reference points that can be nearest to each
 //!   stretch of a grid column, so the first pass searches a few points instead of all.
+//! - `pairing`: the nearest-neighbour pairing of an ICP iteration, sorted by distance; a later
+//!   iteration tries each point's previous partner first and starts its sort from their order.
 //! - `alignment`: the ICP itself (Algorithm 1 with FRMSD outlier rejection, the full-grid
 //!   initial estimate and its kernels, the runner-up alignment): how well a received obstacle
 //!   set fits our own at each place, pure geometry.
@@ -32,6 +34,7 @@
 mod alignment;
 mod nearest;
 mod network;
+mod pairing;
 // Database API kept whole and tested, partly unused by the localizer (see `lib.rs`).
 #[cfg_attr(not(test), allow(dead_code))]
 mod database;

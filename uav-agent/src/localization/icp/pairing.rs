@@ -1,0 +1,319 @@
+//! The nearest-neighbour pairing of one ICP iteration (seed 000, Algorithm 1 `pairing`, and the
+//! sort of Algorithm 3): every moved source point with its nearest reference point, sorted by
+//! distance.
+//!
+//! Why a module of its own: it is where a crowd's short ICPs spend most of their time (`perf` of
+//! a forest-1000-icp agent host: the pairing's search 15 % of its CPU and its sort 13 %, before
+//! this module's shortcuts), and both shortcuts below rest on arguments of their own that the
+//! rest of the ICP need not know: the pairs come out bit for bit as a brute-force search over
+//! every reference point and a sort would give them.
+//!
+//! - The search. A first pairing searches every reference point, a block of source points at a
+//!   time ([`pair_into`]). A later iteration moves the source a little, so each source point is
+//!   first tried against its partner of the iteration before ([`Pairing::pair_from`]): a
+//!   reference point r is the only nearest of every point closer to it than half the distance
+//!   to r's nearest other reference point (any other one is then farther by the triangle
+//!   inequality). Within that safe radius, less a relative margin of 10⁻⁶ that covers rounding
+//!   many times over, the guess is the pair the search would find, with the same distance
+//!   computed by the same operations. The points outside it are searched as before.
+//! - The sort. Pairs go by distance, ties by source index ([`pair_order`]): one total order, so
+//!   the result does not depend on where the sort starts. A later iteration starts from the order
+//!   of the one before, and an insertion sort finishes it in about one pass ([`order_pairs`]).
+
+use super::network::LANES;
+use nalgebra::Point2;
+
+/// One pair of the nearest-neighbour pairing (seed 000 eq. 3.17).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Pair {
+    /// Squared distance d² between the transformed source point and its reference point.
+    pub(super) d2: f64,
+    /// Index into the source set.
+    pub(super) s: usize,
+    /// Index into the reference set.
+    pub(super) r: usize,
+}
+
+/// Source points searched together by [`pair_into`] (see `alignment`'s `BLOCK`).
+const BLOCK: usize = LANES;
+
+/// Relative margin on a safe radius (module doc): far wider than the rounding of any squared
+/// distance, far narrower than what it gives away.
+const SAFE_MARGIN: f64 = 1e-6;
+
+/// Pairs every moved source point with its nearest reference point (seed 000, Algorithm 1
+/// `pairing`), in source order: `out[s]` is source point s's pair, and the nearest is the first
+/// reference point of least distance. [`order_pairs`] sorts them.
+#[multiversion::multiversion(targets("x86_64+avx2"))]
+pub(super) fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &mut Vec<Pair>) {
+    out.clear();
+    // Source points in blocks of BLOCK lanes (the last block padded with copies of the last
+    // point, dropped); each lane keeps the first reference point of least distance, as a
+    // point-by-point loop would.
+    for (b, chunk) in moved.chunks(BLOCK).enumerate() {
+        let last = chunk[chunk.len() - 1];
+        let (mut qx, mut qy) = ([last.x; BLOCK], [last.y; BLOCK]);
+        for (l, q) in chunk.iter().enumerate() {
+            (qx[l], qy[l]) = (q.x, q.y);
+        }
+        let mut best = [f64::INFINITY; BLOCK];
+        let mut at = [0usize; BLOCK];
+        for (r, a) in reference.iter().enumerate() {
+            for l in 0..BLOCK {
+                let d2 = distance2(*a, qx[l], qy[l]);
+                let closer = d2 < best[l];
+                best[l] = if closer { d2 } else { best[l] };
+                at[l] = if closer { r } else { at[l] };
+            }
+        }
+        out.extend((0..chunk.len()).map(|l| Pair { d2: best[l], s: b * BLOCK + l, r: at[l] }));
+    }
+}
+
+/// seed 000, eq. 3.17 squared: d² = ‖p − µ(p)‖², from reference point `a` to (`qx`, `qy`). The
+/// one formula of every pairing, so a guessed pair has the distance the search would compute.
+#[inline(always)]
+fn distance2(a: Point2<f64>, qx: f64, qy: f64) -> f64 {
+    let (dx, dy) = (a.x - qx, a.y - qy);
+    dx * dx + dy * dy
+}
+
+/// The order of a pairing (seed 000, Algorithm 3 `QuickSort(D)`): by distance, ties by source
+/// index. Squared distances are ≥ +0, so their bit patterns sort as `f64::total_cmp` does.
+pub(super) fn pair_order(q: &Pair) -> (u64, usize) {
+    (q.d2.to_bits(), q.s)
+}
+
+/// Sorts the pairing `by_source` (in source order) into `out` by [`pair_order`]. When `hint` is
+/// a sorted pairing of the same source set (the previous iteration's), `out` starts in its order
+/// and an insertion sort finishes it; otherwise the pairs are sorted from source order.
+pub(super) fn order_pairs(by_source: &[Pair], hint: &[Pair], out: &mut Vec<Pair>) {
+    out.clear();
+    if hint.len() != by_source.len() {
+        out.extend_from_slice(by_source);
+        out.sort_unstable_by_key(pair_order);
+        return;
+    }
+    out.extend(hint.iter().map(|h| by_source[h.s]));
+    for i in 1..out.len() {
+        let q = out[i];
+        let key = pair_order(&q);
+        let mut j = i;
+        while j > 0 && pair_order(&out[j - 1]) > key {
+            out[j] = out[j - 1];
+            j -= 1;
+        }
+        out[j] = q;
+    }
+}
+
+/// The buffers of the pairings of one ICP run, and the safe radii of the last reference set.
+#[derive(Debug, Default)]
+pub(super) struct Pairing {
+    /// A pairing in source order, before [`order_pairs`] sorts it.
+    by_source: Vec<Pair>,
+    /// The reference set `safe2` was computed for (compared bit for bit before each use).
+    reference: Vec<Point2<f64>>,
+    /// Per reference point, the squared safe radius (module doc); 0 where none is safe.
+    safe2: Vec<f64>,
+    /// The source points whose guess missed, and their indices and pairs.
+    missed: Vec<usize>,
+    missed_points: Vec<Point2<f64>>,
+    missed_pairs: Vec<Pair>,
+}
+
+impl Pairing {
+    /// The sorted pairing of `moved` with `reference` into `out`. `hint`: the sorted pairing of
+    /// the same source set in the iteration before, or empty for a first pairing.
+    pub(super) fn pair(
+        &mut self,
+        reference: &[Point2<f64>],
+        moved: &[Point2<f64>],
+        hint: &[Pair],
+        out: &mut Vec<Pair>,
+    ) {
+        if hint.len() == moved.len() {
+            self.pair_from(reference, moved, hint);
+        } else {
+            pair_into(reference, moved, &mut self.by_source);
+        }
+        order_pairs(&self.by_source, hint, out);
+    }
+
+    /// Fills `by_source` trying each source point's partner in `hint` first (module doc).
+    fn pair_from(&mut self, reference: &[Point2<f64>], moved: &[Point2<f64>], hint: &[Pair]) {
+        self.safe_radii(reference);
+        self.by_source.clear();
+        self.by_source.resize(moved.len(), Pair { d2: f64::NAN, s: 0, r: 0 });
+        self.missed.clear();
+        for h in hint {
+            let q = moved[h.s];
+            let d2 = distance2(reference[h.r], q.x, q.y);
+            if d2 < self.safe2[h.r] {
+                self.by_source[h.s] = Pair { d2, s: h.s, r: h.r };
+            } else {
+                self.missed.push(h.s);
+            }
+        }
+        if self.missed.is_empty() {
+            return;
+        }
+        self.missed_points.clear();
+        self.missed_points.extend(self.missed.iter().map(|&s| moved[s]));
+        pair_into(reference, &self.missed_points, &mut self.missed_pairs);
+        for p in &self.missed_pairs {
+            let s = self.missed[p.s];
+            self.by_source[s] = Pair { d2: p.d2, s, r: p.r };
+        }
+    }
+
+    /// Makes `safe2` that of `reference` (kept while the reference set is the same: a step's
+    /// short ICPs all pair with the agent's own set).
+    fn safe_radii(&mut self, reference: &[Point2<f64>]) {
+        let bits = |p: &Point2<f64>| (p.x.to_bits(), p.y.to_bits());
+        if self.reference.len() == reference.len()
+            && self.reference.iter().zip(reference).all(|(a, b)| bits(a) == bits(b))
+        {
+            return;
+        }
+        self.reference.clear();
+        self.reference.extend_from_slice(reference);
+        self.safe2.clear();
+        self.safe2.extend(reference.iter().enumerate().map(|(i, a)| {
+            let nearest_other = reference
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, b)| distance2(*b, a.x, a.y))
+                .fold(f64::INFINITY, f64::min);
+            // Half the distance, squared; NaN (never from validated input) makes nothing safe.
+            let safe = 0.25 * nearest_other * (1.0 - SAFE_MARGIN);
+            if safe.is_nan() {
+                0.0
+            } else {
+                safe
+            }
+        }));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::localization::icp::alignment::tests::{config, Rng};
+    use proptest::prelude::*;
+
+    fn key(v: &[Pair]) -> Vec<(u64, usize, usize)> {
+        v.iter().map(|q| (q.d2.to_bits(), q.s, q.r)).collect()
+    }
+
+    /// The pairing a point-by-point loop over every reference point gives, sorted.
+    fn brute(reference: &[Point2<f64>], moved: &[Point2<f64>]) -> Vec<Pair> {
+        let mut want = Vec::new();
+        for (s, q) in moved.iter().enumerate() {
+            let (mut best, mut r_best) = (f64::INFINITY, 0);
+            for (r, a) in reference.iter().enumerate() {
+                let d2 = (a.x - q.x) * (a.x - q.x) + (a.y - q.y) * (a.y - q.y);
+                if d2 < best {
+                    (best, r_best) = (d2, r);
+                }
+            }
+            want.push(Pair { d2: best, s, r: r_best });
+        }
+        want.sort_by(|a, b| a.d2.total_cmp(&b.d2).then(a.s.cmp(&b.s)));
+        want
+    }
+
+    proptest! {
+        #![proptest_config(config(256))]
+
+        /// The first pairing, source points in SIMD blocks, equals bit for bit (distances,
+        /// indices, order) the point-by-point loop's, sorted by distance then source index.
+        #[test]
+        fn prop_first_pairing_is_the_point_by_point_loop(seed in any::<u64>(), n_ref in 1usize..50, n_src in 1usize..50, grid in any::<bool>()) {
+            let mut rng = Rng(seed);
+            // On a grid, many distances tie: the first reference point of least distance wins.
+            let point = |rng: &mut Rng| if grid {
+                Point2::new(rng.range(-4.0, 4.0).round(), rng.range(-4.0, 4.0).round())
+            } else {
+                Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))
+            };
+            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
+            let moved: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
+            let mut got = Vec::new();
+            Pairing::default().pair(&reference, &moved, &[], &mut got);
+            prop_assert_eq!(key(&got), key(&brute(&reference, &moved)));
+        }
+
+        /// A later pairing, from any earlier pairing of the same source set as its hint (guessed
+        /// partners near and far, on their safe radius, duplicates and grids full of ties in the
+        /// reference set), equals the point-by-point loop's bit for bit; so does a reference set
+        /// changed under a kept `Pairing`.
+        #[test]
+        fn prop_hinted_pairing_is_the_point_by_point_loop(
+            seed in any::<u64>(), n_ref in 1usize..50, n_src in 1usize..50, grid in any::<bool>(), jitter in 0.0f64..3.0,
+        ) {
+            let mut rng = Rng(seed);
+            let point = |rng: &mut Rng| if grid {
+                Point2::new(rng.range(-4.0, 4.0).round(), rng.range(-4.0, 4.0).round())
+            } else {
+                Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))
+            };
+            let mut reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
+            let before: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
+            // The next iteration: every point moved a little, some onto their partner's safe
+            // radius exactly (a point halfway between two reference points).
+            let mut moved: Vec<Point2<f64>> =
+                before.iter().map(|q| Point2::new(q.x + rng.range(-jitter, jitter), q.y + rng.range(-jitter, jitter))).collect();
+            if n_ref >= 2 {
+                let (a, b) = (reference[0], reference[1]);
+                moved[0] = Point2::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y));
+            }
+            let mut pairing = Pairing::default();
+            let (mut hint, mut got) = (Vec::new(), Vec::new());
+            pairing.pair(&reference, &before, &[], &mut hint);
+            pairing.pair(&reference, &moved, &hint, &mut got);
+            prop_assert_eq!(key(&got), key(&brute(&reference, &moved)));
+            // The same buffers, another reference set: the safe radii must follow it.
+            reference.reverse();
+            if let Some(p) = reference.first_mut() {
+                p.x += 0.25;
+            }
+            pairing.pair(&reference, &moved, &hint, &mut got);
+            prop_assert_eq!(key(&got), key(&brute(&reference, &moved)));
+        }
+
+        /// Sorting a pairing from any earlier pairing's order gives the order sorted from
+        /// scratch, ties (a grid) included.
+        #[test]
+        fn prop_hinted_order_is_the_sorted_order(seed in any::<u64>(), n in 1usize..60, grid in any::<bool>()) {
+            let mut rng = Rng(seed);
+            let d2 = |rng: &mut Rng| if grid { rng.range(0.0, 4.0).round() } else { rng.range(0.0, 30.0) };
+            let by_source: Vec<Pair> = (0..n).map(|s| Pair { d2: d2(&mut rng), s, r: s % 7 }).collect();
+            let earlier: Vec<Pair> = (0..n).map(|s| Pair { d2: d2(&mut rng), s, r: 0 }).collect();
+            let mut hint = Vec::new();
+            order_pairs(&earlier, &[], &mut hint);
+            let (mut cold, mut warm) = (Vec::new(), Vec::new());
+            order_pairs(&by_source, &[], &mut cold);
+            order_pairs(&by_source, &hint, &mut warm);
+            prop_assert_eq!(key(&warm), key(&cold));
+            prop_assert!(cold.windows(2).all(|w| pair_order(&w[0]) < pair_order(&w[1])));
+        }
+    }
+
+    /// A source point right on its partner, and one just outside every safe radius: both pairs
+    /// are the search's, and the safe radius is half the gap to the nearest other point.
+    #[test]
+    fn safe_radius_is_half_the_gap_less_the_margin() {
+        let reference = [Point2::new(0.0, 0.0), Point2::new(2.0, 0.0), Point2::new(0.0, 10.0)];
+        let mut pairing = Pairing::default();
+        pairing.safe_radii(&reference);
+        assert!((pairing.safe2[0] - 1.0).abs() < 1e-5 && pairing.safe2[0] < 1.0);
+        assert!((pairing.safe2[2] - 25.0).abs() < 1e-4 && pairing.safe2[2] < 25.0);
+        let hint = [Pair { d2: 0.0, s: 0, r: 0 }, Pair { d2: 0.0, s: 1, r: 0 }];
+        let moved = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.0)];
+        pairing.pair_from(&reference, &moved, &hint);
+        assert_eq!(pairing.missed, vec![1], "1 m out is on the safe radius, not inside it");
+        assert_eq!((pairing.by_source[1].r, pairing.by_source[1].d2), (0, 1.0), "the search's pair: the first of two");
+    }
+}
