@@ -29,8 +29,8 @@ pub(crate) struct IcpLocalizer {
     /// Whether a wall-clock step budget applies (realtime runs only, see [`Self::estimates`]).
     realtime: bool,
     db: Database,
-    /// The newest obstacle set from each neighbour (one per sender), handed to the database by
-    /// reference every step (it orders them by sender and ignores sets older than `stale_after_s`).
+    /// The newest obstacle set from each neighbour (one per sender, in sender order), handed to
+    /// the database by reference every step (it ignores sets older than `stale_after_s`).
     received: Vec<Received>,
 }
 
@@ -49,15 +49,17 @@ impl IcpLocalizer {
             return;
         }
         let centres = o.centres_m().map(|c| Point2::new(c[0], c[1]));
-        match self.received.iter_mut().find(|r| r.from == o.from) {
-            // The held set's buffer is refilled: a crowd's agent takes dozens of sets a step.
-            Some(held) if o.t_secs > held.t_secs => {
+        // Held by sender, found by bisection: a crowd's agent takes dozens of sets a step, and
+        // the held set's buffer is refilled rather than replaced.
+        match self.received.binary_search_by_key(&o.from, |r| r.from) {
+            Ok(i) if o.t_secs > self.received[i].t_secs => {
+                let held = &mut self.received[i];
                 held.t_secs = o.t_secs;
                 held.points.clear();
                 held.points.extend(centres);
             }
-            Some(_) => {}
-            None => self.received.push(Received { from: o.from, t_secs: o.t_secs, points: centres.collect() }),
+            Ok(_) => {}
+            Err(i) => self.received.insert(i, Received { from: o.from, t_secs: o.t_secs, points: centres.collect() }),
         }
     }
 
