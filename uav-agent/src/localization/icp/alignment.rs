@@ -173,8 +173,9 @@ struct Workspace {
 impl Workspace {
     /// Runs `f` on a workspace for `n_source` points, made from this thread's spare buffers when
     /// it has them (and handed back after). Why: a crowd's agent runs a few dozen short ICPs per
-    /// step, and a fresh workspace is five allocations and a weight-table lookup each (1.3 % of
-    /// a forest-1000-icp agent host, `perf`). Every buffer is cleared before it is read.
+    /// step, and a fresh workspace was five allocations and a weight-table lookup each (1.3 %
+    /// of a forest-1000-icp agent host, `perf`), and it keeps the pairing's safe radii of the
+    /// agent's own set between them. Every buffer is cleared before it is read.
     fn reused<R>(n_source: usize, lambda: f64, k_min: usize, f: impl FnOnce(&mut Workspace) -> R) -> R {
         thread_local! {
             static SPARE: std::cell::RefCell<Option<Workspace>> = const { std::cell::RefCell::new(None) };
@@ -390,6 +391,7 @@ fn icp_core(
 ) -> Result<Run, NoEstimate> {
     let Workspace { moved, cur, next, pairing, weights, k_min, .. } = ws;
     let k_min = *k_min;
+    pairing.begin_run();
     let mut t = initial;
     let mut e = evaluate(reference, source, &t, moved, pairing, &[], cur, weights, k_min);
     if !e.frmsd.is_finite() {
@@ -496,8 +498,9 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
 }
 
 /// Query points searched together by [`nearest_all`] and [`nearest_by_column`] (grid cells) and
-/// [`pair_into`] (source points): a block's running minima stay in registers while each reference
-/// point it searches is visited once, and its lanes are independent, so the compiler turns the
+/// the pairing's `pair_into` (source points, its own `BLOCK` of the same lanes): a block's
+/// running minima stay in registers while each reference point it searches is visited once,
+/// and its lanes are independent, so the compiler turns the
 /// loop into packed SIMD (SSE2's two lanes on the baseline x86-64 target; the first pass 1.5×
 /// faster than start by start on a crowd's 45-point sets, `cargo bench -p uav-agent --bench
 /// icp`). The functions are also compiled for AVX2 (four lanes) and pick that version at run

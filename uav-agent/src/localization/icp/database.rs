@@ -595,8 +595,7 @@ impl Database {
         taken: &mut [bool],
     ) {
         for (s, set) in sets.iter().enumerate() {
-            let mut on_link = gate.on_link(set.from);
-            let (Some(idx), None) = (on_link.next(), on_link.next()) else { continue };
+            let &[idx] = gate.on_link(set.from) else { continue };
             if !taken[idx] {
                 by_set[s] = Some(idx);
                 taken[idx] = true;

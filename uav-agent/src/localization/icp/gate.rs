@@ -30,10 +30,11 @@ const GATE_MARGIN_M: f64 = 2.0;
 pub(super) struct Gate {
     /// Per entry, its neighbour's position in this agent's body frame [m], if placed and usable.
     located: Vec<Option<Vector2<f64>>>,
-    /// (sender of the set it took last, entry) for every entry, sorted: a sender's entries are
-    /// one run, in entry order (a sorted list, not a map of lists: the gate is rebuilt every
-    /// step, and a list per sender was an allocation per entry).
-    by_sender: Vec<(u32, usize)>,
+    /// Every entry's sender (of the set it took last), sorted, and beside it the entries in the
+    /// same order: a sender's entries are one run, in entry order (sorted lists, not a map of
+    /// lists: the gate is rebuilt every step, and a list per sender was an allocation per entry).
+    senders: Vec<u32>,
+    entries: Vec<usize>,
     /// Candidates lie within this distance of an expected position [m].
     radius_m: f64,
 }
@@ -50,19 +51,21 @@ impl Gate {
             by_sender.push((sender, idx));
         }
         by_sender.sort_unstable();
-        Gate { located, by_sender, radius_m: match_shift_m + GATE_MARGIN_M }
+        let (senders, entries) = by_sender.into_iter().unzip();
+        Gate { located, senders, entries, radius_m: match_shift_m + GATE_MARGIN_M }
     }
 
     /// The entries that took the last set of `sender`'s link, in entry order.
-    pub(super) fn on_link(&self, sender: u32) -> impl Iterator<Item = usize> + '_ {
-        let from = self.by_sender.partition_point(|&(s, _)| s < sender);
-        self.by_sender[from..].iter().take_while(move |&&(s, _)| s == sender).map(|&(_, idx)| idx)
+    pub(super) fn on_link(&self, sender: u32) -> &[usize] {
+        let from = self.senders.partition_point(|&s| s < sender);
+        let to = self.senders.partition_point(|&s| s <= sender);
+        &self.entries[from..to]
     }
 
     /// The entries a set from `sender` is matched against first, in entry order: the entries that
     /// took the link's last set, and the located entries near where they placed it.
     pub(super) fn candidates(&self, sender: u32) -> Vec<usize> {
-        let on_link: Vec<usize> = self.on_link(sender).collect();
+        let on_link = self.on_link(sender);
         let all = 0..self.located.len();
         if on_link.is_empty() {
             return all.collect();

@@ -15,10 +15,15 @@
 //!   to r's nearest other reference point (any other one is then farther by the triangle
 //!   inequality). Within that safe radius, less a relative margin of 10⁻⁶ that covers rounding
 //!   many times over, the guess is the pair the search would find, with the same distance
-//!   computed by the same operations. The points outside it are searched as before.
+//!   computed by the same operations. The points outside it are searched as before. The
+//!   radii cost about a search, so they are kept for the one reference set that recurs across
+//!   ICP runs (a step's tracked neighbours all pair with the agent's own set), and none is
+//!   trusted where a squared gap leaves the normal floats.
 //! - The sort. Pairs go by distance, ties by source index ([`pair_order`]): one total order, so
 //!   the result does not depend on where the sort starts. A later iteration starts from the order
 //!   of the one before, and an insertion sort finishes it in about one pass ([`order_pairs`]).
+//!   Without exact ties this is the order of the sort used before; with them, that sort's order
+//!   was unspecified, and the kept pairs' sums in `alignment` follow the order.
 
 use super::network::LANES;
 use nalgebra::Point2;
@@ -114,6 +119,12 @@ pub(super) struct Pairing {
     by_source: Vec<Pair>,
     /// The reference set `safe2` was computed for (compared bit for bit before each use).
     reference: Vec<Point2<f64>>,
+    /// The reference set of the last pairing that found no radii, and the run it came in
+    /// ([`Pairing::safe_radii`]).
+    asked: Vec<Point2<f64>>,
+    asked_in: u64,
+    /// ICP runs begun ([`Pairing::begin_run`]).
+    run: u64,
     /// Per reference point, the squared safe radius (module doc); 0 where none is safe.
     safe2: Vec<f64>,
     /// The source points whose guess missed, and their indices and pairs.
@@ -140,13 +151,18 @@ impl Pairing {
         order_pairs(&self.by_source, hint, out);
     }
 
-    /// Fills `by_source` trying each source point's partner in `hint` first (module doc).
+    /// Fills `by_source` trying each source point's partner in `hint` first (module doc), or
+    /// searching every reference point while `reference` has no safe radii ([`Self::safe_radii`]).
     fn pair_from(&mut self, reference: &[Point2<f64>], moved: &[Point2<f64>], hint: &[Pair]) {
-        self.safe_radii(reference);
+        if !self.safe_radii(reference) {
+            pair_into(reference, moved, &mut self.by_source);
+            return;
+        }
         self.by_source.clear();
-        self.by_source.resize(moved.len(), Pair { d2: f64::NAN, s: 0, r: 0 });
+        self.by_source.resize(moved.len(), Pair { d2: f64::NAN, s: usize::MAX, r: 0 });
         self.missed.clear();
         for h in hint {
+            debug_assert!(h.s < moved.len() && h.r < reference.len(), "a pairing of this source and reference");
             let q = moved[h.s];
             let d2 = distance2(reference[h.r], q.x, q.y);
             if d2 < self.safe2[h.r] {
@@ -155,45 +171,71 @@ impl Pairing {
                 self.missed.push(h.s);
             }
         }
-        if self.missed.is_empty() {
-            return;
+        if !self.missed.is_empty() {
+            self.missed_points.clear();
+            self.missed_points.extend(self.missed.iter().map(|&s| moved[s]));
+            pair_into(reference, &self.missed_points, &mut self.missed_pairs);
+            for p in &self.missed_pairs {
+                let s = self.missed[p.s];
+                self.by_source[s] = Pair { d2: p.d2, s, r: p.r };
+            }
         }
-        self.missed_points.clear();
-        self.missed_points.extend(self.missed.iter().map(|&s| moved[s]));
-        pair_into(reference, &self.missed_points, &mut self.missed_pairs);
-        for p in &self.missed_pairs {
-            let s = self.missed[p.s];
-            self.by_source[s] = Pair { d2: p.d2, s, r: p.r };
-        }
+        debug_assert!(self.by_source.iter().enumerate().all(|(s, p)| p.s == s), "every source point paired once");
     }
 
-    /// Makes `safe2` that of `reference` (kept while the reference set is the same: a step's
-    /// short ICPs all pair with the agent's own set).
-    fn safe_radii(&mut self, reference: &[Point2<f64>]) {
-        let bits = |p: &Point2<f64>| (p.x.to_bits(), p.y.to_bits());
-        if self.reference.len() == reference.len()
-            && self.reference.iter().zip(reference).all(|(a, b)| bits(a) == bits(b))
-        {
-            return;
+    /// Starts an ICP run: its pairings share one source set and one reference set.
+    pub(super) fn begin_run(&mut self) {
+        self.run += 1;
+    }
+
+    /// Whether `safe2` holds the safe radii of `reference`, computing them if an earlier ICP run
+    /// asked for the same set last. Why only then: the radii cost about as much as a pairing's
+    /// search, and pay off over many runs with one reference set, as a step's short ICPs of
+    /// tracked neighbours all pair with the agent's own set; each of findBestMatch's short ICPs
+    /// pairs with another entry's set, in one run, and leaves the own set's radii in place.
+    fn safe_radii(&mut self, reference: &[Point2<f64>]) -> bool {
+        if same_points(&self.reference, reference) {
+            return true;
+        }
+        if !same_points(&self.asked, reference) {
+            self.asked.clear();
+            self.asked.extend_from_slice(reference);
+            self.asked_in = self.run;
+            return false;
+        }
+        if self.asked_in == self.run {
+            return false;
         }
         self.reference.clear();
         self.reference.extend_from_slice(reference);
         self.safe2.clear();
-        self.safe2.extend(reference.iter().enumerate().map(|(i, a)| {
-            let nearest_other = reference
-                .iter()
-                .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, b)| distance2(*b, a.x, a.y))
-                .fold(f64::INFINITY, f64::min);
-            // Half the distance, squared; NaN (never from validated input) makes nothing safe.
-            let safe = 0.25 * nearest_other * (1.0 - SAFE_MARGIN);
-            if safe.is_nan() {
-                0.0
-            } else {
-                safe
-            }
-        }));
+        self.safe2.extend(reference.iter().enumerate().map(|(i, a)| safe_radius2(reference, i, *a)));
+        true
+    }
+}
+
+/// Whether two point sets are the same, bit for bit.
+fn same_points(a: &[Point2<f64>], b: &[Point2<f64>]) -> bool {
+    let bits = |p: &Point2<f64>| (p.x.to_bits(), p.y.to_bits());
+    a.len() == b.len() && a.iter().zip(b).all(|(p, q)| bits(p) == bits(q))
+}
+
+/// The squared safe radius of `reference[i]` = `a` (module doc; not in seed 000): a quarter of
+/// the squared distance to its nearest other point, less [`SAFE_MARGIN`]. 0 (nothing is safe)
+/// where that distance is not well inside the range of normal floats, where the margin would
+/// no longer cover rounding: below 10⁻²⁰⁰ m² (subnormal squares) or infinite (an overflowed
+/// square, or no other point). NaN coordinates are skipped, as the search never picks them.
+fn safe_radius2(reference: &[Point2<f64>], i: usize, a: Point2<f64>) -> f64 {
+    let nearest_other = reference
+        .iter()
+        .enumerate()
+        .filter(|&(j, _)| j != i)
+        .map(|(_, b)| distance2(*b, a.x, a.y))
+        .fold(f64::INFINITY, f64::min);
+    if (1e-200..f64::INFINITY).contains(&nearest_other) {
+        0.25 * nearest_other * (1.0 - SAFE_MARGIN)
+    } else {
+        0.0
     }
 }
 
@@ -247,8 +289,8 @@ mod tests {
 
         /// A later pairing, from any earlier pairing of the same source set as its hint (guessed
         /// partners near and far, on their safe radius, duplicates and grids full of ties in the
-        /// reference set), equals the point-by-point loop's bit for bit; so does a reference set
-        /// changed under a kept `Pairing`.
+        /// reference set), equals the point-by-point loop's bit for bit, in the run that finds
+        /// no safe radii yet and in the next, which computes and uses them.
         #[test]
         fn prop_hinted_pairing_is_the_point_by_point_loop(
             seed in any::<u64>(), n_ref in 1usize..50, n_src in 1usize..50, grid in any::<bool>(), jitter in 0.0f64..3.0,
@@ -259,10 +301,10 @@ mod tests {
             } else {
                 Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))
             };
-            let mut reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
+            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
             let before: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
-            // The next iteration: every point moved a little, some onto their partner's safe
-            // radius exactly (a point halfway between two reference points).
+            // The next iteration: every point moved a little, one of them halfway between two
+            // reference points (on both safe radii, if they are each other's nearest).
             let mut moved: Vec<Point2<f64>> =
                 before.iter().map(|q| Point2::new(q.x + rng.range(-jitter, jitter), q.y + rng.range(-jitter, jitter))).collect();
             if n_ref >= 2 {
@@ -271,16 +313,13 @@ mod tests {
             }
             let mut pairing = Pairing::default();
             let (mut hint, mut got) = (Vec::new(), Vec::new());
-            pairing.pair(&reference, &before, &[], &mut hint);
-            pairing.pair(&reference, &moved, &hint, &mut got);
-            prop_assert_eq!(key(&got), key(&brute(&reference, &moved)));
-            // The same buffers, another reference set: the safe radii must follow it.
-            reference.reverse();
-            if let Some(p) = reference.first_mut() {
-                p.x += 0.25;
+            for run in 0..2 {
+                pairing.begin_run();
+                pairing.pair(&reference, &before, &[], &mut hint);
+                pairing.pair(&reference, &moved, &hint, &mut got);
+                prop_assert_eq!(same_points(&pairing.reference, &reference), run == 1, "radii from the second run on");
+                prop_assert_eq!(key(&got), key(&brute(&reference, &moved)));
             }
-            pairing.pair(&reference, &moved, &hint, &mut got);
-            prop_assert_eq!(key(&got), key(&brute(&reference, &moved)));
         }
 
         /// Sorting a pairing from any earlier pairing's order gives the order sorted from
@@ -301,13 +340,23 @@ mod tests {
         }
     }
 
+    /// Two runs with one reference set: the second computes its safe radii.
+    fn with_radii(reference: &[Point2<f64>]) -> Pairing {
+        let mut pairing = Pairing::default();
+        for _ in 0..2 {
+            pairing.begin_run();
+            pairing.safe_radii(reference);
+        }
+        assert!(same_points(&pairing.reference, reference));
+        pairing
+    }
+
     /// A source point right on its partner, and one just outside every safe radius: both pairs
     /// are the search's, and the safe radius is half the gap to the nearest other point.
     #[test]
     fn safe_radius_is_half_the_gap_less_the_margin() {
         let reference = [Point2::new(0.0, 0.0), Point2::new(2.0, 0.0), Point2::new(0.0, 10.0)];
-        let mut pairing = Pairing::default();
-        pairing.safe_radii(&reference);
+        let mut pairing = with_radii(&reference);
         assert!((pairing.safe2[0] - 1.0).abs() < 1e-5 && pairing.safe2[0] < 1.0);
         assert!((pairing.safe2[2] - 25.0).abs() < 1e-4 && pairing.safe2[2] < 25.0);
         let hint = [Pair { d2: 0.0, s: 0, r: 0 }, Pair { d2: 0.0, s: 1, r: 0 }];
@@ -315,5 +364,53 @@ mod tests {
         pairing.pair_from(&reference, &moved, &hint);
         assert_eq!(pairing.missed, vec![1], "1 m out is on the safe radius, not inside it");
         assert_eq!((pairing.by_source[1].r, pairing.by_source[1].d2), (0, 1.0), "the search's pair: the first of two");
+    }
+
+    /// A reference set that differs from the one with radii in one coordinate is another set:
+    /// its point moved next to the source point is found, not the stale guess.
+    #[test]
+    fn a_set_changed_in_one_coordinate_has_no_radii() {
+        let mut reference = vec![Point2::new(0.0, 0.0), Point2::new(0.15, 10.0), Point2::new(20.0, 0.0)];
+        let moved = [Point2::new(0.1, 0.0)];
+        let hint = [Pair { d2: 0.0, s: 0, r: 0 }];
+        let mut pairing = with_radii(&reference);
+        let mut got = Vec::new();
+        pairing.pair(&reference, &moved, &hint, &mut got);
+        assert_eq!(got[0].r, 0);
+        reference[1].y = 0.0;
+        pairing.begin_run();
+        pairing.pair(&reference, &moved, &hint, &mut got);
+        assert_eq!(got[0].r, 1, "0.05 m away, against 0.1 m");
+    }
+
+    /// findBestMatch's pattern: runs on other sets, one run each, keep the own set's radii.
+    #[test]
+    fn a_set_of_one_run_does_not_evict_the_radii() {
+        let own = [Point2::new(0.0, 0.0), Point2::new(3.0, 0.0), Point2::new(0.0, 4.0)];
+        let mut pairing = with_radii(&own);
+        for k in 1..4 {
+            let other = [Point2::new(f64::from(k), 0.0), Point2::new(5.0, 1.0), Point2::new(2.0, 7.0)];
+            pairing.begin_run();
+            assert!(!pairing.safe_radii(&other) && !pairing.safe_radii(&other), "not within its run");
+        }
+        assert!(same_points(&pairing.reference, &own));
+    }
+
+    /// Where the squared gap leaves the normal floats (overflow to +inf, or subnormal), nothing
+    /// is safe: the margin no longer covers rounding there, and the search decides.
+    #[test]
+    fn no_safe_radius_outside_normal_floats() {
+        let huge = [Point2::new(0.0, 0.0), Point2::new(2e154, 0.0), Point2::new(0.0, 2e154)];
+        assert_eq!(safe_radius2(&huge, 0, huge[0]), 0.0);
+        let mut pairing = with_radii(&huge);
+        let mut got = Vec::new();
+        pairing.pair(&huge, &[Point2::new(1.3e154, 0.0)], &[Pair { d2: 0.0, s: 0, r: 0 }], &mut got);
+        assert_eq!(got[0].r, 1, "the search's nearest, not the guess");
+        let tiny = [Point2::new(0.0, 0.0), Point2::new(5e-162, 0.0), Point2::new(1.0, 1.0)];
+        assert_eq!(safe_radius2(&tiny, 0, tiny[0]), 0.0);
+        let single = [Point2::new(1.0, 2.0)];
+        assert_eq!(safe_radius2(&single, 0, single[0]), 0.0, "no other point: searched (one point)");
+        let three = [Point2::new(0.0, 0.0), Point2::new(3.0, 0.0), Point2::new(0.0, 4.0)];
+        assert_eq!(safe_radius2(&three, 0, three[0]), 0.25 * 9.0 * (1.0 - SAFE_MARGIN));
     }
 }
