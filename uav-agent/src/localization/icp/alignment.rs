@@ -56,7 +56,7 @@
 
 use super::nearest::{raster_side, Candidates};
 use super::network::{block_scores, Network, LANES};
-use super::pairing::{Pair, Pairing};
+use super::pairing::{distance2, Pair, Pairing};
 use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
@@ -499,14 +499,14 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
 
 /// Query points searched together by [`nearest_all`] and [`nearest_by_column`] (grid cells) and
 /// the pairing's `pair_into` (source points, its own `BLOCK` of the same lanes): a block's
-/// running minima stay in registers while each reference point it searches is visited once,
-/// and its lanes are independent, so the compiler turns the
-/// loop into packed SIMD (SSE2's two lanes on the baseline x86-64 target; the first pass 1.5×
-/// faster than start by start on a crowd's 45-point sets, `cargo bench -p uav-agent --bench
-/// icp`). The functions are also compiled for AVX2 (four lanes) and pick that version at run
-/// time where the CPU has it (`multiversion`): the same operations in the same order per lane
-/// (no fused multiply-add is enabled), so the distances are bit for bit those of the baseline
-/// build. The first pass's blocks are then scored lane by lane too ([`super::network`]).
+/// running minima stay in registers while each reference point it searches is visited once, and
+/// its lanes are independent, so the compiler turns the loop into packed SIMD (SSE2's two lanes
+/// on the baseline x86-64 target; the first pass 1.5× faster than start by start on a crowd's
+/// 45-point sets, `cargo bench -p uav-agent --bench icp`). The functions are also compiled for
+/// AVX2 (four lanes) and pick that version at run time where the CPU has it (`multiversion`):
+/// the same operations in the same order per lane (no fused multiply-add is enabled), so the
+/// distances are bit for bit those of the baseline build. The first pass's blocks are then
+/// scored lane by lane too ([`super::network`]).
 const BLOCK: usize = LANES;
 
 /// The shifts of the grid of seed 000 5.1 and Figure 5.1: cell (i, j) shifts by
@@ -616,8 +616,7 @@ fn nearest_all(reference: &[Point2<f64>], rotated: &[Vector2<f64>], cx: &[f64], 
             let mut best = [f64::INFINITY; BLOCK];
             for a in reference {
                 for l in 0..BLOCK {
-                    let (dx, dy) = (a.x - qx[l], a.y - qy[l]);
-                    let d = dx * dx + dy * dy;
+                    let d = distance2(*a, qx[l], qy[l]);
                     best[l] = if d < best[l] { d } else { best[l] };
                 }
             }

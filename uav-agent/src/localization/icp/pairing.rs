@@ -76,9 +76,10 @@ pub(super) fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &
 }
 
 /// seed 000, eq. 3.17 squared: d² = ‖p − µ(p)‖², from reference point `a` to (`qx`, `qy`). The
-/// one formula of every pairing, so a guessed pair has the distance the search would compute.
+/// one formula of every pairing and of the full grid's search over every point, so a guessed
+/// pair has the distance the search would compute.
 #[inline(always)]
-fn distance2(a: Point2<f64>, qx: f64, qy: f64) -> f64 {
+pub(super) fn distance2(a: Point2<f64>, qx: f64, qy: f64) -> f64 {
     let (dx, dy) = (a.x - qx, a.y - qy);
     dx * dx + dy * dy
 }
@@ -266,6 +267,20 @@ mod tests {
         want
     }
 
+    /// `n` points scattered over a 20 m square, or on a grid of whole metres where many
+    /// distances tie (the first reference point of least distance wins).
+    fn points(rng: &mut Rng, n: usize, grid: bool) -> Vec<Point2<f64>> {
+        (0..n)
+            .map(|_| {
+                if grid {
+                    Point2::new(rng.range(-4.0, 4.0).round(), rng.range(-4.0, 4.0).round())
+                } else {
+                    Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))
+                }
+            })
+            .collect()
+    }
+
     proptest! {
         #![proptest_config(config(256))]
 
@@ -274,14 +289,8 @@ mod tests {
         #[test]
         fn prop_first_pairing_is_the_point_by_point_loop(seed in any::<u64>(), n_ref in 1usize..50, n_src in 1usize..50, grid in any::<bool>()) {
             let mut rng = Rng(seed);
-            // On a grid, many distances tie: the first reference point of least distance wins.
-            let point = |rng: &mut Rng| if grid {
-                Point2::new(rng.range(-4.0, 4.0).round(), rng.range(-4.0, 4.0).round())
-            } else {
-                Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))
-            };
-            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
-            let moved: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
+            let reference = points(&mut rng, n_ref, grid);
+            let moved = points(&mut rng, n_src, grid);
             let mut got = Vec::new();
             Pairing::default().pair(&reference, &moved, &[], &mut got);
             prop_assert_eq!(key(&got), key(&brute(&reference, &moved)));
@@ -296,13 +305,8 @@ mod tests {
             seed in any::<u64>(), n_ref in 1usize..50, n_src in 1usize..50, grid in any::<bool>(), jitter in 0.0f64..3.0,
         ) {
             let mut rng = Rng(seed);
-            let point = |rng: &mut Rng| if grid {
-                Point2::new(rng.range(-4.0, 4.0).round(), rng.range(-4.0, 4.0).round())
-            } else {
-                Point2::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0))
-            };
-            let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
-            let before: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
+            let reference = points(&mut rng, n_ref, grid);
+            let before = points(&mut rng, n_src, grid);
             // The next iteration: every point moved a little, one of them halfway between two
             // reference points (on both safe radii, if they are each other's nearest).
             let mut moved: Vec<Point2<f64>> =
