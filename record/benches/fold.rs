@@ -1,6 +1,7 @@
 //! The recorder's work per tick at 1000 UAVs, without the network: folding a tick (every agent's
 //! state with about 18 neighbour estimates, as open-1000 sends them, then the tick's truth step,
-//! which scores them: in a lockstep run the states of a tick come before its truth),
+//! which scores them: in a lockstep run the states of a tick come before its truth; then the
+//! same past the first 200 ticks with the live recorder's settling of the estimate graph),
 //! and writing a tick's `trajectories.csv` rows, with std's `{:.N}` and as the recorder writes them now
 //! (`Fixed` of `record/src/recorder/fixed.rs`, the same text) side by side.
 
@@ -98,6 +99,33 @@ fn fold(c: &mut Criterion) {
                 m.on_step(&next);
                 black_box(m.take_scored().len())
             },
+            BatchSize::PerIteration,
+        );
+    });
+    // The live recorder's metrics settle each tick of the estimate graph once it is older than
+    // every truth step they keep (200): past the first 200 ticks, every tick folded settles one.
+    g.bench_function("fold_tick_settling/1000", |b| {
+        let sc = swarm_config::builtin("open-1000").expect("builtin");
+        let mut m = Metrics::settling(&sc);
+        let tick = std::cell::Cell::new(0);
+        let fold_next = |m: &mut Metrics, s: TruthStep, st: Vec<AgentState>| {
+            st.into_iter().for_each(|x| m.on_state(x));
+            m.on_step(&s);
+            tick.set(tick.get() + 1);
+            m.take_scored().len()
+        };
+        for _ in 0..=200 {
+            let s = step(tick.get());
+            let st = states(&s);
+            fold_next(&mut m, s, st);
+        }
+        b.iter_batched(
+            || {
+                let s = step(tick.get());
+                let st = states(&s);
+                (s, st)
+            },
+            |(s, st)| black_box(fold_next(&mut m, s, st)),
             BatchSize::PerIteration,
         );
     });
