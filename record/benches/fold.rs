@@ -81,6 +81,13 @@ fn states(s: &TruthStep) -> Vec<AgentState> {
         .collect()
 }
 
+/// Folds one tick as the recorder takes it: the tick's states, then its truth step, which scores
+/// them.
+fn fold_tick(m: &mut Metrics, s: &TruthStep, states: Vec<AgentState>) {
+    states.into_iter().for_each(|st| m.on_state(st));
+    m.on_step(s);
+}
+
 fn fold(c: &mut Criterion) {
     let mut g = c.benchmark_group("recorder");
     g.bench_function("fold_tick/1000", |b| {
@@ -88,15 +95,13 @@ fn fold(c: &mut Criterion) {
             || {
                 let mut m = Metrics::default();
                 let first = step(0);
-                states(&first).into_iter().for_each(|st| m.on_state(st));
-                m.on_step(&first);
+                fold_tick(&mut m, &first, states(&first));
                 let next = step(1);
                 let st = states(&next);
                 (m, next, st)
             },
             |(mut m, next, st)| {
-                st.into_iter().for_each(|s| m.on_state(s));
-                m.on_step(&next);
+                fold_tick(&mut m, &next, st);
                 black_box(m.take_scored().len())
             },
             BatchSize::PerIteration,
@@ -109,8 +114,7 @@ fn fold(c: &mut Criterion) {
         let mut m = Metrics::settling(&sc);
         let tick = std::cell::Cell::new(0);
         let fold_next = |m: &mut Metrics, s: TruthStep, st: Vec<AgentState>| {
-            st.into_iter().for_each(|x| m.on_state(x));
-            m.on_step(&s);
+            fold_tick(m, &s, st);
             tick.set(tick.get() + 1);
             m.take_scored().len()
         };
