@@ -112,24 +112,25 @@ fn fold(c: &mut Criterion) {
     g.bench_function("fold_tick_settling/1000", |b| {
         let sc = swarm_config::builtin("open-1000").expect("builtin");
         let mut m = Metrics::settling(&sc);
-        let tick = std::cell::Cell::new(0);
-        let fold_next = |m: &mut Metrics, s: TruthStep, st: Vec<AgentState>| {
-            fold_tick(m, &s, st);
-            tick.set(tick.get() + 1);
-            m.take_scored().len()
+        // The next tick's truth step and states, untimed.
+        let mut tick = 0;
+        let mut next_tick = || {
+            let s = step(tick);
+            tick += 1;
+            let st = states(&s);
+            (s, st)
         };
         for _ in 0..=200 {
-            let s = step(tick.get());
-            let st = states(&s);
-            fold_next(&mut m, s, st);
+            let (s, st) = next_tick();
+            fold_tick(&mut m, &s, st);
+            m.take_scored();
         }
         b.iter_batched(
-            || {
-                let s = step(tick.get());
-                let st = states(&s);
-                (s, st)
+            next_tick,
+            |(s, st)| {
+                fold_tick(&mut m, &s, st);
+                black_box(m.take_scored().len())
             },
-            |(s, st)| black_box(fold_next(&mut m, s, st)),
             BatchSize::PerIteration,
         );
     });
