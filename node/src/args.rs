@@ -56,6 +56,33 @@ impl ZenohArgs {
     }
 }
 
+/// Which ROS 2 graph a piece joins: its middleware and domain (`swarm ros2`, `swarm run --ros2`,
+/// `swarm agent --sensors ros2`).
+#[derive(Args, Debug, Clone, Default, PartialEq, Eq)]
+pub struct RosArgs {
+    /// ROS 2 domain id (ROS's `ROS_DOMAIN_ID`).
+    #[arg(long = "ros-domain", visible_alias = "domain", env = "ROS_DOMAIN_ID", default_value_t = 0)]
+    pub domain: u32,
+    /// Speak DDS, what a stock ROS 2 install (Fast DDS) speaks, instead of rmw_zenoh's keys on
+    /// the hub's router.
+    #[arg(long)]
+    pub dds: bool,
+    /// DDS on the loopback interface only; also set by ROS's own
+    /// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` (or Humble's `ROS_LOCALHOST_ONLY=1`).
+    #[arg(long)]
+    pub localhost: bool,
+}
+
+impl RosArgs {
+    /// Whether DDS keeps to 127.0.0.1: `--localhost`, or ROS's environment says so.
+    pub fn localhost_only(&self) -> bool {
+        let env = |k: &str| std::env::var(k).unwrap_or_default();
+        self.localhost
+            || env("ROS_AUTOMATIC_DISCOVERY_RANGE").eq_ignore_ascii_case("localhost")
+            || env("ROS_LOCALHOST_ONLY") == "1"
+    }
+}
+
 /// The first line of a password file, trimmed; an empty one is an error.
 pub(crate) fn read_password(file: &std::path::Path) -> Result<String> {
     let text = std::fs::read_to_string(file)

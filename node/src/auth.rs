@@ -7,21 +7,25 @@
 //! - `uav{id}`: one agent. It may subscribe to its own `uav/{id}/sense` (its sensor frames),
 //!   `clock`, `netem/rules` and every UAV's `share/**`, ask for `scenario`, watch `alive/hub`;
 //!   publish only its own `cmd`, `share/**` and `state`; hold only `alive/uav/{id}`. Nothing
-//!   else, `truth/**` least of all (the default is deny).
+//!   else, `truth/**` least of all (the default is deny). In a run with a ROS side (a `bridge`
+//!   user) it may also read its own ROS topics `*/uav{id}/{scan,odom,goal}` and put its own
+//!   `*/uav{id}/{cmd_vel,cmd_accel}`, as an agent on ROS topics over rmw_zenoh does.
 //! - `uavs{ids}` (`uavs1-20`, `uavs1-4,7`, the `--ids` syntax): an agent host, one session for
 //!   several UAVs, allowed exactly what each of those UAVs is. The same user serves a second
 //!   router that relays a group of agents to the hub.
 //! - `ext{id}`: UAV `id`'s external controller (docs/own-controller.md). It may
 //!   subscribe to `uav/{id}/ext/view`, put only `uav/{id}/ext/cmd`, hold only `alive/ext/{id}`,
 //!   watch `alive/hub` (to know the run is over); nothing else of the run (not even the scenario).
-//! - `bridge`: the ROS 2 bridge (`swarm ros2`): an observer that also puts the UAVs' ROS 2
-//!   topics (`*/*/scan/**`, `*/*/odom/**`), reads `*/*/cmd_vel/**`, holds `@ros2_lv/**` tokens,
-//!   and is the external controller of every UAV (`uav/*/ext/view` in, `uav/*/ext/cmd` out,
-//!   `alive/ext/*`).
-//! - `ros` (or `ros-NAME`): a ROS 2 machine on rmw_zenoh: it may read the UAVs' `scan` and
-//!   `odom` topics, put `cmd_vel` only of the scenario's external UAVs, and hold and read the
+//! - `bridge`: the ROS 2 bridge (`swarm ros2`): an observer that also puts the ROS 2 topics
+//!   (each UAV's `scan`, `odom`, `goal`, `neighbours`; `clock`, `tf`, and the truth topics
+//!   `tf_static` and `world/**`), reads `cmd_vel` and `cmd_accel`, holds `@ros2_lv/**` tokens,
+//!   is the external controller of every UAV (`uav/*/ext/view` in, `uav/*/ext/cmd` out,
+//!   `alive/ext/*`), and puts `uav/*/cmd` for the bodies of agents on ROS topics.
+//! - `ros` (or `ros-NAME`): a ROS 2 machine on rmw_zenoh: it may read every ROS topic but the
+//!   truth ones, put `cmd_vel` only of the scenario's external UAVs, and hold and read the
 //!   `@ros2_lv/**` tokens of the ROS graph; nothing of the run's own keys.
-//! - `observer` (or `observer-NAME`): reads every key of the run and the routers' admin space
+//! - `observer` (or `observer-NAME`): reads every key of the run, every ROS 2 topic (truth
+//!   among them) and the routers' admin space
 //!   (`@/**`, read-only: who subscribes to what, for `swarm keys`), publishes nothing; it may hold
 //!   `alive/recorder` (the recorder is an observer).
 //! - `operator` (or `operator-NAME`): an observer that may also put on `netem/add`.
@@ -283,6 +287,9 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
         rule("ext-view-out", "egress", &["put"], vec![format!("{r}/uav/*/ext/view")]),
     ];
     rules.extend(ros_rules(&r, external));
+    // Agents get ROS rules only in a run with a ROS side (a bridge): the router's rules grow with
+    // the agents, and a run of 1000 without ROS keeps its lists short.
+    let ros_side = users.iter().any(|u| u == "bridge");
     let mut subjects = Vec::new();
     let mut policies = Vec::new();
     let mut seen = BTreeMap::new();
@@ -299,6 +306,7 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
                 "observe-out",
                 "bridge-ext-in",
                 "bridge-ext-token",
+                "bridge-cmd",
                 "bridge-ros-pub",
                 "bridge-ros-sub",
                 "bridge-ros-out",
@@ -315,8 +323,10 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
                 .collect(),
             Role::Observer => {
                 ["decl-out", "observe-in", "observe-out", "observe-admin-in", "observe-admin-out", "recorder-token"]
+                    .into_iter()
+                    .chain(ROS_READER)
                     .map(String::from)
-                    .to_vec()
+                    .collect()
             }
             Role::Operator => [
                 "decl-out",
@@ -327,8 +337,10 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
                 "recorder-token",
                 "operate",
             ]
+            .into_iter()
+            .chain(ROS_READER)
             .map(String::from)
-            .to_vec(),
+            .collect(),
             Role::External(id) => {
                 rules.extend(external_rules(&r, &subject, id));
                 ["decl-out", "ext-view-out", "agent-hub-watch", "agent-hub-token"]
@@ -339,7 +351,15 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
             }
             Role::Agents(ids) => {
                 rules.extend(own_rules(&r, &subject, &ids));
-                let own = ["own-sub", "own-pub", "own-token", "own-ext-watch"].map(|k| format!("{subject}-{k}"));
+                let mut own: Vec<String> = ["own-sub", "own-pub", "own-token", "own-ext-watch"]
+                    .iter()
+                    .map(|k| format!("{subject}-{k}"))
+                    .collect();
+                if ros_side {
+                    rules.extend(ros_agent_rules(&subject, &ids));
+                    own.extend(["ros-sub", "ros-pub"].map(|k| format!("{subject}-{k}")));
+                    own.extend(["ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"].map(String::from));
+                }
                 [
                     "decl-out",
                     "agent-sub",
@@ -364,35 +384,69 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
     )
 }
 
-/// The ROS 2 side: the bridge (`swarm ros2`) and ROS machines. A ROS key starts with its
-/// domain, so the rules hold for any domain (`*`); cmd_vel only for the `external` UAVs.
+/// The ROS 2 topics a `ros` login may read (docs/ros2.md): each UAV's sensors, goal and
+/// neighbour estimates, and the clock and transforms every node needs. A ROS key starts with
+/// its domain, so every rule holds for any domain (`*`).
+const ROS_TOPICS: [&str; 6] =
+    ["*/*/scan/**", "*/*/odom/**", "*/*/goal/**", "*/*/neighbours/**", "*/clock/**", "*/tf/**"];
+
+/// The ROS 2 topics that are ground truth (where each UAV started in the world, the world
+/// itself): observers and operators only, as `truth/**`.
+const ROS_TRUTH: [&str; 2] = ["*/tf_static/**", "*/world/**"];
+
+/// The ROS 2 commands: velocities and accelerations of UAVs.
+const ROS_COMMANDS: [&str; 2] = ["*/*/cmd_vel/**", "*/*/cmd_accel/**"];
+
+fn strings(keys: &[&str]) -> Vec<String> {
+    keys.iter().map(|k| k.to_string()).collect()
+}
+
+/// The ROS 2 side: the bridge (`swarm ros2`), ROS machines (`ros`), agents on ROS topics and
+/// observers; cmd_vel from a ROS machine only for the `external` UAVs.
 fn ros_rules(r: &str, external: &[u32]) -> Vec<Value> {
-    let topics = vec!["*/*/scan/**".to_string(), "*/*/odom/**".to_string()];
+    let (topics, truth, commands) = (strings(&ROS_TOPICS), strings(&ROS_TRUTH), strings(&ROS_COMMANDS));
     let cmd_vel: Vec<String> = external.iter().map(|id| format!("*/uav{id}/cmd_vel/**")).collect();
     let graph = vec!["@ros2_lv/**".to_string()];
     let token_read = ["declare_liveliness_subscriber", "liveliness_query", "liveliness_token"];
+    let everything: Vec<String> = topics.iter().chain(&truth).chain(&commands).cloned().collect();
     let mut rules = vec![
         rule("bridge-ext-in", "ingress", &["put"], vec![format!("{r}/uav/*/ext/cmd")]),
         rule("bridge-ext-token", "ingress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
-        rule("bridge-ros-pub", "ingress", &["put"], topics.clone()),
-        rule("bridge-ros-sub", "ingress", &["declare_subscriber"], vec!["*/*/cmd_vel/**".into()]),
-        rule("bridge-ros-out", "egress", &["put"], vec!["*/*/cmd_vel/**".into()]),
+        // The bridge drives the bodies of agents on ROS topics (their commands come over ROS).
+        rule("bridge-cmd", "ingress", &["put"], vec![format!("{r}/uav/*/cmd")]),
+        rule("bridge-ros-pub", "ingress", &["put"], topics.iter().chain(&truth).cloned().collect()),
+        rule("bridge-ros-sub", "ingress", &["declare_subscriber"], commands.clone()),
+        rule("bridge-ros-out", "egress", &["put"], commands),
         rule("ros-in", "ingress", &["declare_subscriber"], topics.clone()),
-        rule("ros-out", "egress", &["put"], topics.clone()),
+        rule("ros-out", "egress", &["put"], topics),
+        rule("ros-truth-in", "ingress", &["declare_subscriber"], truth.clone()),
+        rule("ros-truth-out", "egress", &["put"], truth),
         rule("ros-graph-in", "ingress", &token_read, graph.clone()),
         rule("ros-graph-out", "egress", &["liveliness_token", "reply"], graph),
-        rule(
-            "ros-decl-out",
-            "egress",
-            &["declare_subscriber"],
-            topics.into_iter().chain(["*/*/cmd_vel/**".to_string()]).collect(),
-        ),
+        rule("ros-decl-out", "egress", &["declare_subscriber"], everything),
     ];
     if !cmd_vel.is_empty() {
         rules.push(rule("ros-cmd", "ingress", &["put"], cmd_vel));
     }
     rules
 }
+
+/// The ROS rules of the agents of `ids` (under subject id `subject`), in a run with a ROS side:
+/// each may read its own sensor and goal topics and put its own commands, as an agent on ROS
+/// topics does (`swarm agent --sensors ros2`, over rmw_zenoh).
+fn ros_agent_rules(subject: &str, ids: &[u32]) -> Vec<Value> {
+    let per = |topics: &[&str]| -> Vec<String> {
+        ids.iter().flat_map(|i| topics.iter().map(move |t| format!("*/uav{i}/{t}/**"))).collect()
+    };
+    vec![
+        rule(&format!("{subject}-ros-sub"), "ingress", &["declare_subscriber"], per(&["scan", "odom", "goal"])),
+        rule(&format!("{subject}-ros-pub"), "ingress", &["put"], per(&["cmd_vel", "cmd_accel"])),
+    ]
+}
+
+/// What observers and operators may read of the ROS 2 side: every topic, truth among them.
+const ROS_READER: [&str; 7] =
+    ["ros-in", "ros-out", "ros-truth-in", "ros-truth-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"];
 
 /// Keys every agent may read: `clock`, `netem/rules`, and every UAV's shares.
 fn agent_common_keys(r: &str) -> Vec<String> {

@@ -2,7 +2,7 @@
 //! around its library (`physics_hub::run`, `uav_agent::run`). `swarm run` starts them as its
 //! children; a person can start them by hand, on one machine or several.
 
-use crate::args::{parse_ids, UavIds, ZenohArgs};
+use crate::args::{parse_ids, RosArgs, UavIds, ZenohArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::process::ExitCode;
@@ -61,6 +61,37 @@ pub struct AgentArgs {
     /// back: the session reconnects by itself) before exiting.
     #[arg(long, default_value_t = 3.0)]
     pub hub_grace_s: f64,
+    /// Where the agent's sensors come from and its commands go: the hub's keys, or ROS 2 topics
+    /// (`/uav{id}/scan`, `/uav{id}/odom`, `/uav{id}/goal` in, `/uav{id}/cmd_vel` out; docs/ros2.md),
+    /// as on a vehicle. Shares still cross the run's Zenoh keys.
+    #[arg(long, value_enum, default_value_t = SensorSource::Hub, requires = "id")]
+    pub sensors: SensorSource,
+    /// The ROS 2 graph of `--sensors ros2`.
+    #[command(flatten)]
+    pub ros: RosArgs,
+}
+
+/// Where an agent's sensors come from.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorSource {
+    /// The hub's sensor frames.
+    Hub,
+    /// ROS 2 topics.
+    Ros2,
+}
+
+impl AgentArgs {
+    /// The agent library's sensors of these arguments.
+    pub fn sensors(&self) -> uav_agent::Sensors {
+        match self.sensors {
+            SensorSource::Hub => uav_agent::Sensors::Hub,
+            SensorSource::Ros2 => uav_agent::Sensors::Ros {
+                dds: self.ros.dds,
+                localhost_only: self.ros.localhost_only(),
+                domain: self.ros.domain,
+            },
+        }
+    }
 }
 
 /// Resolves when Ctrl-C arrives or, with `watch_stdin`, when standard input closes.
@@ -149,6 +180,7 @@ pub async fn agent(a: AgentArgs, controllers: Controllers) -> Result<ExitCode> {
         return agent_host(a, scenario, controllers).await;
     };
     let opts = uav_agent::AgentOptions {
+        sensors: a.sensors(),
         run: a.run,
         id,
         zenoh_cfg: a.zenoh.session_cfg()?,

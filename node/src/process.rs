@@ -1,6 +1,8 @@
 //! What every binary of the workspace does around its command, in one place so `swarm` and
 //! `swarm-node` log and fail alike: tracing to standard error (`RUST_LOG`, Zenoh's own chatter at
-//! warn by default) and a two-thread Tokio runtime whose error ends the process with a message.
+//! warn by default, RustDDS's off: it logs a peer's every coming and going as an error; ask for
+//! it with `RUST_LOG=info,rustdds=warn`) and a two-thread Tokio runtime whose error ends the
+//! process with a message.
 
 use std::future::Future;
 use std::process::ExitCode;
@@ -33,7 +35,7 @@ where
 
 fn init_tracing() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn,zenoh_transport=warn"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,zenoh=warn,zenoh_transport=warn,rustdds=off"));
     use std::io::IsTerminal;
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use std::process::{ExitCode, Stdio};
 use std::time::Duration;
 use swarm_config::{FailureKind, Scenario};
-use swarm_node::args::{default_run_id, scenario_value};
+use swarm_node::args::{default_run_id, scenario_value, RosArgs};
 use swarm_node::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
 use swarm_node::pieces::LISTENING_PREFIX;
 use swarm_record::recorder::{progress_bar, Recording};
@@ -86,11 +86,54 @@ pub struct RunArgs {
     /// summary), after a run that otherwise ended well.
     #[arg(long)]
     pub check: bool,
-    /// Also show the UAVs to ROS 2 (`swarm ros2` in the run: /uav{id}/scan, /uav{id}/odom,
-    /// /uav{id}/cmd_vel of external UAVs), in this ROS domain (0 when given without a value);
-    /// a ROS machine logs in as `ros` (docs/own-controller.md, "ROS 2 over rmw_zenoh").
+    /// Also show the run to ROS 2 (`swarm ros2` in the run: /clock, /tf, each UAV's scan,
+    /// odometry, goal and neighbours, cmd_vel of external UAVs; docs/ros2.md), in this ROS
+    /// domain (0 when given without a value), over rmw_zenoh on the hub's router (a ROS machine
+    /// logs in as `ros`) unless `--dds`.
     #[arg(long, num_args = 0..=1, default_missing_value = "0", value_name = "DOMAIN")]
     pub ros2: Option<u32>,
+    /// ROS 2 over DDS, what a stock ROS 2 install speaks (implies `--ros2`).
+    #[arg(long)]
+    pub dds: bool,
+    /// DDS on the loopback interface only (as ROS's `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`,
+    /// which also sets it).
+    #[arg(long)]
+    pub ros2_localhost: bool,
+    /// Publish the truth topics (`/tf_static`, `/world/markers`) on DDS too, where anyone on
+    /// the network may read them.
+    #[arg(long)]
+    pub ros2_truth: bool,
+    /// Run these UAVs' agents (`3`, `1-4,7`) on ROS 2 topics, as on a vehicle: each reads its
+    /// scan, odometry and goal from ROS and sends its command there, and the bridge drives its
+    /// body (implies `--ros2`; `swarm agent --sensors ros2`).
+    #[arg(long, value_parser = swarm_node::args::parse_ids)]
+    pub ros2_agents: Option<swarm_node::args::UavIds>,
+}
+
+impl RunArgs {
+    /// The ROS 2 side these arguments ask for, if any.
+    fn ros2_side(&self) -> Option<Ros2Side> {
+        let agents = self.ros2_agents.as_ref().map(|a| a.0.clone()).unwrap_or_default();
+        if self.ros2.is_none() && !self.dds && agents.is_empty() {
+            return None;
+        }
+        let ros = RosArgs { domain: self.ros2.unwrap_or(0), dds: self.dds, localhost: self.ros2_localhost };
+        Some(Ros2Side { localhost_only: ros.localhost_only(), ros, truth: self.ros2_truth, agents })
+    }
+}
+
+/// A run's ROS 2 side: the bridge's graph, whether truth goes out on DDS, the agents on ROS
+/// topics.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Ros2Side {
+    /// Domain and middleware.
+    pub ros: RosArgs,
+    /// DDS on loopback only (the flag or ROS's environment).
+    pub localhost_only: bool,
+    /// Truth on DDS too.
+    pub truth: bool,
+    /// The UAVs whose agents read their sensors from ROS topics.
+    pub agents: Vec<u32>,
 }
 
 /// Up to this many UAVs, `swarm run` starts one process per UAV by default.
@@ -126,7 +169,7 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
         mcap: a.mcap.detail(sc.count()),
         journal: !a.mcap.no_journal,
         view: a.view,
-        ros2: a.ros2,
+        ros2: a.ros2_side(),
     };
     let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
@@ -220,8 +263,8 @@ pub struct Show {
     pub journal: bool,
     /// Serve the live view on this page port (see `RunArgs::view`).
     pub view: Option<u16>,
-    /// Bridge the UAVs to ROS 2 in this domain (see `RunArgs::ros2`).
-    pub ros2: Option<u32>,
+    /// Bridge the run to ROS 2 (see `RunArgs::ros2`).
+    pub ros2: Option<Ros2Side>,
 }
 
 /// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
@@ -237,7 +280,8 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     std::fs::write(&scenario_path, text).with_context(|| format!("cannot write {}", scenario_path.display()))?;
     eprintln!("run {run_id}: scenario {} ({} UAVs), folder {}", sc.name, sc.count(), out.display());
 
-    let groups = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id));
+    let ros_agents = ros_agents(sc, show.ros2.as_ref())?;
+    let groups = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id) || ros_agents.contains(&id));
     let creds = if insecure { None } else { Some(run_credentials(sc, out, &groups.hosts, show.ros2.is_some())?) };
     let launcher = Launcher {
         exe: std::env::current_exe().context("cannot find my own executable")?,
@@ -245,6 +289,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         run_id: run_id.to_string(),
         cfg: children_cfg(sc, zenoh_cfg),
         creds,
+        ros2: show.ros2.clone(),
     };
     let mut hub = launcher.hub(&scenario_path)?;
     let locators = read_locators(&mut hub.child, &launcher.logs).await?;
@@ -272,8 +317,8 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         let _ = std::io::stdout().flush();
         tokio::spawn(live.run());
     }
-    if let Some(domain) = show.ros2 {
-        start_bridge(&launcher, run_id, &locators, zenoh_cfg, domain).await?;
+    if let Some(side) = &show.ros2 {
+        start_bridge(&launcher, run_id, &locators, zenoh_cfg, side).await?;
     }
     let mut agents = Agents::start(&launcher, sc, locators, proxies, groups)?;
     let progress = progress_bar(sc, show.quiet);
@@ -281,6 +326,18 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     progress.finish_and_clear();
     let hub_ok = agents.stop(hub).await;
     Ok((summary, hub_ok))
+}
+
+/// The UAVs whose agents run on ROS topics, each checked to have an agent of ours.
+fn ros_agents(sc: &Scenario, side: Option<&Ros2Side>) -> Result<Vec<u32>> {
+    let ids = side.map(|r| r.agents.clone()).unwrap_or_default();
+    for &id in &ids {
+        anyhow::ensure!(
+            sc.agent_ids().any(|a| a == id),
+            "--ros2-agents: UAV {id} has no agent of ours in this scenario"
+        );
+    }
+    Ok(ids)
 }
 
 /// The file of the run folder that holds the hub's locators while the run flies.
@@ -292,14 +349,24 @@ async fn start_bridge(
     run_id: &str,
     locators: &[String],
     zenoh_cfg: &[String],
-    domain: u32,
+    side: &Ros2Side,
 ) -> Result<()> {
     let mut cfg = match &launcher.creds {
         Some(c) => c.client_cfg("bridge")?,
         None => Vec::new(),
     };
     cfg.extend(zenoh_cfg.iter().cloned());
-    let bridge = crate::ros2::Bridge::start(run_id, locators, &cfg, domain).await?;
+    let opts = crate::ros2::BridgeOptions {
+        run: run_id.to_string(),
+        connect: locators.to_vec(),
+        cfg,
+        domain: side.ros.domain,
+        dds: side.ros.dds,
+        localhost_only: side.localhost_only,
+        truth: side.truth,
+        vehicles: side.agents.clone(),
+    };
+    let bridge = crate::ros2::Bridge::start(&opts).await?;
     tokio::spawn(async move {
         if let Err(e) = bridge.run().await {
             warn!("the ROS 2 bridge failed: {e:#}");
@@ -403,6 +470,8 @@ struct Launcher {
     cfg: Vec<String>,
     /// `None`: the hub runs `--insecure`.
     creds: Option<Credentials>,
+    /// The run's ROS 2 side, whose agents get `--sensors ros2`.
+    ros2: Option<Ros2Side>,
 }
 
 impl Launcher {
@@ -444,6 +513,12 @@ impl Launcher {
     ) -> Result<Piece> {
         self.spawn(log, false, |c| {
             c.arg("agent").args(["--run", &self.run_id]).args(who.args()).arg("--exit-with-stdin");
+            if let (AgentProcess::Uav(id), Some(side)) = (who, &self.ros2) {
+                if side.agents.contains(&id) {
+                    c.args(["--sensors", "ros2", "--ros-domain", &side.ros.domain.to_string()]);
+                    c.args(side.ros.dds.then_some("--dds")).args(side.localhost_only.then_some("--localhost"));
+                }
+            }
             if let Some(creds) = &self.creds {
                 c.args(creds.client_args(&who.user()));
             }

@@ -7,8 +7,9 @@ mod common;
 
 use common::python;
 use std::process::Command;
-use swarm_wire::ros2::msgs::{laser_scan, odometry, Twist};
-use swarm_wire::ros2::{LASER_SCAN, ODOMETRY, TWIST};
+use swarm_ros2::msgs::command::Twist;
+use swarm_ros2::msgs::sensor::{laser_scan, odometry};
+use swarm_ros2::types::{LASER_SCAN, ODOMETRY, TWIST};
 use swarm_wire::{Odom, Scan};
 
 const CHECK: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/ros2/rosbags_check.py");

@@ -54,6 +54,6 @@ pub use agent::{Agent, LinkReport, Perceived, StepOutput, StepReport};
 pub use control::{Command, Controller, Controllers, MakeController, UnknownController, View};
 pub use localization::icp;
 pub use localization::Share;
-pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions};
+pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions, Sensors};
 pub use sensing::{MalformedFrame, Needs, SensorFrame};
 pub use world_model::{Body, Circle, Estimate, Segment};

@@ -9,8 +9,6 @@
 //!   every key a process publishes (a publisher that declares nothing: see why there).
 //! - [`external`]: the JSON view and command an agent exchanges with an external controller
 //!   (the only payloads that are not a [`Msg`]).
-//! - [`ros2`]: ROS 2 messages and keys as rmw_zenoh puts them on Zenoh (CDR payloads, data
-//!   keys, the sample attachment, liveliness tokens), for the ROS 2 side of a run.
 //! - [`plumbing`]: what every process repeats around its session, written once: subscribe a key
 //!   into a channel, watch liveliness tokens, fetch the scenario text from the hub.
 //!
@@ -21,7 +19,6 @@ pub mod external;
 pub mod keys;
 pub mod msg;
 pub mod plumbing;
-pub mod ros2;
 pub mod session;
 
 #[cfg(test)]

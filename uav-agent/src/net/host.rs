@@ -13,6 +13,7 @@
 
 use super::feed::SessionShared;
 use super::node::{self, AgentExit, Flight};
+use super::ros::Sensors;
 use super::AgentError;
 use crate::control::Controllers;
 use std::future::Future;
@@ -82,7 +83,12 @@ async fn fly_all(
             let _ = stop.wait_for(|v| *v).await;
         };
         let span = info_span!("agent", uav_id = id, run = %opts.run);
-        let flight = Flight { sc: sc.clone(), hub_grace_s: opts.hub_grace_s, controllers: opts.controllers.clone() };
+        let flight = Flight {
+            sc: sc.clone(),
+            hub_grace_s: opts.hub_grace_s,
+            controllers: opts.controllers.clone(),
+            sensors: Sensors::Hub,
+        };
         let fly = node::fly(s.clone(), keys.clone(), shared.clone(), id, flight, stopped);
         let reported = async move {
             let r = fly.await;

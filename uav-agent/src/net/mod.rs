@@ -9,20 +9,24 @@
 //!   ([`run_host`]).
 //! - `external`: the link of an agent whose controller runs outside our processes: the tick's
 //!   view out as JSON, the command back, bounded by the tick's wait.
+//! - `ros`: the sensors and commands of an agent on ROS 2 topics (DDS or rmw_zenoh) instead of
+//!   the hub's keys ([`Sensors`]), the way the same stack runs on a vehicle.
 //! - `feed`: what the agents of one session share: one subscription per sender any of them
 //!   listens to (the union of their radio sets), each share decoded once and posted to the
 //!   listeners' mailboxes, and the session's traffic counts.
 //!
-//! Arrows: `host` → `node`, and both → `feed`; `node` → `external`; `feed` and `external` know
-//! neither, `node` not `host`.
+//! Arrows: `host` → `node`, and both → `feed`; `node` → `external` and `ros`; `feed`, `external`
+//! and `ros` know neither, `node` not `host`.
 
 mod external;
 mod feed;
 mod host;
 mod node;
+mod ros;
 
 pub use host::{run_host, HostOptions};
 pub use node::{run, AgentExit, AgentOptions};
+pub use ros::Sensors;
 
 use swarm_config::ScenarioError;
 use swarm_wire::WireError;
@@ -51,6 +55,12 @@ pub enum AgentError {
     /// The UAV is flown by an external controller, which did not come.
     #[error("UAV {0} waits for its external controller (alive/ext/{0}), which did not come within {1} s")]
     NoExternalController(u32, u64),
+    /// ROS 2 (DDS or rmw_zenoh) refused something.
+    #[error("ROS 2: {0}")]
+    Ros2(String),
+    /// An agent on ROS topics gets a scan and odometry only.
+    #[error("UAV {0}: an agent on ROS 2 topics gets its scan and odometry only, so its localization must be `icp`")]
+    RosNeedsIcp(u32),
     /// An agent's task of an agent host panicked.
     #[error("the agent's task panicked: {0}")]
     Panicked(String),

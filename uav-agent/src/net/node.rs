@@ -22,6 +22,7 @@
 
 use super::external::ExternalLink;
 use super::feed::{Listening, Mailbox, SessionShared};
+use super::ros::{RosLink, Sensors};
 use super::AgentError;
 use crate::admission::{Admission, Arrived};
 use crate::agent::{Agent, StepOutput};
@@ -58,6 +59,9 @@ pub struct AgentOptions {
     pub hub_grace_s: f64,
     /// The controllers the scenario may name (default: the built-in ones).
     pub controllers: Controllers,
+    /// Where its sensor frames come from and where its commands go: the hub's keys (default),
+    /// or ROS 2 topics ([`super::ros`]).
+    pub sensors: Sensors,
 }
 
 /// How an agent's run ended.
@@ -80,7 +84,12 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
             None => fetch_scenario(&s, &keys, &opts.run).await?,
         };
         let shared = SessionShared::open(&s, &keys, &sc, &[opts.id]).await?;
-        let flight = Flight { sc, hub_grace_s: opts.hub_grace_s, controllers: opts.controllers.clone() };
+        let flight = Flight {
+            sc,
+            hub_grace_s: opts.hub_grace_s,
+            controllers: opts.controllers.clone(),
+            sensors: opts.sensors.clone(),
+        };
         fly(s.clone(), keys, shared, opts.id, flight, shutdown).await
     }
     .instrument(span)
@@ -98,6 +107,8 @@ pub(crate) struct Flight {
     pub hub_grace_s: f64,
     /// See [`AgentOptions::controllers`].
     pub controllers: Controllers,
+    /// See [`AgentOptions::sensors`].
+    pub sensors: Sensors,
 }
 
 /// Flies UAV `id` of the flight's scenario on session `s` (its own or shared with other agents
@@ -115,7 +126,7 @@ pub(crate) async fn fly(
         return Err(AgentError::BadId(id, flight.sc.swarm.count));
     }
     let agent = Agent::new(id, flight.sc.clone(), &flight.controllers)?;
-    let mut node = Node::start(s, keys, shared, agent, flight.sc).await?;
+    let mut node = Node::start(s, keys, shared, agent, flight.sc, &flight.sensors).await?;
     node.hub_grace_s = flight.hub_grace_s;
     node.run_loop(shutdown).await
 }
@@ -136,14 +147,16 @@ type Incoming = Option<Msg>;
 
 /// The subscriptions a node holds for its whole life (dropping one undeclares it).
 struct Inputs {
-    _sense: Subscriber,
+    /// The hub's sensor frames (none for an agent on ROS topics).
+    _sense: Option<Subscriber>,
     _rules: Subscriber,
     _hub_watch: Subscriber,
 }
 
 /// The node's writers.
 struct Outputs {
-    cmd: Writer,
+    /// The command to the hub (none for an agent on ROS topics: its commands go to `ros`).
+    cmd: Option<Writer>,
     share: Writer,
     state: Writer,
 }
@@ -152,6 +165,8 @@ struct Node {
     s: zenoh::Session,
     /// See [`AgentOptions::hub_grace_s`].
     hub_grace_s: f64,
+    /// The control period [s].
+    dt_s: f64,
     keys: Keys,
     id: u32,
     agent: Agent,
@@ -175,6 +190,8 @@ struct Node {
     _inputs: Inputs,
     /// The link to this UAV's external controller, when it has one instead of ours.
     external: Option<ExternalLink>,
+    /// Its ROS 2 side, when its sensors and commands are ROS topics.
+    ros: Option<RosLink>,
     _token: Option<zenoh::liveliness::LivelinessToken>,
     /// Counted among the session's agents while the node lives.
     _flying: Flying,
@@ -218,13 +235,14 @@ async fn subscribe_declared<T: Send + 'static>(
     plumbing::subscribe(s, declared, tx, map).await
 }
 
-/// Subscribes the node's own sensor-frame and netem-rule keys into `tx`, and watches the hub's
-/// liveliness token. Every sample's bytes are counted in the session's traffic and `own_bytes`.
+/// Subscribes the node's own sensor-frame (when `from_hub`) and netem-rule keys into `tx`, and
+/// watches the hub's liveliness token. Every sample's bytes are counted in the session's
+/// traffic and `own_bytes`.
 async fn declare_inputs(
     s: &zenoh::Session,
     keys: &Keys,
     shared: &SessionShared,
-    id: u32,
+    (id, from_hub): (u32, bool),
     tx: &mpsc::UnboundedSender<Incoming>,
     own_bytes: &Arc<AtomicU64>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
@@ -237,7 +255,10 @@ async fn declare_inputs(
         own.fetch_add(len as u64, Ordering::Relaxed);
         Some(plumbing::decode(sample).ok())
     };
-    let sense = subscribe_declared(s, keys.sense(id), tx.clone(), decode.clone()).await?;
+    let sense = match from_hub {
+        true => Some(subscribe_declared(s, keys.sense(id), tx.clone(), decode.clone()).await?),
+        false => None,
+    };
     // The rules in force, republished by the hub whenever `swarm netem` changes them; on the key
     // the session declared once for all its agents.
     let rules_sub = plumbing::subscribe(s, shared.netem_rules.clone(), tx.clone(), decode).await?;
@@ -245,12 +266,12 @@ async fn declare_inputs(
     Ok((Inputs { _sense: sense, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
 }
 
-/// The command, share and state writers of UAV `id`.
+/// The command (when `to_hub`), share and state writers of UAV `id`.
 async fn declare_outputs(
     s: &zenoh::Session,
     keys: &Keys,
     shared: &SessionShared,
-    id: u32,
+    (id, to_hub): (u32, bool),
     sc: &Scenario,
 ) -> Result<Outputs, AgentError> {
     let cc = match sc.time.mode {
@@ -264,7 +285,10 @@ async fn declare_outputs(
         None => Writer::new(s, keys.share_pose(id), cc).await?,
     };
     Ok(Outputs {
-        cmd: Writer::new(s, keys.cmd(id), CongestionControl::Block).await?,
+        cmd: match to_hub {
+            true => Some(Writer::new(s, keys.cmd(id), CongestionControl::Block).await?),
+            false => None,
+        },
         share,
         state: Writer::new(s, keys.state(id), cc).await?,
     })
@@ -277,12 +301,22 @@ impl Node {
         shared: Arc<SessionShared>,
         agent: Agent,
         sc: Scenario,
+        sensors: &Sensors,
     ) -> Result<Node, AgentError> {
         let id = agent.id();
+        let needs = agent.needs();
+        let hub = *sensors == Sensors::Hub;
+        if !hub && (needs.gnss || needs.uvdar) {
+            return Err(AgentError::RosNeedsIcp(id));
+        }
         let (tx, rx) = mpsc::unbounded_channel();
         let own_bytes = Arc::new(AtomicU64::new(0));
-        let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, id, &tx, &own_bytes).await?;
-        let publish = declare_outputs(&s, &keys, &shared, id, &sc).await?;
+        let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, (id, hub), &tx, &own_bytes).await?;
+        let publish = declare_outputs(&s, &keys, &shared, (id, hub), &sc).await?;
+        let ros = match hub {
+            true => None,
+            false => Some(RosLink::open(&s, &keys, &sc, id, sensors, tx.clone()).await?),
+        };
         let external = if sc.controller.external.contains(&id) {
             Some(ExternalLink::open(&s, &keys, id, &sc).await?)
         } else {
@@ -290,7 +324,8 @@ impl Node {
         };
         let shares = crate::localization::share_key(sc.localization.mode, &keys, id).is_some();
         Ok(Node {
-            needs: agent.needs(),
+            needs,
+            ros,
             admission: Admission::new(id, sc.seed, sc.dt_secs(), netem::Timeline::from_scenario(&sc), shares),
             agent,
             _tx: tx,
@@ -298,6 +333,7 @@ impl Node {
             mailbox: Mailbox::default(),
             posted: Vec::new(),
             hub_grace_s: 0.0,
+            dt_s: sc.dt_secs(),
             hub_alive,
             _flying: Flying::new(shared.feed.traffic()),
             own_bytes,
@@ -365,9 +401,18 @@ impl Node {
     async fn hover(&mut self) {
         let tick = self.admission.last_tick().map_or(0, |t| t.saturating_add(1));
         let cmd = Cmd { tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
-        if let Ok(b) = Msg::Cmd(cmd).encode() {
-            let _ = self.publish.cmd.put(b).await;
+        let _ = self.command(&cmd, tick as f64 * self.dt_s).await;
+    }
+
+    /// Sends a command of the tick at `t_s`: to the hub, or on ROS.
+    async fn command(&mut self, cmd: &Cmd, t_s: f64) -> Result<(), AgentError> {
+        if let Some(ros) = self.ros.as_mut() {
+            return ros.command(cmd, t_s).await;
         }
+        if let Some(w) = &self.publish.cmd {
+            w.put(Msg::Cmd(*cmd).encode()?).await?;
+        }
+        Ok(())
     }
 
     /// Hands the shares posted since the last look to the admission, in arrival order, as each
@@ -452,20 +497,23 @@ impl Node {
                 self.agent.finish(&frame, seen, command)
             }
         };
-        self.publish_step(out).await?;
+        self.publish_step(out, frame.scan.t_secs).await?;
         trace!(tick, "stepped");
         Ok(())
     }
 
     /// Publishes a step's share (through the link), command and state, in that order.
-    async fn publish_step(&mut self, out: StepOutput) -> Result<(), AgentError> {
+    async fn publish_step(&mut self, out: StepOutput, t_s: f64) -> Result<(), AgentError> {
         if let Some(share) = out.share {
             let bytes = share.into_msg().encode()?;
             if self.admission.on_send(bytes.len()) {
                 self.publish.share.put(bytes).await?;
+                if let Some(ros) = &self.ros {
+                    ros.order_after_share().await?;
+                }
             }
         }
-        self.publish.cmd.put(Msg::Cmd(out.cmd).encode()?).await?;
+        self.command(&out.cmd, t_s).await?;
         let mut link = self.admission.report();
         let own = (self.arrived.0, self.arrived.1 + self.own_bytes.load(Ordering::Relaxed));
         link.traffic = self.shared.feed.traffic().snapshot(&self.shared.zid, own);

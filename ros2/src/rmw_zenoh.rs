@@ -1,8 +1,8 @@
 //! ROS 2 on Zenoh, the way rmw_zenoh (Jazzy 0.2.4 and later, Kilted) puts it on the wire, so that
-//! a ROS 2 machine with rmw_zenoh sees our UAVs as topics of ROS nodes:
+//! a ROS 2 machine with rmw_zenoh sees our topics as topics of ROS nodes:
 //!
 //! - data keys `<domain>/<topic without its leading />/<DDS type name>/<RIHS01 hash>`;
-//! - payloads in CDR, little endian, with its 4-byte encapsulation header ([`cdr`], [`msgs`]);
+//! - payloads in CDR, little endian, with its 4-byte encapsulation header ([`crate::cdr`]);
 //! - a 33-byte attachment on every sample: sequence number and source timestamp (`i64` LE, ns),
 //!   then the publisher's 16-byte GID behind its LEB128 length (`0x10`): rmw_zenoh drops a
 //!   sample without one;
@@ -12,43 +12,12 @@
 //!   (a field left empty where it is rmw_zenoh's default).
 //!
 //! The formats are rmw_zenoh's documented ones (its `docs/design.md` and source); the type hashes
-//! are those of ROS 2 Jazzy's messages, checked against PyPI `rosbags`' `hash_rihs01` in the
-//! end-to-end test. Nothing here was tried against a real ROS 2 installation (docs/own-controller.md, "ROS 2 over rmw_zenoh").
+//! are ROS 2 Jazzy's ([`crate::types`]). ROS 2's own serializer (rclpy) reads the payloads and
+//! PyPI `zenoh-ros2-sdk` (an rmw_zenoh client no one here wrote) lists and echoes the topics in
+//! `tests/tests/ros2.rs`; no rmw_zenoh_cpp node ran here (docs/ros2.md).
 
-pub mod cdr;
-pub mod msgs;
-
-/// A ROS 2 message type: its ROS name, its DDS name on the wire, its RIHS01 type hash.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RosType {
-    /// `sensor_msgs/msg/LaserScan`.
-    pub ros: &'static str,
-    /// `sensor_msgs::msg::dds_::LaserScan_`.
-    pub dds: &'static str,
-    /// `RIHS01_` and 64 lower-case hex digits.
-    pub hash: &'static str,
-}
-
-/// `sensor_msgs/msg/LaserScan`.
-pub const LASER_SCAN: RosType = RosType {
-    ros: "sensor_msgs/msg/LaserScan",
-    dds: "sensor_msgs::msg::dds_::LaserScan_",
-    hash: "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828",
-};
-
-/// `nav_msgs/msg/Odometry`.
-pub const ODOMETRY: RosType = RosType {
-    ros: "nav_msgs/msg/Odometry",
-    dds: "nav_msgs::msg::dds_::Odometry_",
-    hash: "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0",
-};
-
-/// `geometry_msgs/msg/Twist`.
-pub const TWIST: RosType = RosType {
-    ros: "geometry_msgs/msg/Twist",
-    dds: "geometry_msgs::msg::dds_::Twist_",
-    hash: "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
-};
+use crate::types::RosType;
+use crate::Qos;
 
 /// The data key of `topic` (`/uav3/scan`) of type `t` in ROS domain `domain`: inner slashes
 /// stay, the leading one goes.
@@ -66,10 +35,8 @@ pub fn attachment(seq: i64, stamp_ns: i64, gid: &[u8; 16]) -> [u8; 33] {
     a
 }
 
-/// Reads an attachment: `(seq, stamp_ns, gid)`; `None` unless it has rmw_zenoh's layout (the
-/// round trip of [`attachment`] is tested; readers of ours are the Python tests').
-#[cfg(test)]
-fn parse_attachment(a: &[u8]) -> Option<(i64, i64, [u8; 16])> {
+/// Reads an attachment: `(seq, stamp_ns, gid)`; `None` unless it has rmw_zenoh's layout.
+pub fn parse_attachment(a: &[u8]) -> Option<(i64, i64, [u8; 16])> {
     if a.len() != 33 || a[16] != 16 {
         return None;
     }
@@ -94,12 +61,15 @@ pub enum Kind {
     Subscription,
 }
 
-/// QoS as rmw_zenoh writes it in a token: reliable, volatile, keep last 10 (a publisher's and
-/// subscription's default).
-pub const QOS_DEFAULT: &str = "::,10:,:,:,,";
-
-/// QoS of sensor data: best effort, volatile, keep last 5.
-pub const QOS_SENSOR: &str = "2::,5:,:,:,,";
+/// QoS as rmw_zenoh writes it in a token:
+/// `<reliability>:<durability>:<history>,<depth>:<deadline>:<lifespan>:<liveliness>`, with
+/// reliability 2 = best effort, durability 1 = transient local, and the rmw defaults (reliable,
+/// volatile, no deadline, lifespan or liveliness lease) left empty.
+pub fn qos_field(q: &Qos) -> String {
+    let reliability = if q.reliable { "" } else { "2" };
+    let durability = if q.transient_local { "1" } else { "" };
+    format!("{reliability}:{durability}:,{}:,:,:,,", q.depth)
+}
 
 /// One entity of the ROS graph, as its liveliness token names it.
 #[derive(Debug, Clone, Copy)]
@@ -119,7 +89,7 @@ pub struct Entity<'a> {
     /// The node's name.
     pub node: &'a str,
     /// The topic, its type and QoS (publishers and subscriptions).
-    pub topic: Option<(&'a str, RosType, &'a str)>,
+    pub topic: Option<(&'a str, RosType, Qos)>,
 }
 
 impl Entity<'_> {
@@ -140,7 +110,7 @@ impl Entity<'_> {
             mangle(self.node)
         );
         if let Some((topic, t, qos)) = self.topic {
-            key.push_str(&format!("/{}/{}/{}/{qos}", mangle(topic), t.dds, t.hash));
+            key.push_str(&format!("/{}/{}/{}/{}", mangle(topic), t.dds, t.hash, qos_field(&qos)));
         }
         key
     }
@@ -149,6 +119,7 @@ impl Entity<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::types::LASER_SCAN;
 
     #[test]
     fn keys_are_rmw_zenohs() {
@@ -167,8 +138,12 @@ mod tests {
             topic: None,
         };
         assert_eq!(node.token_key(), "@ros2_lv/0/aac3/3/3/NN/%/%uav3/swarm");
-        let publisher =
-            Entity { entity_id: 7, kind: Kind::Publisher, topic: Some(("/uav3/scan", LASER_SCAN, QOS_SENSOR)), ..node };
+        let publisher = Entity {
+            entity_id: 7,
+            kind: Kind::Publisher,
+            topic: Some(("/uav3/scan", LASER_SCAN, Qos::SENSOR)),
+            ..node
+        };
         assert_eq!(
             publisher.token_key(),
             format!(
@@ -176,6 +151,8 @@ mod tests {
                 LASER_SCAN.hash
             )
         );
+        assert_eq!(qos_field(&Qos::DEFAULT), "::,10:,:,:,,");
+        assert_eq!(qos_field(&Qos::LATCHED), ":1:,1:,:,:,,");
     }
 
     #[test]
