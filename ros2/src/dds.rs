@@ -259,8 +259,16 @@ pub fn matched(w: &DdsWriter, count: &std::sync::atomic::AtomicI32) -> usize {
     usize::try_from(count.load(Ordering::Relaxed)).unwrap_or(0)
 }
 
-/// Writes a CDR payload (with its header) on a DDS writer.
-pub fn write(w: &DdsWriter, payload: &[u8]) -> Result<(), Ros2Error> {
+/// Writes a CDR payload (with its header) on a DDS writer, with source time `source_ns` (ns
+/// since the Unix epoch).
+pub fn write(w: &DdsWriter, payload: &[u8], source_ns: i64) -> Result<(), Ros2Error> {
     let body = payload.get(4..).unwrap_or_default();
-    w.write(Body(body.to_vec()), None).map_err(|e| err("write", e))
+    w.write(Body(body.to_vec()), Some(rtps_time(source_ns))).map_err(|e| err("write", e))
+}
+
+/// ns since the Unix epoch as an RTPS time: seconds, and the fraction of a second in 2^-32 s.
+fn rtps_time(ns: i64) -> rustdds::Timestamp {
+    let ns = u64::try_from(ns).unwrap_or(0);
+    let (secs, sub) = (ns / 1_000_000_000, ns % 1_000_000_000);
+    rustdds::Timestamp::from_ticks((secs << 32) + ((sub << 32) / 1_000_000_000))
 }

@@ -271,15 +271,28 @@ impl Graph {
     }
 }
 
+/// Now, in ns since the Unix epoch.
+pub fn unix_ns() -> i64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as i64)
+}
+
 impl Publisher {
-    /// Publishes a CDR payload (with its encapsulation header).
+    /// Publishes a CDR payload (with its encapsulation header), its source time now.
     pub async fn put(&self, payload: Vec<u8>) -> Result<(), Ros2Error> {
+        self.put_at(payload, None).await
+    }
+
+    /// Publishes a CDR payload with source time `source_ns` (ns since the Unix epoch; now when
+    /// `None`): what a subscriber reads as the sample's source timestamp (rclpy's
+    /// `source_timestamp`, rmw_zenoh's attachment), so the time from where the data was made to
+    /// its reader can be measured.
+    pub async fn put_at(&self, payload: Vec<u8>, source_ns: Option<i64>) -> Result<(), Ros2Error> {
+        let stamp = source_ns.unwrap_or_else(unix_ns);
         match &self.inner {
             PubInner::Zenoh { session, key, seq, reliable } => {
                 let n = seq.fetch_add(1, Ordering::Relaxed) + 1;
-                let now = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as i64);
                 let cc = if *reliable { CongestionControl::Block } else { CongestionControl::Drop };
-                let att = attachment(n, now, &self.gid);
+                let att = attachment(n, stamp, &self.gid);
                 session
                     .put(key.clone(), payload)
                     .attachment(att.to_vec())
@@ -287,7 +300,7 @@ impl Publisher {
                     .await
                     .map_err(Ros2Error::zenoh)
             }
-            PubInner::Dds { writer, .. } => dds::write(writer, &payload),
+            PubInner::Dds { writer, .. } => dds::write(writer, &payload, stamp),
         }
     }
 

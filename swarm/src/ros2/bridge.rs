@@ -63,12 +63,12 @@ pub struct BridgeOptions {
 
 /// What reaches the bridge, in one channel.
 enum Event {
-    /// The hub's clock.
-    Clock(swarm_wire::Clock),
-    /// A UAV's sensor frame.
-    Sense(u32, Box<SenseFrame>),
-    /// An agent's state.
-    State(u32, Box<AgentState>),
+    /// The hub's clock, and when the hub put it (ns since the Unix epoch; see [`source_ns`]).
+    Clock(swarm_wire::Clock, Option<i64>),
+    /// A UAV's sensor frame, and when the hub put it.
+    Sense(u32, Box<SenseFrame>, Option<i64>),
+    /// An agent's state, and when the agent put it.
+    State(u32, Box<AgentState>, Option<i64>),
     /// An external UAV's view (JSON).
     View(u32, Vec<u8>),
     /// A command from ROS for UAV `id`.
@@ -278,16 +278,17 @@ impl Bridge {
 
     async fn on_event(&mut self, ev: Event) -> Result<()> {
         match ev {
-            Event::Clock(c) => {
-                self.clock.put(clock(c.t_secs)).await?;
+            Event::Clock(c, at) => {
+                self.clock.put_at(clock(c.t_secs), at).await?;
                 self.published += 1;
             }
-            Event::Sense(id, f) => self.on_sense(id, &f).await?,
-            Event::State(id, st) => {
+            Event::Sense(id, f, at) => self.on_sense(id, &f, at).await?,
+            Event::State(id, st, at) => {
                 if let Some(u) = self.uavs.get(&id) {
                     let poses: Vec<(f64, f64, f64)> =
                         st.neighbours.iter().map(|n| (f64::from(n.x), f64::from(n.y), f64::from(n.heading))).collect();
-                    u.neighbours.put(pose_array(&Header::new(st.t_secs, format!("uav{id}/base_link")), &poses)).await?;
+                    let header = Header::new(st.t_secs, format!("uav{id}/base_link"));
+                    u.neighbours.put_at(pose_array(&header, &poses), at).await?;
                     self.published += 1;
                 }
             }
@@ -302,7 +303,7 @@ impl Bridge {
 
     /// A UAV's sensor frame: its goal, odometry, scan and transform, in that order (an agent on
     /// ROS topics steps once it has all of a tick).
-    async fn on_sense(&mut self, id: u32, f: &SenseFrame) -> Result<()> {
+    async fn on_sense(&mut self, id: u32, f: &SenseFrame, at: Option<i64>) -> Result<()> {
         let Some(u) = self.uavs.get(&id) else { return Ok(()) };
         if self.vehicles.contains(&id) {
             // Its agent steps on what it gets: a volatile sample written before the agent's
@@ -317,13 +318,13 @@ impl Bridge {
         let (odom_frame, base) = (format!("uav{id}/odom"), format!("uav{id}/base_link"));
         let t = f.odom.t_secs;
         if let (Some(p), Some(g)) = (&u.goal, f.odom.goal) {
-            p.put(pose_stamped(&Header::new(t, odom_frame.clone()), g[0], g[1], 0.0)).await?;
+            p.put_at(pose_stamped(&Header::new(t, odom_frame.clone()), g[0], g[1], 0.0), at).await?;
         }
-        u.odom.put(odometry(&f.odom, &odom_frame, &base)).await?;
-        u.scan.put(laser_scan(&f.scan, &base, self.sc.dt_secs() as f32)).await?;
+        u.odom.put_at(odometry(&f.odom, &odom_frame, &base), at).await?;
+        u.scan.put_at(laser_scan(&f.scan, &base, self.sc.dt_secs() as f32), at).await?;
         let tf =
             Transform { header: Header::new(t, odom_frame), child: base, x: f.odom.x, y: f.odom.y, yaw: f.odom.yaw };
-        self.tf.put(tf_message(&[tf])).await?;
+        self.tf.put_at(tf_message(&[tf]), at).await?;
         self.published += 3 + u64::from(u.goal.is_some());
         if self.vehicles.contains(&id) {
             self.vehicle_ticks.insert(id, f.tick());
@@ -396,7 +397,7 @@ async fn run_subscriptions(
     let sense = plumbing::subscribe(s, keys.sense_any(), tx.clone(), move |x| {
         let id = k.uav_id_of(x.key_expr().as_str())?;
         match plumbing::decode(x) {
-            Ok(Msg::Sense(f)) => Some(Event::Sense(id, f)),
+            Ok(Msg::Sense(f)) => Some(Event::Sense(id, f, source_ns(x))),
             _ => None,
         }
     })
@@ -405,17 +406,25 @@ async fn run_subscriptions(
     let state = plumbing::subscribe(s, keys.state_any(), tx.clone(), move |x| {
         let id = k.uav_id_of(x.key_expr().as_str())?;
         match plumbing::decode(x) {
-            Ok(Msg::State(st)) => Some(Event::State(id, st)),
+            Ok(Msg::State(st)) => Some(Event::State(id, st, source_ns(x))),
             _ => None,
         }
     })
     .await?;
     let clock = plumbing::subscribe(s, keys.clock(), tx.clone(), |x| match plumbing::decode(x) {
-        Ok(Msg::Clock(c)) => Some(Event::Clock(c)),
+        Ok(Msg::Clock(c)) => Some(Event::Clock(c, source_ns(x))),
         _ => None,
     })
     .await?;
     Ok(vec![sense, state, clock])
+}
+
+/// When a sample was put, from its Zenoh timestamp (the hub's router stamps what it publishes,
+/// from the machine's clock), in ns since the Unix epoch: the ROS messages made from it carry it
+/// as their source time, so a ROS reader can measure the time from the hub's put to itself.
+fn source_ns(sample: &zenoh::sample::Sample) -> Option<i64> {
+    let t = sample.timestamp()?.get_time().to_system_time();
+    t.duration_since(std::time::UNIX_EPOCH).ok().map(|d| d.as_nanos() as i64)
 }
 
 /// The static world, asked of the hub.

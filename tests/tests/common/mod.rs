@@ -332,3 +332,77 @@ pub fn read(path: &Path) -> String {
 pub fn rel(path: &Path) -> String {
     path.strip_prefix(root()).unwrap_or(path).display().to_string()
 }
+
+/// The Python of ROS 2 Jazzy's own wheels (`<repo>/.venv-ros`, made by `tools/test-env` from
+/// `tests/requirements-ros.txt`): rclpy on Fast DDS and the message packages. Missing, it fails
+/// the test with the command that makes it.
+pub fn ros_python() -> PathBuf {
+    let venv = root().join(".venv-ros/bin/python");
+    assert!(venv.exists(), "no ROS 2 Python at {}: run tools/test-env first", venv.display());
+    venv
+}
+
+/// The installed ROS 2 message packages' `share/` (their `.msg` and `.json` type descriptions).
+pub fn ros_share() -> PathBuf {
+    root().join(".venv-ros/share")
+}
+
+/// A network namespace of one test with its loopback interface up and nothing else: what runs in
+/// it reaches only itself, so DDS discovery (multicast and the well-known ports) cannot meet
+/// another test's participants, and no packet leaves the machine. Removed on drop (drop the
+/// processes in it first).
+pub struct LoopbackNs {
+    name: String,
+}
+
+impl LoopbackNs {
+    /// A fresh namespace named after `tag` and this test's run id.
+    pub fn new(tag: &str) -> LoopbackNs {
+        let name = run_id(tag);
+        let ok = |args: &[&str]| {
+            let o = Command::new("ip").args(args).output().expect("run ip (iproute2, tests/apt-packages.txt)");
+            assert!(
+                o.status.success(),
+                "`ip {}` failed (this test runs as root, `.ci/run`): {}",
+                args.join(" "),
+                String::from_utf8_lossy(&o.stderr)
+            );
+        };
+        ok(&["netns", "add", &name]);
+        let ns = LoopbackNs { name };
+        ok(&["-n", &ns.name, "link", "set", "lo", "up"]);
+        ns
+    }
+
+    /// `program` to run inside the namespace.
+    pub fn command(&self, program: impl AsRef<std::ffi::OsStr>) -> Command {
+        let mut c = Command::new("ip");
+        c.args(["netns", "exec", &self.name]).arg(program);
+        c
+    }
+
+    /// The namespace's network interfaces, by name.
+    pub fn interfaces(&self) -> Vec<String> {
+        let o = Command::new("ip").args(["-n", &self.name, "-o", "link"]).output().expect("ip link");
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter_map(|l| l.split(':').nth(1).map(|n| n.trim().to_string()))
+            .collect()
+    }
+
+    /// Packets its loopback interface carried so far (received), from the kernel's counters.
+    pub fn loopback_packets(&self) -> u64 {
+        let o = self.command("cat").arg("/proc/net/dev").output().expect("cat /proc/net/dev");
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("lo:").map(str::to_string))
+            .and_then(|rest| rest.split_whitespace().nth(1).and_then(|p| p.parse().ok()))
+            .unwrap_or(0)
+    }
+}
+
+impl Drop for LoopbackNs {
+    fn drop(&mut self) {
+        let _ = Command::new("ip").args(["netns", "del", &self.name]).output();
+    }
+}
