@@ -20,7 +20,8 @@
 //!   (each UAV's `scan`, `odom`, `goal`, `neighbours`; `clock`, `tf`, and the truth topics
 //!   `tf_static` and `world/**`), reads `cmd_vel` and `cmd_accel`, holds `@ros2_lv/**` tokens,
 //!   is the external controller of every UAV (`uav/*/ext/view` in, `uav/*/ext/cmd` out,
-//!   `alive/ext/*`), and puts `uav/*/cmd` for the bodies of agents on ROS topics.
+//!   `alive/ext/*`). As `bridge-uavs{ids}` it also drives the bodies of those UAVs, whose agents
+//!   run on ROS topics: it may put their `uav/{id}/cmd`, and no other UAV's.
 //! - `ros` (or `ros-NAME`): a ROS 2 machine on rmw_zenoh: it may read every ROS topic but the
 //!   truth ones, put `cmd_vel` only of the scenario's external UAVs, and hold and read the
 //!   `@ros2_lv/**` tokens of the ROS graph; nothing of the run's own keys.
@@ -66,8 +67,8 @@ pub enum Role {
     Agents(Vec<u32>),
     /// UAV `id`'s external controller.
     External(u32),
-    /// The ROS 2 bridge.
-    Bridge,
+    /// The ROS 2 bridge, driving the bodies of these UAVs (whose agents run on ROS topics).
+    Bridge(Vec<u32>),
     /// A ROS 2 machine.
     Ros,
     /// Reads everything, publishes nothing.
@@ -87,7 +88,10 @@ impl Role {
             return Ok(Role::Operator);
         }
         if name == "bridge" {
-            return Ok(Role::Bridge);
+            return Ok(Role::Bridge(Vec::new()));
+        }
+        if let Some(spec) = name.strip_prefix("bridge-uavs") {
+            return parse_ids(spec).map(|ids| Role::Bridge(ids.0)).map_err(|e| anyhow::anyhow!("user {name:?}: {e}"));
         }
         if named("ros") {
             return Ok(Role::Ros);
@@ -101,7 +105,7 @@ impl Role {
         if let Some(id) = name.strip_prefix("ext").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
             return Ok(Role::External(id));
         }
-        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, bridge, ros[-name], observer[-name], operator[-name]")
+        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, bridge, bridge-uavs<ids>, ros[-name], observer[-name], operator[-name]")
     }
 }
 
@@ -113,6 +117,15 @@ pub fn uav_user(id: u32) -> String {
 /// The user name of UAV `id`'s external controller: `ext7`.
 pub fn ext_user(id: u32) -> String {
     format!("ext{id}")
+}
+
+/// The user name of the ROS 2 bridge, which drives the bodies of `ids` (ascending; agents on ROS
+/// topics): `bridge`, or `bridge-uavs3`.
+pub fn bridge_user(ids: &[u32]) -> String {
+    match ids {
+        [] => "bridge".to_string(),
+        _ => format!("bridge-uavs{}", ids_text(ids)),
+    }
 }
 
 /// The user name of an agent host serving `ids` (ascending): `uavs1-4,7`.
@@ -289,7 +302,7 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
     rules.extend(ros_rules(&r, external));
     // Agents get ROS rules only in a run with a ROS side (a bridge): the router's rules grow with
     // the agents, and a run of 1000 without ROS keeps its lists short.
-    let ros_side = users.iter().any(|u| u == "bridge");
+    let ros_side = users.iter().any(|u| matches!(Role::of(u), Ok(Role::Bridge(_))));
     let mut subjects = Vec::new();
     let mut policies = Vec::new();
     let mut seen = BTreeMap::new();
@@ -300,22 +313,13 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
         let subject = format!("user{n}");
         subjects.push(json!({ "id": subject, "usernames": [user] }));
         let granted: Vec<String> = match Role::of(user)? {
-            Role::Bridge => [
-                "decl-out",
-                "observe-in",
-                "observe-out",
-                "bridge-ext-in",
-                "bridge-ext-token",
-                "bridge-cmd",
-                "bridge-ros-pub",
-                "bridge-ros-sub",
-                "bridge-ros-out",
-                "ros-graph-in",
-                "ros-graph-out",
-                "ros-decl-out",
-            ]
-            .map(String::from)
-            .to_vec(),
+            Role::Bridge(ids) => {
+                if !ids.is_empty() {
+                    let cmds = ids.iter().map(|i| format!("{r}/uav/{i}/cmd")).collect();
+                    rules.push(rule(&format!("{subject}-bridge-cmd"), "ingress", &["put"], cmds));
+                }
+                bridge_rules(&subject, !ids.is_empty())
+            }
             Role::Ros => ["ros-in", "ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
                 .into_iter()
                 .chain((!external.is_empty()).then_some("ros-cmd"))
@@ -412,8 +416,6 @@ fn ros_rules(r: &str, external: &[u32]) -> Vec<Value> {
     let mut rules = vec![
         rule("bridge-ext-in", "ingress", &["put"], vec![format!("{r}/uav/*/ext/cmd")]),
         rule("bridge-ext-token", "ingress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
-        // The bridge drives the bodies of agents on ROS topics (their commands come over ROS).
-        rule("bridge-cmd", "ingress", &["put"], vec![format!("{r}/uav/*/cmd")]),
         rule("bridge-ros-pub", "ingress", &["put"], topics.iter().chain(&truth).cloned().collect()),
         rule("bridge-ros-sub", "ingress", &["declare_subscriber"], commands.clone()),
         rule("bridge-ros-out", "egress", &["put"], commands),
@@ -429,6 +431,26 @@ fn ros_rules(r: &str, external: &[u32]) -> Vec<Value> {
         rules.push(rule("ros-cmd", "ingress", &["put"], cmd_vel));
     }
     rules
+}
+
+/// The rules the bridge (under subject id `subject`) is granted: an observer's, its ROS topics,
+/// and, when it `drives` bodies, its subject's own command rule.
+fn bridge_rules(subject: &str, drives: bool) -> Vec<String> {
+    let common = [
+        "decl-out",
+        "observe-in",
+        "observe-out",
+        "bridge-ext-in",
+        "bridge-ext-token",
+        "bridge-ros-pub",
+        "bridge-ros-sub",
+        "bridge-ros-out",
+        "ros-graph-in",
+        "ros-graph-out",
+        "ros-decl-out",
+    ];
+    let own = drives.then(|| format!("{subject}-bridge-cmd"));
+    common.into_iter().map(String::from).chain(own).collect()
 }
 
 /// The ROS rules of the agents of `ids` (under subject id `subject`), in a run with a ROS side:
@@ -533,6 +555,8 @@ mod tests {
         assert_eq!(Role::of("uavs1-3,7").expect("host"), Role::Agents(vec![1, 2, 3, 7]));
         assert_eq!(Role::of("observer").expect("o"), Role::Observer);
         assert_eq!(Role::of("operator-bob").expect("op"), Role::Operator);
+        assert_eq!(Role::of("bridge").expect("bridge"), Role::Bridge(vec![]));
+        assert_eq!(Role::of(&bridge_user(&[3, 4])).expect("bridge"), Role::Bridge(vec![3, 4]));
         for bad in ["uav0", "uav", "uavx", "observers", "root", "uavs3-1"] {
             assert!(Role::of(bad).is_err(), "{bad} has no role");
         }
@@ -559,7 +583,51 @@ mod tests {
         assert_eq!(acl["policies"].as_array().expect("p").len(), 4);
         let text = acl.to_string();
         assert!(text.contains("swarm/r/uav/3/cmd") && text.contains("swarm/r/alive/uav/2"), "{text}");
-        assert!(!text.contains("truth"), "no rule ever allows truth to an agent: {text}");
+        for agent in ["uav1", "uavs2-3"] {
+            let keys: Vec<&str> = granted(&acl, agent).iter().flat_map(|r| keys_of(&acl, r)).collect();
+            assert!(
+                !keys.iter().any(|k| k.contains("truth") || k.contains("world")),
+                "{agent} may touch truth: {keys:?}"
+            );
+            assert!(!keys.iter().any(|k| k.contains("scan")), "no ROS side, no ROS rules for {agent}: {keys:?}");
+        }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The rule ids granted to `user` in `acl`.
+    fn granted<'a>(acl: &'a Value, user: &str) -> Vec<&'a str> {
+        let subject =
+            acl["subjects"].as_array().expect("subjects").iter().find(|s| s["usernames"][0] == user).expect("subject");
+        let policy = acl["policies"].as_array().expect("policies").iter().find(|p| p["subjects"][0] == subject["id"]);
+        policy.expect("policy")["rules"].as_array().expect("rules").iter().filter_map(Value::as_str).collect()
+    }
+
+    /// The keys of rule `id` in `acl`.
+    fn keys_of<'a>(acl: &'a Value, id: &str) -> Vec<&'a str> {
+        let rule = acl["rules"].as_array().expect("rules").iter().find(|r| r["id"] == id).expect("rule");
+        rule["key_exprs"].as_array().expect("keys").iter().filter_map(Value::as_str).collect()
+    }
+
+    #[test]
+    fn only_a_bridge_that_drives_bodies_may_command_them_and_only_those() {
+        let users: Vec<String> = ["uav3", "ros", "bridge-uavs3"].map(String::from).to_vec();
+        let acl = access_control("r", &users, &[]).expect("acl");
+        let bridge = granted(&acl, "bridge-uavs3");
+        let own: Vec<&str> = bridge.iter().copied().filter(|r| r.ends_with("-bridge-cmd")).collect();
+        assert_eq!(own.len(), 1, "{bridge:?}");
+        assert_eq!(keys_of(&acl, own[0]), vec!["swarm/r/uav/3/cmd"]);
+        let plain = access_control("r", &["bridge".to_string()], &[]).expect("acl");
+        assert!(
+            !granted(&plain, "bridge").iter().any(|r| r.contains("cmd")),
+            "a bridge driving nothing commands nothing"
+        );
+        // With a ROS side, UAV 3's agent may read its own ROS sensors and put its own commands.
+        let agent = granted(&acl, "uav3");
+        let sub = agent.iter().find(|r| r.ends_with("-ros-sub")).expect("ROS rules");
+        assert!(keys_of(&acl, sub).iter().all(|k| k.starts_with("*/uav3/")), "{:?}", keys_of(&acl, sub));
+        // A `ros` login reads no truth topic.
+        let ros = granted(&acl, "ros");
+        assert!(!ros.iter().any(|r| r.starts_with("ros-truth")), "{ros:?}");
+        assert!(keys_of(&acl, "ros-truth-in").contains(&"*/world/**"));
     }
 }

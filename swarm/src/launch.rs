@@ -19,7 +19,7 @@ use std::process::{ExitCode, Stdio};
 use std::time::Duration;
 use swarm_config::{FailureKind, Scenario};
 use swarm_node::args::{default_run_id, scenario_value, RosArgs};
-use swarm_node::auth::{ext_user, host_user, ids_text, uav_user, Credentials};
+use swarm_node::auth::{bridge_user, ext_user, host_user, ids_text, uav_user, Credentials};
 use swarm_node::pieces::LISTENING_PREFIX;
 use swarm_record::recorder::{progress_bar, Recording};
 use swarm_record::summary::Summary;
@@ -282,7 +282,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
 
     let ros_agents = ros_agents(sc, show.ros2.as_ref())?;
     let groups = spread(sc.agent_ids(), per_process, |id| has_own_failures(sc, id) || ros_agents.contains(&id));
-    let creds = if insecure { None } else { Some(run_credentials(sc, out, &groups.hosts, show.ros2.is_some())?) };
+    let creds = if insecure { None } else { Some(run_credentials(sc, out, &groups.hosts, show.ros2.as_ref())?) };
     let launcher = Launcher {
         exe: std::env::current_exe().context("cannot find my own executable")?,
         logs,
@@ -352,7 +352,7 @@ async fn start_bridge(
     side: &Ros2Side,
 ) -> Result<()> {
     let mut cfg = match &launcher.creds {
-        Some(c) => c.client_cfg("bridge")?,
+        Some(c) => c.client_cfg(&bridge_user(&side.agents))?,
         None => Vec::new(),
     };
     cfg.extend(zenoh_cfg.iter().cloned());
@@ -380,14 +380,15 @@ const OBSERVER: &str = "observer";
 
 /// Fresh credentials for one run in `<out>/credentials/`: a user per UAV (restarts reuse it),
 /// one per agent host of `hosts` (as [`spread`] grouped them), one per external controller
-/// (`ext{id}`), with `--ros2` the bridge's `bridge` and a `ros` for ROS machines, the recorder's
+/// (`ext{id}`), with `--ros2` the bridge's (`bridge`, or `bridge-uavs{ids}` when it drives the
+/// bodies of agents on ROS topics) and a `ros` for ROS machines, the recorder's
 /// `observer`, and an `operator` for `swarm netem` on the running swarm.
-fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>], ros2: bool) -> Result<Credentials> {
+fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>], ros2: Option<&Ros2Side>) -> Result<Credentials> {
     let mut users: Vec<String> = sc.agent_ids().map(uav_user).collect();
     users.extend(hosts.iter().map(|g| host_user(g)));
     users.extend(sc.controller.external.iter().map(|&id| ext_user(id)));
-    if ros2 {
-        users.extend(["bridge".to_string(), "ros".to_string()]);
+    if let Some(side) = ros2 {
+        users.extend([bridge_user(&side.agents), "ros".to_string()]);
     }
     users.extend([OBSERVER.to_string(), "operator".to_string()]);
     Credentials::create(&out.join("credentials"), &users)

@@ -127,6 +127,11 @@ fn rclpy_on_fast_dds_sees_the_swarm_follows_sim_time_and_flies_uav_3() {
     ] {
         assert_eq!(types(topics, t), vec![ty], "{t}: {topics}");
     }
+    // The RViz config we ship shows topics this graph has.
+    let rviz = common::read(&common::root().join("docs/swarm.rviz"));
+    for t in rviz.lines().filter_map(|l| l.trim().strip_prefix("Value: /")) {
+        assert!(!types(topics, &format!("/{t}")).is_empty(), "docs/swarm.rviz shows /{t}, which no one publishes");
+    }
     let cmd_vel = types(topics, "/uav3/cmd_vel");
     assert!(
         cmd_vel.contains(&"geometry_msgs/msg/Twist") && cmd_vel.contains(&"geometry_msgs/msg/TwistStamped"),

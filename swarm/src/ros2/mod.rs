@@ -40,7 +40,8 @@ pub struct Ros2Args {
     /// topics (`swarm agent --sensors ros2`): their stamped commands become the hub's.
     #[arg(long, value_parser = swarm_node::args::parse_ids)]
     pub vehicles: Option<UavIds>,
-    /// Where and how to connect (log in as `bridge`).
+    /// Where and how to connect (log in as `bridge`, or with `--vehicles 3` as `bridge-uavs3`,
+    /// the one user that may command those UAVs' bodies).
     #[command(flatten)]
     pub zenoh: ZenohArgs,
 }
