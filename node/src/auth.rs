@@ -25,6 +25,9 @@
 //! - `ros` (or `ros-NAME`): a ROS 2 machine on rmw_zenoh: it may read every ROS topic but the
 //!   truth ones, put `cmd_vel` only of the scenario's external UAVs, and hold and read the
 //!   `@ros2_lv/**` tokens of the ROS graph; nothing of the run's own keys.
+//! - `controller` (or `controller-NAME`): the external controller of every external UAV that
+//!   also observes the run (a learning environment reads its rewards from the truth): what an
+//!   observer may, and `uav/*/ext/cmd` out, `uav/*/ext/view` in, the `alive/ext/*` tokens.
 //! - `observer` (or `observer-NAME`): reads every key of the run, every ROS 2 topic (truth
 //!   among them) and the routers' admin space
 //!   (`@/**`, read-only: who subscribes to what, for `swarm keys`), publishes nothing; it may hold
@@ -71,6 +74,9 @@ pub enum Role {
     Bridge(Vec<u32>),
     /// A ROS 2 machine.
     Ros,
+    /// The external controller of every external UAV, which observes the run too (a learning
+    /// environment: `uavswarm`'s Python environments).
+    Controller,
     /// Reads everything, publishes nothing.
     Observer,
     /// An observer that may also add netem timelines.
@@ -96,6 +102,9 @@ impl Role {
         if named("ros") {
             return Ok(Role::Ros);
         }
+        if named("controller") {
+            return Ok(Role::Controller);
+        }
         if let Some(spec) = name.strip_prefix("uavs") {
             return parse_ids(spec).map(|ids| Role::Agents(ids.0)).map_err(|e| anyhow::anyhow!("user {name:?}: {e}"));
         }
@@ -105,7 +114,7 @@ impl Role {
         if let Some(id) = name.strip_prefix("ext").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
             return Ok(Role::External(id));
         }
-        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, bridge, bridge-uavs<ids>, ros[-name], observer[-name], operator[-name]")
+        bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, bridge, bridge-uavs<ids>, ros[-name], controller[-name], observer[-name], operator[-name]")
     }
 }
 
@@ -319,6 +328,11 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
                     rules.push(rule(&format!("{subject}-bridge-cmd"), "ingress", &["put"], cmds));
                 }
                 bridge_rules(&subject, !ids.is_empty())
+            }
+            Role::Controller => {
+                ["decl-out", "observe-in", "observe-out", "ext-view-out", "bridge-ext-in", "bridge-ext-token"]
+                    .map(String::from)
+                    .to_vec()
             }
             Role::Ros => ["ros-in", "ros-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"]
                 .into_iter()
@@ -556,6 +570,7 @@ mod tests {
         assert_eq!(Role::of("observer").expect("o"), Role::Observer);
         assert_eq!(Role::of("operator-bob").expect("op"), Role::Operator);
         assert_eq!(Role::of("bridge").expect("bridge"), Role::Bridge(vec![]));
+        assert_eq!(Role::of("controller").expect("controller"), Role::Controller);
         assert_eq!(Role::of(&bridge_user(&[3, 4])).expect("bridge"), Role::Bridge(vec![3, 4]));
         for bad in ["uav0", "uav", "uavx", "observers", "root", "uavs3-1"] {
             assert!(Role::of(bad).is_err(), "{bad} has no role");

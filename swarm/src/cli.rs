@@ -77,6 +77,9 @@ pub enum Cmd {
     Check {
         /// Scenario file or built-in name.
         scenario: String,
+        /// The resolved scenario as JSON (what programs read).
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -119,6 +122,6 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Plot(a) => swarm_plot::plot(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
-        Cmd::Check { scenario } => crate::scenarios::check(&scenario, &controllers),
+        Cmd::Check { scenario, json: _ } => crate::scenarios::check(&scenario, &controllers),
     }
 }

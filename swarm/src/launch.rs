@@ -60,6 +60,11 @@ pub struct RunArgs {
     /// added to the scenario's `[controller] external`.
     #[arg(long, value_parser = swarm_node::args::parse_ids)]
     pub external: Option<swarm_node::args::UavIds>,
+    /// Set a scenario field for this run, `SECTION.FIELD=VALUE` in the scenario file's TOML
+    /// (`time.tick_timeout_ms=60000`, `end.time_limit_s=30`, `localization.mode="icp"`;
+    /// repeatable); the result is validated as a whole, like a file.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Zenoh config override `KEY:JSON5` for every piece of the run (repeatable).
     #[arg(long)]
     pub cfg: Vec<String>,
@@ -108,6 +113,12 @@ pub struct RunArgs {
     /// body (implies `--ros2`; `swarm agent --sensors ros2`).
     #[arg(long, value_parser = swarm_node::args::parse_ids)]
     pub ros2_agents: Option<swarm_node::args::UavIds>,
+    /// The run as a step function on this process's standard input and output: one JSON line of
+    /// every external UAV's view (and the hub's truth) out per tick, one line of their commands
+    /// in (docs/python.md; the Python package `uavswarm` speaks it). Needs `--external`; the
+    /// summary goes to standard error.
+    #[arg(long)]
+    pub gym: bool,
 }
 
 impl RunArgs {
@@ -170,11 +181,14 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
         journal: !a.mcap.no_journal,
         view: a.view,
         ros2: a.ros2_side(),
+        gym: a.gym,
     };
     let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
-    println!("{}", summary.human());
-    println!("run folder: {}", out.display());
+    // With --gym, standard output is the step protocol's.
+    let say = |line: String| if a.gym { eprintln!("{line}") } else { println!("{line}") };
+    say(summary.human());
+    say(format!("run folder: {}", out.display()));
     if a.view.is_some() {
         eprintln!("the run is over; the view stays up until Ctrl-C");
         let _ = tokio::signal::ctrl_c().await;
@@ -230,13 +244,39 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
             }
         }
     }
-    if a.time_mode.is_some() || a.seed.is_some() || a.experiment.is_some() || a.external.is_some() {
+    if a.time_mode.is_some() || a.seed.is_some() || a.experiment.is_some() || a.external.is_some() || !a.set.is_empty()
+    {
         // The hub serves this text to the agents, so overrides must be in it; and the whole must
         // still be valid (link faults need realtime mode, say).
-        text = toml::to_string(&sc).context("cannot re-serialize the scenario")?;
+        let mut value = toml::Value::try_from(&sc).context("cannot re-serialize the scenario")?;
+        for kv in &a.set {
+            set_field(&mut value, kv)?;
+        }
+        text = toml::to_string(&value).context("cannot re-serialize the scenario")?;
         sc = Scenario::from_toml_str(&text, &format!("{name} (with the command line's overrides)"))?;
     }
     Ok((sc, text))
+}
+
+/// Applies one `--set SECTION.FIELD=VALUE` to a scenario's TOML: the value is TOML (a number,
+/// `true`, a quoted string, an array), or else taken as a string.
+fn set_field(scenario: &mut toml::Value, kv: &str) -> Result<()> {
+    let (path, raw) = kv.split_once('=').with_context(|| format!("--set {kv:?}: expected SECTION.FIELD=VALUE"))?;
+    let value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
+        Ok(mut t) => t.remove("v").context("a value")?,
+        Err(_) => toml::Value::String(raw.to_string()),
+    };
+    let keys: Vec<&str> = path.trim().split('.').collect();
+    anyhow::ensure!(keys.iter().all(|k| !k.is_empty()), "--set {kv:?}: an empty key in {path:?}");
+    let (last, parents) = keys.split_last().context("a key")?;
+    let mut at = scenario;
+    for k in parents {
+        let table = at.as_table_mut().with_context(|| format!("--set {kv:?}: {k:?} is not a table"))?;
+        at = table.entry(k.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    }
+    let table = at.as_table_mut().with_context(|| format!("--set {kv:?}: {path:?} is not inside a table"))?;
+    table.insert(last.to_string(), value);
+    Ok(())
 }
 
 /// How [`execute`] starts the pieces.
@@ -265,6 +305,8 @@ pub struct Show {
     pub view: Option<u16>,
     /// Bridge the run to ROS 2 (see `RunArgs::ros2`).
     pub ros2: Option<Ros2Side>,
+    /// The run as a step function on standard input and output (see `RunArgs::gym`).
+    pub gym: bool,
 }
 
 /// Runs a resolved scenario (`text` is what the hub serves the agents) under run id `run_id`,
@@ -319,6 +361,9 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     }
     if let Some(side) = &show.ros2 {
         start_bridge(&launcher, run_id, &locators, zenoh_cfg, side).await?;
+    }
+    if show.gym {
+        start_gym(&launcher, sc, run_id, &locators, zenoh_cfg).await?;
     }
     let mut agents = Agents::start(&launcher, sc, locators, proxies, groups)?;
     let progress = progress_bar(sc, show.quiet);
@@ -375,18 +420,51 @@ async fn start_bridge(
     Ok(())
 }
 
+/// The user a program that is the external controller of every external UAV logs in as.
+pub const CONTROLLER: &str = "controller";
+
+/// Starts the gym gateway of the run in this process, logged in as `controller`.
+async fn start_gym(
+    launcher: &Launcher,
+    sc: &Scenario,
+    run_id: &str,
+    locators: &[String],
+    zenoh_cfg: &[String],
+) -> Result<()> {
+    anyhow::ensure!(
+        !sc.controller.external.is_empty(),
+        "--gym needs external UAVs (--external 1-5) to hand to the learning loop"
+    );
+    let mut cfg = match &launcher.creds {
+        Some(c) => c.client_cfg(CONTROLLER)?,
+        None => Vec::new(),
+    };
+    cfg.extend(zenoh_cfg.iter().cloned());
+    let gym = crate::gym::Gym::start(run_id, locators, &cfg, sc).await?;
+    tokio::spawn(async move {
+        if let Err(e) = gym.run().await {
+            warn!("the gym gateway failed: {e:#}");
+        }
+    });
+    Ok(())
+}
+
 /// The user the launcher's own recording logs in as.
 const OBSERVER: &str = "observer";
 
 /// Fresh credentials for one run in `<out>/credentials/`: a user per UAV (restarts reuse it),
 /// one per agent host of `hosts` (as [`spread`] grouped them), one per external controller
-/// (`ext{id}`), with `--ros2` the bridge's (`bridge`, or `bridge-uavs{ids}` when it drives the
+/// (`ext{id}`) and `controller` for all of them at once, with `--ros2` the bridge's (`bridge`, or `bridge-uavs{ids}` when it drives the
 /// bodies of agents on ROS topics) and a `ros` for ROS machines, the recorder's
 /// `observer`, and an `operator` for `swarm netem` on the running swarm.
 fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>], ros2: Option<&Ros2Side>) -> Result<Credentials> {
     let mut users: Vec<String> = sc.agent_ids().map(uav_user).collect();
     users.extend(hosts.iter().map(|g| host_user(g)));
     users.extend(sc.controller.external.iter().map(|&id| ext_user(id)));
+    if !sc.controller.external.is_empty() {
+        // One login for a program that controls every external UAV (a learning environment).
+        users.push(CONTROLLER.to_string());
+    }
     if let Some(side) = ros2 {
         users.extend([bridge_user(&side.agents), "ros".to_string()]);
     }
@@ -745,6 +823,19 @@ async fn read_locators(hub: &mut Child, logs: &Path) -> Result<Vec<String>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn set_puts_a_toml_value_at_a_dotted_path() {
+        let mut v = toml::Value::try_from(toml::toml! { [time] mode = "lockstep" }).expect("toml");
+        set_field(&mut v, "time.tick_timeout_ms=60000").expect("number");
+        set_field(&mut v, "localization.mode=icp").expect("a bare word is a string");
+        set_field(&mut v, "end.goal_rule=\"any\"").expect("quoted");
+        assert_eq!(v["time"]["tick_timeout_ms"].as_integer(), Some(60000));
+        assert_eq!(v["localization"]["mode"].as_str(), Some("icp"));
+        assert_eq!(v["end"]["goal_rule"].as_str(), Some("any"));
+        assert!(set_field(&mut v, "time").is_err(), "no value");
+        assert!(set_field(&mut v, "time.mode.x=1").is_err(), "a string is not a table");
+    }
 
     #[test]
     fn small_swarms_get_a_process_per_uav_and_large_ones_hosts() {

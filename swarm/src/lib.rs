@@ -16,8 +16,10 @@
 //! - [`netem_cli`]: `swarm netem`: change the faults of a running swarm.
 //! - [`tap`]: subscribe to any key expression of a run and print decoded messages as JSON lines;
 //!   `swarm put` publishes one.
-//! - [`ros2`]: `swarm ros2` (and `swarm run --ros2`): the UAVs as ROS 2 nodes on rmw_zenoh's
-//!   wire, scan and odometry out, cmd_vel in for external UAVs.
+//! - [`ros2`]: `swarm ros2` (and `swarm run --ros2`, `--dds`): a run as a ROS 2 graph on DDS or
+//!   rmw_zenoh, and the bodies of agents that run on ROS topics.
+//! - [`gym`]: `swarm run --gym`: the run as a step function over standard input and output,
+//!   for a learning loop (the Python package `uavswarm`).
 //! - [`keyspace`]: `swarm keys`: the live key space of a run from the routers' admin space (who
 //!   publishes and subscribes to each key family, per session) with rates and bandwidth.
 //! - [`study`]: `swarm compare` (one scenario, each controller), `swarm formations` (seed 004's
@@ -51,6 +53,7 @@
 
 pub mod cli;
 mod fuzz;
+mod gym;
 mod icp_eval;
 mod keyspace;
 mod launch;

@@ -117,7 +117,8 @@ pub(crate) async fn run_variant(sc: &Scenario, out: &Path, tag: &str, how: Varia
     let per_process = agents_per_process(sc.count(), how.per_process);
     // A study's runs are for its table: no MCAP recording each, and no journal (a killed
     // study flies its runs again).
-    let show = crate::launch::Show { quiet: !how.progress, mcap: None, journal: false, view: None, ros2: None };
+    let show =
+        crate::launch::Show { quiet: !how.progress, mcap: None, journal: false, view: None, ros2: None, gym: false };
     let run = How { zenoh_cfg: &[], show, per_process, insecure: false };
     let (summary, _) = execute(&sc, &text, &run_id, &out.join(tag), &run).await?;
     Ok(summary)

@@ -102,6 +102,8 @@ pub struct Agent {
     lost: LostContact,
     /// The hop counts to the nearest informed UAV heard in shares.
     hops: Hops,
+    /// The hop counts of the last step: to the nearest informed UAV and the nearest arrived one.
+    counts: (u8, u8),
     /// The hop counts to the nearest arrived UAV heard in shares.
     arrival: Arrival,
 }
@@ -119,6 +121,7 @@ impl Agent {
             pilot,
             lost: LostContact::new(),
             hops: Hops::default(),
+            counts: (u8::MAX, u8::MAX),
             arrival: Arrival::default(),
         })
     }
@@ -151,6 +154,12 @@ impl Agent {
         self.finish(frame, seen, command)
     }
 
+    /// The hop counts of the last step (to the nearest informed UAV, to the nearest arrived one;
+    /// `u8::MAX` for none, and before the first step): what an external controller's view carries.
+    pub fn counts(&self) -> (u8, u8) {
+        self.counts
+    }
+
     /// The first half of a step: perception and localization, up to the [`View`] a controller
     /// gets ([`Perceived::view`]). An external controller answers it from outside the process;
     /// [`Agent::finish`] takes its command.
@@ -173,6 +182,7 @@ impl Agent {
         let now = frame.scan.t_secs;
         let hops = self.hops.own(frame.odom.goal.is_some(), now, self.sc.lost_contact.max_hops);
         let arrival = self.arrival.own(&self.sc, &view, now);
+        self.counts = (hops, arrival);
         let command = self.lost.steer(&self.sc, &view, hops, &self.hops, command);
         // An external controller's command is its own; only the built-in K21 gets the arrival.
         let external = self.sc.controller.external.contains(&self.id);

@@ -29,6 +29,18 @@ pub struct ExtView {
     pub trees: Vec<ExtTree>,
     /// Wall faces, as segments from `a` to `b`.
     pub walls: Vec<ExtWall>,
+    /// Hops to the nearest informed UAV as the UAV's last step counted them (0: informed; 255:
+    /// no path), from the counts its neighbours' shares carry. Appended: old readers skip it.
+    #[serde(default = "no_path")]
+    pub hops_informed: u8,
+    /// Hops to the nearest UAV inside its goal disc, counted alike. Appended.
+    #[serde(default = "no_path")]
+    pub hops_arrived: u8,
+}
+
+/// A hop count of no path.
+fn no_path() -> u8 {
+    u8::MAX
 }
 
 /// Own pose and velocity, odometry frame.
@@ -59,6 +71,11 @@ pub struct ExtNeighbour {
     pub heading: f64,
     /// Age of the estimate's information [s].
     pub age_s: f64,
+    /// How its position in our body frame changes [m/s] (seed 001 eq. 9 on the successive
+    /// estimates of one id): its velocity relative to ours, as seen from our turning body;
+    /// `null` until an id has two estimates. Appended: old readers skip it.
+    #[serde(default)]
+    pub vel: Option<[f64; 2]>,
 }
 
 /// An obstacle circle, body frame.
@@ -155,9 +172,11 @@ mod tests {
             id: 2,
             odom: ExtOdom { x: 1.0, y: 2.0, yaw: 0.0, vx: 0.5, vy: 0.0 },
             goal: Some([30.0, 0.0]),
-            neighbours: vec![ExtNeighbour { id: Some(1), x: 2.0, y: 0.0, heading: 0.1, age_s: 0.1 }],
+            neighbours: vec![ExtNeighbour { id: Some(1), x: 2.0, y: 0.0, heading: 0.1, age_s: 0.1, vel: None }],
             trees: vec![ExtTree { x: 3.0, y: 1.0, r: 0.2 }],
             walls: vec![],
+            hops_informed: 0,
+            hops_arrived: u8::MAX,
         };
         let text = serde_json::to_string(&v).expect("json");
         assert!(
@@ -167,5 +186,10 @@ mod tests {
             "{text}"
         );
         assert_eq!(serde_json::from_str::<ExtView>(&text).expect("back"), v);
+        // A view of before the appended fields still reads.
+        let old = r#"{"tick":1,"t_s":0.1,"id":2,"odom":{"x":0,"y":0,"yaw":0,"vx":0,"vy":0},"goal":null,
+            "neighbours":[{"id":null,"x":1,"y":0,"heading":0,"age_s":0}],"trees":[],"walls":[]}"#;
+        let v: ExtView = serde_json::from_str(old).expect("an old view");
+        assert_eq!((v.hops_informed, v.neighbours[0].vel), (u8::MAX, None));
     }
 }

@@ -30,7 +30,7 @@ pub(crate) mod lost_contact;
 #[cfg_attr(not(test), allow(dead_code))]
 mod m23;
 #[cfg_attr(not(test), allow(dead_code))]
-mod neighbour_velocity;
+pub(crate) mod neighbour_velocity;
 mod p17;
 pub(crate) mod pilot;
 

@@ -12,6 +12,7 @@
 //! token `alive/ext/{id}`, so a lockstep run does not start without it.
 
 use super::AgentError;
+use crate::control::neighbour_velocity::VelocityTracker;
 use crate::control::{Command, View};
 use nalgebra::Vector2;
 use std::time::Duration;
@@ -22,6 +23,9 @@ use swarm_wire::{CmdKind, Keys, VectorMagnitudes, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, warn};
 use zenoh::bytes::Encoding;
+
+/// A neighbour not estimated for this long starts its velocity afresh [s].
+const VELOCITY_FORGET_S: f64 = 1.0;
 
 /// The share of the hub's tick timeout an agent waits for its external controller in lockstep,
 /// so that its hover reaches the hub before the hub's own deadline.
@@ -43,6 +47,8 @@ pub(super) struct ExternalLink {
     pub(super) missed: u64,
     /// Messages on the command key that were not a command.
     pub(super) malformed: u64,
+    /// Each neighbour id's velocity from its successive estimates, for the view.
+    velocities: VelocityTracker,
 }
 
 impl ExternalLink {
@@ -75,6 +81,7 @@ impl ExternalLink {
             startup_wait,
             missed: 0,
             malformed: 0,
+            velocities: VelocityTracker::new(VELOCITY_FORGET_S),
         })
     }
 
@@ -89,7 +96,8 @@ impl ExternalLink {
     }
 
     /// Publishes the view of `tick` and waits for its command; a hover if none comes in time.
-    pub(super) async fn ask(&mut self, tick: u64, view: &View<'_>) -> Result<Command, AgentError> {
+    /// `counts`: the hop counts (to the nearest informed and arrived UAV) of the last step.
+    pub(super) async fn ask(&mut self, tick: u64, view: &View<'_>, counts: (u8, u8)) -> Result<Command, AgentError> {
         if !*self.controller_alive.borrow() {
             self.missed += 1;
             if self.missed == 1 || self.missed.is_power_of_two() {
@@ -98,7 +106,15 @@ impl ExternalLink {
             return Ok(Command::hover());
         }
         // serde_json writes a non-finite number as null; a view has none (see `finite`).
-        let text = serde_json::to_vec(&ext_view(tick, view)).expect("a view serializes");
+        let mut ext = ext_view(tick, view);
+        (ext.hops_informed, ext.hops_arrived) = counts;
+        self.velocities.forget_stale(view.t_secs);
+        for (n, e) in ext.neighbours.iter_mut().zip(view.neighbours) {
+            n.vel =
+                e.id.and_then(|id| self.velocities.update(id, e.pos_in_body, view.t_secs))
+                    .map(|v| [finite(v.x), finite(v.y)]);
+        }
+        let text = serde_json::to_vec(&ext).expect("a view serializes");
         self.session
             .put(self.view_key.clone(), text)
             .encoding(Encoding::APPLICATION_JSON)
@@ -106,7 +122,15 @@ impl ExternalLink {
             .map_err(WireError::zenoh)?;
         let deadline = tokio::time::Instant::now() + self.wait;
         loop {
-            match tokio::time::timeout_at(deadline, self.cmds.recv()).await {
+            // A controller that goes while a tick waits for it (its program stopped) ends the wait.
+            let cmd = tokio::select! {
+                c = tokio::time::timeout_at(deadline, self.cmds.recv()) => c,
+                _ = self.controller_alive.wait_for(|up| !*up) => {
+                    warn!(tick, "the external controller went while its tick waited: hovering");
+                    return Ok(Command::hover());
+                }
+            };
+            match cmd {
                 Ok(Some(Some(c))) if c.tick == tick => return Ok(command_of(&c)),
                 Ok(Some(Some(c))) => debug!(tick, cmd_tick = c.tick, "external command for another tick dropped"),
                 Ok(Some(None)) => self.malformed += 1,
@@ -139,6 +163,7 @@ fn ext_view(tick: u64, v: &View) -> ExtView {
                 y: finite(e.pos_in_body.y),
                 heading: finite(e.heading),
                 age_s: finite(e.age_secs),
+                vel: None,
             })
             .collect(),
         trees: v
@@ -151,6 +176,8 @@ fn ext_view(tick: u64, v: &View) -> ExtView {
             .iter()
             .map(|w| ExtWall { ax: finite(w.a.x), ay: finite(w.a.y), bx: finite(w.b.x), by: finite(w.b.y) })
             .collect(),
+        hops_informed: u8::MAX,
+        hops_arrived: u8::MAX,
     }
 }
 

@@ -492,8 +492,9 @@ impl Node {
         let out = match self.external.as_mut() {
             None => self.agent.step(&frame),
             Some(ext) => {
+                let counts = self.agent.counts();
                 let seen = self.agent.perceive(&frame);
-                let command = ext.ask(tick, &seen.view(self.id, &frame)).await?;
+                let command = ext.ask(tick, &seen.view(self.id, &frame), counts).await?;
                 self.agent.finish(&frame, seen, command)
             }
         };
