@@ -46,6 +46,7 @@ class SwarmParallelEnv(ParallelEnv):
         reward_fn: Optional[RewardFn] = None,
         time_limit_s: Optional[float] = None,
         set_fields: Sequence[str] = (),
+        experiment: Optional[str] = None,
         swarm: Optional[str] = None,
         run_dir: Optional[str] = None,
         reply_timeout_s: float = 120.0,
@@ -74,6 +75,7 @@ class SwarmParallelEnv(ParallelEnv):
             self.sets.append(f"end.time_limit_s={float(time_limit_s)}")
         self.run_dir = run_dir
         self.reply_timeout_s = reply_timeout_s
+        self.extra_args = ["--experiment", str(experiment)] if experiment else []
         low, high = layout.bounds()
         self._obs_space = gymnasium.spaces.Box(low, high, dtype=np.float32)
         self._scale = np.array([self.max_speed, self.max_speed, self.max_yaw_rate], np.float64)
@@ -96,7 +98,7 @@ class SwarmParallelEnv(ParallelEnv):
     def reset(self, seed: Optional[int] = None, options: Optional[dict] = None):
         self.close()
         self._run = Run(self.swarm, self.scenario, self.learner_ids, seed, out_dir=self.run_dir,
-                        sets=self.sets, reply_timeout_s=self.reply_timeout_s)
+                        sets=self.sets, extra_args=self.extra_args, reply_timeout_s=self.reply_timeout_s)
         line = self._run.read()
         if "end" in line:
             raise RuntimeError(f"the run ended before its first tick: {line}")
