@@ -29,6 +29,7 @@ use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::sync::mpsc;
 use tracing::{info, warn};
 use zenoh::liveliness::LivelinessToken;
+use zenoh::qos::CongestionControl;
 
 /// What reaches the gateway.
 enum Event {
@@ -197,7 +198,9 @@ impl Gym {
                 warn!(uav_id = id, "gym gateway: not a command, ignored: {c}");
                 continue;
             }
-            if let Err(e) = self.session.put(self.keys.ext_cmd(id), bytes).await {
+            // Blocking, not dropped under congestion: the tick waits for every command.
+            let put = self.session.put(self.keys.ext_cmd(id), bytes).congestion_control(CongestionControl::Block);
+            if let Err(e) = put.await {
                 warn!(uav_id = id, "gym gateway: {e}");
             }
         }

@@ -23,6 +23,7 @@ use swarm_wire::{CmdKind, Keys, VectorMagnitudes, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, warn};
 use zenoh::bytes::Encoding;
+use zenoh::qos::CongestionControl;
 
 /// A neighbour not estimated for this long starts its velocity afresh [s].
 const VELOCITY_FORGET_S: f64 = 1.0;
@@ -41,6 +42,9 @@ pub(super) struct ExternalLink {
     _alive_sub: Subscription,
     /// How long a tick waits for its command.
     wait: Duration,
+    /// Lockstep blocks rather than drop a view under congestion (the tick would wait for a
+    /// command its controller never had the view of); realtime drops, as every realtime put.
+    congestion: CongestionControl,
     /// How long the agent waits for the controller to come (the scenario's startup timeout).
     startup_wait: Duration,
     /// Ticks whose command did not come in time.
@@ -78,6 +82,10 @@ impl ExternalLink {
             controller_alive,
             _alive_sub: alive_sub,
             wait,
+            congestion: match sc.time.mode {
+                TimeMode::Lockstep => CongestionControl::Block,
+                TimeMode::Realtime => CongestionControl::Drop,
+            },
             startup_wait,
             missed: 0,
             malformed: 0,
@@ -118,6 +126,7 @@ impl ExternalLink {
         self.session
             .put(self.view_key.clone(), text)
             .encoding(Encoding::APPLICATION_JSON)
+            .congestion_control(self.congestion)
             .await
             .map_err(WireError::zenoh)?;
         let deadline = tokio::time::Instant::now() + self.wait;
