@@ -85,15 +85,14 @@ def main():
     ap.add_argument("--seeds", type=int, default=8, help="training seeds 1..N, cycled")
     ap.add_argument("--eval-every", type=int, default=10000)
     ap.add_argument("--out", default="docs/learning-forest5.png")
+    ap.add_argument("--replot", help="draw the plot again from this JSON (what a run wrote) and stop")
     a = ap.parse_args()
+    if a.replot:
+        plot(json.loads(pathlib.Path(a.replot).read_text()), pathlib.Path(a.out))
+        return
 
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     tmp = tempfile.mkdtemp(prefix="learn-forest5-")
     seeds = list(range(1, a.seeds + 1))
@@ -135,11 +134,24 @@ def main():
     model = PPO("MlpPolicy", env, n_steps=1024, batch_size=256, learning_rate=3e-4, gamma=0.99, seed=0, verbose=0)
     model.learn(total_timesteps=a.steps, callback=Curve())
     r = evaluate(model)
-    curve.append({"steps": a.steps, "mean": float(np.mean(r)), "std": float(np.std(r)), "wall_s": time.monotonic() - started})
+    # PPO collects whole rollouts, so the last model was trained on a little more than asked.
+    curve.append({"steps": int(model.num_timesteps), "mean": float(np.mean(r)), "std": float(np.std(r)),
+                  "wall_s": time.monotonic() - started})
     env.close()
     wall = time.monotonic() - started
+    result = {"curve": curve, "k21": k21, "k21_mean": float(np.mean(k21)), "wall_s": wall, "steps": a.steps, "seeds": seeds}
+    plot(result, pathlib.Path(a.out))
+    print(json.dumps({"wall_s": wall, "k21_mean": result["k21_mean"], "final_mean": curve[-1]["mean"]}))
 
-    out = pathlib.Path(a.out)
+
+def plot(result, out):
+    """The learning curve against K21, as PNG, and the numbers as JSON beside it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    curve, k21, seeds = result["curve"], result["k21"], result["seeds"]
     out.parent.mkdir(parents=True, exist_ok=True)
     xs = [c["steps"] for c in curve]
     ms = np.array([c["mean"] for c in curve])
@@ -155,9 +167,7 @@ def main():
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(out)
-    result = {"curve": curve, "k21": k21, "k21_mean": float(np.mean(k21)), "wall_s": wall, "steps": a.steps, "seeds": seeds}
     out.with_suffix(".json").write_text(json.dumps(result, indent=1))
-    print(json.dumps({"wall_s": wall, "k21_mean": result["k21_mean"], "final_mean": curve[-1]["mean"]}))
 
 
 if __name__ == "__main__":

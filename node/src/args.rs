@@ -39,21 +39,52 @@ impl ZenohArgs {
         Ok(cfg)
     }
 
-    /// A tool's client session (`tap`, `put`, `keys`, `netem`). When it cannot connect, the error
-    /// says so in our words, and without `--user` that the hub may want a login: a `swarm run`
-    /// hub refuses anyone without one, which Zenoh reports only as refused handshakes.
+    /// A tool's client session (`tap`, `put`, `keys`, `netem`, `view`): it waits
+    /// [`TOOL_CONNECT_S`] for the hub (not a piece's 30 s: a person is waiting), and when it
+    /// cannot connect the error says why in our words. Zenoh reports a refused login only as
+    /// refused handshakes, so the endpoints are probed: one that accepts a TCP connection is a hub
+    /// that refused this session (the login is wrong, or missing: a `swarm run` hub wants one);
+    /// none is no hub there.
     pub async fn open_tool_session(&self) -> Result<zenoh::Session> {
-        let opened =
-            swarm_wire::session::open(swarm_wire::session::Role::Client, &[], &self.connect, &self.session_cfg()?)
-                .await;
-        opened.map_err(|e| {
-            let hint = match &self.user {
-                None => "; a hub started by `swarm run` wants a login: --user observer --password-file <run folder>/credentials/observer.password",
-                Some(_) => "; check that the hub is up and that the user and password are this run's",
-            };
-            anyhow::anyhow!("cannot connect to {} ({e}){hint}", self.connect.join(", "))
-        })
+        let mut cfg = vec![format!("connect/timeout_ms:{}", TOOL_CONNECT_S * 1000)];
+        cfg.extend(self.session_cfg()?);
+        let opened = swarm_wire::session::open(swarm_wire::session::Role::Client, &[], &self.connect, &cfg).await;
+        opened.map_err(|e| anyhow::anyhow!("{}", self.why_not_connected(&e.to_string())))
     }
+
+    /// Why a tool could not connect, from probing its endpoints.
+    fn why_not_connected(&self, zenoh: &str) -> String {
+        let listening: Vec<&String> = self.connect.iter().filter(|e| tcp_accepts(e)).collect();
+        let endpoints = self.connect.join(", ");
+        match (listening.is_empty(), &self.user) {
+            (true, _) => format!(
+                "cannot connect to {endpoints}: nothing accepts a connection there; is the hub up, and is this its endpoint (the run folder's hub.txt)? ({zenoh})"
+            ),
+            (false, None) => format!(
+                "the hub at {endpoints} refused this session: it wants a login (a `swarm run` hub does): \
+                 --user observer --password-file <run folder>/credentials/observer.password"
+            ),
+            (false, Some(user)) => format!(
+                "the hub at {endpoints} refused to let {user:?} in: the user or its password is not this run's \
+                 (`swarm run` makes fresh ones each run, in <run folder>/credentials/)"
+            ),
+        }
+    }
+}
+
+/// How long a tool waits for the hub [s].
+pub const TOOL_CONNECT_S: u64 = 10;
+
+/// Whether a `tcp/HOST:PORT` endpoint accepts a TCP connection within a second.
+fn tcp_accepts(endpoint: &str) -> bool {
+    use std::net::ToSocketAddrs;
+    let Some(addr) = endpoint.strip_prefix("tcp/") else { return false };
+    let addr = addr.split('#').next().unwrap_or(addr);
+    addr.to_socket_addrs()
+        .ok()
+        .into_iter()
+        .flatten()
+        .any(|a| std::net::TcpStream::connect_timeout(&a, std::time::Duration::from_secs(1)).is_ok())
 }
 
 /// Which ROS 2 graph a piece joins: its middleware and domain (`swarm ros2`, `swarm run --ros2`,

@@ -1,11 +1,23 @@
 //! What every binary of the workspace does around its command, in one place so `swarm` and
 //! `swarm-node` log and fail alike: tracing to standard error (`RUST_LOG`, Zenoh's own chatter at
 //! warn by default, RustDDS's off: it logs a peer's every coming and going as an error; ask for
-//! it with `RUST_LOG=info,rustdds=warn`) and a two-thread Tokio runtime whose error ends the
-//! process with a message.
+//! it with `RUST_LOG=info,rustdds=warn`), a two-thread Tokio runtime whose error ends the
+//! process with a message, and [`out`]: a line to standard output that a closed pipe
+//! (`swarm run | head`) ends quietly instead of panicking as `println!` does.
 
 use std::future::Future;
 use std::process::ExitCode;
+
+/// Prints `line` and a newline to standard output. A reader that went away (a closed pipe) is
+/// no error: the process goes on, printing nothing more; any other failure is said on stderr.
+pub fn out(line: &str) {
+    use std::io::Write;
+    let mut o = std::io::stdout().lock();
+    match o.write_all(line.as_bytes()).and_then(|()| o.write_all(b"\n")).and_then(|()| o.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => eprintln!("cannot write to standard output: {e}"),
+        _ => {}
+    }
+}
 
 /// Sets up logging, runs `command` on a two-worker runtime, prints its error as `error: …` and
 /// turns it into a failing exit code.

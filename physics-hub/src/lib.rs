@@ -40,5 +40,5 @@ pub mod sim;
 mod uvdar;
 pub mod world;
 
-pub use forest::{start_in_obstacle, start_positions};
+pub use forest::{scenario_trees, start_in_obstacle, start_positions};
 pub use node::{run, HubError, HubOptions, HubReport};

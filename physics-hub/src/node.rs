@@ -455,7 +455,7 @@ impl Net {
             };
             let checked = parsed.and_then(|t| sc.check_timeline(&t, true).map(|()| t));
             if let Some(json) = json {
-                self.acknowledge(json, checked.as_ref().err().map(String::as_str)).await;
+                self.acknowledge(json, checked.as_ref().err().map(String::as_str), not_before).await;
             }
             let mut t = match checked {
                 Ok(t) => t,
@@ -477,13 +477,15 @@ impl Net {
         Ok(())
     }
 
-    /// Answers a timeline that came on `netem/add` on `netem/ack`: accepted, or refused and why
-    /// (`swarm netem` waits for it). A failed answer is only logged: the timeline stands.
-    async fn acknowledge(&self, timeline: String, refused: Option<&str>) {
+    /// Answers a timeline that came on `netem/add` on `netem/ack`: accepted from sim time `from_s`,
+    /// or refused and why (`swarm netem` waits for it). A failed answer is only logged: the
+    /// timeline stands.
+    async fn acknowledge(&self, timeline: String, refused: Option<&str>, from_s: f64) {
         let ack = swarm_wire::NetemAck {
             timeline,
             accepted: refused.is_none(),
             reason: refused.unwrap_or_default().to_string(),
+            from_s: refused.is_none().then_some(from_s),
         };
         let Ok(json) = serde_json::to_vec(&ack) else { return };
         let put = self.session.put(self.keys.netem_ack(), json).encoding(zenoh::bytes::Encoding::APPLICATION_JSON);

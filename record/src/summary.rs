@@ -97,6 +97,10 @@ pub struct Summary {
     /// (zero) in older summaries.
     #[serde(default)]
     pub traffic: TrafficSummary,
+    /// The UAVs whose agent never came (never held its liveliness token in any tick): the hub
+    /// flew them without one, hovering. Appended; empty in older summaries.
+    #[serde(default)]
+    pub never_joined: Vec<u32>,
 }
 
 /// What the agents and their sessions (one agent's process, or a host's) received, from the
@@ -517,6 +521,13 @@ impl Summary {
             "run {}  scenario {}  ({} UAVs, {} trees, {})",
             self.run_id, self.scenario, self.uav_count, self.trees, self.time_mode
         );
+        if !self.never_joined.is_empty() {
+            let _ = writeln!(
+                s,
+                "WARNING: the agents of UAVs {:?} never joined (they hovered, uncontrolled); see the run folder's logs/",
+                self.never_joined
+            );
+        }
         let _ = writeln!(s, "goal: {goal}");
         let _ = writeln!(s, "collisions: {}", self.collisions);
         let _ = writeln!(
@@ -526,7 +537,7 @@ impl Summary {
         );
         let _ = writeln!(
             s,
-            "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>8} {:>9}",
+            "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>8} {:>8} {:>8} {:>9}",
             "uav",
             "obst min",
             "obst mean",
@@ -536,6 +547,7 @@ impl Summary {
             "msgs tx",
             "bytes tx",
             "msgs rx",
+            "delivered",
             "step ms",
             "alone s",
             "rejoined",
@@ -544,7 +556,7 @@ impl Summary {
         for a in &self.agents {
             let _ = writeln!(
                 s,
-                "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8.1} {:>8} {:>9} {:>9} {:>8.3} {:>8.1} {:>8} {:>9}",
+                "{:>4} {:>9} {:>9} {:>9} {:>9} {:>8.1} {:>8} {:>9} {:>9} {:>9} {:>8.3} {:>8.1} {:>8} {:>9}",
                 a.id,
                 f(a.min_obstacle_distance_m),
                 f(a.mean_obstacle_distance_m),
@@ -554,6 +566,7 @@ impl Summary {
                 a.messages_sent,
                 a.bytes_sent,
                 a.messages_received,
+                a.messages_delivered,
                 a.mean_step_time_ms,
                 a.time_alone_s,
                 rejoined(a),

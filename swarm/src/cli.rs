@@ -73,7 +73,7 @@ pub enum Cmd {
     Fuzz(crate::fuzz::FuzzArgs),
     /// List the built-in scenarios.
     Scenarios,
-    /// Validate a scenario file and print what it resolves to.
+    /// Validate a scenario file and say what it flies (`--json`: every field resolved).
     Check {
         /// Scenario file or built-in name.
         scenario: String,
@@ -122,6 +122,6 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Plot(a) => swarm_plot::plot(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,
         Cmd::Scenarios => crate::scenarios::list(),
-        Cmd::Check { scenario, json: _ } => crate::scenarios::check(&scenario, &controllers),
+        Cmd::Check { scenario, json } => crate::scenarios::check(&scenario, json, &controllers),
     }
 }

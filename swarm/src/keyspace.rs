@@ -289,7 +289,7 @@ pub async fn keys(a: KeysArgs) -> Result<ExitCode> {
             "families": space.rows(),
             "sessions": space.session_rows(),
         });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        swarm_node::process::out(&serde_json::to_string_pretty(&out)?);
     } else {
         print!("{}", table(&a.run, &space, a.verbose));
     }

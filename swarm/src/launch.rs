@@ -186,7 +186,7 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
     let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
     let (summary, hub_ok) = execute(&sc, &text, &run_id, &out, &how).await?;
     // With --gym, standard output is the step protocol's.
-    let say = |line: String| if a.gym { eprintln!("{line}") } else { println!("{line}") };
+    let say = |line: String| if a.gym { eprintln!("{line}") } else { swarm_node::process::out(&line) };
     say(summary.human());
     say(format!("run folder: {}", out.display()));
     if a.view.is_some() {
@@ -354,7 +354,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     if let Some(port) = show.view {
         let live = swarm_view::Live::start(run_id, &locators, &rec_cfg, port).await?;
         // Stdout, flushed at once: scripts (and tests) read the address while the run goes.
-        println!("{}", live.addresses());
+        swarm_node::process::out(&live.addresses());
         use std::io::Write as _;
         let _ = std::io::stdout().flush();
         tokio::spawn(live.run());
@@ -366,6 +366,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
         start_gym(&launcher, sc, run_id, &locators, zenoh_cfg).await?;
     }
     let mut agents = Agents::start(&launcher, sc, locators, proxies, groups)?;
+    let _interrupt = stop_hub_on_interrupt(&mut hub);
     let progress = progress_bar(sc, show.quiet);
     let summary = rec.record(out, sc, &progress, Some(&mut hub.child), &mut |t| agents.on_tick(t)).await?;
     progress.finish_and_clear();
@@ -383,6 +384,25 @@ fn ros_agents(sc: &Scenario, side: Option<&Ros2Side>) -> Result<Vec<u32>> {
         );
     }
     Ok(ids)
+}
+
+/// On Ctrl-C (or a SIGINT to this process alone), closes the hub's standard input, its order to
+/// end the run: it ends it as `stopped` with a last truth step, so the recording finishes whole
+/// at once, as when the whole process group is interrupted (the hub then gets the signal itself).
+/// Dropping the returned guard (the run is over) ends the watch.
+fn stop_hub_on_interrupt(hub: &mut Piece) -> tokio::sync::oneshot::Sender<()> {
+    let stdin = hub._stdin.take();
+    let (guard, over) = tokio::sync::oneshot::channel::<()>();
+    tokio::spawn(async move {
+        tokio::select! {
+            r = tokio::signal::ctrl_c() => if r.is_ok() {
+                info!("interrupted: telling the hub to end the run");
+            },
+            _ = over => {}
+        }
+        drop(stdin);
+    });
+    guard
 }
 
 /// The file of the run folder that holds the hub's locators while the run flies.

@@ -240,7 +240,7 @@ pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
     let _ = s.close().await;
     match answer {
         Some(ack) if ack.accepted => {
-            println!("{json}");
+            swarm_node::process::out(&applied(&timeline, ack.from_s));
             Ok(ExitCode::SUCCESS)
         }
         Some(ack) => bail!("the hub refused the change: {}", ack.reason),
@@ -251,6 +251,28 @@ pub async fn netem(a: NetemArgs) -> Result<ExitCode> {
             a.wait
         ),
     }
+}
+
+/// What the hub took, in words: each rule and failure at the sim time it acts.
+fn applied(t: &swarm_config::Timeline, from_s: Option<f64>) -> String {
+    let base = from_s.unwrap_or(0.0);
+    let when = match from_s {
+        Some(s) => format!("applied from sim t = {s:.1} s"),
+        None => "applied (the hub did not say when)".to_string(),
+    };
+    let mut lines = vec![format!("{when}: {} rule(s), {} failure(s)", t.netem.len(), t.failures.len())];
+    for r in &t.netem {
+        let what = match &r.partition {
+            Some(p) => format!("partition {}", serde_json::to_string(p).unwrap_or_default()),
+            None => serde_json::to_string(&r.rule).unwrap_or_default(),
+        };
+        lines.push(format!("  at sim t = {:.1} s: {what}", base + r.at_s));
+    }
+    for f in &t.failures {
+        let kind = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+        lines.push(format!("  at sim t = {:.1} s: UAV {} {kind}", base + f.at_s, f.uav));
+    }
+    lines.join("\n")
 }
 
 #[cfg(test)]

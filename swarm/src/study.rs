@@ -342,7 +342,7 @@ pub async fn compare(a: CompareArgs) -> Result<ExitCode> {
     print!("{t}");
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("compare.md"), &t)?;
-    println!("study folder: {}", out.display());
+    swarm_node::process::out(&format!("study folder: {}", out.display()));
     fail_after_table(failed)
 }
 
@@ -404,7 +404,7 @@ pub async fn formations(a: FormationsArgs) -> Result<ExitCode> {
     print!("{t}");
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("formations.md"), &t)?;
-    println!("study folder: {}", out.display());
+    swarm_node::process::out(&format!("study folder: {}", out.display()));
     fail_after_table(failed)
 }
 
@@ -459,7 +459,7 @@ pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&out)?;
     std::fs::write(out.join("sweep.md"), &t)?;
     std::fs::write(out.join("sweep.svg"), sweep_svg(&points)?)?;
-    println!("study folder: {} (sweep.md, sweep.svg)", out.display());
+    swarm_node::process::out(&format!("study folder: {} (sweep.md, sweep.svg)", out.display()));
     Ok(ExitCode::SUCCESS)
 }
 

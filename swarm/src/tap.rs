@@ -145,7 +145,26 @@ pub async fn tap(a: TapArgs) -> Result<ExitCode> {
         follow(&s, &a, &mut print).await?;
     }
     let _ = s.close().await;
+    if printed == 0 {
+        eprintln!("{}", nothing_came(&a));
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// What a tap that got nothing says: the hub's router drops a subscription a login may not
+/// make without a word to the client, so an empty tap may be the role's doing, not silence.
+fn nothing_came(a: &TapArgs) -> String {
+    let within = a.duration.map_or(String::new(), |d| format!(" within {d} s"));
+    let who = match &a.zenoh.user {
+        Some(u) => format!("as {u:?}"),
+        None => "without a login".to_string(),
+    };
+    format!(
+        "nothing came on {}{within}. Either nothing was published there, or the hub's router refused the subscription: \
+         it gives each login only its role's keys and drops the rest without telling the client ({who}; an agent `uav3` \
+         reads only its own sensors, never another UAV's or truth/**; `--user observer` reads every key: docs/security.md)",
+        a.keyexpr
+    )
 }
 
 /// `swarm tap --get`: prints every reply to one query, while `print` wants more.

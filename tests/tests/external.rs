@@ -92,7 +92,9 @@ fn an_external_uav_whose_controller_never_comes_says_so_and_stays_put() {
     ];
     let swarm =
         Command::new(SWARM).args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("swarm run");
-    let _ = wait_output(swarm, RUN_LIMIT, "swarm run --external 2 with no controller");
+    let o = wait_output(swarm, RUN_LIMIT, "swarm run --external 2 with no controller");
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(printed.contains("WARNING: the agents of UAVs [2] never joined"), "the terminal says so: {printed}");
     let logs: String = std::fs::read_dir(out.join("logs"))
         .expect("logs")
         .map(|e| std::fs::read_to_string(e.expect("entry").path()).unwrap_or_default())
@@ -102,6 +104,7 @@ fn an_external_uav_whose_controller_never_comes_says_so_and_stays_put() {
         "{logs}"
     );
     let s = summary(&out);
+    assert_eq!(s["never_joined"], serde_json::json!([2]), "summary.json says so");
     let two = s["agents"].as_array().expect("agents").iter().find(|a| a["id"] == 2).expect("UAV 2");
     assert!(two["path_length_m"].as_f64().expect("path") < 0.05, "UAV 2 moved without a controller: {two:#}");
     let others = s["agents"]

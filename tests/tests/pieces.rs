@@ -314,7 +314,9 @@ fn netem_command_isolates_a_uav_of_a_running_swarm() {
         TOOL_LIMIT,
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(String::from_utf8_lossy(&o.stdout).contains("\"scheme\":\"isolate\""));
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("\"scheme\":\"isolate\""), "{said}");
+    assert!(said.starts_with("applied from sim t = "), "the hub's sim time, in words: {said}");
     let o =
         output_within(Command::new(SWARM).args(["netem", "--run", &run, "--connect", &loc, "freeze", "2"]), TOOL_LIMIT);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -74,7 +74,9 @@ pub struct ViewArgs {
 /// Runs `swarm view` until Ctrl-C.
 pub async fn view(a: ViewArgs) -> Result<ExitCode> {
     anyhow::ensure!(!a.zenoh.connect.is_empty(), "the view needs --connect <hub endpoint>");
-    let live = Live::start(&a.run, &a.zenoh.connect, &a.zenoh.session_cfg()?, a.port).await?;
+    // A tool's session: a short wait for the hub, and a refused login said as such.
+    let session = a.zenoh.open_tool_session().await?;
+    let live = Live::start_on(session, &a.run, a.port).await?;
     println!("{}", live.addresses());
     tokio::select! {
         r = live.run() => r?,
@@ -140,8 +142,12 @@ impl Live {
     /// Joins run `run_id` at `connect`, fetches the scenario and the world, and starts serving
     /// the page on 127.0.0.1:`page_port` and the Foxglove WebSocket beside it.
     pub async fn start(run_id: &str, connect: &[String], cfg: &[String], page_port: u16) -> Result<Live> {
+        Live::start_on(session::open(Role::Client, &[], connect, cfg).await?, run_id, page_port).await
+    }
+
+    /// [`Live::start`] on a session already open.
+    pub async fn start_on(session: zenoh::Session, run_id: &str, page_port: u16) -> Result<Live> {
         let keys = Keys::new(run_id)?;
-        let session = session::open(Role::Client, &[], connect, cfg).await?;
         let subs = [
             ring(&session, keys.truth_all()).await?,
             ring(&session, keys.state_any()).await?,

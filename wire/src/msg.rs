@@ -596,6 +596,10 @@ pub struct NetemAck {
     pub accepted: bool,
     /// Why not, when refused.
     pub reason: String,
+    /// The sim time its times count from (the hub's next tick), when accepted. Appended: an old
+    /// hub's answer has none.
+    #[serde(default)]
+    pub from_s: Option<f64>,
 }
 
 #[cfg(test)]

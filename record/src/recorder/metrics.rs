@@ -90,6 +90,8 @@ struct Acc {
     ages: Tally,
     /// Link class counts of its earlier incarnations (a restarted agent counts from zero).
     link_base: [ClassCounts; 3],
+    /// Its agent held its liveliness token in some tick.
+    ever_alive: bool,
 }
 
 impl Default for Acc {
@@ -117,6 +119,7 @@ impl Default for Acc {
             steps_alone: 0,
             ages: Tally::default(),
             link_base: [ClassCounts::default(); 3],
+            ever_alive: false,
         }
     }
 }
@@ -519,6 +522,7 @@ impl Metrics {
             if b.alive && !b.cmd_on_time && s.ended.is_none() {
                 a.late += 1;
             }
+            a.ever_alive |= b.alive;
             let t = self.tracks.entry(b.id).or_default();
             t.samples.push([s.t_secs, b.x, b.y, b.obstacle_distance_m, b.agent_distance_m]);
         }
@@ -781,6 +785,10 @@ impl Metrics {
             timing: self.timing(),
             checks: Vec::new(),
             traffic: self.traffic(),
+            never_joined: scenario
+                .agent_ids()
+                .filter(|id| self.agents.get(id).is_some_and(|a| !a.ever_alive) && self.last_step.is_some())
+                .collect(),
         }
     }
 

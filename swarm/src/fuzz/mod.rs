@@ -249,11 +249,11 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
                 let text = write_found(&small, a.seed, &failure, &file)?;
                 let Failure { check, what, .. } = failure;
                 pb.suspend(|| {
-                    println!(
+                    swarm_node::process::out(&format!(
                         "case {}: `{check}` failed; shrunk from {original} to {}:\n{text}",
                         small.index,
                         small.label()
-                    )
+                    ))
                 });
                 findings.push(Finding {
                     case: small.index,
@@ -280,13 +280,23 @@ fn report(out: &Path, seed: u64, flown: &[Flown], findings: &[Finding]) -> Resul
         }
     }
     let failed = flown.iter().filter(|f| !f.failed.is_empty()).count();
-    println!("fuzz seed {seed}: {} cases flown, {failed} failed; failures by check: {by_check:?}", flown.len());
+    swarm_node::process::out(&format!(
+        "fuzz seed {seed}: {} cases flown, {failed} failed; failures by check: {by_check:?}",
+        flown.len()
+    ));
     for f in findings {
-        println!("  case {} `{}`: {} -> {} ({})", f.case, f.check, f.original, f.shrunk, f.file.display());
+        swarm_node::process::out(&format!(
+            "  case {} `{}`: {} -> {} ({})",
+            f.case,
+            f.check,
+            f.original,
+            f.shrunk,
+            f.file.display()
+        ));
     }
     let json = serde_json::json!({ "seed": seed, "flown": flown, "findings": findings, "failures_by_check": by_check });
     std::fs::write(out.join("fuzz.json"), serde_json::to_string_pretty(&json)?)?;
-    println!("fuzz folder: {}", out.display());
+    swarm_node::process::out(&format!("fuzz folder: {}", out.display()));
     Ok(if failed > 0 { ExitCode::from(2) } else { ExitCode::SUCCESS })
 }
 

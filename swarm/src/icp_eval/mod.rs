@@ -326,17 +326,17 @@ pub async fn icp_eval(a: IcpEvalArgs) -> Result<ExitCode> {
     }
     let report = Report { source: what, ..evaluate(&all, &sc.localization.icp) };
     if a.json {
-        println!("{}", serde_json::to_string(&report)?);
+        swarm_node::process::out(&serde_json::to_string(&report)?);
     } else {
         print!("{}", report.table());
     }
     if a.details {
-        println!("\ncase shared outcome frmsd pairs runner_up_ratio error_m");
+        swarm_node::process::out("\ncase shared outcome frmsd pairs runner_up_ratio error_m");
         for (i, d) in report.details.iter().enumerate() {
-            println!(
+            swarm_node::process::out(&format!(
                 "{i} {} {:?} {:.3} {} {:.2} {:.2}",
                 d.shared, d.outcome, d.frmsd, d.pairs, d.runner_up_ratio, d.error_m
-            );
+            ));
         }
     }
     Ok(ExitCode::SUCCESS)

@@ -105,7 +105,7 @@ pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
     std::fs::write(out.join("mesh.md"), &table)?;
     std::fs::write(out.join("mesh.json"), serde_json::to_string_pretty(&report)?)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        swarm_node::process::out(&serde_json::to_string_pretty(&report)?);
     } else {
         print!("{table}");
     }

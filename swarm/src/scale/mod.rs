@@ -208,7 +208,7 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
     std::fs::write(out.join("scale.json"), serde_json::to_string_pretty(&rows)?)?;
     chart::write(&rows, &out.join("scale.svg"), &out.join("scale.png"))?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        swarm_node::process::out(&serde_json::to_string_pretty(&rows)?);
     } else {
         print!("{table}");
     }
