@@ -1,8 +1,9 @@
 //! `connectivity.svg` / `connectivity.png`: the connected components of the estimate graph ("i
 //! holds an estimate of j") over sim time, beside the agents that reported, on the scenario's
-//! netem timeline: spans where some link is cut (blocked or held) shaded red, where some link
+//! netem timeline: spans where some link is cut (blocked or held, or from a frozen UAV, which
+//! says nothing but still hears: the graph may stay one component) shaded red, where some link
 //! is only impaired (loss, delay, ...) shaded orange, and each failure (freeze, kill, restart,
-//! link fault) a dashed line with its name.
+//! link fault) a dashed line with its name. The caption and the legend say so.
 
 use super::data::Run;
 use super::style::{legend, time_chart, DrawResult, Figure, FAMILY};
@@ -74,11 +75,15 @@ impl Figure for ConnectivityFigure<'_> {
         let area = root.titled(&format!("{}: connectivity", run.title), (FAMILY, 18))?;
         let y_hi = run.components.iter().map(|c| c.reporting.max(c.components)).fold(1.0, f64::max) + 0.5;
         let t_end = run.t_end();
-        let mut chart = time_chart(&area, "connected components of the estimate graph", "count", t_end, y_hi)?;
+        let caption = "components of the estimate graph (an estimate either way joins two UAVs), on the netem timeline";
+        let mut chart = time_chart(&area, caption, "count", t_end, y_hi)?;
         let ids: Vec<u32> = if run.uavs > 0 { (1..=run.uavs).collect() } else { run.tracks.keys().copied().collect() };
         let spans = spans(&run.timeline, &ids, t_end);
-        for (kind, c, label) in [(LinkClass::Cut, CUT, "links cut"), (LinkClass::Impaired, IMPAIRED, "links impaired")]
-        {
+        // What a span means: some link, not every link; a frozen UAV's links count as cut (it
+        // says nothing) while it still hears the others, so the graph may stay one component.
+        let (cut, impaired) =
+            ("some link cut (blocked, held, or from a frozen UAV)", "some link impaired (loss, delay, ...)");
+        for (kind, c, label) in [(LinkClass::Cut, CUT, cut), (LinkClass::Impaired, IMPAIRED, impaired)] {
             let boxes = spans
                 .iter()
                 .filter(|s| s.2 == kind)

@@ -77,6 +77,9 @@ pub struct Run {
     pub timeline: netem::Timeline,
     /// UAV count of the scenario (0 when unknown).
     pub uavs: u32,
+    /// The separation the run's invariant holds every pair of UAVs to, centre to centre [m]
+    /// (`[expect]`'s, with its default), when the scenario is known.
+    pub min_separation_m: Option<f64>,
     /// Collision points `[x, y]` [m].
     pub collisions: Vec<[f64; 2]>,
 }
@@ -171,6 +174,7 @@ impl Run {
             self.goal_radius_m = sc.end.goal_radius_m;
             self.timeline = netem::Timeline::from_scenario(&sc);
             self.uavs = sc.swarm.count;
+            self.min_separation_m = Some(sc.bounds().min_separation_m);
             self.title.clone_from(&sc.name);
         }
         Ok(())

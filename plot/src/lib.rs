@@ -28,7 +28,7 @@ pub use lines::{line_chart, Series};
 /// The plotting library itself, so charts drawn elsewhere (`swarm scale`, `swarm sweep-seeds`)
 /// use the same pinned version through [`Figure`].
 pub use plotters;
-pub use style::{color, write_pair, DrawResult, Figure, FAMILY};
+pub use style::{color, tick, write_pair, DrawResult, Figure, FAMILY};
 
 use anyhow::Result;
 use clap::Args;
@@ -46,12 +46,16 @@ pub struct PlotArgs {
     /// The UAV whose K21 vectors are drawn (default: the lowest id that reported).
     #[arg(long)]
     pub uav: Option<u32>,
+    /// Also draw each UAV's own line in localization.png (the swarm's median and spread are
+    /// always there).
+    #[arg(long)]
+    pub per_uav: bool,
 }
 
 /// Runs `swarm plot`: writes the figures into the run folder and prints their paths.
 pub fn plot(a: PlotArgs) -> Result<ExitCode> {
     let started = std::time::Instant::now();
-    let files = write_all(&a.run, a.uav)?;
+    let files = write_all_with(&a.run, a.uav, a.per_uav)?;
     for f in &files {
         println!("{}", f.display());
     }
@@ -62,12 +66,17 @@ pub fn plot(a: PlotArgs) -> Result<ExitCode> {
 /// Reads the run folder `dir` and writes every figure of [`FIGURES`] into it, SVG and PNG;
 /// returns the paths written. `uav` picks the vectors' UAV.
 pub fn write_all(dir: &Path, uav: Option<u32>) -> Result<Vec<PathBuf>> {
+    write_all_with(dir, uav, false)
+}
+
+/// [`write_all`], with each UAV's own line in localization.png when `per_uav`.
+pub fn write_all_with(dir: &Path, uav: Option<u32>, per_uav: bool) -> Result<Vec<PathBuf>> {
     let run = data::Run::read(dir)?;
     let uav = uav.or_else(|| run.states.keys().next().copied()).unwrap_or(1);
     let mut out = Vec::new();
     out.extend(style::write(&map::RunFigure(&run), dir, FIGURES[0])?);
     out.extend(style::write(&vectors::VectorsFigure { run: &run, uav }, dir, FIGURES[1])?);
-    out.extend(style::write(&localization::LocalizationFigure(&run), dir, FIGURES[2])?);
+    out.extend(style::write(&localization::LocalizationFigure { run: &run, per_uav }, dir, FIGURES[2])?);
     out.extend(style::write(&connectivity::ConnectivityFigure(&run), dir, FIGURES[3])?);
     Ok(out)
 }

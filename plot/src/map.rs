@@ -1,8 +1,11 @@
-//! `run.svg` / `run.png`: the picture of a run. Left, the map: trees, walls, the goal disc, each
-//! UAV's path from its start (circle) to its end (triangle), collisions (red crosses). Right,
-//! over sim time, each UAV's distance to the nearest obstacle surface and to the nearest other
-//! UAV (seed 000 Figs. 6.5 and 6.6).
+//! `run.svg` / `run.png`: the picture of a run. Left, the map: trees, walls, the goal disc (whole,
+//! inside the map), each UAV's path from its start (circle) to its end (triangle), where a UAV
+//! froze or its agent was killed (square), collisions (red crosses). Right, over sim time, each
+//! UAV's distance to the nearest obstacle surface and to the nearest other UAV (seed 000 Figs.
+//! 6.5 and 6.6), with the contact distance and the separation invariant as dashed lines, and
+//! the network's faults behind: spans where some link is cut shaded, each failure a dashed line.
 
+use super::connectivity::spans;
 use super::data::{Pose, Run};
 use super::style::{color, legend, thin_keeping_minima, tick, time_chart, DrawResult, Figure, FAMILY};
 use plotters::coord::Shift;
@@ -28,6 +31,15 @@ const LEGEND_MAX: usize = 10;
 const TREE: RGBColor = RGBColor(91, 70, 54);
 const GOAL: RGBColor = RGBColor(44, 160, 44);
 
+/// The palette's entry that reads as the trees' brown, skipped for paths.
+const BROWN: usize = 5;
+
+/// The colour of the `i`th path: the palette without its brown (the trees' colour).
+fn path_color(i: usize) -> RGBColor {
+    let k = i % 9;
+    color(if k >= BROWN { k + 1 } else { k })
+}
+
 /// The run figure.
 pub struct RunFigure<'a>(pub &'a Run);
 
@@ -41,15 +53,24 @@ impl Figure for RunFigure<'_> {
         let (left, right) = area.split_horizontally(MAP_W);
         map(&left, self.0)?;
         let (top, bottom) = right.split_vertically((SIZE.1 - TITLE_H) / 2);
-        distances(&top, self.0, "distance to the nearest obstacle surface", |p| p.obstacle_m)?;
-        distances(&bottom, self.0, "distance to the nearest other UAV", |p| p.agent_m)
+        let radius = self.0.world.as_ref().map(|w| w.body_radius_m);
+        // Contact with an obstacle: the surface within a body radius of the centre.
+        let obstacle_lines: Vec<(f64, &str)> = radius.map(|r| (r, "contact")).into_iter().collect();
+        distances(&top, self.0, "distance to the nearest obstacle surface", |p| p.obstacle_m, &obstacle_lines)?;
+        // Between UAVs: contact at two radii, and the run's separation invariant.
+        let mut uav_lines: Vec<(f64, &str)> = radius.map(|r| (2.0 * r, "contact")).into_iter().collect();
+        uav_lines.extend(self.0.min_separation_m.map(|m| (m, "separation invariant")));
+        distances(&bottom, self.0, "distance to the nearest other UAV", |p| p.agent_m, &uav_lines)
     }
 }
 
 /// The map's bounds `(x, y)`: every path and the goal plus a border, the shorter side grown so
 /// both axes have the same scale.
 fn bounds(run: &Run) -> ((f64, f64), (f64, f64)) {
-    let goal = run.world.as_ref().map(|w| (w.goal[0], w.goal[1]));
+    // The goal disc whole, not only its centre.
+    let r = run.goal_radius_m.max(0.0);
+    let goal =
+        run.world.as_ref().map_or(Vec::new(), |w| vec![(w.goal[0] - r, w.goal[1] - r), (w.goal[0] + r, w.goal[1] + r)]);
     let pts = run.tracks.values().flatten().map(|p| (p.x_m, p.y_m)).chain(goal);
     let (x0, x1, y0, y1) = pts
         .fold((f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY), |b, (x, y)| {
@@ -129,7 +150,7 @@ fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResu
         )?;
     }
     for (i, (id, track)) in run.tracks.iter().enumerate() {
-        let c = color(i);
+        let c = path_color(i);
         let s = chart.draw_series(LineSeries::new(track.iter().map(|p| (p.x_m, p.y_m)), c.stroke_width(2)))?;
         if run.tracks.len() <= LEGEND_MAX {
             s.label(format!("UAV {id}"))
@@ -140,6 +161,7 @@ fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResu
             chart.draw_series([TriangleMarker::new((z.x_m, z.y_m), 6, c.filled())])?;
         }
     }
+    failures_on_map(&mut chart, run)?;
     chart.draw_series(run.collisions.iter().map(|p| Cross::new((p[0], p[1]), 6, RED.stroke_width(3))))?;
     if run.tracks.len() <= LEGEND_MAX {
         legend(&mut chart)?;
@@ -147,18 +169,64 @@ fn map<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, run: &Run) -> DrawResu
     Ok(())
 }
 
+/// Where each failure of the timeline (a freeze, a kill) caught its UAV: a black square with
+/// its name beside it.
+fn failures_on_map<DB: DrawingBackend>(chart: &mut super::style::TimeChart<'_, DB>, run: &Run) -> DrawResult<DB> {
+    for f in run.timeline.failures() {
+        let Some(track) = run.tracks.get(&f.uav) else { continue };
+        let Some(at) = track.iter().find(|p| p.t_s >= f.at_s - 1e-9).or(track.last()) else { continue };
+        let name = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
+        chart.draw_series([Rectangle::new(
+            [(at.x_m - 0.3, at.y_m - 0.3), (at.x_m + 0.3, at.y_m + 0.3)],
+            BLACK.stroke_width(2),
+        )])?;
+        chart.draw_series([Text::new(
+            format!("{name} {} at {:.0} s", f.uav, f.at_s),
+            (at.x_m + 0.5, at.y_m + 0.5),
+            (FAMILY, 12),
+        )])?;
+    }
+    Ok(())
+}
+
+/// One distance panel: each UAV's curve over the timeline's faults, with reference `lines`
+/// (distance, name) dashed across.
 fn distances<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     run: &Run,
     caption: &str,
     value: fn(&Pose) -> f64,
+    lines: &[(f64, &str)],
 ) -> DrawResult<DB> {
     let y_hi = super::style::y_top(run.tracks.values().flatten().map(value), 1.0).min(DISTANCE_CAP_M * 1.05);
-    let mut chart = time_chart(area, caption, "[m]", run.t_end(), y_hi)?;
+    let (t_end, y_hi) = (run.t_end(), y_hi.max(lines.iter().map(|l| l.0 * 1.2).fold(0.0, f64::max)));
+    let mut chart = time_chart(area, caption, "[m]", t_end, y_hi)?;
+    let ids: Vec<u32> = run.tracks.keys().copied().collect();
+    for s in spans(&run.timeline, &ids, t_end) {
+        let c = match s.2 {
+            netem::LinkClass::Cut => RGBColor(214, 39, 40),
+            _ => RGBColor(255, 127, 14),
+        };
+        chart.draw_series([Rectangle::new([(s.0, 0.0), (s.1, y_hi)], c.mix(0.12).filled())])?;
+    }
+    for f in run.timeline.failures().iter().filter(|f| f.at_s <= t_end) {
+        chart.draw_series(DashedLineSeries::new(
+            [(f.at_s, 0.0), (f.at_s, y_hi)],
+            6,
+            4,
+            BLACK.mix(0.5).stroke_width(1),
+        ))?;
+    }
     for (i, track) in run.tracks.values().enumerate() {
         let pts: Vec<(f64, f64)> =
             track.iter().filter(|p| value(p).is_finite()).map(|p| (p.t_s, value(p).min(y_hi))).collect();
-        chart.draw_series(LineSeries::new(thin_keeping_minima(&pts, MAX_POINTS), color(i).stroke_width(1)))?;
+        chart.draw_series(LineSeries::new(thin_keeping_minima(&pts, MAX_POINTS), path_color(i).stroke_width(1)))?;
+    }
+    for (i, &(d, name)) in lines.iter().enumerate() {
+        chart.draw_series(DashedLineSeries::new([(0.0, d), (t_end, d)], 8, 4, RED.stroke_width(1)))?;
+        // Side by side, not on top of each other when two lines are close.
+        let x = t_end * (0.01 + 0.3 * i as f64);
+        chart.draw_series([Text::new(format!("{name} {d:.2} m"), (x, d), (FAMILY, 11))])?;
     }
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `vectors.svg` / `vectors.png`: the K21 vector magnitudes of one UAV over sim time (seed 000
 //! Figs. 6.3 and 6.4): above, cohesion, separation, avoidance and navigation (seed 000 eq. 4.1,
-//! each clipped to unit length); below, the command's speed, capped by the speed scale kf.
+//! each clipped to unit length, so dimensionless); below, the command's speed, capped by the speed
+//! scale kf. A term that stays 0 for the whole flight lies on the axis: its legend entry says so.
 
 use super::data::{Run, VECTORS};
 use super::style::{beside_legend, color, legend_strip, segments, time_chart, y_top, DrawResult, Figure, FAMILY};
@@ -27,7 +28,7 @@ impl Figure for VectorsFigure<'_> {
         let title = format!("{}: K21 vectors of UAV {}", self.run.title, self.uav);
         let area = root.titled(&title, (FAMILY, 18))?;
         let (top, bottom) = area.split_vertically(area.dim_in_pixel().1 * 3 / 5);
-        self.panel(&top, "magnitudes of the K21 vectors (seed 000 Fig. 6.3)", "|v|", 0..4)?;
+        self.panel(&top, "magnitudes of the K21 vectors (seed 000 Fig. 6.3)", "magnitude (dimensionless, ≤ 1)", 0..4)?;
         self.panel(&bottom, "speed of the command (seed 000 Fig. 6.4)", "[m/s]", 4..5)
     }
 }
@@ -48,9 +49,13 @@ impl VectorsFigure<'_> {
         let mut entries = Vec::new();
         for k in which {
             let c = color(k);
-            let pts = states.iter().filter(|s| s.vectors[k].is_finite()).map(|s| (s.t_s, s.vectors[k])).collect();
+            let pts: Vec<(f64, f64)> =
+                states.iter().filter(|s| s.vectors[k].is_finite()).map(|s| (s.t_s, s.vectors[k])).collect();
+            // A term that stays 0 lies on the axis, hidden: the legend says so.
+            let zero = pts.iter().all(|p| p.1 == 0.0);
             chart.draw_series(segments(pts, c.stroke_width(2)))?;
-            entries.push((VECTORS[k].1.to_string(), c.stroke_width(2)));
+            let label = if zero { format!("{} (0 throughout)", VECTORS[k].1) } else { VECTORS[k].1.to_string() };
+            entries.push((label, c.stroke_width(2)));
         }
         legend_strip(&strip, &entries)
     }

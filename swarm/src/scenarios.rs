@@ -89,6 +89,48 @@ pub fn summary(sc: &Scenario) -> String {
     lines.join("\n")
 }
 
+/// `sc` as scenario-file TOML with only what it sets: every field equal to its default left out
+/// (sections that are then empty too), so a generated file (`swarm fuzz`'s found cases) shows
+/// what matters. The name, description, seed and `[swarm]` always stay; the text parses back to
+/// the same scenario (tested).
+pub fn minimal_toml(sc: &Scenario) -> Result<String> {
+    let full = toml::Value::try_from(sc).context("cannot serialize the scenario")?;
+    let swarm = full.get("swarm").cloned().context("a scenario has a [swarm] table")?;
+    let mut base = toml::Table::new();
+    base.insert("name".into(), toml::Value::String(sc.name.clone()));
+    base.insert("swarm".into(), swarm);
+    let defaults = Scenario::from_toml_str(&toml::to_string(&base)?, "the defaults")?;
+    let defaults = toml::Value::try_from(&defaults)?;
+    let mut kept = toml::Table::new();
+    for (k, v) in full.as_table().context("a table")? {
+        let keep = matches!(k.as_str(), "name" | "description" | "seed" | "swarm");
+        match (keep, prune(v, defaults.get(k))) {
+            (true, _) => {
+                kept.insert(k.clone(), v.clone());
+            }
+            (false, Some(p)) => {
+                kept.insert(k.clone(), p);
+            }
+            (false, None) => {}
+        }
+    }
+    Ok(toml::to_string(&kept)?)
+}
+
+/// `v` without what equals `default` (tables field by field); `None` when nothing is left.
+fn prune(v: &toml::Value, default: Option<&toml::Value>) -> Option<toml::Value> {
+    if Some(v) == default {
+        return None;
+    }
+    match (v, default) {
+        (toml::Value::Table(t), Some(toml::Value::Table(d))) => {
+            let kept: toml::Table = t.iter().filter_map(|(k, x)| prune(x, d.get(k)).map(|p| (k.clone(), p))).collect();
+            (!kept.is_empty()).then_some(toml::Value::Table(kept))
+        }
+        _ => Some(v.clone()),
+    }
+}
+
 /// A scenario value's name as the scenario file spells it (`"icp"`, `"lockstep"`, `"freeze"`).
 fn name<T: serde::Serialize>(v: &T) -> String {
     match serde_json::to_value(v) {
@@ -167,6 +209,24 @@ mod erased {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_minimal_file_keeps_what_differs_and_reads_back_the_same() {
+        for name in ["forest-9-cut-off", "m23-indoor-lf", "a21-forest-uvdar"] {
+            let (sc, _) = Scenario::from_arg(name).expect("built-in");
+            let text = minimal_toml(&sc).expect("minimal");
+            let full = toml::to_string(&sc).expect("full");
+            assert!(
+                text.lines().count() * 2 < full.lines().count(),
+                "{name}: {} of {} lines",
+                text.lines().count(),
+                full.lines().count()
+            );
+            let back = Scenario::from_toml_str(&text, name).expect("parses");
+            let json = |s: &Scenario| serde_json::to_value(s).expect("json");
+            assert_eq!(json(&back), json(&sc), "{name}: the same scenario:\n{text}");
+        }
+    }
 
     #[test]
     fn overlapping_and_missing_partition_groups_are_said() {

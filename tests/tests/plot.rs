@@ -77,3 +77,38 @@ fn a_run_writes_every_figure_and_swarm_plot_draws_them_again() {
         "a folder with no run is refused"
     );
 }
+
+/// A run with faults, a frozen UAV and a separation invariant: the figures mark what a reader of
+/// a paper needs (faults and failures, the contact and separation lines, the swarm's spread),
+/// drawn from the real run folder.
+#[test]
+fn the_figures_of_a_faulty_run_mark_its_faults_limits_and_spread() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = swarm_run(&[
+        "forest-5-burst-frozen",
+        "--set",
+        "end.time_limit_s=40",
+        "--no-mcap",
+        "--out",
+        dir.path().to_str().expect("utf8"),
+        "--run",
+        &run_id("plotfaults"),
+    ]);
+    assert!(out.status.success(), "swarm run failed: {}", String::from_utf8_lossy(&out.stderr));
+    let svg = |stem: &str| std::fs::read_to_string(dir.path().join(format!("{stem}.svg"))).expect("svg");
+    let run = svg("run");
+    assert!(run.contains("freeze 1 at 30 s"), "where UAV 1 froze, on the map");
+    assert!(run.contains("contact 0.30 m") && run.contains("contact 0.60 m"), "the contact distances");
+    assert!(run.contains("separation invariant 0.80 m"), "the separation invariant");
+    let loc = svg("localization");
+    assert!(loc.contains("median of 5 UAVs") && loc.contains("10th-90th percentile"), "the spread, not 5 thin lines");
+    assert!(!loc.contains("\nUAV 1\n"), "no UAV lines unless asked");
+    assert!(svg("vectors").contains("dimensionless"), "the vectors' unit");
+    assert!(svg("connectivity").contains("some link cut (blocked, held, or from a frozen UAV)"), "what the shading is");
+    // `swarm plot --per-uav` adds each UAV's line.
+    let o =
+        output_within(Command::new(SWARM).args(["plot", dir.path().to_str().expect("utf8"), "--per-uav"]), TOOL_LIMIT);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(svg("localization").contains("\nUAV 1\n"), "each UAV on request");
+    println!("figures of a faulty run: {}", dir.path().display());
+}

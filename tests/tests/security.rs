@@ -117,7 +117,7 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     );
     let said = String::from_utf8_lossy(&anonymous.stderr);
     assert!(
-        said.contains(&format!("error: cannot connect to {}", f.loc))
+        said.contains(&format!("error: the hub at {} refused this session: it wants a login", f.loc))
             && said.contains("--user observer --password-file <run folder>/credentials/observer.password"),
         "a refused tool says what to do: {said}"
     );
@@ -130,7 +130,7 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     );
     assert!(!wrong.status.success(), "UAV 3 with UAV 2's password is refused");
     let said = String::from_utf8_lossy(&wrong.stderr);
-    assert!(said.contains("check that the hub is up and that the user and password are this run's"), "{said}");
+    assert!(said.contains("refused to let \"uav3\" in: the user or its password is not this run's"), "{said}");
 
     // Agent: its own sensors, never truth, nor another UAV's sensors. A subscription broader
     // than its keys (`swarm/{run}/**`) is refused whole by the router: it receives nothing.

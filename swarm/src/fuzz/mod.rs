@@ -197,7 +197,8 @@ fn write_found(case: &Case, seed: u64, failure: &Failure, path: &Path) -> Result
         case.index,
         path.display()
     );
-    let text = format!("{header}{}", toml::to_string(&sc)?);
+    // Only what the case sets: the rest is every scenario's default.
+    let text = format!("{header}{}", crate::scenarios::minimal_toml(&sc)?);
     std::fs::write(path, &text).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(text)
 }
@@ -246,13 +247,14 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
                 let original = case.label();
                 let (small, failure, spent) = shrink(case, first, &out, a.shrink_runs, &pb).await;
                 let file = out.join(format!("found-{}-{}.toml", a.seed, small.index));
-                let text = write_found(&small, a.seed, &failure, &file)?;
+                write_found(&small, a.seed, &failure, &file)?;
                 let Failure { check, what, .. } = failure;
                 pb.suspend(|| {
                     swarm_node::process::out(&format!(
-                        "case {}: `{check}` failed; shrunk from {original} to {}:\n{text}",
+                        "case {}: `{check}` failed; shrunk from {original} to {}: {}",
                         small.index,
-                        small.label()
+                        small.label(),
+                        file.display()
                     ))
                 });
                 findings.push(Finding {

@@ -53,22 +53,42 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, report: &Report) -> D
     Ok(())
 }
 
+/// A panel's y range: from 0 (every metric is a count, a time or a distance) unless a value is
+/// below it, to above every value and the 95 % band, so the band never fills the panel; a
+/// metric that is 0 in every run gets 0 to 1 (not ±0.001).
+fn y_range(values: impl Iterator<Item = f64>, mean: f64, half_width: f64) -> (f64, f64) {
+    let mut lo: f64 = 0.0;
+    let mut hi: f64 = f64::NEG_INFINITY;
+    for v in values.chain([mean - half_width, mean + half_width]).filter(|v| v.is_finite()) {
+        (lo, hi) = (lo.min(v), hi.max(v));
+    }
+    if !hi.is_finite() || hi - lo < 1e-9 {
+        return (lo, lo + 1.0);
+    }
+    (lo - if lo < 0.0 { 0.1 * (hi - lo) } else { 0.0 }, hi + 0.1 * (hi - lo))
+}
+
 /// The panel of metric `i`.
 fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, report: &Report, i: usize) -> DrawResult<DB> {
     let stats = &report.metrics[i].stats;
     let values: Vec<(usize, f64)> =
         report.runs.iter().enumerate().map(|(k, r)| (k, r.values[i])).filter(|(_, v)| v.is_finite()).collect();
-    let (lo, hi) = values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, v)| (lo.min(v), hi.max(v)));
-    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) };
-    let pad = ((hi - lo) * 0.1).max(1e-3 * hi.abs().max(1.0));
+    let (y0, y1) = y_range(values.iter().map(|v| v.1), stats.mean, stats.half_width);
     let n = report.runs.len().max(1) as f64;
     let mut chart = ChartBuilder::on(area)
         .caption(METRICS[i].label, (FAMILY, 14))
         .margin(8)
         .x_label_area_size(24)
         .y_label_area_size(52)
-        .build_cartesian_2d(0.0..1.0, (lo - pad)..(hi + pad))?;
-    chart.configure_mesh().disable_x_mesh().x_labels(0).x_desc(mean_pm(stats)).label_style((FAMILY, 12)).draw()?;
+        .build_cartesian_2d(0.0..1.0, y0..y1)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .x_desc(format!("runs in seed order; {}", mean_pm(stats)))
+        .y_label_formatter(&swarm_plot::tick)
+        .label_style((FAMILY, 12))
+        .draw()?;
     if stats.half_width.is_finite() {
         let band = [(0.05, stats.mean - stats.half_width), (0.95, stats.mean + stats.half_width)];
         chart.draw_series(std::iter::once(Rectangle::new(band, RGBColor(31, 119, 180).mix(0.2).filled())))?;
@@ -82,4 +102,18 @@ fn panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, report: &Report, i: 
     let x = |k: usize| 0.1 + 0.8 * (k as f64 + 0.5) / n;
     chart.draw_series(values.iter().map(|&(k, v)| Circle::new((x(k), v), 3, BLACK.filled())))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_band_fits_the_axis_from_zero_and_all_zero_counts_get_a_unit_range() {
+        let (lo, hi) = y_range([10.0, 12.0].into_iter(), 11.0, 5.0);
+        assert_eq!(lo, 0.0);
+        assert!(hi > 16.0, "the band's top is inside: {hi}");
+        assert_eq!(y_range([0.0, 0.0].into_iter(), 0.0, 0.0), (0.0, 1.0));
+        assert!(y_range([-1.0, 1.0].into_iter(), 0.0, 0.5).0 < -1.0);
+    }
 }
