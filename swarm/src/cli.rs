@@ -83,6 +83,9 @@ pub enum Cmd {
     },
 }
 
+/// With this variable set, the command line is parsed (and refused as usual) but not run.
+pub const PARSE_ONLY: &str = "SWARM_PARSE_ONLY";
+
 /// Entry point of the binary: parse, set up logging and the runtime, dispatch.
 pub fn main() -> ExitCode {
     main_with(Controllers::builtin())
@@ -93,6 +96,10 @@ pub fn main() -> ExitCode {
 /// starts are this same executable, so they know the same controllers.
 pub fn main_with(controllers: Controllers) -> ExitCode {
     let cli = Cli::parse();
+    // The docs' test checks that every command line the docs show parses, without running it.
+    if std::env::var_os(PARSE_ONLY).is_some() {
+        return ExitCode::SUCCESS;
+    }
     if let Cmd::Node(c) = &cli.cmd {
         swarm_node::command::zenoh_threads(c);
     }

@@ -373,3 +373,90 @@ fn slugs_are_githubs() {
         vec!["b", "d ` e"]
     );
 }
+
+/// The words of a shell command line: split at blanks, quotes ('…', "…") and `<…>` placeholders
+/// kept whole, their quotes taken off.
+fn shell_words(line: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let (mut word, mut quote, mut any) = (String::new(), None::<char>, false);
+    for c in line.chars() {
+        match (quote, c) {
+            (Some(q), c) if c == q => quote = None,
+            (Some('<'), '>') => {
+                word.push('>');
+                quote = None;
+            }
+            (Some(_), c) => word.push(c),
+            (None, '\'' | '"') => {
+                quote = Some(c);
+                any = true;
+            }
+            (None, '<') => {
+                word.push('<');
+                quote = Some('<');
+                any = true;
+            }
+            (None, c) if c.is_whitespace() => {
+                if any || !word.is_empty() {
+                    words.push(std::mem::take(&mut word));
+                }
+                any = false;
+            }
+            (None, c) => word.push(c),
+        }
+    }
+    if any || !word.is_empty() {
+        words.push(word);
+    }
+    words
+}
+
+/// Every `swarm` command line in the code blocks of the README and the guide, continuation
+/// lines joined, comments and a leading `$ ` taken off, up to a pipe or `&&`: `(page, line,
+/// words after swarm)`.
+fn documented_command_lines() -> Vec<(String, usize, Vec<String>)> {
+    let mut out = Vec::new();
+    for page in guide_pages() {
+        let parsed = Page::parse(&read(&page));
+        let mut lines = parsed.code_lines.iter().peekable();
+        while let Some((n, first)) = lines.next() {
+            let mut text = without_comment(first).trim().to_string();
+            while text.ends_with('\\') {
+                text.pop();
+                match lines.next() {
+                    Some((_, next)) => text.push_str(without_comment(next)),
+                    None => break,
+                }
+            }
+            let text = text.trim().trim_start_matches("$ ");
+            let Some(rest) = text.strip_prefix("swarm ") else { continue };
+            let rest = rest.split(['|', ';']).next().unwrap_or_default().split("&&").next().unwrap_or_default();
+            out.push((rel(&page), *n, shell_words(rest)));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_swarm_command_line_the_docs_show_parses() {
+    let commands = documented_command_lines();
+    assert!(commands.len() > 20, "only {} command lines found: the reader is broken", commands.len());
+    let mut refused = Vec::new();
+    for (page, line, words) in &commands {
+        let o = output_within(Command::new(SWARM).args(words).env("SWARM_PARSE_ONLY", "1"), TOOL_LIMIT);
+        if !o.status.success() {
+            let said = String::from_utf8_lossy(&o.stderr);
+            refused.push(format!("{page}:{line}: `swarm {}`: {}", words.join(" "), said.lines().next().unwrap_or_default()));
+        }
+    }
+    assert!(refused.is_empty(), "command lines of the docs that swarm refuses:\n{}", refused.join("\n"));
+    println!("{} command lines of the docs parse", commands.len());
+}
+
+#[test]
+fn shell_words_keep_quotes_and_placeholders_whole() {
+    assert_eq!(
+        shell_words(r#"tap 'swarm/r/**' --password-file <run folder>/x "a b""#),
+        ["tap", "swarm/r/**", "--password-file", "<run folder>/x", "a b"]
+    );
+}
