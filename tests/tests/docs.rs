@@ -446,7 +446,11 @@ fn every_swarm_command_line_the_docs_show_parses() {
         let o = output_within(Command::new(SWARM).args(words).env("SWARM_PARSE_ONLY", "1"), TOOL_LIMIT);
         if !o.status.success() {
             let said = String::from_utf8_lossy(&o.stderr);
-            refused.push(format!("{page}:{line}: `swarm {}`: {}", words.join(" "), said.lines().next().unwrap_or_default()));
+            refused.push(format!(
+                "{page}:{line}: `swarm {}`: {}",
+                words.join(" "),
+                said.lines().next().unwrap_or_default()
+            ));
         }
     }
     assert!(refused.is_empty(), "command lines of the docs that swarm refuses:\n{}", refused.join("\n"));
