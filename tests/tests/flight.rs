@@ -332,6 +332,38 @@ fn p17_found_2026_8_reaches_the_goal() {
     assert!(!checks.is_empty() && checks.iter().all(|c| c["passed"] == true), "{checks:#?}");
 }
 
+/// Issue 47: the P17 stall `swarm fuzz --seed 7` found (`scenarios/found/found-7-19.toml`), kept
+/// as what seed 001's field does. One UAV with the section 6.1 preset (w = 8 m) stops 9.8 m short
+/// of the goal, 4 m before a row of trunks whose barrier pushes, averaged over the obstacles it
+/// localizes (eq. 27), balance the goal's pull c1·e (eq. 38): from 30 s to the time limit it moves
+/// less than 0.5 m. The same world with forest_9's w = 4 m (the trunks out of range) passes every
+/// check. If a change lets the UAV out, this test says so and the docs must change with it.
+#[test]
+fn p17_found_7_19_stalls_in_the_fields_balance_and_w4_flies() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/found/found-7-19.toml");
+    let (dir, s) = fly(&[file], "found719");
+    assert_eq!(s["reached_goal"], false, "{s:#}");
+    assert_eq!(s["end_reason"], "time_limit", "{s:#}");
+    assert_eq!(s["collisions"], 0, "{s:#}");
+    let traj = std::fs::read_to_string(dir.path().join("trajectories.csv")).expect("trajectories.csv");
+    let late: Vec<(f64, f64)> = traj
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|f| f[1].parse::<f64>().expect("t_s") >= 30.0)
+        .map(|f| (f[3].parse().expect("x"), f[4].parse().expect("y")))
+        .collect();
+    assert!(late.len() > 2000, "90 s at 30 Hz: {}", late.len());
+    let (x0, y0) = late[0];
+    let spread = late.iter().map(|(x, y)| (x - x0).hypot(y - y0)).fold(0.0, f64::max);
+    assert!(spread < 0.5, "the UAV stays put from 30 s on: moved {spread} m");
+    assert!((24.0 - x0).hypot(y0) > 8.0, "short of the goal disc: ({x0}, {y0})");
+    let (_dir, s) = fly(&[file, "--set", "controller.p17.w=4.0", "--check"], "found719w4");
+    assert_safe_arrival(&s);
+    let checks = s["checks"].as_array().expect("checks");
+    assert!(!checks.is_empty() && checks.iter().all(|c| c["passed"] == true), "{checks:#?}");
+}
+
 /// Issue 25 item 5, two `swarm fuzz` findings on A21 that now pass every check:
 /// `found-2026-31` (one informed UAV alone, which waited for a flock it does not have:
 /// `phi_alone` = 0; a swarm of one now flies its path) and `found-2026-36` (an A21/UVDAR pair

@@ -56,7 +56,10 @@
 //!   harder (k2(√7 − 7/√8) = 4.3 m per loop) than the goal 19 m away pulls (c1 · 19 = 2.9), and a
 //!   lone UAV stops there for good (`scenarios/found/found-2026-8.toml`). As a barrier the push
 //!   is weak far away (σ_j(7 m) = 0.6) and unbounded at contact. `obstacle_barrier = false` flies
-//!   the typeset form. A β-agent exactly at p0 contributes nothing either way.
+//!   the typeset form. A β-agent exactly at p0 contributes nothing either way. The barrier does
+//!   not remove the field's local minima: with w = 8 m a row of trunks 4–6 m ahead can still
+//!   balance the goal's pull (`scenarios/found/found-7-19.toml`); the seed has no escape from one
+//!   and neither do we.
 //! - A safety margin, ours (`obstacle_margin_m`, default 0.8 m; 0 turns it off): after the
 //!   loop-distance limit, for every obstacle whose β-agent is nearer than the margin, the part of
 //!   v0[t] pointing at the β-agent is removed (v ← v − min(0, v·n̂) n̂, n̂ from the β-agent to p0),
