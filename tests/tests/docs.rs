@@ -6,9 +6,12 @@
 //!   names one of its headings by GitHub's slug;
 //! - every `swarm SUBCOMMAND` the README and the guide write as code (in backticks or in a fenced
 //!   block) names a subcommand that `swarm --help` lists (not ARCHITECTURE.md, whose pictures name
-//!   the crate `swarm`).
+//!   the crate `swarm`);
+//! - every `swarm` command line of a code block parses (`SWARM_PARSE_ONLY`), and those for a
+//!   running run (tap, keys, netem, credentials, record, recover) work as written against a real
+//!   forest-5 run, with the login the docs give.
 //!
-//! File reading, and one `swarm --help` of the binary under test.
+//! File reading, `swarm --help` and the parse of the binary under test; one real run.
 
 mod common;
 
@@ -411,13 +414,22 @@ fn shell_words(line: &str) -> Vec<String> {
     words
 }
 
+/// A shell assignment `NAME=value` or `NAME="value"` (the value unquoted), if `line` is one.
+fn shell_assignment(line: &str) -> Option<(String, String)> {
+    let (name, value) = line.split_once('=')?;
+    let is_name = !name.is_empty() && name.chars().all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_');
+    is_name.then(|| (name.to_string(), value.trim_matches(|c| c == '"' || c == '\'').to_string()))
+}
+
 /// Every `swarm` command line in the code blocks of the README and the guide, continuation
-/// lines joined, comments and a leading `$ ` taken off, up to a pipe or `&&`: `(page, line,
-/// words after swarm)`.
+/// lines joined, comments and a leading `$ ` taken off, up to a pipe or `&&`, with the `$NAME`s
+/// a line of the page's code assigned (`LOGIN="--user …"`) put in: `(page, line, words after
+/// swarm)`.
 fn documented_command_lines() -> Vec<(String, usize, Vec<String>)> {
     let mut out = Vec::new();
     for page in guide_pages() {
         let parsed = Page::parse(&read(&page));
+        let mut vars: Vec<(String, String)> = Vec::new();
         let mut lines = parsed.code_lines.iter().peekable();
         while let Some((n, first)) = lines.next() {
             let mut text = without_comment(first).trim().to_string();
@@ -428,7 +440,15 @@ fn documented_command_lines() -> Vec<(String, usize, Vec<String>)> {
                     None => break,
                 }
             }
-            let text = text.trim().trim_start_matches("$ ");
+            let mut text = text.trim().trim_start_matches("$ ").to_string();
+            if let Some(assigned) = shell_assignment(&text) {
+                vars.push(assigned);
+                vars.sort_by_key(|(name, _)| std::cmp::Reverse(name.len()));
+                continue;
+            }
+            for (name, value) in &vars {
+                text = text.replace(&format!("${name}"), value);
+            }
             let Some(rest) = text.strip_prefix("swarm ") else { continue };
             let rest = rest.split(['|', ';']).next().unwrap_or_default().split("&&").next().unwrap_or_default();
             out.push((rel(&page), *n, shell_words(rest)));
@@ -463,4 +483,182 @@ fn shell_words_keep_quotes_and_placeholders_whole() {
         shell_words(r#"tap 'swarm/r/**' --password-file <run folder>/x "a b""#),
         ["tap", "swarm/r/**", "--password-file", "<run folder>/x", "a b"]
     );
+    assert_eq!(shell_assignment(r#"LOGIN="--user a""#), Some(("LOGIN".into(), "--user a".into())));
+    assert_eq!(shell_assignment("swarm tap --cfg a=b"), None);
+}
+
+/// A command line of the docs with its placeholders made real: the run ids the examples use
+/// (`exp1`, `k1`, `R`, `<run id>`) become `run`, the hubs they connect to (`tcp/10.0.0.5:7447`,
+/// `tcp/127.0.0.1:40291`, `E`) `loc`, `creds/` and `runs/{id}/credentials/` the run's own
+/// credentials folder, `runs/{id}` (or `runs/<run id>`) `folder`.
+struct Placeholders<'a> {
+    run: &'a str,
+    loc: &'a str,
+    creds: &'a Path,
+    folder: &'a Path,
+}
+
+impl Placeholders<'_> {
+    const RUNS: [&'static str; 4] = ["exp1", "k1", "R", "<run id>"];
+    const HUBS: [&'static str; 3] = ["tcp/10.0.0.5:7447", "tcp/127.0.0.1:40291", "E"];
+
+    fn fill(&self, words: &[String]) -> Vec<String> {
+        let mut out = Vec::with_capacity(words.len());
+        for (i, w) in words.iter().enumerate() {
+            let after = |flag: &str| i > 0 && words[i - 1] == flag;
+            let filled = if after("--run") && Self::RUNS.contains(&w.as_str()) {
+                self.run.to_string()
+            } else if after("--connect") && Self::HUBS.contains(&w.as_str()) {
+                self.loc.to_string()
+            } else {
+                self.path(w)
+            };
+            out.push(filled);
+        }
+        out
+    }
+
+    fn path(&self, w: &str) -> String {
+        for id in Self::RUNS {
+            if let Some(rest) = w.strip_prefix(&format!("swarm/{id}/")) {
+                return format!("swarm/{}/{rest}", self.run);
+            }
+            if let Some(rest) = w.strip_prefix(&format!("runs/{id}/credentials/")) {
+                return self.creds.join(rest).to_str().expect("utf8").to_string();
+            }
+            if w == format!("runs/{id}") {
+                return self.folder.to_str().expect("utf8").to_string();
+            }
+        }
+        match w.strip_prefix("creds/") {
+            Some(rest) => self.creds.join(rest).to_str().expect("utf8").to_string(),
+            None => w.to_string(),
+        }
+    }
+}
+
+/// What a command of the docs did: its exit (`None`: it was still streaming when stopped, after
+/// `lines` of output), its standard output lines and its standard error.
+struct Ran {
+    exit: Option<std::process::ExitStatus>,
+    lines: Vec<String>,
+    stderr: String,
+}
+
+/// Runs `swarm words` until it exits or has printed `enough` lines (a tap with no `--count`
+/// streams for as long as the run lasts); stopped after `limit` either way.
+fn run_streaming(words: &[String], log: &Path, enough: usize, limit: std::time::Duration) -> Ran {
+    use std::io::{BufRead, BufReader};
+    let err = std::fs::File::create(log).expect("log");
+    let mut child = Command::new(SWARM)
+        .args(words)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(err)
+        .spawn()
+        .expect("spawn swarm");
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let start = std::time::Instant::now();
+    let mut lines = Vec::new();
+    let exit = loop {
+        while let Ok(l) = rx.try_recv() {
+            lines.push(l);
+        }
+        if let Some(status) = child.try_wait().expect("try_wait") {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            lines.extend(rx.try_iter());
+            break Some(status);
+        }
+        if lines.len() >= enough || start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    Ran { exit, lines, stderr: std::fs::read_to_string(log).unwrap_or_default() }
+}
+
+/// The docs' commands for a running run, run as written against a real one (forest-5 in real
+/// time under `swarm run`, with the login the docs give and their placeholders made real, see
+/// [`Placeholders`]): every `swarm tap`, `keys`, `netem`, `credentials`, `record` and `recover`
+/// line of a code block. A tap must print a message, a bounded command must exit 0; `swarm record`
+/// is killed after 8 s (as a crash) and the `swarm recover` line makes its folder whole. The lines
+/// that start pieces of another run (`hub`, `agent`, `router`) or whole runs and studies (`run`,
+/// `scale`, `fuzz`) are only parsed (`every_swarm_command_line_the_docs_show_parses`): each
+/// flies minutes, and the flight tests run them.
+#[test]
+fn the_docs_commands_for_a_live_run_work_as_written() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let folder = dir.path().join("run");
+    let run = common::run_id("docslive");
+    let folder_s = folder.to_str().expect("utf8").to_string();
+    let _swarm = common::Proc::start(
+        &["run", "forest-5", "--time-mode", "realtime", "--run", &run, "--out", &folder_s, "--quiet", "--no-mcap"],
+        &dir.path().join("run.log"),
+    );
+    let loc = common::hub_locator(&folder);
+    let creds = folder.join("credentials");
+    let recorded = dir.path().join("recorded");
+    let lines: Vec<_> = documented_command_lines()
+        .into_iter()
+        .filter(|(_, _, w)| ["tap", "keys", "netem", "credentials", "record", "recover"].contains(&w[0].as_str()))
+        .collect();
+    // record before recover: the folder recover mends is the one record was killed in.
+    let (mut record, rest): (Vec<_>, Vec<_>) = lines.into_iter().partition(|(_, _, w)| w[0] == "record");
+    let (recover, others): (Vec<_>, Vec<_>) = rest.into_iter().partition(|(_, _, w)| w[0] == "recover");
+    record.extend(recover);
+    let mut failed = Vec::new();
+    let mut ran = BTreeMap::<String, usize>::new();
+    for (i, (page, line, words)) in others.iter().chain(&record).enumerate() {
+        let is = |c: &str| words[0] == c;
+        let p = Placeholders {
+            run: &run,
+            loc: &loc,
+            creds: &creds,
+            folder: if is("record") || is("recover") { &recorded } else { &folder },
+        };
+        let mut filled = p.fill(words);
+        if is("credentials") {
+            // Its own folder, not the run's.
+            if let Some(at) = filled.iter().position(|w| w == "--out") {
+                filled[at + 1] = dir.path().join("made-creds").to_str().expect("utf8").to_string();
+            }
+        }
+        let log = dir.path().join(format!("cmd-{i}.log"));
+        let r = if is("record") {
+            run_streaming(&filled, &log, usize::MAX, std::time::Duration::from_secs(8))
+        } else {
+            run_streaming(&filled, &log, 1, std::time::Duration::from_secs(60))
+        };
+        let ok = match (&r.exit, words[0].as_str()) {
+            (Some(status), _) => status.success(),
+            (None, "tap") => !r.lines.is_empty(),
+            (None, "record") => true,
+            (None, _) => false,
+        };
+        if !ok {
+            failed.push(format!(
+                "{page}:{line}: `swarm {}` ({:?}, {} lines): {}",
+                filled.join(" "),
+                r.exit,
+                r.lines.len(),
+                r.stderr.lines().last().unwrap_or_default()
+            ));
+        }
+        *ran.entry(words[0].clone()).or_default() += 1;
+    }
+    assert!(failed.is_empty(), "commands of the docs that fail against a live run:\n{}", failed.join("\n"));
+    for c in ["tap", "keys", "netem", "credentials", "record", "recover"] {
+        assert!(ran.contains_key(c), "no `swarm {c}` line was found in the docs: {ran:?}");
+    }
+    let s = common::summary(&recorded);
+    assert!(s["ticks"].as_u64().unwrap_or(0) > 0, "the recovered recording holds ticks: {s:#}");
+    println!("the docs' live-run commands work as written: {ran:?}");
 }
