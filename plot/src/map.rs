@@ -175,7 +175,7 @@ fn failures_on_map<DB: DrawingBackend>(chart: &mut super::style::TimeChart<'_, D
     for f in run.timeline.failures() {
         let Some(track) = run.tracks.get(&f.uav) else { continue };
         let Some(at) = track.iter().find(|p| p.t_s >= f.at_s - 1e-9).or(track.last()) else { continue };
-        let name = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
+        let name = super::data::failure_kind(f);
         chart.draw_series([Rectangle::new(
             [(at.x_m - 0.3, at.y_m - 0.3), (at.x_m + 0.3, at.y_m + 0.3)],
             BLACK.stroke_width(2),
@@ -203,11 +203,16 @@ fn distances<DB: DrawingBackend>(
     let mut chart = time_chart(area, caption, "[m]", t_end, y_hi)?;
     let ids: Vec<u32> = run.tracks.keys().copied().collect();
     for s in spans(&run.timeline, &ids, t_end) {
-        let c = match s.2 {
-            netem::LinkClass::Cut => RGBColor(214, 39, 40),
-            _ => RGBColor(255, 127, 14),
+        let (c, what) = match s.2 {
+            netem::LinkClass::Cut => (RGBColor(214, 39, 40), "some link cut"),
+            _ => (RGBColor(255, 127, 14), "some link impaired"),
         };
         chart.draw_series([Rectangle::new([(s.0, 0.0), (s.1, y_hi)], c.mix(0.12).filled())])?;
+        // Named where there is room, so the shading is read without the connectivity figure.
+        if s.1 - s.0 >= 0.12 * t_end {
+            let at = (s.0 + 0.01 * t_end, y_hi * 0.97);
+            chart.draw_series([Text::new(what, at, (FAMILY, 11).into_font().color(&c.mix(0.9)))])?;
+        }
     }
     for f in run.timeline.failures().iter().filter(|f| f.at_s <= t_end) {
         chart.draw_series(DashedLineSeries::new(
@@ -226,7 +231,9 @@ fn distances<DB: DrawingBackend>(
         chart.draw_series(DashedLineSeries::new([(0.0, d), (t_end, d)], 8, 4, RED.stroke_width(1)))?;
         // Side by side, not on top of each other when two lines are close.
         let x = t_end * (0.01 + 0.3 * i as f64);
-        chart.draw_series([Text::new(format!("{name} {d:.2} m"), (x, d), (FAMILY, 11))])?;
+        // Just above its line (a text hangs from its anchor), not struck through by it.
+        let y = d + 0.06 * y_hi;
+        chart.draw_series([Text::new(format!("{name} {d:.2} m"), (x, y), (FAMILY, 11))])?;
     }
     Ok(())
 }

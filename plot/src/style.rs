@@ -110,9 +110,10 @@ pub fn thin_keeping_minima(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)>
     points.chunks(per).filter_map(|c| c.iter().copied().min_by(|a, b| a.1.total_cmp(&b.1))).collect()
 }
 
-/// An axis label: at most two decimals, no trailing zeros (`2`, `0.5`, `-1.25`).
+/// An axis label: at most four decimals, no trailing zeros (`2`, `0.5`, `-1.25`, `0.035`): enough
+/// for the 1-2-5 steps of a small range (0.005 apart), which two decimals printed as repeats.
 pub fn tick(v: &f64) -> String {
-    let s = format!("{v:.2}");
+    let s = format!("{v:.4}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s == "-0" {
         "0".into()
@@ -222,6 +223,8 @@ mod tests {
         assert_eq!(range([3.0, f64::NAN, -2.0].into_iter()), Some((-2.0, 3.0)));
         assert_eq!(y_top(std::iter::empty(), 1.0), 1.05);
         assert_eq!(t_end([0.5].into_iter()), 1.0);
-        assert_eq!([2.0, 0.5, -1.25, -0.001, 10.0].map(|v| tick(&v)), ["2", "0.5", "-1.25", "0", "10"]);
+        assert_eq!([2.0, 0.5, -1.25, -0.00001, 10.0].map(|v| tick(&v)), ["2", "0.5", "-1.25", "0", "10"]);
+        // A small range's 0.005 steps stay apart; float noise is not printed.
+        assert_eq!([0.035, 0.025, 0.1 + 0.2].map(|v| tick(&v)), ["0.035", "0.025", "0.3"]);
     }
 }

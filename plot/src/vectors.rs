@@ -2,6 +2,8 @@
 //! Figs. 6.3 and 6.4): above, cohesion, separation, avoidance and navigation (seed 000 eq. 4.1,
 //! each clipped to unit length, so dimensionless); below, the command's speed, capped by the speed
 //! scale kf. A term that stays 0 for the whole flight lies on the axis: its legend entry says so.
+//! A failure of the UAV (freeze, kill) is a dashed line: what its agent computes after it is not
+//! flown.
 
 use super::data::{Run, VECTORS};
 use super::style::{beside_legend, color, legend_strip, segments, time_chart, y_top, DrawResult, Figure, FAMILY};
@@ -56,6 +58,14 @@ impl VectorsFigure<'_> {
             chart.draw_series(segments(pts, c.stroke_width(2)))?;
             let label = if zero { format!("{} (0 throughout)", VECTORS[k].1) } else { VECTORS[k].1.to_string() };
             entries.push((label, c.stroke_width(2)));
+        }
+        // This UAV's failures (a freeze, a kill): after one, its agent's vectors are no longer
+        // flown (a frozen body hovers), which the curves alone do not say.
+        for f in self.run.timeline.failures().iter().filter(|f| f.uav == self.uav && f.at_s <= self.run.t_end()) {
+            let name = super::data::failure_kind(f);
+            chart.draw_series(DashedLineSeries::new([(f.at_s, 0.0), (f.at_s, y_hi)], 6, 4, BLACK.stroke_width(1)))?;
+            let note = format!("{name} at {:.0} s: not flown after", f.at_s);
+            chart.draw_series([Text::new(note, (f.at_s + 0.01 * self.run.t_end(), y_hi * 0.97), (FAMILY, 11))])?;
         }
         legend_strip(&strip, &entries)
     }

@@ -103,7 +103,10 @@ fn the_figures_of_a_faulty_run_mark_its_faults_limits_and_spread() {
     let loc = svg("localization");
     assert!(loc.contains("median of 5 UAVs") && loc.contains("10th-90th percentile"), "the spread, not 5 thin lines");
     assert!(!loc.contains("\nUAV 1\n"), "no UAV lines unless asked");
-    assert!(svg("vectors").contains("dimensionless"), "the vectors' unit");
+    assert!(run.contains("some link impaired") && run.contains("some link cut"), "the shading named");
+    let vectors = svg("vectors");
+    assert!(vectors.contains("dimensionless"), "the vectors' unit");
+    assert!(vectors.contains("freeze at 30 s: not flown after"), "UAV 1's freeze on its vectors");
     assert!(svg("connectivity").contains("some link cut (blocked, held, or from a frozen UAV)"), "what the shading is");
     // `swarm plot --per-uav` adds each UAV's line.
     let o =
