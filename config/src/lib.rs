@@ -620,6 +620,7 @@ impl K21Params {
         non_negative(&format!("{at}.separation_all_around_m"), self.separation_all_around_m)?;
         non_negative(&format!("{at}.barrier_m"), self.barrier_m)?;
         non_negative(&format!("{at}.barrier_surface_m"), self.barrier_surface_m)?;
+        non_negative(&format!("{at}.barrier_ramp_m"), self.barrier_ramp_m)?;
         if let Some(r) = self.arrival_radius_m {
             non_negative(&format!("{at}.arrival_radius_m"), r)?;
         }

@@ -729,6 +729,17 @@ pub struct K21Params {
     /// `barrier_m = 0`, with the rest of the barrier).
     #[serde(default = "d_barrier_surface")]
     pub barrier_surface_m: f64,
+    /// The barrier's graded band [m]: within the outer `barrier_ramp_m` of each reach
+    /// (`barrier_m` for centres, `barrier_surface_m` for nearest points) the UAV may still
+    /// approach, at a speed falling linearly from kf at the reach to 0 at the reach less this
+    /// (a control-barrier-function form, v·ŷ ≤ kf·(d − d_stop)/ramp), and not at all deeper in.
+    /// A hard barrier (0) stops a UAV that is already within reach of two points less than 180°
+    /// apart, as in a gap between a trunk and a UAV whose agent died: every direction through
+    /// the gap approaches both, and it waited there for good (issue 46). 0.15 m stops the
+    /// approach of a UAV's centre at 0.85 m, above the separation invariant's 0.8 m. Our
+    /// extension.
+    #[serde(default = "d_barrier_ramp")]
+    pub barrier_ramp_m: f64,
     /// Arrival, our extension (seed 000 is silent on it): an informed UAV within this distance
     /// of its goal [m] has arrived, and slows towards the goal's centre. Once one has, every UAV
     /// with a path of shares to it turns to what is closer to the arrival (an informed UAV to the
@@ -766,6 +777,9 @@ fn one() -> f64 {
 }
 fn d_barrier_surface() -> f64 {
     0.7
+}
+fn d_barrier_ramp() -> f64 {
+    0.15
 }
 fn d_kf() -> f64 {
     0.4
@@ -813,6 +827,7 @@ impl Default for K21Params {
             obstacle_priority: true,
             barrier_m: one(),
             barrier_surface_m: d_barrier_surface(),
+            barrier_ramp_m: d_barrier_ramp(),
             arrival_radius_m: None,
         }
     }

@@ -101,6 +101,20 @@ pub struct Summary {
     /// flew them without one, hovering. Appended; empty in older summaries.
     #[serde(default)]
     pub never_joined: Vec<u32>,
+    /// The UAVs whose agent came and was gone at the end (killed, crashed, its host gone, cut off
+    /// for good), with when it went: their bodies hovered from then on, and they are not part of
+    /// the swarm the goal and the checks wait for. Appended; empty in older summaries.
+    #[serde(default)]
+    pub lost: Vec<LostUav>,
+}
+
+/// A UAV whose agent was lost, and since when.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LostUav {
+    /// Its id.
+    pub id: u32,
+    /// The sim time of the first tick its agent no longer held its token [s].
+    pub at_s: f64,
 }
 
 /// What the agents and their sessions (one agent's process, or a host's) received, from the
@@ -526,6 +540,14 @@ impl Summary {
                 s,
                 "WARNING: the agents of UAVs {:?} never joined (they hovered, uncontrolled); see the run folder's logs/",
                 self.never_joined
+            );
+        }
+        if !self.lost.is_empty() {
+            let lost: Vec<String> = self.lost.iter().map(|l| format!("{} at {:.1} s", l.id, l.at_s)).collect();
+            let _ = writeln!(
+                s,
+                "lost: the agents of UAVs {} went away (they hovered from then on, out of the goal and the checks)",
+                lost.join(", ")
             );
         }
         let _ = writeln!(s, "goal: {goal}");

@@ -634,8 +634,11 @@ fn the_docs_commands_for_a_live_run_work_as_written() {
         let log = dir.path().join(format!("cmd-{i}.log"));
         let r = if is("record") {
             run_streaming(&filled, &log, usize::MAX, std::time::Duration::from_secs(8))
-        } else {
+        } else if is("tap") {
+            // A tap with no `--count` streams for as long as the run lasts: its first message will do.
             run_streaming(&filled, &log, 1, std::time::Duration::from_secs(60))
+        } else {
+            run_streaming(&filled, &log, usize::MAX, std::time::Duration::from_secs(60))
         };
         let ok = match (&r.exit, words[0].as_str()) {
             (Some(status), _) => status.success(),

@@ -100,6 +100,27 @@ fn a_neighbour_reported_while_alone_fails_only_after_the_grace() {
     assert_eq!(f.uavs, vec![UavAt { id: 1, x_m: 0.0, y_m: 0.0 }]);
 }
 
+/// A UAV whose agent is gone (it held its token, then not) says nothing from then on: an
+/// estimate of it held past the grace fails as one across a cut link; one dropped in time passes,
+/// and so does an estimate of a UAV whose agent never came (there was nothing to drop).
+#[test]
+fn an_estimate_of_a_uav_whose_agent_is_gone_is_held_no_longer_than_the_grace() {
+    let sc = scenario("");
+    let at = |tick: u64, two_alive: bool| {
+        let mut two = body(2, 3.0, 0.0);
+        two.alive = two_alive;
+        step(tick, vec![body(1, 0.0, 0.0), two])
+    };
+    // UAV 2's agent goes at 0.5 s (tick 5); UAV 1 keeps it: past the grace at 1.2 s.
+    let held: Vec<_> = (1..=15).map(|k| (at(k, k < 5), vec![state(1, k, &[2])])).collect();
+    let f = judge(&sc, &held, "stale_estimate").first_failure.expect("held after its agent went");
+    assert!((f.t_s - 1.2).abs() < 1e-9 && f.what.contains("UAV 1 held an estimate of UAV 2"), "{f:?}");
+    let dropped: Vec<_> = (1..=15).map(|k| (at(k, k < 5), vec![state(1, k, if k < 9 { &[2] } else { &[] })])).collect();
+    assert!(judge(&sc, &dropped, "stale_estimate").passed, "dropped 0.4 s after");
+    let never: Vec<_> = (1..=15).map(|k| (at(k, false), vec![state(1, k, &[2])])).collect();
+    assert!(judge(&sc, &never, "stale_estimate").passed, "never alive: not a lost agent");
+}
+
 #[test]
 fn an_estimate_across_a_cut_link_fails_and_a_heal_must_reconnect() {
     let cut = "[[netem]]\nat_s = 0.5\nfrom = [2]\nto = [1]\nrule = { blocked = true }\n[[netem]]\nat_s = 2.0\nfrom = [2]\nto = [1]\nrule = {}\n[expect]\nreconnect_within_s = 1.0\n";

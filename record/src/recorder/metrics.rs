@@ -7,7 +7,7 @@ use super::solitude::solitude;
 use super::tally::Tally;
 use crate::summary::{
     AgentSummary, ClassSummary, CollisionRecord, ComponentsAt, Connectivity, ContactEvent, FormationMetrics,
-    LocalizationSummary, Reconnection, SessionTrafficSummary, Summary, TimingSummary, TrafficSummary, SCHEMA,
+    LocalizationSummary, LostUav, Reconnection, SessionTrafficSummary, Summary, TimingSummary, TrafficSummary, SCHEMA,
 };
 use std::collections::{BTreeMap, HashMap};
 use swarm_wire::{AgentState, ClassCounts, EndReason, LinkCounters, Traffic, TruthBody, TruthStep, TruthWorld};
@@ -92,6 +92,9 @@ struct Acc {
     link_base: [ClassCounts; 3],
     /// Its agent held its liveliness token in some tick.
     ever_alive: bool,
+    /// Since when its agent, alive before, has not held its token (killed, crashed, cut off);
+    /// `None` while it holds it.
+    lost_at: Option<f64>,
 }
 
 impl Default for Acc {
@@ -120,6 +123,7 @@ impl Default for Acc {
             ages: Tally::default(),
             link_base: [ClassCounts::default(); 3],
             ever_alive: false,
+            lost_at: None,
         }
     }
 }
@@ -522,6 +526,11 @@ impl Metrics {
             if b.alive && !b.cmd_on_time && s.ended.is_none() {
                 a.late += 1;
             }
+            if b.alive {
+                a.lost_at = None;
+            } else if a.ever_alive && a.lost_at.is_none() {
+                a.lost_at = Some(s.t_secs);
+            }
             a.ever_alive |= b.alive;
             let t = self.tracks.entry(b.id).or_default();
             t.samples.push([s.t_secs, b.x, b.y, b.obstacle_distance_m, b.agent_distance_m]);
@@ -789,6 +798,7 @@ impl Metrics {
                 .agent_ids()
                 .filter(|id| self.agents.get(id).is_some_and(|a| !a.ever_alive) && self.last_step.is_some())
                 .collect(),
+            lost: self.agents.iter().filter_map(|(&id, a)| a.lost_at.map(|at_s| LostUav { id, at_s })).collect(),
         }
     }
 
