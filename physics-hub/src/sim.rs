@@ -97,11 +97,6 @@ pub struct Sim {
     goal_reached_at: Option<f64>,
     /// Since when the goal rule has held without a break [s].
     goal_since: Option<f64>,
-    /// `ever_alive[i]`: UAV i's agent has held its liveliness token in some tick.
-    ever_alive: Vec<bool>,
-    /// `lost[i]`: UAV i's agent held its token and holds it no longer (killed, crashed, cut off):
-    /// its body hovers, and it is not part of the swarm that has to arrive.
-    lost: Vec<bool>,
 }
 
 impl Sim {
@@ -143,8 +138,6 @@ impl Sim {
             dt: sc.dt_secs(),
             goal_reached_at: None,
             goal_since: None,
-            ever_alive: vec![false; n],
-            lost: vec![false; n],
             timeline: netem::Timeline::from_scenario(sc),
             sc: sc.clone(),
         }
@@ -388,11 +381,6 @@ impl Sim {
     /// cut link.
     pub fn step(&mut self, cmds: &[Option<Cmd>], alive: &[bool], wall_secs: f64) -> Stepped {
         let t_now = self.t_secs();
-        for i in 0..self.bodies.len() {
-            let up = alive.get(i).copied().unwrap_or(true);
-            self.ever_alive[i] |= up;
-            self.lost[i] = self.ever_alive[i] && !up;
-        }
         for (i, b) in self.bodies.iter_mut().enumerate() {
             if self.timeline.frozen_at(i as u32 + 1, t_now) {
                 // A frozen UAV hovers where it is, whatever its agent says (seed 000 6.2).
@@ -515,19 +503,14 @@ impl Sim {
     fn goal_met(&self) -> bool {
         let g = Vector2::new(self.sc.swarm.goal[0], self.sc.swarm.goal[1]);
         let r = self.sc.end.goal_radius_m;
-        // Failed UAVs (no agent), frozen ones and those whose agent was lost are not part of the
-        // swarm that has to arrive; a UAV whose agent never came is (the run is not what was
-        // asked for). With none left, no goal.
+        // Failed UAVs (no agent) and frozen ones are not part of the swarm that has to arrive.
         let t = self.t_secs();
         let flying: Vec<Vector2<f64>> = self
             .sc
             .agent_ids()
-            .filter(|&id| !self.timeline.frozen_at(id, t) && !self.lost[(id - 1) as usize])
+            .filter(|&id| !self.timeline.frozen_at(id, t))
             .map(|id| self.bodies[(id - 1) as usize].pos)
             .collect();
-        if flying.is_empty() {
-            return false;
-        }
         match self.sc.end.goal_rule {
             GoalRule::All => flying.iter().all(|p| (p - g).norm() <= r),
             GoalRule::Centroid => {
@@ -747,31 +730,6 @@ time_limit_s = 100.0
         let before = sim.bodies()[0].vel;
         sim.step(&[None, vel(0.0)], &[true, true], 0.0);
         assert!((sim.bodies()[0].vel - before).norm() < 1e-12, "keeps flying its last command");
-    }
-
-    /// The goal rule over the UAVs that fly: one whose agent was lost is left out, one whose
-    /// agent never came is not, and with no one left there is no goal.
-    #[test]
-    fn a_lost_agents_uav_is_not_waited_for_at_the_goal_but_one_that_never_came_is() {
-        let mut sc = scenario();
-        // UAV 1 starts inside the goal disc, UAV 2 far from it, and the goal rule is every UAV.
-        sc.swarm.start_positions = Some(vec![[10.0, 0.0], [0.0, 3.0]]);
-        sc.end.time_limit_s = 10.0;
-        let hover = || Some(Cmd { tick: 0, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 });
-        let mut sim = Sim::new(&sc);
-        let s = sim.step(&[hover(), hover()], &[true, true], 0.0);
-        assert_eq!(s.ended, None, "UAV 2 is away and alive");
-        let s = sim.step(&[hover(), None], &[true, false], 0.0);
-        assert_eq!(s.ended, Some(EndReason::Goal), "UAV 2's agent is lost: the rest has arrived");
-        let mut never = Sim::new(&sc);
-        for _ in 0..3 {
-            let s = never.step(&[hover(), None], &[true, false], 0.0);
-            assert_eq!(s.ended, None, "UAV 2's agent never came: it is still part of the swarm");
-        }
-        let mut none = Sim::new(&sc);
-        none.step(&[hover(), hover()], &[true, true], 0.0);
-        let s = none.step(&[None, None], &[false, false], 0.0);
-        assert_eq!(s.ended, None, "every agent lost: no goal");
     }
 
     #[test]

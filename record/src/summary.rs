@@ -102,8 +102,9 @@ pub struct Summary {
     #[serde(default)]
     pub never_joined: Vec<u32>,
     /// The UAVs whose agent came and was gone at the end (killed, crashed, its host gone, cut off
-    /// for good), with when it went: their bodies hovered from then on, and they are not part of
-    /// the swarm the goal and the checks wait for. Appended; empty in older summaries.
+    /// for good), with when it went: their bodies hovered from then on; the goal check of a run
+    /// that flew to its time limit judges the rest without them, and the checks count their links
+    /// as cut. Appended; empty in older summaries.
     #[serde(default)]
     pub lost: Vec<LostUav>,
 }
@@ -546,7 +547,7 @@ impl Summary {
             let lost: Vec<String> = self.lost.iter().map(|l| format!("{} at {:.1} s", l.id, l.at_s)).collect();
             let _ = writeln!(
                 s,
-                "lost: the agents of UAVs {} went away (they hovered from then on, out of the goal and the checks)",
+                "lost: the agents of UAVs {} went away (they hovered from then on; the goal check judges the rest)",
                 lost.join(", ")
             );
         }

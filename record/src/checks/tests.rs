@@ -144,6 +144,25 @@ fn an_estimate_across_a_cut_link_fails_and_a_heal_must_reconnect() {
     assert!(judge(&sc, &never, "reconnect").passed, "never one component before the heal: nothing to come back to");
 }
 
+/// A run that flew to its time limit with UAV 2's agent lost (alive, then not) and UAV 1 in the
+/// goal disc: the goal check judges the rest and passes; the same end with UAV 2's agent alive,
+/// or with no agent lost, fails.
+#[test]
+fn a_lost_uav_is_not_a_goal_failure_of_the_rest() {
+    let sc = scenario("[end]\ngoal_radius_m = 2.0\n");
+    let at_end = |two_alive: bool| {
+        let mut two = body(2, 10.0, 0.0);
+        two.alive = two_alive;
+        let mut last = step(2, vec![body(1, 49.0, 0.0), two]);
+        last.ended = Some(swarm_wire::EndReason::TimeLimit);
+        vec![(step(1, vec![body(1, 48.0, 0.0), body(2, 10.0, 0.0)]), vec![]), (last, vec![])]
+    };
+    let lost = judge(&sc, &at_end(false), "goal");
+    assert!(lost.passed && lost.detail.contains("without the lost UAVs 2"), "{lost:?}");
+    let f = judge(&sc, &at_end(true), "goal").first_failure.expect("UAV 2 alive and away");
+    assert_eq!(f.uavs.iter().map(|u| u.id).collect::<Vec<_>>(), vec![2]);
+}
+
 #[test]
 fn end_connectivity_goal_and_skip() {
     let sc = scenario("");

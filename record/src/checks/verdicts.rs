@@ -144,12 +144,30 @@ impl Checker {
             return result(c, detail, None);
         }
         let g = sc.swarm.goal;
-        let out: Vec<UavAt> = self
-            .live_at_end()
-            .into_iter()
-            .filter(|u| (u.x_m - g[0]).hypot(u.y_m - g[1]) > sc.end.goal_radius_m)
-            .collect();
+        let live = self.live_at_end();
+        let out: Vec<UavAt> =
+            live.iter().filter(|u| (u.x_m - g[0]).hypot(u.y_m - g[1]) > sc.end.goal_radius_m).cloned().collect();
+        // UAVs whose agent was lost hover where it went, and the hub's rule still waits for them
+        // (it cannot tell a crash from a link that will come back): a run that flew to its time
+        // limit is judged over the rest, so a lost UAV is not a goal failure of theirs.
+        if !s.lost.is_empty() && s.end_reason == "time_limit" && !live.is_empty() && rest_arrived(sc, &live, &out) {
+            let ids: Vec<String> = s.lost.iter().map(|l| l.id.to_string()).collect();
+            return result(c, format!("{detail} (judged without the lost UAVs {})", ids.join(", ")), None);
+        }
         let what = format!("goal not reached ({}); {} live UAV(s) outside the goal disc", s.end_reason, out.len());
         result(c, detail, failure(s.sim_time_s, what, out))
+    }
+}
+
+/// Whether the goal rule holds at the end over the `live` UAVs alone (`out`: those of them
+/// outside the goal disc).
+fn rest_arrived(sc: &Scenario, live: &[UavAt], out: &[UavAt]) -> bool {
+    match sc.end.goal_rule {
+        GoalRule::All => out.is_empty(),
+        GoalRule::Centroid => {
+            let n = live.len() as f64;
+            let (cx, cy) = live.iter().fold((0.0, 0.0), |(x, y), u| (x + u.x_m / n, y + u.y_m / n));
+            (cx - sc.swarm.goal[0]).hypot(cy - sc.swarm.goal[1]) <= sc.end.goal_radius_m
+        }
     }
 }
