@@ -17,6 +17,21 @@
 
 mod common;
 
+/// What ROS 2's own code saw, printed and kept in `target/tmp/rclpy-report.txt` (appended, one
+/// test after another): CI prints that file after the test command, so what was measured shows
+/// without running these tests twice.
+macro_rules! report {
+    ($($arg:tt)*) => {{
+        let line = format!($($arg)*);
+        println!("{line}");
+        let path = concat!(env!("CARGO_TARGET_TMPDIR"), "/rclpy-report.txt");
+        let file = std::fs::OpenOptions::new().create(true).append(true).open(path);
+        if let Ok(mut f) = file {
+            let _ = std::io::Write::write_all(&mut f, format!("{line}\n").as_bytes());
+        }
+    }};
+}
+
 use common::{ros_python, ros_share, LoopbackNs};
 use serde_json::Value;
 use std::path::Path;
@@ -146,7 +161,7 @@ fn rclpy_on_fast_dds_sees_the_swarm_follows_sim_time_and_flies_uav_3() {
     assert!(dx > 3.0, "UAV 3 moved {dx:.2} m ahead on a 0.8 m/s Twist: {seen}");
     let s = common::summary(&out);
     assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
-    println!(
+    report!(
         "rclpy over Fast DDS: {} scans, {} odometry, {} clock, {} neighbour arrays, markers {}; graph nodes {nodes:?}; \
          {} topics; UAV 3 moved {dx:.2} m on {} Twists; hub put -> rclpy callback p50 {} ms (scan), {} ms (clock); \
          {packets} loopback packets, interfaces {:?}",
@@ -223,7 +238,7 @@ fn rclpy_feeds_an_agent_on_ros_topics_and_gets_its_command_for_each_tick() {
         assert_eq!(types(&g["agent_subscriptions"], t), vec![ty], "{g}");
     }
     assert_eq!(types(&g["agent_publishers"], "/uav3/cmd_vel"), vec!["geometry_msgs/msg/TwistStamped"], "{g}");
-    println!(
+    report!(
         "an agent on ROS topics: {} scans sent by rclpy, {} TwistStamped back, each with its scan's stamp; first {}, last {}; graph {}",
         sent.len(),
         cmds.len(),
@@ -274,7 +289,7 @@ fn forest_5_reaches_the_goal_with_uav_3_on_ros_topics_the_same_on_dds_and_rmw_ze
     }
     assert!(tracks[0] == tracks[1], "two lockstep runs with UAV 3 on DDS topics differ");
     assert!(tracks[0] == tracks[2], "UAV 3 on rmw_zenoh topics flies otherwise than on DDS");
-    println!("forest-5, UAV 3's agent fed only through ROS 2 topics (lockstep):\n{}", table.join("\n"));
+    report!("forest-5, UAV 3's agent fed only through ROS 2 topics (lockstep):\n{}", table.join("\n"));
 }
 
 #[test]
@@ -318,7 +333,7 @@ fn rclpy_reads_the_rmw_zenoh_side_and_zenoh_ros2_sdk_lists_and_echoes_it() {
     }
     let dx = moved(&seen["odom_x"]);
     assert!(dx > 3.0, "UAV 3 moved {dx:.2} m on rclpy's serialized Twist: {seen}");
-    println!(
+    report!(
         "rmw_zenoh side: rclpy deserialized {} scans, {} odometry, {} clock; zenoh-ros2-sdk echoed {} odometry and lists {} topics; \
          UAV 3 moved {dx:.2} m on {} Twists serialized by rclpy; hub put -> client p50 {} ms (scan)",
         seen["scans"],
@@ -348,5 +363,5 @@ fn our_type_hashes_are_the_installed_messages_own() {
         checked.push(t.ros);
     }
     assert_eq!(checked.len(), swarm_ros2::types::ALL.len() - 1);
-    println!("type hashes equal the installed ROS 2 Jazzy messages' own: {checked:?}");
+    report!("type hashes equal the installed ROS 2 Jazzy messages' own: {checked:?}");
 }
