@@ -110,6 +110,18 @@ pub enum FailureKind {
 }
 
 impl FailureKind {
+    /// Its name as a scenario file writes it (`freeze`, `link_stall`), for people's reading.
+    pub fn name(self) -> &'static str {
+        match self {
+            FailureKind::Freeze => "freeze",
+            FailureKind::Kill => "kill",
+            FailureKind::Restart => "restart",
+            FailureKind::LinkStall => "link_stall",
+            FailureKind::LinkClose => "link_close",
+            FailureKind::LinkRestore => "link_restore",
+        }
+    }
+
     /// Whether this is a link-level fault (carried out by `swarm run`'s TCP proxy).
     pub fn is_link(self) -> bool {
         matches!(self, FailureKind::LinkStall | FailureKind::LinkClose | FailureKind::LinkRestore)

@@ -243,3 +243,11 @@ fn a_hold_as_long_as_the_run_is_refused_with_its_field() {
         .expect_err("hold too long");
     assert!(e.to_string().contains("end.hold_s") && e.message.contains("time_limit_s"), "{e}");
 }
+
+#[test]
+fn a_failure_kinds_name_is_how_a_scenario_file_writes_it() {
+    use crate::FailureKind::*;
+    for k in [Freeze, Kill, Restart, LinkStall, LinkClose, LinkRestore] {
+        assert_eq!(serde_json::to_value(k).expect("json"), serde_json::json!(k.name()), "{k:?}");
+    }
+}

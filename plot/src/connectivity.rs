@@ -102,8 +102,7 @@ impl Figure for ConnectivityFigure<'_> {
                 4,
                 BLACK.mix(0.6).stroke_width(1),
             ))?;
-            let name =
-                serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default();
+            let name = f.kind.name();
             chart.draw_series([Text::new(format!("{name} {}", f.uav), (f.at_s, y_hi * 0.97), (FAMILY, 12))])?;
         }
         let grey = super::style::color(7);

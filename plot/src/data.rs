@@ -243,11 +243,6 @@ fn components(t: &Table) -> Result<Vec<ComponentsSample>> {
         .collect())
 }
 
-/// A failure's kind as the scenario writes it (`freeze`, `kill`), for the figures' labels.
-pub fn failure_kind(f: &swarm_config::Failure) -> String {
-    serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
-}
-
 /// A small run folder for the figures' tests: two UAVs over 3 s among two trees and a wall, a
 /// split and a merge of the estimate graph, a partition from 1 s to 2 s and a kill at 2.5 s.
 #[cfg(test)]

@@ -175,7 +175,7 @@ fn failures_on_map<DB: DrawingBackend>(chart: &mut super::style::TimeChart<'_, D
     for f in run.timeline.failures() {
         let Some(track) = run.tracks.get(&f.uav) else { continue };
         let Some(at) = track.iter().find(|p| p.t_s >= f.at_s - 1e-9).or(track.last()) else { continue };
-        let name = super::data::failure_kind(f);
+        let name = f.kind.name();
         chart.draw_series([Rectangle::new(
             [(at.x_m - 0.3, at.y_m - 0.3), (at.x_m + 0.3, at.y_m + 0.3)],
             BLACK.stroke_width(2),

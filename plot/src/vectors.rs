@@ -62,7 +62,7 @@ impl VectorsFigure<'_> {
         // This UAV's failures (a freeze, a kill): after one, its agent's vectors are no longer
         // flown (a frozen body hovers), which the curves alone do not say.
         for f in self.run.timeline.failures().iter().filter(|f| f.uav == self.uav && f.at_s <= self.run.t_end()) {
-            let name = super::data::failure_kind(f);
+            let name = f.kind.name();
             chart.draw_series(DashedLineSeries::new([(f.at_s, 0.0), (f.at_s, y_hi)], 6, 4, BLACK.stroke_width(1)))?;
             let note = format!("{name} at {:.0} s: not flown after", f.at_s);
             chart.draw_series([Text::new(note, (f.at_s + 0.01 * self.run.t_end(), y_hi * 0.97), (FAMILY, 11))])?;

@@ -269,8 +269,7 @@ fn applied(t: &swarm_config::Timeline, from_s: Option<f64>) -> String {
         lines.push(format!("  at sim t = {:.1} s: {what}", base + r.at_s));
     }
     for f in &t.failures {
-        let kind = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
-        lines.push(format!("  at sim t = {:.1} s: UAV {} {kind}", base + f.at_s, f.uav));
+        lines.push(format!("  at sim t = {:.1} s: UAV {} {}", base + f.at_s, f.uav, f.kind.name()));
     }
     lines.join("\n")
 }

@@ -76,7 +76,7 @@ pub fn summary(sc: &Scenario) -> String {
     let trees = physics_hub::scenario_trees(sc).len();
     lines.push(format!("world: {trees} trees drawn, {} walls (master seed {})", sc.world.walls.len(), sc.seed));
     let mut faults: Vec<(f64, String)> = sc.netem.iter().map(|r| (r.at_s, netem_line(r, sc))).collect();
-    faults.extend(sc.failures.iter().map(|f| (f.at_s, format!("UAV {} {}", f.uav, name(&f.kind)))));
+    faults.extend(sc.failures.iter().map(|f| (f.at_s, format!("UAV {} {}", f.uav, f.kind.name()))));
     faults.sort_by(|a, b| a.0.total_cmp(&b.0));
     match faults.is_empty() {
         true => lines.push("faults: none".to_string()),
