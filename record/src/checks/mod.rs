@@ -72,12 +72,10 @@ pub struct Checker {
     /// it, kept instead of a copy of the whole step every tick.
     last: Option<(u64, Vec<UavAt>)>,
     deadlines: Vec<Deadline>,
-    /// The UAVs whose agent has held its token in some step.
-    seen_alive: std::collections::BTreeSet<u32>,
-    /// Since when each UAV's agent, alive before, has been gone (killed, crashed, cut off): it
-    /// says nothing from then on, as over a cut link, and its neighbours must drop it as they
-    /// drop a silent UAV.
-    lost_since: BTreeMap<u32, f64>,
+    /// Whose agents came and went: a UAV whose agent, alive before, is gone (killed, crashed, cut
+    /// off) says nothing from then on, as over a cut link, and its neighbours must drop it as
+    /// they drop a silent UAV.
+    liveness: crate::liveness::Liveness,
 }
 
 fn at(b: &TruthBody) -> UavAt {
@@ -115,8 +113,7 @@ impl Checker {
             recent: BTreeMap::new(),
             last: None,
             deadlines,
-            seen_alive: std::collections::BTreeSet::new(),
-            lost_since: BTreeMap::new(),
+            liveness: crate::liveness::Liveness::default(),
         }
     }
 
@@ -140,7 +137,7 @@ impl Checker {
             self.separation = self.closest_pair_below(s);
         }
         self.track_alone(s);
-        self.track_lost(s);
+        self.liveness.on_step(s);
         self.recent.insert(s.tick, s.bodies.iter().map(at).collect());
         while self.recent.len() > RECENT_TICKS {
             self.recent.pop_first();
@@ -155,18 +152,6 @@ impl Checker {
         self.pending = waiting;
         for r in ready {
             self.judge_alone(r);
-        }
-    }
-
-    /// Keeps `lost_since` for the bodies of step `s`.
-    fn track_lost(&mut self, s: &TruthStep) {
-        for b in &s.bodies {
-            if b.alive {
-                self.seen_alive.insert(b.id);
-                self.lost_since.remove(&b.id);
-            } else if self.seen_alive.contains(&b.id) {
-                self.lost_since.entry(b.id).or_insert(s.t_secs);
-            }
         }
     }
 
@@ -237,7 +222,7 @@ impl Checker {
     /// Whether the link from `from` to `to` is cut (blocked, held, a frozen sender, or one whose
     /// agent is gone) at `t_s`.
     fn cut(&self, from: u32, to: u32, t_s: f64) -> bool {
-        self.lost_since.get(&from).is_some_and(|&t0| t0 <= t_s + 1e-9)
+        self.liveness.lost_since(from).is_some_and(|t0| t0 <= t_s + 1e-9)
             || self.timeline.rule_at(t_s, from, to).is_some_and(|r| r.blocked || r.hold)
     }
 

@@ -90,11 +90,6 @@ struct Acc {
     ages: Tally,
     /// Link class counts of its earlier incarnations (a restarted agent counts from zero).
     link_base: [ClassCounts; 3],
-    /// Its agent held its liveliness token in some tick.
-    ever_alive: bool,
-    /// Since when its agent, alive before, has not held its token (killed, crashed, cut off);
-    /// `None` while it holds it.
-    lost_at: Option<f64>,
 }
 
 impl Default for Acc {
@@ -122,8 +117,6 @@ impl Default for Acc {
             steps_alone: 0,
             ages: Tally::default(),
             link_base: [ClassCounts::default(); 3],
-            ever_alive: false,
-            lost_at: None,
         }
     }
 }
@@ -145,6 +138,8 @@ pub struct Metrics {
     last_step: Option<TruthStep>,
     ticks: u64,
     tracks: BTreeMap<u32, Track>,
+    /// Whose agents came, and which came and went (`never_joined`, `lost`).
+    liveness: crate::liveness::Liveness,
     /// Recent ground truth by tick, to score agents' estimates against.
     truth: BTreeMap<u64, TickTruth>,
     /// States whose tick's truth has not arrived yet, by tick, each with its arrival number: a
@@ -501,6 +496,7 @@ impl Metrics {
     /// Folds one ground-truth step.
     pub fn on_step(&mut self, s: &TruthStep) {
         self.ticks += 1;
+        self.liveness.on_step(s);
         if s.ended.is_none() {
             // The hub's last word (a stopped run) measures no work.
             self.hub_work_us.push(f64::from(s.timing.work_us));
@@ -526,12 +522,6 @@ impl Metrics {
             if b.alive && !b.cmd_on_time && s.ended.is_none() {
                 a.late += 1;
             }
-            if b.alive {
-                a.lost_at = None;
-            } else if a.ever_alive && a.lost_at.is_none() {
-                a.lost_at = Some(s.t_secs);
-            }
-            a.ever_alive |= b.alive;
             let t = self.tracks.entry(b.id).or_default();
             t.samples.push([s.t_secs, b.x, b.y, b.obstacle_distance_m, b.agent_distance_m]);
         }
@@ -796,9 +786,11 @@ impl Metrics {
             traffic: self.traffic(),
             never_joined: scenario
                 .agent_ids()
-                .filter(|id| self.agents.get(id).is_some_and(|a| !a.ever_alive) && self.last_step.is_some())
+                .filter(|&id| {
+                    self.agents.contains_key(&id) && !self.liveness.ever_alive(id) && self.last_step.is_some()
+                })
                 .collect(),
-            lost: self.agents.iter().filter_map(|(&id, a)| a.lost_at.map(|at_s| LostUav { id, at_s })).collect(),
+            lost: self.liveness.lost().map(|(id, at_s)| LostUav { id, at_s }).collect(),
         }
     }
 
