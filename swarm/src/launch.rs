@@ -353,10 +353,9 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
     }
     if let Some(port) = show.view {
         let live = swarm_view::Live::start(run_id, &locators, &rec_cfg, port).await?;
-        // Stdout, flushed at once: scripts (and tests) read the address while the run goes.
+        // Stdout, flushed at once (`out` flushes): scripts (and tests) read the address while the
+        // run goes.
         swarm_node::process::out(&live.addresses());
-        use std::io::Write as _;
-        let _ = std::io::stdout().flush();
         tokio::spawn(live.run());
     }
     if let Some(side) = &show.ros2 {

@@ -283,9 +283,10 @@ pub fn within<'a>(
 ) -> impl Iterator<Item = (Vector2<f64>, f64)> {
     let stop = (radius_m - ramp_m).max(0.0);
     let band = radius_m - stop;
-    points.into_iter().copied().filter(move |y| y.norm() < radius_m).map(move |y| {
-        let allowed = if band > 0.0 { speed * ((y.norm() - stop) / band).clamp(0.0, 1.0) } else { 0.0 };
-        (y, allowed)
+    points.into_iter().copied().filter_map(move |y| {
+        let d = y.norm();
+        let allowed = if band > 0.0 { speed * ((d - stop) / band).clamp(0.0, 1.0) } else { 0.0 };
+        (d < radius_m).then_some((y, allowed))
     })
 }
 
