@@ -14,8 +14,10 @@ use plotters::prelude::*;
 /// Picture size [px].
 const SIZE: (u32, u32) = (1000, 460);
 
-const CUT: RGBColor = RGBColor(214, 39, 40);
-const IMPAIRED: RGBColor = RGBColor(255, 127, 14);
+/// The shading of a span where some link is cut, and where some link is only impaired (this
+/// figure's and the run figure's distance panels).
+pub(super) const CUT: RGBColor = RGBColor(214, 39, 40);
+pub(super) const IMPAIRED: RGBColor = RGBColor(255, 127, 14);
 
 /// The worst class of any link between `ids` at `t_s`, either direction (cut beats impaired
 /// beats clean).

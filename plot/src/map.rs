@@ -5,7 +5,7 @@
 //! 6.5 and 6.6), with the contact distance and the separation invariant as dashed lines, and
 //! the network's faults behind: spans where some link is cut shaded, each failure a dashed line.
 
-use super::connectivity::spans;
+use super::connectivity::{spans, CUT, IMPAIRED};
 use super::data::{Pose, Run};
 use super::style::{color, legend, thin_keeping_minima, tick, time_chart, DrawResult, Figure, FAMILY};
 use plotters::coord::Shift;
@@ -204,8 +204,8 @@ fn distances<DB: DrawingBackend>(
     let ids: Vec<u32> = run.tracks.keys().copied().collect();
     for s in spans(&run.timeline, &ids, t_end) {
         let (c, what) = match s.2 {
-            netem::LinkClass::Cut => (RGBColor(214, 39, 40), "some link cut"),
-            _ => (RGBColor(255, 127, 14), "some link impaired"),
+            netem::LinkClass::Cut => (CUT, "some link cut"),
+            _ => (IMPAIRED, "some link impaired"),
         };
         chart.draw_series([Rectangle::new([(s.0, 0.0), (s.1, y_hi)], c.mix(0.12).filled())])?;
         // Named where there is room, so the shading is read without the connectivity figure.
