@@ -18,20 +18,12 @@ use std::time::Duration;
 /// Waits until `count` ground-truth steps of `run` were seen (the swarm flies), logged in as
 /// observer.
 fn wait_steps(run: &str, loc: &str, folder: &Path, count: u32) {
-    let pw = folder.join("credentials/observer.password");
-    let got = common::tap(&[
-        &format!("swarm/{run}/truth/step"),
-        "--connect",
-        loc,
-        "--user",
-        "observer",
-        "--password-file",
-        pw.to_str().expect("utf8"),
-        "--count",
-        &count.to_string(),
-        "--duration",
-        "120",
-    ]);
+    // The run's own credentials folder, read as the tests' `Creds`.
+    let login = common::Creds(folder.join("credentials")).login("observer");
+    let (key, count_s) = (format!("swarm/{run}/truth/step"), count.to_string());
+    let mut args = vec![key.as_str(), "--connect", loc, "--count", &count_s, "--duration", "120"];
+    args.extend(login.iter().map(String::as_str));
+    let got = common::tap(&args);
     assert_eq!(got.lines().count(), count as usize, "the swarm flies: {got}");
 }
 
