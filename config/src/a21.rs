@@ -184,7 +184,7 @@ impl A21Params {
             ("grid_resolution_m", self.grid_resolution_m),
             ("replan_period_s", self.replan_period_s),
         ] {
-            crate::positive(&format!("{at}.{name}"), v)?;
+            crate::validate::positive(&format!("{at}.{name}"), v)?;
         }
         for (name, v) in [
             ("k_alpha", self.k_alpha),
@@ -195,11 +195,11 @@ impl A21Params {
             ("path_lookahead_m", self.path_lookahead_m),
             ("damping_per_s", self.damping_per_s),
         ] {
-            crate::non_negative(&format!("{at}.{name}"), v)?;
+            crate::validate::non_negative(&format!("{at}.{name}"), v)?;
         }
-        crate::within(&format!("{at}.phi_alone"), self.phi_alone, 0.0, 1.0)?;
+        crate::validate::within(&format!("{at}.phi_alone"), self.phi_alone, 0.0, 1.0)?;
         if let Some(v) = self.max_speed_mps {
-            crate::positive(&format!("{at}.max_speed_mps"), v)?;
+            crate::validate::positive(&format!("{at}.max_speed_mps"), v)?;
         }
         // seed 003 eq. 6: λβ divides by √d_0 − √d_c, and eq. 5 orders its branches d_c < d_0.
         if self.dc_m >= self.d0_m {

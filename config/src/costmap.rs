@@ -8,7 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{non_negative, positive, within, Check};
+use crate::validate::{non_negative, positive, within, Check};
 
 /// Parameters of the seed 004 costmap and of the A* planner on it.
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -112,7 +112,7 @@ impl crate::Scenario {
     /// The bounds of the checks, defaults filled in.
     pub fn bounds(&self) -> Bounds {
         let e = &self.expect;
-        let tick = self.dt_secs();
+        let tick = self.dt_s();
         let mut alone = self.radio.range_m + self.radio.hysteresis_m;
         if self.localization.mode == crate::LocalizationMode::Uvdar {
             alone = alone.max(self.localization.uvdar.max_range_m);
@@ -127,7 +127,7 @@ impl crate::Scenario {
     }
 
     /// Validates `[expect]`: every bound given is a finite number > 0.
-    pub(crate) fn validate_expect(&self) -> crate::Check {
+    pub(crate) fn validate_expect(&self) -> crate::validate::Check {
         let e = &self.expect;
         for (name, v) in [
             ("min_separation_m", e.min_separation_m),
@@ -137,7 +137,7 @@ impl crate::Scenario {
             ("end_range_m", e.end_range_m),
         ] {
             if let Some(v) = v {
-                crate::positive(&format!("expect.{name}"), v)?;
+                crate::validate::positive(&format!("expect.{name}"), v)?;
             }
         }
         Ok(())

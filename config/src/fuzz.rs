@@ -11,6 +11,7 @@
 //! [`DEFAULT_CASES`]).
 
 use super::*;
+use crate::parse::parse_toml;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
 use std::sync::atomic::{AtomicU64, Ordering};

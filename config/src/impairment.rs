@@ -8,6 +8,7 @@
 //! and the model cannot drift apart and this crate stays free of behaviour.
 
 use serde::{Deserialize, Serialize};
+use swarm_types::UavId;
 
 /// The rule for one directed link at one moment. The default is the identity (no impairment).
 ///
@@ -273,24 +274,24 @@ pub enum Partition {
     /// `complete-grudge`; overlapping groups make bridges).
     Groups {
         /// The components.
-        groups: Vec<Vec<u32>>,
+        groups: Vec<Vec<UavId>>,
     },
     /// Two halves, the first ⌊n/2⌋ nodes against the rest (Jepsen `bisect`: smaller half first).
     Halves {
         /// The nodes, in the order that decides the cut.
-        nodes: Vec<u32>,
+        nodes: Vec<UavId>,
     },
     /// One UAV deaf and mute: it hears nobody and nobody hears it (Jepsen
     /// `partition-random-node`, with the node given).
     Isolate {
         /// The isolated UAV.
-        node: u32,
+        node: UavId,
     },
     /// Two halves as [`Partition::Halves`], except the first node of the second half, the bridge,
     /// which hears and is heard by everyone (Jepsen `bridge`).
     Bridge {
         /// The nodes, in the order that decides the cut and the bridge.
-        nodes: Vec<u32>,
+        nodes: Vec<UavId>,
     },
     /// Every node hears a majority, no two the same: with m = ⌊n/2⌋ + 1, the node at ring
     /// position j hears positions j − ⌊m/2⌋ … j − ⌊m/2⌋ + m − 1 (mod n). This is Jepsen's
@@ -299,14 +300,14 @@ pub enum Partition {
     /// hear each other one way only, as in Jepsen.
     MajoritiesRing {
         /// The nodes in ring order.
-        ring: Vec<u32>,
+        ring: Vec<UavId>,
     },
     /// One-way: messages from any `from` node to any `to` node are dropped; the reverse is open.
     OneWay {
         /// Senders that cannot be heard by `to`.
-        from: Vec<u32>,
+        from: Vec<UavId>,
         /// Receivers that cannot hear `from`.
-        to: Vec<u32>,
+        to: Vec<UavId>,
     },
 }
 
@@ -317,12 +318,12 @@ impl Partition {
     }
 
     /// `node` deaf and mute.
-    pub fn isolate(node: u32) -> Partition {
+    pub fn isolate(node: UavId) -> Partition {
         Partition::Isolate { node }
     }
 
     /// Every node the scheme names.
-    pub fn nodes(&self) -> Vec<u32> {
+    pub fn nodes(&self) -> Vec<UavId> {
         match self {
             Partition::Healed {} => Vec::new(),
             Partition::Groups { groups } => groups.iter().flatten().copied().collect(),

@@ -13,8 +13,9 @@
 //! - COSTMAP_THRES is not printed: 50, the seed's "area with the cost less than 50 is considered
 //!   as safe area" (text under Fig. 33).
 
-use crate::Check;
+use crate::validate::Check;
 use serde::{Deserialize, Serialize};
+use swarm_types::UavId;
 
 /// Which formation rule generates the followers' goals (seed 004 section 3.4, Fig. 37 and 41).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -52,7 +53,7 @@ pub struct M23Params {
     /// Id of the leader UAV; the others follow in ascending id order (Fig. 39: `uav1` leads,
     /// Fig. 42a line 623: the predecessor of `uavN` is `uav(N-1)`).
     #[serde(default = "d_leader")]
-    pub leader_id: u32,
+    pub leader_id: UavId,
     /// Frame of `lf_offsets_m` (seed: `world`, Fig. 42d line 353).
     #[serde(default = "d_lf_frame")]
     pub lf_frame: LfFrame,
@@ -129,8 +130,8 @@ pub struct M23Params {
 fn d_topology() -> Topology {
     Topology::Lf
 }
-fn d_leader() -> u32 {
-    1
+fn d_leader() -> UavId {
+    UavId::new(1)
 }
 fn d_lf_frame() -> LfFrame {
     LfFrame::World
@@ -203,7 +204,7 @@ impl M23Params {
     /// Checks ranges; the error names the dotted field under `at` (e.g. `controller.m23`).
     /// The number of `goals` against `swarm.count` is checked by the scenario, which knows it.
     pub fn validate(&self, at: &str) -> Check {
-        if self.leader_id == 0 {
+        if self.leader_id.try_index().is_none() {
             return Err((format!("{at}.leader_id"), "must be a UAV id (>= 1)".into()));
         }
         for (name, v) in [
@@ -220,7 +221,7 @@ impl M23Params {
             ("lookahead_m", self.lookahead_m),
             ("goal_tolerance_m", self.goal_tolerance_m),
         ] {
-            crate::positive(&format!("{at}.{name}"), v)?;
+            crate::validate::positive(&format!("{at}.{name}"), v)?;
         }
         if !(1..=254).contains(&self.costmap_thres) {
             return Err((
@@ -249,8 +250,8 @@ impl M23Params {
     }
 
     /// The static goal of UAV `id`: `goals[id − 1]` when given, else `swarm_goal`.
-    pub fn goal_of(&self, id: u32, swarm_goal: [f64; 2]) -> [f64; 2] {
-        let index = (id as usize).checked_sub(1);
+    pub fn goal_of(&self, id: UavId, swarm_goal: [f64; 2]) -> [f64; 2] {
+        let index = id.try_index();
         self.goals.as_ref().and_then(|g| index.and_then(|i| g.get(i))).copied().unwrap_or(swarm_goal)
     }
 }
@@ -266,7 +267,7 @@ mod tests {
         // Fig. 34 / section 3.6 "Slow": 1.5 m/s, 1 m/s²; Fig. 34 xy_goal_tolerance 0.5;
         // Fig. 42a line 601: 2.0 m; text under Fig. 33: cost < 50 is safe.
         assert_eq!((p.max_speed_mps, p.max_accel_mps2, p.goal_tolerance_m), (1.5, 1.0, 0.5));
-        assert_eq!((p.leader_arrived_m, p.costmap_thres, p.leader_id), (2.0, 50, 1));
+        assert_eq!((p.leader_arrived_m, p.costmap_thres, p.leader_id), (2.0, 50, UavId::new(1)));
         assert_eq!(p.lf_frame, LfFrame::World);
         assert!(p.validate("m").is_ok());
     }
@@ -288,12 +289,12 @@ mod tests {
     fn goal_of_uses_the_per_uav_goals_when_given() {
         let shared = [30.0, 0.0];
         let p = M23Params::default();
-        assert_eq!(p.goal_of(3, shared), shared);
+        assert_eq!(p.goal_of(UavId::new(3), shared), shared);
         let table7 = vec![[42.0, -2.0], [42.0, 2.0], [40.0, -1.0], [40.0, 1.0]];
         let p = M23Params { goals: Some(table7), ..M23Params::default() };
-        assert_eq!(p.goal_of(3, shared), [40.0, -1.0]);
-        assert_eq!(p.goal_of(5, shared), shared);
-        assert_eq!(p.goal_of(0, shared), shared);
+        assert_eq!(p.goal_of(UavId::new(3), shared), [40.0, -1.0]);
+        assert_eq!(p.goal_of(UavId::new(5), shared), shared);
+        assert_eq!(p.goal_of(UavId::new(0), shared), shared);
     }
 
     #[test]
@@ -304,7 +305,7 @@ mod tests {
         assert_eq!(p.validate("c").unwrap_err().0, "c.costmap_thres");
         let p = M23Params { goals: Some(vec![[0.0, 0.0], [f64::NAN, 1.0]]), ..M23Params::default() };
         assert_eq!(p.validate("c").unwrap_err().0, "c.goals[1]");
-        let p = M23Params { leader_id: 0, ..M23Params::default() };
+        let p = M23Params { leader_id: UavId::new(0), ..M23Params::default() };
         assert_eq!(p.validate("c").unwrap_err().0, "c.leader_id");
     }
 

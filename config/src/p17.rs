@@ -308,12 +308,12 @@ impl P17Params {
             ("loop_rate_hz", v.loop_rate_hz),
             ("loop_distance_m", v.loop_distance_m),
         ] {
-            crate::positive(&format!("{at}.{name}"), x)?;
+            crate::validate::positive(&format!("{at}.{name}"), x)?;
         }
         for (name, x) in
             [("c1", v.c1), ("c2", v.c2), ("b1", v.b1), ("b2", v.b2), ("obstacle_margin_m", v.obstacle_margin_m)]
         {
-            crate::non_negative(&format!("{at}.{name}"), x)?;
+            crate::validate::non_negative(&format!("{at}.{name}"), x)?;
         }
         Ok(())
     }

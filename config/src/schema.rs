@@ -1,8 +1,8 @@
 //! The scenario structs. Field docs are the schema documentation; `scenarios/example.toml` shows
 //! every field with a comment and is parsed by a test, so the two cannot drift apart.
 
-use crate::Informed;
 use serde::{Deserialize, Serialize};
+use swarm_types::{LocalizationMode, TimeMode, UavId};
 
 /// A whole scenario file.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -135,7 +135,7 @@ pub struct Failure {
     /// Sim time it fails [s].
     pub at_s: f64,
     /// Which UAV.
-    pub uav: u32,
+    pub uav: UavId,
     /// How.
     pub kind: FailureKind,
 }
@@ -145,20 +145,20 @@ pub struct Failure {
 #[serde(untagged)]
 pub enum UavSet {
     /// Every UAV (the string must be `"all"`).
-    All(crate::AllMarker),
+    All(AllMarker),
     /// These ids.
-    Ids(Vec<u32>),
+    Ids(Vec<UavId>),
 }
 
 impl Default for UavSet {
     fn default() -> Self {
-        UavSet::All(crate::AllMarker::All)
+        UavSet::All(AllMarker::All)
     }
 }
 
 impl UavSet {
     /// Whether `id` is in the set.
-    pub fn contains(&self, id: u32) -> bool {
+    pub fn contains(&self, id: UavId) -> bool {
         match self {
             UavSet::All(_) => true,
             UavSet::Ids(ids) => ids.contains(&id),
@@ -332,10 +332,28 @@ pub struct Swarm {
     /// UAVs that have failed before the start (seed 000 6.2): their bodies hover where they
     /// start, obstacles to the others, and no agent runs for them.
     #[serde(default)]
-    pub failed: Vec<u32>,
+    pub failed: Vec<UavId>,
 }
 fn d_informed() -> Informed {
-    Informed::All(crate::AllMarker::All)
+    Informed::All(AllMarker::All)
+}
+
+/// `informed = "all"` or `informed = [1, 3]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Informed {
+    /// Every UAV knows the goal (the string must be `"all"`).
+    All(AllMarker),
+    /// Only these UAV ids know the goal.
+    Ids(Vec<UavId>),
+}
+
+/// The literal string `"all"`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AllMarker {
+    /// `"all"`
+    All,
 }
 
 /// A disc of start positions.
@@ -508,16 +526,6 @@ impl Default for Radio {
     }
 }
 
-/// Time mode.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum TimeMode {
-    /// The hub advances when every live agent has answered the tick (or after a timeout).
-    Lockstep,
-    /// The hub advances at wall-clock rate (times `realtime_factor`).
-    Realtime,
-}
-
 /// Clock settings.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -628,7 +636,7 @@ pub struct Controller {
     /// UAVs flown by an external controller instead of `kind`: their agents publish each tick's
     /// view on `uav/{id}/ext/view` (JSON) and wait for a command on `uav/{id}/ext/cmd`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub external: Vec<u32>,
+    pub external: Vec<UavId>,
     /// K21 parameters.
     #[serde(default)]
     pub k21: K21Params,
@@ -845,6 +853,14 @@ impl Default for K21Params {
     }
 }
 
+impl K21Params {
+    /// Whether the barrier keeps off the bodies of a scan group that joins several: both
+    /// `barrier_m` and `barrier_surface_m` above 0.
+    pub fn barrier_on_bodies(&self) -> bool {
+        self.barrier_m > 0.0 && self.barrier_surface_m > 0.0
+    }
+}
+
 /// Obstacle extraction (seed 000 section 3.2).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -883,18 +899,6 @@ impl Default for PerceptionParams {
             neighbour_match_m: d_match(),
         }
     }
-}
-
-/// Relative localization mode.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum LocalizationMode {
-    /// Each agent broadcasts its pose in a shared global frame (GNSS-like, seed 001 3.4).
-    Broadcast,
-    /// Agents share their obstacle centres and align them by ICP (seed 000 chapters 3 and 5).
-    Icp,
-    /// No communication at all: onboard relative sensing (UVDAR, seed 003) from the hub.
-    Uvdar,
 }
 
 /// How the neighbour database tells neighbours apart in `icp` mode.
@@ -950,7 +954,7 @@ pub struct BroadcastError {
 
 impl BroadcastError {
     /// Whether UAV `id` is affected at sim time `t`.
-    pub fn active(&self, id: u32, t: f64) -> bool {
+    pub fn active(&self, id: UavId, t: f64) -> bool {
         self.uavs.contains(id) && t + 1e-9 >= self.from_s && self.until_s.is_none_or(|u| t < u - 1e-9)
     }
 }

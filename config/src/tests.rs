@@ -45,9 +45,9 @@ fn minimal_scenario_gets_documented_defaults() {
     assert_eq!(sc.body.radius_m, 0.3);
     assert_eq!(sc.lidar.max_range_m, 12.0);
     assert_eq!(sc.time.mode, TimeMode::Lockstep);
-    assert!(sc.is_informed(2));
-    assert_eq!(sc.uav_ids().collect::<Vec<_>>(), vec![1, 2]);
-    assert!((sc.dt_secs() - 0.1).abs() < 1e-12);
+    assert!(sc.is_informed(UavId::new(2)));
+    assert_eq!(sc.uav_ids().map(UavId::get).collect::<Vec<_>>(), vec![1, 2]);
+    assert!((sc.dt_s() - 0.1).abs() < 1e-12);
 }
 
 #[test]
@@ -176,10 +176,10 @@ fn goals_change_by_mission_time_and_uav() {
         "m.toml",
     )
     .expect("valid");
-    assert_eq!(sc.goal_of(1, 1.0), [10.0, 0.0], "swarm.goal before any change");
-    assert_eq!(sc.goal_of(1, 5.0), [0.0, 9.0]);
-    assert_eq!(sc.goal_of(2, 6.0), [10.0, 0.0], "the change was for UAV 1 only");
-    assert_eq!(sc.goal_of(2, 8.0), [20.0, 0.0], "a change for all");
+    assert_eq!(sc.goal_of(UavId::new(1), 1.0), [10.0, 0.0], "swarm.goal before any change");
+    assert_eq!(sc.goal_of(UavId::new(1), 5.0), [0.0, 9.0]);
+    assert_eq!(sc.goal_of(UavId::new(2), 6.0), [10.0, 0.0], "the change was for UAV 1 only");
+    assert_eq!(sc.goal_of(UavId::new(2), 8.0), [20.0, 0.0], "a change for all");
 }
 
 #[test]
@@ -229,9 +229,9 @@ fn a_moving_mission_goal_moves_from_its_start_time() {
         "m.toml",
     )
     .expect("parses");
-    assert_eq!(sc.goal_motion_of(1, 5.0), ([10.0, 0.0], [0.0, 0.0]), "swarm goal before the mission");
-    assert_eq!(sc.goal_motion_of(1, 14.0), ([3.0, -2.0], [0.5, -1.0]));
-    assert_eq!(sc.goal_of(2, 14.0), [3.0, -2.0]);
+    assert_eq!(sc.goal_motion_of(UavId::new(1), 5.0), ([10.0, 0.0], [0.0, 0.0]), "swarm goal before the mission");
+    assert_eq!(sc.goal_motion_of(UavId::new(1), 14.0), ([3.0, -2.0], [0.5, -1.0]));
+    assert_eq!(sc.goal_of(UavId::new(2), 14.0), [3.0, -2.0]);
 }
 
 #[test]

@@ -100,15 +100,15 @@ impl Default for UvdarParams {
 impl UvdarParams {
     /// Checks every field; the error names `{at}.{field}` and what is wrong.
     pub fn validate(&self, at: &str) -> Result<(), (String, String)> {
-        super::positive(&format!("{at}.max_range_m"), self.max_range_m)?;
+        crate::validate::positive(&format!("{at}.max_range_m"), self.max_range_m)?;
         if !(self.fov_deg.is_finite() && self.fov_deg > 0.0 && self.fov_deg <= 360.0) {
             return Err((format!("{at}.fov_deg"), format!("must be in (0, 360], got {}", self.fov_deg)));
         }
         // A relative σ above 1 would put most draws of a near neighbour at range 0.
-        super::within(&format!("{at}.range_noise_rel"), self.range_noise_rel, 0.0, 1.0)?;
-        super::within(&format!("{at}.bearing_noise_deg"), self.bearing_noise_deg, 0.0, 180.0)?;
-        super::within(&format!("{at}.detection_probability"), self.detection_probability, 0.0, 1.0)?;
-        super::non_negative(&format!("{at}.uav_radius_m"), self.uav_radius_m)?;
+        crate::validate::within(&format!("{at}.range_noise_rel"), self.range_noise_rel, 0.0, 1.0)?;
+        crate::validate::within(&format!("{at}.bearing_noise_deg"), self.bearing_noise_deg, 0.0, 180.0)?;
+        crate::validate::within(&format!("{at}.detection_probability"), self.detection_probability, 0.0, 1.0)?;
+        crate::validate::non_negative(&format!("{at}.uav_radius_m"), self.uav_radius_m)?;
         Ok(())
     }
 }

@@ -15,6 +15,7 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use netem::impair::{Decision, Impairment, JitterDistribution, LinkSim, LossModel};
 use netem::{Inbox, Link, Verdict};
+use swarm_types::UavId;
 
 const BYTES: usize = 120; // message size; only the rate limiter reads it
 
@@ -34,7 +35,7 @@ fn per_message(c: &mut Criterion) {
     g.throughput(Throughput::Elements(1));
 
     let identity = Impairment::IDENTITY;
-    let mut link = LinkSim::new(1, 1, 2);
+    let mut link = LinkSim::new(1, UavId::new(1), UavId::new(2));
     let mut now = 0.0;
     g.bench_function("identity_per_message", |b| {
         b.iter(|| {
@@ -50,7 +51,7 @@ fn per_message(c: &mut Criterion) {
         loss: LossModel::Random { p: 0.3 },
         ..Impairment::IDENTITY
     };
-    let mut link = LinkSim::new(1, 1, 2);
+    let mut link = LinkSim::new(1, UavId::new(1), UavId::new(2));
     let mut now = 0.0;
     g.bench_function("lossy_delay_per_message", |b| {
         b.iter(|| {
@@ -69,7 +70,7 @@ fn per_message(c: &mut Criterion) {
         b.iter(|| {
             let now = tick as f64 * dt;
             if let Verdict::DeliverAt(at) =
-                link.on_receive_with(None, 0.0, black_box(2), now, now, dt, black_box(BYTES))
+                link.on_receive_with(None, 0.0, black_box(UavId::new(2)), now, now, dt, black_box(BYTES))
             {
                 inbox.push(at, tick);
             }

@@ -138,6 +138,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 pub use swarm_config::{Impairment, InvalidImpairment, JitterDistribution, LossModel, Partition, Reorder};
+use swarm_types::UavId;
 
 /// The lowest value of netem's distribution tables: `i16::MIN / NETEM_DIST_SCALE`.
 const DIST_MIN: f64 = -32768.0 / 8192.0;
@@ -359,12 +360,12 @@ pub struct LinkSim {
 impl LinkSim {
     /// The link `from → to` of the run seeded `run_seed`, on its own stream (see the module doc,
     /// "Determinism").
-    pub fn new(run_seed: u64, from: u32, to: u32) -> LinkSim {
+    pub fn new(run_seed: u64, from: UavId, to: UavId) -> LinkSim {
         let mut key = [0u8; 32];
         key[..8].copy_from_slice(&run_seed.to_le_bytes());
         key[8..8 + KEY_TAG.len()].copy_from_slice(KEY_TAG);
         let mut rng = ChaCha8Rng::from_seed(key);
-        rng.set_stream((u64::from(from) << 32) | u64::from(to));
+        rng.set_stream((u64::from(from.get()) << 32) | u64::from(to.get()));
         LinkSim {
             rng,
             ge_bad: false,
@@ -531,14 +532,14 @@ impl LinkSim {
 }
 
 /// Whether the message `from → to` is dropped under `partition` (a node always hears itself).
-pub fn blocked(partition: &Partition, from: u32, to: u32) -> bool {
+pub fn blocked(partition: &Partition, from: UavId, to: UavId) -> bool {
     if from == to {
         return false;
     }
     match partition {
         Partition::Healed {} => false,
         Partition::Groups { groups } => {
-            let listed = |n: u32| groups.iter().any(|g| g.contains(&n));
+            let listed = |n: UavId| groups.iter().any(|g| g.contains(&n));
             listed(from) && listed(to) && !groups.iter().any(|g| g.contains(&from) && g.contains(&to))
         }
         Partition::Halves { nodes } => {
@@ -576,11 +577,11 @@ pub fn blocked(partition: &Partition, from: u32, to: u32) -> bool {
 }
 
 /// Whether `node` is in the first half (`Some(false)`), the second (`Some(true)`) or absent.
-fn side(nodes: &[u32], half: usize, node: u32) -> Option<bool> {
+fn side(nodes: &[UavId], half: usize, node: UavId) -> Option<bool> {
     position(nodes, node).map(|i| i >= half)
 }
 
-fn position(nodes: &[u32], node: u32) -> Option<usize> {
+fn position(nodes: &[UavId], node: UavId) -> Option<usize> {
     nodes.iter().position(|&n| n == node)
 }
 
@@ -607,7 +608,7 @@ mod tests {
 
     /// The loss pattern (true = lost) of `n` messages on a fresh link.
     fn loss_pattern(rule: &Impairment, n: usize, seed: u64) -> Vec<bool> {
-        let mut l = LinkSim::new(seed, 1, 2);
+        let mut l = LinkSim::new(seed, UavId::new(1), UavId::new(2));
         (0..n).map(|k| l.decide(rule, k as f64 * 0.01, 100).copies() == 0).collect()
     }
 
@@ -635,7 +636,7 @@ mod tests {
 
     #[test]
     fn identity_delivers_at_now_with_no_draw() {
-        let mut l = LinkSim::new(7, 1, 2);
+        let mut l = LinkSim::new(7, UavId::new(1), UavId::new(2));
         let before = words(&l);
         for k in 0..1000 {
             let now = 0.1 * k as f64;
@@ -653,7 +654,7 @@ mod tests {
 
     #[test]
     fn blocked_drops_everything_without_draws_or_state_change() {
-        let mut l = LinkSim::new(7, 1, 2);
+        let mut l = LinkSim::new(7, UavId::new(1), UavId::new(2));
         let ge = LossModel::GilbertElliott { p: 1.0, r: 0.0, one_minus_h: 1.0, one_minus_k: 0.0 };
         let rule = Impairment { blocked: true, loss: ge, ..Impairment::IDENTITY };
         let before = words(&l);
@@ -691,7 +692,7 @@ mod tests {
         assert!(!pattern[0], "judged by the state before the transition");
         assert!(pattern[1..].iter().all(|&x| x));
         // And back: Bad → Good with r = 1 only takes effect for the next message.
-        let mut l = LinkSim::new(3, 1, 2);
+        let mut l = LinkSim::new(3, UavId::new(1), UavId::new(2));
         l.ge_bad = true;
         let back = LossModel::GilbertElliott { p: 0.0, r: 1.0, one_minus_h: 1.0, one_minus_k: 0.0 };
         assert_eq!(l.decide(&lossy(back), 0.0, 1), Decision::Lost(LossCause::LossModel));
@@ -792,7 +793,7 @@ mod tests {
 
     /// `n` delays (delivery − send) under `rule`.
     fn delays(rule: &Impairment, n: usize) -> Vec<f64> {
-        let mut l = LinkSim::new(21, 3, 4);
+        let mut l = LinkSim::new(21, UavId::new(3), UavId::new(4));
         (0..n)
             .map(|k| {
                 let now = k as f64 * 0.001;
@@ -891,7 +892,7 @@ mod tests {
     fn rate_limit_spaces_messages_and_caps_throughput() {
         let rate = 10_000.0;
         let rule = Impairment { rate_bytes_per_s: Some(rate), delay_s: 0.05, ..Impairment::IDENTITY };
-        let mut l = LinkSim::new(1, 1, 2);
+        let mut l = LinkSim::new(1, UavId::new(1), UavId::new(2));
         // 1000 messages of 1000 B sent back to back at t = 0: spaced by 0.1 s after the delay.
         let ats: Vec<f64> = (0..1000)
             .map(|_| match l.decide(&rule, 0.0, 1000) {
@@ -906,13 +907,13 @@ mod tests {
         let throughput = 1000.0 * 1000.0 / (ats[999] - 0.05);
         assert!((throughput - rate).abs() < 1e-6 * rate, "throughput {throughput}");
         // Messages slower than the rate do not queue: each takes delay + b / rate.
-        let mut l = LinkSim::new(1, 1, 2);
+        let mut l = LinkSim::new(1, UavId::new(1), UavId::new(2));
         for k in 0..100 {
             let now = k as f64;
             assert_eq!(l.decide(&rule, now, 1000), Decision::Deliver(now + 0.05 + 0.1));
         }
         // Saturated with random sizes and arrivals: the throughput is the rate.
-        let mut l = LinkSim::new(1, 1, 2);
+        let mut l = LinkSim::new(1, UavId::new(1), UavId::new(2));
         let mut sizes = ChaCha8Rng::seed_from_u64(5);
         let (mut bytes, mut last) = (0.0, 0.0);
         for k in 0..N {
@@ -930,7 +931,7 @@ mod tests {
     fn duplicate_rate_matches() {
         let d = 0.1;
         let rule = Impairment { duplicate: d, delay_s: 0.02, ..Impairment::IDENTITY };
-        let mut l = LinkSim::new(2, 5, 6);
+        let mut l = LinkSim::new(2, UavId::new(5), UavId::new(6));
         let mut dups = 0;
         for k in 0..N {
             let now = k as f64 * 0.01;
@@ -954,7 +955,7 @@ mod tests {
     fn duplicates_take_their_own_loss_decision_like_netems_clone() {
         let (d, p) = (0.5, 0.5);
         let rule = Impairment { duplicate: d, loss: LossModel::Random { p }, ..Impairment::IDENTITY };
-        let mut l = LinkSim::new(8, 1, 2);
+        let mut l = LinkSim::new(8, UavId::new(1), UavId::new(2));
         let copies: usize = (0..N).map(|k| l.decide(&rule, k as f64, 10).copies()).sum();
         // count = 1 + dup − lost; a surviving clone is lost again with p.
         let expected = (1.0 - d) * (1.0 - p) + d * p + d * (1.0 - p) * (2.0 - p);
@@ -972,7 +973,7 @@ mod tests {
             let rule =
                 Impairment { delay_s: delay, reorder: Some(Reorder { probability: p, gap }), ..Impairment::IDENTITY };
             assert!(rule.validate().is_ok());
-            let mut l = LinkSim::new(4, 1, 2);
+            let mut l = LinkSim::new(4, UavId::new(1), UavId::new(2));
             let mut reordered = 0;
             let mut previous = f64::NEG_INFINITY;
             let mut since_last = 0u32;
@@ -1026,13 +1027,13 @@ mod tests {
             let mut l = LinkSim::new(seed, from, to);
             (0..10_000).map(|k| l.decide(&rule, k as f64 * 0.01, 200)).collect::<Vec<_>>()
         };
-        let a = run(42, 1, 2);
-        assert_eq!(a, run(42, 1, 2), "same seed, same link: identical");
-        assert_ne!(a, run(42, 2, 1), "the reverse link has its own stream");
-        assert_ne!(a, run(42, 1, 3), "another receiver has its own stream");
-        assert_ne!(a, run(43, 1, 2), "another run seed differs");
+        let a = run(42, UavId::new(1), UavId::new(2));
+        assert_eq!(a, run(42, UavId::new(1), UavId::new(2)), "same seed, same link: identical");
+        assert_ne!(a, run(42, UavId::new(2), UavId::new(1)), "the reverse link has its own stream");
+        assert_ne!(a, run(42, UavId::new(1), UavId::new(3)), "another receiver has its own stream");
+        assert_ne!(a, run(43, UavId::new(1), UavId::new(2)), "another run seed differs");
         let s = {
-            let mut l = LinkSim::new(42, 1, 2);
+            let mut l = LinkSim::new(42, UavId::new(1), UavId::new(2));
             for k in 0..10_000 {
                 l.decide(&rule, k as f64 * 0.01, 200);
             }
@@ -1045,7 +1046,7 @@ mod tests {
     #[test]
     fn reset_restarts_the_markov_chains() {
         let ge = lossy(LossModel::GilbertElliott { p: 1.0, r: 0.0, one_minus_h: 1.0, one_minus_k: 0.0 });
-        let mut l = LinkSim::new(1, 1, 2);
+        let mut l = LinkSim::new(1, UavId::new(1), UavId::new(2));
         assert_eq!(l.decide(&ge, 0.0, 1).copies(), 1);
         assert_eq!(l.decide(&ge, 0.0, 1).copies(), 0);
         l.reset();
@@ -1057,7 +1058,7 @@ mod tests {
         let mut out = Vec::new();
         for &a in nodes {
             for &b in nodes {
-                if blocked(p, a, b) {
+                if blocked(p, UavId::new(a), UavId::new(b)) {
                     out.push((a, b));
                 }
             }
@@ -1087,42 +1088,53 @@ mod tests {
     fn partition_schemes_block_the_right_pairs() {
         let all = [1, 2, 3, 4, 5];
         assert!(cut(&Partition::heal(), &all).is_empty());
-        assert!(!blocked(&Partition::heal(), 1, 2));
+        assert!(!blocked(&Partition::heal(), UavId::new(1), UavId::new(2)));
 
-        let groups = Partition::Groups { groups: vec![vec![1, 2], vec![3, 4, 5]] };
+        let groups = Partition::Groups {
+            groups: vec![vec![UavId::new(1), UavId::new(2)], vec![UavId::new(3), UavId::new(4), UavId::new(5)]],
+        };
         assert_eq!(sorted(cut(&groups, &all)), across(&[1, 2], &[3, 4, 5]));
         // Overlapping groups: 3 is in both, so it is a bridge.
-        let overlap = Partition::Groups { groups: vec![vec![1, 2, 3], vec![3, 4, 5]] };
+        let overlap = Partition::Groups {
+            groups: vec![
+                vec![UavId::new(1), UavId::new(2), UavId::new(3)],
+                vec![UavId::new(3), UavId::new(4), UavId::new(5)],
+            ],
+        };
         assert_eq!(sorted(cut(&overlap, &all)), across(&[1, 2], &[4, 5]));
         // A node no group lists is not affected.
         assert!(cut(&groups, &[1, 9]).iter().all(|&(a, b)| a != 9 && b != 9));
 
         // Jepsen bisect: smaller half first.
-        let halves = Partition::Halves { nodes: all.to_vec() };
+        let halves = Partition::Halves { nodes: all.iter().copied().map(UavId::new).collect() };
         assert_eq!(sorted(cut(&halves, &all)), across(&[1, 2], &[3, 4, 5]));
 
-        let iso = Partition::isolate(3);
+        let iso = Partition::isolate(UavId::new(3));
         assert_eq!(sorted(cut(&iso, &all)), across(&[3], &[1, 2, 4, 5]));
-        assert!(blocked(&iso, 3, 1) && blocked(&iso, 1, 3), "deaf and mute");
+        assert!(
+            blocked(&iso, UavId::new(3), UavId::new(1)) && blocked(&iso, UavId::new(1), UavId::new(3)),
+            "deaf and mute"
+        );
 
         // Jepsen bridge: halves [1 2] [3 4 5], bridge = 3.
-        let bridge = Partition::Bridge { nodes: all.to_vec() };
+        let bridge = Partition::Bridge { nodes: all.iter().copied().map(UavId::new).collect() };
         assert_eq!(sorted(cut(&bridge, &all)), across(&[1, 2], &[4, 5]));
 
-        let one_way = Partition::OneWay { from: vec![1], to: vec![2, 3] };
+        let one_way = Partition::OneWay { from: vec![UavId::new(1)], to: vec![UavId::new(2), UavId::new(3)] };
         assert_eq!(sorted(cut(&one_way, &all)), vec![(1, 2), (1, 3)]);
-        assert!(!blocked(&one_way, 2, 1), "the reverse stays open");
+        assert!(!blocked(&one_way, UavId::new(2), UavId::new(1)), "the reverse stays open");
     }
 
     #[test]
     fn majorities_ring_gives_everyone_a_distinct_majority() {
         for n in 3..=9u32 {
             let ring: Vec<u32> = (0..n).map(|i| 10 + (i * 11) % n).collect(); // a shuffled order
-            let p = Partition::MajoritiesRing { ring: ring.clone() };
+            let p = Partition::MajoritiesRing { ring: ring.iter().copied().map(UavId::new).collect() };
             let majority = n as usize / 2 + 1;
             let mut heard: Vec<Vec<u32>> = Vec::new();
             for &to in &ring {
-                let hears: Vec<u32> = ring.iter().copied().filter(|&from| !blocked(&p, from, to)).collect();
+                let hears: Vec<u32> =
+                    ring.iter().copied().filter(|&from| !blocked(&p, UavId::new(from), UavId::new(to))).collect();
                 assert_eq!(hears.len(), majority, "n {n}: {to} hears exactly a majority");
                 assert!(hears.contains(&to));
                 heard.push(hears);
@@ -1134,11 +1146,13 @@ mod tests {
             }
         }
         // Five nodes (Jepsen's case): each hears its two ring neighbours, symmetric.
-        let p = Partition::MajoritiesRing { ring: vec![1, 2, 3, 4, 5] };
+        let p = Partition::MajoritiesRing {
+            ring: vec![UavId::new(1), UavId::new(2), UavId::new(3), UavId::new(4), UavId::new(5)],
+        };
         assert_eq!(
             sorted(cut(&p, &[1, 2, 3, 4, 5])),
             sorted(vec![(1, 3), (3, 1), (1, 4), (4, 1), (2, 4), (4, 2), (2, 5), (5, 2), (3, 5), (5, 3)])
         );
-        assert!(!blocked(&p, 9, 1), "nodes outside the ring are unaffected");
+        assert!(!blocked(&p, UavId::new(9), UavId::new(1)), "nodes outside the ring are unaffected");
     }
 }

@@ -28,6 +28,7 @@
 //! [`Link::take_delays`], so a recorder can report mean and p95 per class.
 
 use serde::{Deserialize, Serialize};
+use swarm_types::UavId;
 
 pub mod impair;
 pub mod nemesis;
@@ -144,8 +145,8 @@ pub enum Verdict {
 pub struct Link {
     counters: Counters,
     seed: u64,
-    me: u32,
-    sims: std::collections::BTreeMap<u32, impair::LinkSim>,
+    me: UavId,
+    sims: std::collections::BTreeMap<UavId, impair::LinkSim>,
     delays: Vec<AppliedDelay>,
 }
 
@@ -165,7 +166,7 @@ impl Link {
     }
 
     /// The links into agent `me`, whose random streams derive from the run's `seed`.
-    pub fn with_seed(seed: u64, me: u32) -> Link {
+    pub fn with_seed(seed: u64, me: UavId) -> Link {
         Link { seed, me, ..Link::default() }
     }
 
@@ -178,7 +179,7 @@ impl Link {
         &mut self,
         rule: Option<&impair::Impairment>,
         radio_loss: f64,
-        from: u32,
+        from: UavId,
         sent_at: f64,
         now: f64,
         dt: f64,
@@ -258,7 +259,7 @@ impl Link {
     /// Decides the fate of a message from `from`, sent at sim time `sent_at`, arriving as the
     /// receiver is at sim time `now` with tick length `dt`. A message sent at t_k is delivered no
     /// earlier than t_{k+1}, as over a real radio (SPEC section 2, lockstep protocol).
-    pub fn on_receive(&mut self, _from: u32, sent_at: f64, now: f64, dt: f64, bytes: usize) -> Verdict {
+    pub fn on_receive(&mut self, _from: UavId, sent_at: f64, now: f64, dt: f64, bytes: usize) -> Verdict {
         self.counters.recv_msgs += 1;
         self.counters.recv_bytes += bytes as u64;
         self.counters.classes[LinkClass::Clean as usize].add(Outcome::Offered, 1);
@@ -368,7 +369,7 @@ mod tests {
         let mut l = Link::new();
         assert!(l.on_send(100));
         assert!(l.on_send(50));
-        let _ = l.on_receive(2, 0.0, 0.0, 0.1, 70);
+        let _ = l.on_receive(UavId::new(2), 0.0, 0.0, 0.1, 70);
         l.on_delivered(1);
         let c = l.counters();
         assert_eq!((c.sent_msgs, c.sent_bytes), (2, 150));
@@ -380,7 +381,7 @@ mod tests {
         let mut l = Link::new();
         let dt = 0.1;
         let mut inbox = Inbox::new();
-        let Verdict::DeliverAt(at) = l.on_receive(1, 0.3, 0.3, dt, 10) else { panic!("passes") };
+        let Verdict::DeliverAt(at) = l.on_receive(UavId::new(1), 0.3, 0.3, dt, 10) else { panic!("passes") };
         inbox.push(at, "m");
         assert!(inbox.take_due(0.3).is_empty(), "not in the sending tick");
         // 0.3 + 0.1 computed in floats is 0.4000000000000001; tick 4 is 4.0 * 0.1 = 0.4.
@@ -391,19 +392,19 @@ mod tests {
     #[test]
     fn late_arrivals_are_delivered_at_once() {
         let mut l = Link::new();
-        let Verdict::DeliverAt(at) = l.on_receive(1, 0.1, 0.5, 0.1, 10) else { panic!("passes") };
+        let Verdict::DeliverAt(at) = l.on_receive(UavId::new(1), 0.1, 0.5, 0.1, 10) else { panic!("passes") };
         assert!(at <= 0.5);
     }
 
     #[test]
     fn rules_drop_delay_and_count_but_never_beat_one_tick() {
         use impair::{Impairment, LossModel};
-        let mut l = Link::with_seed(7, 1);
+        let mut l = Link::with_seed(7, UavId::new(1));
         let lossy = Impairment { loss: LossModel::Random { p: 0.3 }, delay_s: 0.25, ..Impairment::IDENTITY };
         let (mut dropped, mut delivered) = (0, 0);
         for i in 0..10_000 {
             let t = f64::from(i) * 0.1;
-            match l.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50) {
+            match l.on_receive_with(Some(&lossy), 0.0, UavId::new(2), t, t, 0.1, 50) {
                 Verdict::Drop => dropped += 1,
                 Verdict::DeliverAt(at) => {
                     delivered += 1;
@@ -417,15 +418,15 @@ mod tests {
         assert_eq!(delivered + dropped, 10_000);
         // A 10 ms delay still takes the one-tick minimum.
         let short = Impairment { delay_s: 0.01, ..Impairment::IDENTITY };
-        assert_eq!(l.on_receive_with(Some(&short), 0.0, 3, 1.0, 1.0, 0.1, 50), Verdict::DeliverAt(1.1));
+        assert_eq!(l.on_receive_with(Some(&short), 0.0, UavId::new(3), 1.0, 1.0, 0.1, 50), Verdict::DeliverAt(1.1));
         // The same seed repeats the same decisions.
-        let mut a = Link::with_seed(7, 1);
-        let mut b = Link::with_seed(7, 1);
+        let mut a = Link::with_seed(7, UavId::new(1));
+        let mut b = Link::with_seed(7, UavId::new(1));
         for i in 0..100 {
             let t = f64::from(i) * 0.1;
             assert_eq!(
-                a.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50),
-                b.on_receive_with(Some(&lossy), 0.0, 2, t, t, 0.1, 50)
+                a.on_receive_with(Some(&lossy), 0.0, UavId::new(2), t, t, 0.1, 50),
+                b.on_receive_with(Some(&lossy), 0.0, UavId::new(2), t, t, 0.1, 50)
             );
         }
     }
@@ -433,13 +434,13 @@ mod tests {
     #[test]
     fn classes_count_and_delays_are_kept_per_class() {
         use impair::{Impairment, LossModel};
-        let mut l = Link::with_seed(3, 1);
+        let mut l = Link::with_seed(3, UavId::new(1));
         let delayed = Impairment { delay_s: 0.3, loss: LossModel::Random { p: 0.5 }, ..Impairment::IDENTITY };
         for i in 0..1000 {
             let t = f64::from(i) * 0.1;
-            let _ = l.on_receive_with(None, 0.0, 2, t, t, 0.1, 10);
-            let _ = l.on_receive_with(Some(&delayed), 0.0, 3, t, t, 0.1, 10);
-            let _ = l.on_receive_with(Some(&Impairment::BLOCKED), 0.0, 4, t, t, 0.1, 10);
+            let _ = l.on_receive_with(None, 0.0, UavId::new(2), t, t, 0.1, 10);
+            let _ = l.on_receive_with(Some(&delayed), 0.0, UavId::new(3), t, t, 0.1, 10);
+            let _ = l.on_receive_with(Some(&Impairment::BLOCKED), 0.0, UavId::new(4), t, t, 0.1, 10);
         }
         let c = l.counters();
         let [clean, impaired, cut] = c.classes;
@@ -461,8 +462,10 @@ mod tests {
     #[test]
     fn radio_loss_drops_its_share_before_netem_and_repeats() {
         let run = |seed| {
-            let mut l = Link::with_seed(seed, 1);
-            (0..4000).map(|i| l.on_receive_with(None, 0.25, 2, f64::from(i), f64::from(i), 0.1, 10)).collect::<Vec<_>>()
+            let mut l = Link::with_seed(seed, UavId::new(1));
+            (0..4000)
+                .map(|i| l.on_receive_with(None, 0.25, UavId::new(2), f64::from(i), f64::from(i), 0.1, 10))
+                .collect::<Vec<_>>()
         };
         let a = run(9);
         let dropped = a.iter().filter(|v| **v == Verdict::Drop).count();
@@ -473,11 +476,11 @@ mod tests {
 
     #[test]
     fn held_messages_wait_for_release_and_count_their_whole_wait() {
-        let mut l = Link::with_seed(1, 1);
+        let mut l = Link::with_seed(1, UavId::new(1));
         let mut inbox = Inbox::new();
         for i in 0..5 {
             let t = f64::from(i);
-            match l.on_receive_with(Some(&impair::Impairment::HOLD), 0.0, 2, t, t, 0.1, 10) {
+            match l.on_receive_with(Some(&impair::Impairment::HOLD), 0.0, UavId::new(2), t, t, 0.1, 10) {
                 Verdict::Hold => inbox.push_held((2, t)),
                 v => panic!("{v:?}"),
             }

@@ -22,6 +22,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use swarm_config::{Failure, FailureKind, Impairment, LossModel, NetemRule, Partition, UavSet};
+use swarm_types::UavId;
 
 /// What a fault does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -35,25 +36,25 @@ pub enum Nemesis {
     /// A per-link rule from `from` (all UAVs when empty) to every UAV, identity again at the stop.
     Link {
         /// Senders (empty: all).
-        from: Vec<u32>,
+        from: Vec<UavId>,
         /// The rule (loss, bursts, delay and jitter, duplication).
         rule: Impairment,
     },
     /// The UAV hovers, mute, from the start on (no thaw: the stop is ignored).
     Freeze {
         /// Which UAV.
-        uav: u32,
+        uav: UavId,
     },
     /// The agent is killed at the start and restarted at the stop (wall clock: not repeatable).
     KillRestart {
         /// Which UAV.
-        uav: u32,
+        uav: UavId,
     },
     /// The agent's Zenoh link to the hub stalls at the start and is restored at the stop
     /// (realtime mode only).
     LinkStall {
         /// Which UAV.
-        uav: u32,
+        uav: UavId,
     },
 }
 
@@ -153,11 +154,11 @@ fn round2(v: f64) -> f64 {
 }
 
 /// A few senders (empty: all of them).
-fn senders(rng: &mut ChaCha8Rng, uavs: u32) -> Vec<u32> {
+fn senders(rng: &mut ChaCha8Rng, uavs: u32) -> Vec<UavId> {
     if rng.gen_bool(0.5) {
         return Vec::new();
     }
-    let mut ids: Vec<u32> = (1..=uavs).collect();
+    let mut ids: Vec<UavId> = (1..=uavs).map(UavId::new).collect();
     ids.shuffle(rng);
     ids.truncate(rng.gen_range(1..=uavs as usize));
     ids.sort_unstable();
@@ -192,15 +193,15 @@ fn draw(rng: &mut ChaCha8Rng, kind: NemesisKind, uavs: u32) -> Nemesis {
             let duplicate = round2(rng.gen_range(0.1..0.6));
             link(rng, Impairment { duplicate, ..Impairment::IDENTITY })
         }
-        NemesisKind::Freeze => Nemesis::Freeze { uav: one(rng) },
-        NemesisKind::KillRestart => Nemesis::KillRestart { uav: one(rng) },
-        NemesisKind::LinkStall => Nemesis::LinkStall { uav: one(rng) },
+        NemesisKind::Freeze => Nemesis::Freeze { uav: UavId::new(one(rng)) },
+        NemesisKind::KillRestart => Nemesis::KillRestart { uav: UavId::new(one(rng)) },
+        NemesisKind::LinkStall => Nemesis::LinkStall { uav: UavId::new(one(rng)) },
     }
 }
 
 /// A partition by one of Jepsen's schemes over the UAVs in a shuffled order.
 fn partition(rng: &mut ChaCha8Rng, uavs: u32) -> Partition {
-    let mut nodes: Vec<u32> = (1..=uavs).collect();
+    let mut nodes: Vec<UavId> = (1..=uavs).map(UavId::new).collect();
     nodes.shuffle(rng);
     match rng.gen_range(0..5) {
         0 => Partition::Halves { nodes },
@@ -217,7 +218,7 @@ fn partition(rng: &mut ChaCha8Rng, uavs: u32) -> Partition {
 
 impl Nemesis {
     /// The UAVs it names (all of them for rules on every sender and partitions over the swarm).
-    pub fn uavs(&self) -> Vec<u32> {
+    pub fn uavs(&self) -> Vec<UavId> {
         match self {
             Nemesis::Partition { partition } => partition.nodes(),
             Nemesis::Link { from, .. } => from.clone(),
@@ -229,7 +230,7 @@ impl Nemesis {
     /// nothing of it is left (a freeze of a UAV that is gone, a partition with fewer than two
     /// nodes).
     pub fn restricted(&self, uavs: u32) -> Option<Nemesis> {
-        let keep = |v: &Vec<u32>| v.iter().copied().filter(|&id| id <= uavs).collect::<Vec<u32>>();
+        let keep = |v: &Vec<UavId>| v.iter().copied().filter(|&id| id.get() <= uavs).collect::<Vec<UavId>>();
         let n = match self {
             Nemesis::Partition { partition } => {
                 let p = match partition {
@@ -239,7 +240,7 @@ impl Nemesis {
                     Partition::Groups { groups } => {
                         Partition::Groups { groups: groups.iter().map(keep).filter(|g| !g.is_empty()).collect() }
                     }
-                    Partition::Isolate { node } if *node <= uavs => Partition::Isolate { node: *node },
+                    Partition::Isolate { node } if node.get() <= uavs => Partition::Isolate { node: *node },
                     Partition::OneWay { from, to } => Partition::OneWay { from: keep(from), to: keep(to) },
                     _ => return None,
                 };
@@ -255,7 +256,7 @@ impl Nemesis {
                 }
                 Nemesis::Link { from: f, rule: rule.clone() }
             }
-            Nemesis::Freeze { uav } | Nemesis::KillRestart { uav } | Nemesis::LinkStall { uav } if *uav > uavs => {
+            Nemesis::Freeze { uav } | Nemesis::KillRestart { uav } | Nemesis::LinkStall { uav } if uav.get() > uavs => {
                 return None
             }
             other => other.clone(),
@@ -341,15 +342,26 @@ mod tests {
 
     #[test]
     fn restricting_drops_the_ids_that_are_gone() {
-        let p = Nemesis::Partition { partition: Partition::Halves { nodes: vec![5, 1, 4, 2, 3] } };
-        assert_eq!(p.restricted(3), Some(Nemesis::Partition { partition: Partition::Halves { nodes: vec![1, 2, 3] } }));
+        let p = Nemesis::Partition {
+            partition: Partition::Halves {
+                nodes: vec![UavId::new(5), UavId::new(1), UavId::new(4), UavId::new(2), UavId::new(3)],
+            },
+        };
+        assert_eq!(
+            p.restricted(3),
+            Some(Nemesis::Partition {
+                partition: Partition::Halves { nodes: vec![UavId::new(1), UavId::new(2), UavId::new(3)] }
+            })
+        );
         assert_eq!(p.restricted(1), None, "one node cannot be cut from anyone");
-        assert_eq!(Nemesis::Freeze { uav: 4 }.restricted(3), None);
-        let l = Nemesis::Link { from: vec![4, 5], rule: Impairment::IDENTITY };
+        assert_eq!(Nemesis::Freeze { uav: UavId::new(4) }.restricted(3), None);
+        let l = Nemesis::Link { from: vec![UavId::new(4), UavId::new(5)], rule: Impairment::IDENTITY };
         assert_eq!(l.restricted(3), None);
         assert_eq!(
-            Nemesis::Partition { partition: Partition::Isolate { node: 2 } }.restricted(2).map(|n| n.uavs()),
-            Some(vec![2])
+            Nemesis::Partition { partition: Partition::Isolate { node: UavId::new(2) } }
+                .restricted(2)
+                .map(|n| n.uavs()),
+            Some(vec![UavId::new(2)])
         );
     }
 }

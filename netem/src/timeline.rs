@@ -17,6 +17,7 @@
 
 use serde::{Deserialize, Serialize};
 use swarm_config::{Failure, FailureKind, Impairment, NetemRule, Scenario};
+use swarm_types::UavId;
 
 /// Slack on "at or before `t`" [s], for the float rounding of tick times.
 const DUE_SLACK_S: f64 = 1e-9;
@@ -56,16 +57,15 @@ impl Timeline {
         &self.data.failures
     }
 
-    /// Whether UAV `id` is frozen at sim time `t_secs` (a `freeze` failure at or before it).
-    pub fn frozen_at(&self, id: u32, t_secs: f64) -> bool {
-        self.failures().iter().any(|f| f.uav == id && f.kind == FailureKind::Freeze && f.at_s <= t_secs + DUE_SLACK_S)
+    /// Whether UAV `id` is frozen at sim time `t_s` (a `freeze` failure at or before it).
+    pub fn frozen_at(&self, id: UavId, t_s: f64) -> bool {
+        self.failures().iter().any(|f| f.uav == id && f.kind == FailureKind::Freeze && f.at_s <= t_s + DUE_SLACK_S)
     }
 
-    /// The worse class of the link between `i` and `j` at `t_secs`, over both directions (cut
+    /// The worse class of the link between `i` and `j` at `t_s`, over both directions (cut
     /// beats impaired beats clean): what a picture of the link shows.
-    pub fn class_between(&self, t_secs: f64, i: u32, j: u32) -> crate::LinkClass {
-        let (a, b) =
-            (crate::LinkClass::of(self.rule_at(t_secs, i, j)), crate::LinkClass::of(self.rule_at(t_secs, j, i)));
+    pub fn class_between(&self, t_s: f64, i: UavId, j: UavId) -> crate::LinkClass {
+        let (a, b) = (crate::LinkClass::of(self.rule_at(t_s, i, j)), crate::LinkClass::of(self.rule_at(t_s, j, i)));
         if (a as u8) >= (b as u8) {
             a
         } else {
@@ -73,16 +73,16 @@ impl Timeline {
         }
     }
 
-    /// The netem rule in force at sim time `t_secs` for messages from `from` to `to`. A frozen
+    /// The netem rule in force at sim time `t_s` for messages from `from` to `to`. A frozen
     /// sender says nothing: its links are blocked from its freeze on. Then the partition in force
-    /// (the latest partition event at or before `t_secs`) blocks, or holds, the links it cuts.
-    /// Otherwise the last per-link rule (in list order among equal times) with `at_s <= t_secs`
+    /// (the latest partition event at or before `t_s`) blocks, or holds, the links it cuts.
+    /// Otherwise the last per-link rule (in list order among equal times) with `at_s <= t_s`
     /// that covers the link applies; none = identity.
-    pub fn rule_at(&self, t_secs: f64, from: u32, to: u32) -> Option<&Impairment> {
-        if self.frozen_at(from, t_secs) {
+    pub fn rule_at(&self, t_s: f64, from: UavId, to: UavId) -> Option<&Impairment> {
+        if self.frozen_at(from, t_s) {
             return Some(&Impairment::BLOCKED);
         }
-        let due = |r: &&NetemRule| r.at_s <= t_secs + DUE_SLACK_S;
+        let due = |r: &&NetemRule| r.at_s <= t_s + DUE_SLACK_S;
         let latest = |a: &&NetemRule, b: &&NetemRule| a.at_s.total_cmp(&b.at_s);
         let partition = self.rules().iter().filter(due).filter(|r| r.partition.is_some()).max_by(latest);
         if let Some(r) = partition {
@@ -113,19 +113,26 @@ mod tests {
         let tl = timeline(
             "[[netem]]\nat_s = 0.0\nrule = { delay_s = 0.1 }\n\n[[netem]]\nat_s = 5.0\nfrom = [2]\nrule = { loss = { model = \"random\", p = 0.3 } }\n\n[[netem]]\nat_s = 9.0\nfrom = [2]\n",
         );
-        assert_eq!(tl.rule_at(1.0, 2, 1).map(|r| r.delay_s), Some(0.1));
-        assert!(tl.rule_at(6.0, 2, 1).is_some_and(|r| r.delay_s == 0.0 && !r.is_identity()), "the later rule replaces");
-        assert_eq!(tl.rule_at(6.0, 1, 2).map(|r| r.delay_s), Some(0.1), "other links keep the first rule");
-        assert!(tl.rule_at(9.5, 2, 1).is_some_and(|r| r.is_identity()), "an empty rule heals");
+        assert_eq!(tl.rule_at(1.0, UavId::new(2), UavId::new(1)).map(|r| r.delay_s), Some(0.1));
+        assert!(
+            tl.rule_at(6.0, UavId::new(2), UavId::new(1)).is_some_and(|r| r.delay_s == 0.0 && !r.is_identity()),
+            "the later rule replaces"
+        );
+        assert_eq!(
+            tl.rule_at(6.0, UavId::new(1), UavId::new(2)).map(|r| r.delay_s),
+            Some(0.1),
+            "other links keep the first rule"
+        );
+        assert!(tl.rule_at(9.5, UavId::new(2), UavId::new(1)).is_some_and(|r| r.is_identity()), "an empty rule heals");
     }
 
     #[test]
     fn a_frozen_sender_is_mute_from_its_freeze_on() {
         let tl = timeline("[[failures]]\nat_s = 3.0\nuav = 2\nkind = \"freeze\"\n");
-        assert!(!tl.frozen_at(2, 2.9) && tl.frozen_at(2, 3.0));
-        assert!(tl.rule_at(2.9, 2, 1).is_none());
-        assert!(tl.rule_at(3.5, 2, 1).is_some_and(|r| r.blocked), "mute");
-        assert!(tl.rule_at(3.5, 1, 2).is_none(), "others still reach it");
+        assert!(!tl.frozen_at(UavId::new(2), 2.9) && tl.frozen_at(UavId::new(2), 3.0));
+        assert!(tl.rule_at(2.9, UavId::new(2), UavId::new(1)).is_none());
+        assert!(tl.rule_at(3.5, UavId::new(2), UavId::new(1)).is_some_and(|r| r.blocked), "mute");
+        assert!(tl.rule_at(3.5, UavId::new(1), UavId::new(2)).is_none(), "others still reach it");
     }
 
     #[test]
@@ -148,15 +155,15 @@ partition = { scheme = "healed" }
 "#,
         );
         let rule = |t, a, b| tl.rule_at(t, a, b).cloned();
-        assert_eq!(rule(1.5, 1, 3).map(|r| r.delay_s), Some(0.2));
+        assert_eq!(rule(1.5, UavId::new(1), UavId::new(3)).map(|r| r.delay_s), Some(0.2));
         // Halves {1,2} | {3,4}: across is blocked, within keeps the per-link rule.
-        assert!(rule(2.5, 1, 3).is_some_and(|r| r.blocked));
-        assert_eq!(rule(2.5, 1, 2).map(|r| r.delay_s), Some(0.2));
+        assert!(rule(2.5, UavId::new(1), UavId::new(3)).is_some_and(|r| r.blocked));
+        assert_eq!(rule(2.5, UavId::new(1), UavId::new(2)).map(|r| r.delay_s), Some(0.2));
         // Bridge {1,2} | 3 | {4}: the new partition replaces the old one, and holds instead of drops.
-        assert!(rule(3.5, 1, 4).is_some_and(|r| r.hold && !r.blocked));
-        assert_eq!(rule(3.5, 1, 3).map(|r| r.delay_s), Some(0.2), "3 is the bridge");
+        assert!(rule(3.5, UavId::new(1), UavId::new(4)).is_some_and(|r| r.hold && !r.blocked));
+        assert_eq!(rule(3.5, UavId::new(1), UavId::new(3)).map(|r| r.delay_s), Some(0.2), "3 is the bridge");
         // Healed: only the per-link rule is left.
-        assert_eq!(rule(4.5, 1, 4).map(|r| r.delay_s), Some(0.2));
+        assert_eq!(rule(4.5, UavId::new(1), UavId::new(4)).map(|r| r.delay_s), Some(0.2));
     }
 
     #[test]
@@ -169,19 +176,26 @@ partition = { scheme = "healed" }
                 Default::default(),
                 Impairment { delay_s, ..Impairment::IDENTITY },
             )],
-            failures: vec![Failure { at_s: 2.0, uav: 1, kind: FailureKind::Freeze }],
+            failures: vec![Failure { at_s: 2.0, uav: UavId::new(1), kind: FailureKind::Freeze }],
         };
         tl.extend(added(0.3));
-        assert_eq!(tl.rule_at(1.0, 1, 2).map(|r| r.delay_s), Some(0.3), "same time: the later one wins");
-        assert!(tl.frozen_at(1, 2.0) && tl.rule_at(2.0, 1, 2).is_some_and(|r| r.blocked));
+        assert_eq!(
+            tl.rule_at(1.0, UavId::new(1), UavId::new(2)).map(|r| r.delay_s),
+            Some(0.3),
+            "same time: the later one wins"
+        );
+        assert!(
+            tl.frozen_at(UavId::new(1), 2.0)
+                && tl.rule_at(2.0, UavId::new(1), UavId::new(2)).is_some_and(|r| r.blocked)
+        );
         assert_eq!((tl.rules().len(), tl.failures().len()), (2, 1));
     }
 
     #[test]
     fn on_the_wire_it_is_exactly_the_scenarios_timeline_data() {
         let data = swarm_config::Timeline {
-            netem: vec![NetemRule::partition(3.0, swarm_config::Partition::isolate(2), true)],
-            failures: vec![Failure { at_s: 1.0, uav: 2, kind: FailureKind::Freeze }],
+            netem: vec![NetemRule::partition(3.0, swarm_config::Partition::isolate(UavId::new(2)), true)],
+            failures: vec![Failure { at_s: 1.0, uav: UavId::new(2), kind: FailureKind::Freeze }],
         };
         let json = serde_json::to_string(&data).expect("serializes");
         assert_eq!(serde_json::to_string(&Timeline::from(data.clone())).expect("serializes"), json);

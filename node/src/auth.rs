@@ -51,7 +51,6 @@
 //! [`Credentials`] makes fresh users and passwords: `swarm run` for each run (in the run folder,
 //! readable by its owner only), `swarm credentials` for pieces started by hand.
 
-use crate::args::parse_ids;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde_json::{json, Value};
@@ -59,6 +58,9 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use swarm_args::parse_ids;
+use swarm_types::UavId;
+use swarm_wire::Keys;
 
 /// The dictionary file's name in a credentials folder.
 pub const DICTIONARY: &str = "users.txt";
@@ -67,11 +69,11 @@ pub const DICTIONARY: &str = "users.txt";
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Role {
     /// Agents of these UAVs (one, or an agent host's).
-    Agents(Vec<u32>),
+    Agents(Vec<UavId>),
     /// UAV `id`'s external controller.
-    External(u32),
+    External(UavId),
     /// The ROS 2 bridge, driving the bodies of these UAVs (whose agents run on ROS topics).
-    Bridge(Vec<u32>),
+    Bridge(Vec<UavId>),
     /// A ROS 2 machine.
     Ros,
     /// The external controller of every external UAV, which observes the run too (a learning
@@ -108,10 +110,10 @@ impl Role {
         if let Some(spec) = name.strip_prefix("uavs") {
             return parse_ids(spec).map(|ids| Role::Agents(ids.0)).map_err(|e| anyhow::anyhow!("user {name:?}: {e}"));
         }
-        if let Some(id) = name.strip_prefix("uav").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
+        if let Some(id) = name.strip_prefix("uav").and_then(|n| n.parse::<UavId>().ok()) {
             return Ok(Role::Agents(vec![id]));
         }
-        if let Some(id) = name.strip_prefix("ext").and_then(|n| n.parse::<u32>().ok()).filter(|&id| id > 0) {
+        if let Some(id) = name.strip_prefix("ext").and_then(|n| n.parse::<UavId>().ok()) {
             return Ok(Role::External(id));
         }
         bail!("user {name:?} has no role: names are uav<id>, uavs<ids> (e.g. uavs1-4,7), ext<id>, bridge, bridge-uavs<ids>, ros[-name], controller[-name], observer[-name], operator[-name]")
@@ -119,18 +121,18 @@ impl Role {
 }
 
 /// The user name of UAV `id`'s own agent: `uav7`.
-pub fn uav_user(id: u32) -> String {
+pub fn uav_user(id: UavId) -> String {
     format!("uav{id}")
 }
 
 /// The user name of UAV `id`'s external controller: `ext7`.
-pub fn ext_user(id: u32) -> String {
+pub fn ext_user(id: UavId) -> String {
     format!("ext{id}")
 }
 
 /// The user name of the ROS 2 bridge, which drives the bodies of `ids` (ascending; agents on ROS
 /// topics): `bridge`, or `bridge-uavs3`.
-pub fn bridge_user(ids: &[u32]) -> String {
+pub fn bridge_user(ids: &[UavId]) -> String {
     match ids {
         [] => "bridge".to_string(),
         _ => format!("bridge-uavs{}", ids_text(ids)),
@@ -138,17 +140,17 @@ pub fn bridge_user(ids: &[u32]) -> String {
 }
 
 /// The user name of an agent host serving `ids` (ascending): `uavs1-4,7`.
-pub fn host_user(ids: &[u32]) -> String {
+pub fn host_user(ids: &[UavId]) -> String {
     format!("uavs{}", ids_text(ids))
 }
 
 /// `ids` (ascending) in the `--ids` syntax, runs as ranges: `1-4,7`.
-pub fn ids_text(ids: &[u32]) -> String {
+pub fn ids_text(ids: &[UavId]) -> String {
     let mut parts: Vec<String> = Vec::new();
     let mut i = 0;
     while i < ids.len() {
         let mut j = i;
-        while j + 1 < ids.len() && ids[j + 1] == ids[j] + 1 {
+        while j + 1 < ids.len() && ids[j + 1].get() == ids[j].get() + 1 {
             j += 1;
         }
         parts.push(if i == j { ids[i].to_string() } else { format!("{}-{}", ids[i], ids[j]) });
@@ -219,8 +221,8 @@ impl Credentials {
 
     /// The `--cfg` overrides of a client session logged in as `user`.
     pub fn client_cfg(&self, user: &str) -> Result<Vec<String>> {
-        let password = crate::args::read_password(&self.password_file(user))?;
-        Ok(crate::args::usrpwd_cfg(user, &password))
+        let password = swarm_args::read_password(&self.password_file(user))?;
+        Ok(swarm_args::usrpwd_cfg(user, &password))
     }
 }
 
@@ -263,7 +265,7 @@ pub(crate) fn users_of(dictionary: &Path) -> Result<Vec<String>> {
 
 /// The hub router's `--cfg` overrides for run `run`: the dictionary, and access control with a
 /// rule set per user of it (see the module doc), default deny.
-pub fn router_cfg(run: &str, dictionary: &Path, external: &[u32]) -> Result<Vec<String>> {
+pub fn router_cfg(run: &str, dictionary: &Path, external: &[UavId]) -> Result<Vec<String>> {
     let users = users_of(dictionary)?;
     let acl = access_control(run, &users, external)?;
     let path = serde_json::to_string(&dictionary.to_string_lossy())?;
@@ -276,39 +278,34 @@ fn rule(id: &str, flow: &str, messages: &[&str], keys: Vec<String>) -> Value {
 }
 
 /// The `access_control` section for `users` of run `run`.
-fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value> {
-    let r = format!("swarm/{run}");
+fn access_control(run: &str, users: &[String], external: &[UavId]) -> Result<Value> {
+    let k = Keys::new(run)?;
     let read = ["declare_subscriber", "query", "liveliness_query", "declare_liveliness_subscriber"];
     let mut rules = vec![
         // Everyone: declarations flow out (a client's publisher needs to see its readers).
-        rule("decl-out", "egress", &["declare_subscriber", "declare_queryable"], vec![format!("{r}/**")]),
+        rule("decl-out", "egress", &["declare_subscriber", "declare_queryable"], vec![k.all()]),
         // Observers and operators.
-        rule("observe-in", "ingress", &read, vec![format!("{r}/**")]),
-        rule("observe-out", "egress", &["put", "delete", "reply", "liveliness_token"], vec![format!("{r}/**")]),
+        rule("observe-in", "ingress", &read, vec![k.all()]),
+        rule("observe-out", "egress", &["put", "delete", "reply", "liveliness_token"], vec![k.all()]),
         // Observers and operators may read the routers' admin space (`swarm keys`).
         rule("observe-admin-in", "ingress", &["query"], vec!["@/**".into()]),
         rule("observe-admin-out", "egress", &["reply"], vec!["@/**".into()]),
-        rule("recorder-token", "ingress", &["liveliness_token"], vec![format!("{r}/alive/recorder")]),
-        rule("operate", "ingress", &["put"], vec![format!("{r}/netem/add")]),
+        rule("recorder-token", "ingress", &["liveliness_token"], vec![k.alive_recorder()]),
+        rule("operate", "ingress", &["put"], vec![k.netem_add()]),
         // Every agent: the run-wide keys, and its neighbours' shares.
-        rule("agent-sub", "ingress", &["declare_subscriber"], agent_common_keys(&r)),
-        rule("agent-data", "egress", &["put"], agent_common_keys(&r)),
+        rule("agent-sub", "ingress", &["declare_subscriber"], agent_common_keys(&k)),
+        rule("agent-data", "egress", &["put"], agent_common_keys(&k)),
         // Bounded by each agent's own ingress list, as the sensors (see the module doc).
-        rule("agent-sensors-out", "egress", &["put"], vec![format!("{r}/uav/*/sense"), format!("{r}/uav/*/ext/cmd")]),
-        rule("agent-ext-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
-        rule("agent-ask", "ingress", &["query"], vec![format!("{r}/scenario")]),
-        rule("agent-answer", "egress", &["reply"], vec![format!("{r}/scenario")]),
-        rule(
-            "agent-hub-watch",
-            "ingress",
-            &["declare_liveliness_subscriber", "liveliness_query"],
-            vec![format!("{r}/alive/hub")],
-        ),
-        rule("agent-hub-token", "egress", &["liveliness_token"], vec![format!("{r}/alive/hub")]),
+        rule("agent-sensors-out", "egress", &["put"], vec![k.sense_any(), k.ext_cmd_any()]),
+        rule("agent-ext-token", "egress", &["liveliness_token"], vec![k.alive_ext_any()]),
+        rule("agent-ask", "ingress", &["query"], vec![k.scenario()]),
+        rule("agent-answer", "egress", &["reply"], vec![k.scenario()]),
+        rule("agent-hub-watch", "ingress", &["declare_liveliness_subscriber", "liveliness_query"], vec![k.alive_hub()]),
+        rule("agent-hub-token", "egress", &["liveliness_token"], vec![k.alive_hub()]),
         // External controllers: their view, bounded by each one's own ingress list.
-        rule("ext-view-out", "egress", &["put"], vec![format!("{r}/uav/*/ext/view")]),
+        rule("ext-view-out", "egress", &["put"], vec![k.ext_view_any()]),
     ];
-    rules.extend(ros_rules(&r, external));
+    rules.extend(ros_rules(&k, external));
     // Agents get ROS rules only in a run with a ROS side (a bridge): the router's rules grow with
     // the agents, and a run of 1000 without ROS keeps its lists short.
     let ros_side = users.iter().any(|u| matches!(Role::of(u), Ok(Role::Bridge(_))));
@@ -324,7 +321,7 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
         let granted: Vec<String> = match Role::of(user)? {
             Role::Bridge(ids) => {
                 if !ids.is_empty() {
-                    let cmds = ids.iter().map(|i| format!("{r}/uav/{i}/cmd")).collect();
+                    let cmds = ids.iter().map(|i| k.cmd(*i)).collect();
                     rules.push(rule(&format!("{subject}-bridge-cmd"), "ingress", &["put"], cmds));
                 }
                 bridge_rules(&subject, !ids.is_empty())
@@ -360,7 +357,7 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
             .map(String::from)
             .collect(),
             Role::External(id) => {
-                rules.extend(external_rules(&r, &subject, id));
+                rules.extend(external_rules(&k, &subject, id));
                 ["decl-out", "ext-view-out", "agent-hub-watch", "agent-hub-token"]
                     .iter()
                     .map(|s| s.to_string())
@@ -368,7 +365,7 @@ fn access_control(run: &str, users: &[String], external: &[u32]) -> Result<Value
                     .collect()
             }
             Role::Agents(ids) => {
-                rules.extend(own_rules(&r, &subject, &ids));
+                rules.extend(own_rules(&k, &subject, &ids));
                 let mut own: Vec<String> = ["own-sub", "own-pub", "own-token", "own-ext-watch"]
                     .iter()
                     .map(|k| format!("{subject}-{k}"))
@@ -421,15 +418,15 @@ fn strings(keys: &[&str]) -> Vec<String> {
 
 /// The ROS 2 side: the bridge (`swarm ros2`), ROS machines (`ros`), agents on ROS topics and
 /// observers; cmd_vel from a ROS machine only for the `external` UAVs.
-fn ros_rules(r: &str, external: &[u32]) -> Vec<Value> {
+fn ros_rules(k: &Keys, external: &[UavId]) -> Vec<Value> {
     let (topics, truth, commands) = (strings(&ROS_TOPICS), strings(&ROS_TRUTH), strings(&ROS_COMMANDS));
     let cmd_vel: Vec<String> = external.iter().map(|id| format!("*/uav{id}/cmd_vel/**")).collect();
     let graph = vec!["@ros2_lv/**".to_string()];
     let token_read = ["declare_liveliness_subscriber", "liveliness_query", "liveliness_token"];
     let everything: Vec<String> = topics.iter().chain(&truth).chain(&commands).cloned().collect();
     let mut rules = vec![
-        rule("bridge-ext-in", "ingress", &["put"], vec![format!("{r}/uav/*/ext/cmd")]),
-        rule("bridge-ext-token", "ingress", &["liveliness_token"], vec![format!("{r}/alive/ext/*")]),
+        rule("bridge-ext-in", "ingress", &["put"], vec![k.ext_cmd_any()]),
+        rule("bridge-ext-token", "ingress", &["liveliness_token"], vec![k.alive_ext_any()]),
         rule("bridge-ros-pub", "ingress", &["put"], topics.iter().chain(&truth).cloned().collect()),
         rule("bridge-ros-sub", "ingress", &["declare_subscriber"], commands.clone()),
         rule("bridge-ros-out", "egress", &["put"], commands),
@@ -470,7 +467,7 @@ fn bridge_rules(subject: &str, drives: bool) -> Vec<String> {
 /// The ROS rules of the agents of `ids` (under subject id `subject`), in a run with a ROS side:
 /// each may read its own sensor and goal topics and put its own commands, as an agent on ROS
 /// topics does (`swarm agent --sensors ros2`, over rmw_zenoh).
-fn ros_agent_rules(subject: &str, ids: &[u32]) -> Vec<Value> {
+fn ros_agent_rules(subject: &str, ids: &[UavId]) -> Vec<Value> {
     let per = |topics: &[&str]| -> Vec<String> {
         ids.iter().flat_map(|i| topics.iter().map(move |t| format!("*/uav{i}/{t}/**"))).collect()
     };
@@ -485,25 +482,18 @@ const ROS_READER: [&str; 7] =
     ["ros-in", "ros-out", "ros-truth-in", "ros-truth-out", "ros-graph-in", "ros-graph-out", "ros-decl-out"];
 
 /// Keys every agent may read: `clock`, `netem/rules`, and every UAV's shares.
-fn agent_common_keys(r: &str) -> Vec<String> {
-    vec![format!("{r}/clock"), format!("{r}/netem/rules"), format!("{r}/uav/*/share/**")]
+fn agent_common_keys(k: &Keys) -> Vec<String> {
+    vec![k.clock(), k.netem_rules(), k.shares_any()]
 }
 
 /// The rules of the agents of `ids` (under subject id `subject`): subscribing to their own
 /// sensor frames, their own command, shares and state out, their own liveliness tokens.
-fn own_rules(r: &str, subject: &str, ids: &[u32]) -> Vec<Value> {
-    let keys = |f: &dyn Fn(u32) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
-    let sensors = keys(&|i| vec![format!("{r}/uav/{i}/sense"), format!("{r}/uav/{i}/ext/cmd")]);
-    let out = keys(&|i| {
-        vec![
-            format!("{r}/uav/{i}/cmd"),
-            format!("{r}/uav/{i}/share/**"),
-            format!("{r}/uav/{i}/state"),
-            format!("{r}/uav/{i}/ext/view"),
-        ]
-    });
-    let tokens = keys(&|i| vec![format!("{r}/alive/uav/{i}")]);
-    let ext_tokens = keys(&|i| vec![format!("{r}/alive/ext/{i}")]);
+fn own_rules(k: &Keys, subject: &str, ids: &[UavId]) -> Vec<Value> {
+    let keys = |f: &dyn Fn(UavId) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
+    let sensors = keys(&|i| vec![k.sense(i), k.ext_cmd(i)]);
+    let out = keys(&|i| vec![k.cmd(i), k.shares_of(i), k.state(i), k.ext_view(i)]);
+    let tokens = keys(&|i| vec![k.alive_uav(i)]);
+    let ext_tokens = keys(&|i| vec![k.alive_ext(i)]);
     vec![
         rule(&format!("{subject}-own-sub"), "ingress", &["declare_subscriber"], sensors),
         rule(&format!("{subject}-own-pub"), "ingress", &["put"], out),
@@ -519,11 +509,11 @@ fn own_rules(r: &str, subject: &str, ids: &[u32]) -> Vec<Value> {
 
 /// The rules of UAV `id`'s external controller (under subject id `subject`): its view in, its
 /// command out, its token.
-fn external_rules(r: &str, subject: &str, id: u32) -> Vec<Value> {
+fn external_rules(k: &Keys, subject: &str, id: UavId) -> Vec<Value> {
     vec![
-        rule(&format!("{subject}-ext-sub"), "ingress", &["declare_subscriber"], vec![format!("{r}/uav/{id}/ext/view")]),
-        rule(&format!("{subject}-ext-pub"), "ingress", &["put"], vec![format!("{r}/uav/{id}/ext/cmd")]),
-        rule(&format!("{subject}-ext-token"), "ingress", &["liveliness_token"], vec![format!("{r}/alive/ext/{id}")]),
+        rule(&format!("{subject}-ext-sub"), "ingress", &["declare_subscriber"], vec![k.ext_view(id)]),
+        rule(&format!("{subject}-ext-pub"), "ingress", &["put"], vec![k.ext_cmd(id)]),
+        rule(&format!("{subject}-ext-token"), "ingress", &["liveliness_token"], vec![k.alive_ext(id)]),
     ]
 }
 
@@ -538,7 +528,7 @@ pub struct CredentialsArgs {
     pub uavs: u32,
     /// Also an agent-host user for these UAVs, e.g. `1-20` makes `uavs1-20` (repeatable).
     #[arg(long = "host", value_parser = parse_ids)]
-    pub hosts: Vec<crate::args::UavIds>,
+    pub hosts: Vec<swarm_args::UavIds>,
     /// More users by name (`observer-alice`, `operator-bob`, `uav7`...); `observer` and
     /// `operator` are always made.
     #[arg(long = "user")]
@@ -547,7 +537,7 @@ pub struct CredentialsArgs {
 
 /// Runs `swarm credentials`: prints each user and its password file.
 pub fn credentials(a: CredentialsArgs) -> Result<ExitCode> {
-    let mut users: Vec<String> = (1..=a.uavs).map(uav_user).collect();
+    let mut users: Vec<String> = UavId::all(a.uavs as usize).map(uav_user).collect();
     users.extend(a.hosts.iter().map(|h| host_user(&h.0)));
     users.extend(["observer".to_string(), "operator".to_string()]);
     users.extend(a.users);
@@ -565,13 +555,19 @@ mod tests {
 
     #[test]
     fn roles_are_read_from_names() {
-        assert_eq!(Role::of("uav3").expect("agent"), Role::Agents(vec![3]));
-        assert_eq!(Role::of("uavs1-3,7").expect("host"), Role::Agents(vec![1, 2, 3, 7]));
+        assert_eq!(Role::of("uav3").expect("agent"), Role::Agents(vec![UavId::new(3)]));
+        assert_eq!(
+            Role::of("uavs1-3,7").expect("host"),
+            Role::Agents(vec![UavId::new(1), UavId::new(2), UavId::new(3), UavId::new(7)])
+        );
         assert_eq!(Role::of("observer").expect("o"), Role::Observer);
         assert_eq!(Role::of("operator-bob").expect("op"), Role::Operator);
         assert_eq!(Role::of("bridge").expect("bridge"), Role::Bridge(vec![]));
         assert_eq!(Role::of("controller").expect("controller"), Role::Controller);
-        assert_eq!(Role::of(&bridge_user(&[3, 4])).expect("bridge"), Role::Bridge(vec![3, 4]));
+        assert_eq!(
+            Role::of(&bridge_user(&[UavId::new(3), UavId::new(4)])).expect("bridge"),
+            Role::Bridge(vec![UavId::new(3), UavId::new(4)])
+        );
         for bad in ["uav0", "uav", "uavx", "observers", "root", "uavs3-1"] {
             assert!(Role::of(bad).is_err(), "{bad} has no role");
         }
@@ -579,9 +575,15 @@ mod tests {
 
     #[test]
     fn host_users_round_trip() {
-        assert_eq!(host_user(&[1, 2, 3, 4, 7]), "uavs1-4,7");
-        assert_eq!(host_user(&[5]), "uavs5");
-        assert_eq!(Role::of(&host_user(&[2, 3, 9, 10])).expect("host"), Role::Agents(vec![2, 3, 9, 10]));
+        assert_eq!(
+            host_user(&[UavId::new(1), UavId::new(2), UavId::new(3), UavId::new(4), UavId::new(7)]),
+            "uavs1-4,7"
+        );
+        assert_eq!(host_user(&[UavId::new(5)]), "uavs5");
+        assert_eq!(
+            Role::of(&host_user(&[UavId::new(2), UavId::new(3), UavId::new(9), UavId::new(10)])).expect("host"),
+            Role::Agents(vec![UavId::new(2), UavId::new(3), UavId::new(9), UavId::new(10)])
+        );
     }
 
     #[test]

@@ -6,9 +6,10 @@
 //! dispatches the same four commands here. (The container image still ships the whole `swarm`,
 //! whose recorder the compose file runs too.)
 //!
-//! - [`args`]: what every command shares, below all of them: [`args::ZenohArgs`] (endpoints,
-//!   `--cfg`, `--user` and `--password-file`), run ids, UAV id lists, scenario values on the
-//!   command line.
+//! - [`args`]: the crate `swarm-args`, re-exported: what every command shares, below all of them
+//!   ([`args::ZenohArgs`]: endpoints, `--cfg`, `--user` and `--password-file`; run ids, UAV id
+//!   lists, scenario values on the command line), a crate of its own so the recorder and the
+//!   viewer take their arguments without linking the hub and the agent.
 //! - [`auth`]: who may touch what: users and passwords (`swarm credentials`, and fresh ones for
 //!   every `swarm run`), and the access-control rules the hub's router enforces per role.
 //! - [`pieces`]: `swarm hub` and `swarm agent`, the processes the launcher starts (or a person,
@@ -19,10 +20,10 @@
 //! - [`process`]: what every binary of the workspace does around its command: logging to
 //!   standard error and the async runtime.
 //!
-//! Dependencies run one way: `command` → `router` → `pieces` → `auth` → `args`; `process` imports
+//! Dependencies run one way: `command` → `router` → `pieces` → `auth`; `process` imports
 //! nothing of the crate.
 
-pub mod args;
+pub use swarm_args as args;
 pub mod auth;
 pub mod command;
 pub mod pieces;

@@ -2,11 +2,12 @@
 //! around its library (`physics_hub::run`, `uav_agent::run`). `swarm run` starts them as its
 //! children; a person can start them by hand, on one machine or several.
 
-use crate::args::{parse_ids, RosArgs, UavIds, ZenohArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use std::process::ExitCode;
+use swarm_args::{parse_ids, RosArgs, UavIds, ZenohArgs};
 use swarm_config::Scenario;
+use swarm_types::UavId;
 use uav_agent::Controllers;
 
 /// The line the hub prints on stdout once it listens; the launcher reads it.
@@ -43,7 +44,7 @@ pub struct AgentArgs {
     pub run: String,
     /// UAV id (1-based).
     #[arg(long, required_unless_present = "ids", conflicts_with = "ids")]
-    pub id: Option<u32>,
+    pub id: Option<UavId>,
     /// Run many agents in this one process (an agent host), e.g. `1-250` or `1-4,7`; each keeps
     /// its own keys, subscriptions, netem link and liveliness token.
     #[arg(long, value_parser = parse_ids)]
@@ -212,7 +213,7 @@ async fn agent_host(a: AgentArgs, scenario: Option<Scenario>, controllers: Contr
     let mut failed = Vec::new();
     for (id, end) in ends {
         match end {
-            Ok(exit) => tracing::info!(uav_id = id, ?exit, "agent done"),
+            Ok(exit) => tracing::info!(uav_id = %id, ?exit, "agent done"),
             Err(e) => failed.push(format!("UAV {id}: {e}")),
         }
     }

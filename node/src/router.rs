@@ -17,7 +17,7 @@ pub const ROUTER_LISTENING_PREFIX: &str = "swarm-router listening:";
 pub struct RouterArgs {
     /// Endpoints: `--listen` where agents connect to it, `--connect` the hub (or another router).
     #[command(flatten)]
-    pub zenoh: crate::args::ZenohArgs,
+    pub zenoh: swarm_args::ZenohArgs,
     /// The users who may connect to this router: a file of `user:password` lines. Needed when
     /// the router itself logs in to a secured hub (`--user`): Zenoh then asks every session it
     /// accepts for a login too; its agents log in as the host's user (`uavs1-250`), which the

@@ -15,6 +15,7 @@
 use criterion::{criterion_main, BenchmarkId, Criterion, Throughput};
 use physics_hub::sim::Sim;
 use std::sync::mpsc;
+use swarm_types::UavId;
 use swarm_wire::plumbing::Subscription;
 use swarm_wire::session::{self, Role, Writer};
 use swarm_wire::{Msg, SenseFrame};
@@ -25,9 +26,9 @@ use zenoh::qos::CongestionControl;
 mod crowd;
 
 /// How a UAV's sensors go on the wire: keys and encoded payloads, in put order.
-type Layout = fn(prefix: &str, id: u32, f: &SenseFrame) -> Vec<(String, Vec<u8>)>;
+type Layout = fn(prefix: &str, id: UavId, f: &SenseFrame) -> Vec<(String, Vec<u8>)>;
 
-fn per_sensor(prefix: &str, id: u32, f: &SenseFrame) -> Vec<(String, Vec<u8>)> {
+fn per_sensor(prefix: &str, id: UavId, f: &SenseFrame) -> Vec<(String, Vec<u8>)> {
     let g = f.gnss.expect("broadcast mode has a fix");
     [
         ("radio", Msg::Radio(f.radio.clone())),
@@ -43,7 +44,7 @@ fn per_sensor(prefix: &str, id: u32, f: &SenseFrame) -> Vec<(String, Vec<u8>)> {
     .collect()
 }
 
-fn one_frame(prefix: &str, id: u32, f: &SenseFrame) -> Vec<(String, Vec<u8>)> {
+fn one_frame(prefix: &str, id: UavId, f: &SenseFrame) -> Vec<(String, Vec<u8>)> {
     vec![(format!("{prefix}/uav/{id}/sense"), Msg::Sense(Box::new(f.clone())).encode().expect("encodes"))]
 }
 
@@ -94,7 +95,7 @@ fn bench_publish(c: &mut Criterion) {
     let mut group = c.benchmark_group("publish");
     for n in [100usize, 1000] {
         let sc = crowd::scenario(n, "publish-bench");
-        let ids: Vec<u32> = sc.uav_ids().collect();
+        let ids: Vec<UavId> = sc.uav_ids().collect();
         let frames = Sim::new(&sc).sensors_all(&ids);
         group.throughput(Throughput::Elements(n as u64));
         for (name, layout) in [("per_sensor", per_sensor as Layout), ("one_frame", one_frame as Layout)] {

@@ -16,13 +16,14 @@
 
 use criterion::{black_box, criterion_main, BenchmarkId, Criterion, Throughput};
 use physics_hub::sim::Sim;
+use swarm_types::UavId;
 use swarm_wire::{Cmd, CmdKind};
 
 #[path = "common/crowd.rs"]
 mod crowd;
 
 /// open-1000's crowd scaled to `n` UAVs, every UAV commanded 0.5 m/s forward, all alive.
-fn flying(n: usize, name: &str) -> (Sim, Vec<u32>, Vec<Option<Cmd>>, Vec<bool>) {
+fn flying(n: usize, name: &str) -> (Sim, Vec<UavId>, Vec<Option<Cmd>>, Vec<bool>) {
     let sc = crowd::scenario(n, name);
     let forward = Some(Cmd { tick: 0, kind: CmdKind::Velocity, x: 0.5, y: 0.0, yaw_rate: 0.0 });
     (Sim::new(&sc), sc.uav_ids().collect(), vec![forward; n], vec![true; n])

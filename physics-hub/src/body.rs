@@ -29,16 +29,8 @@ pub struct Body {
     pub stopped: bool,
 }
 
-/// Wraps an angle to (−π, π].
-#[inline]
-pub fn wrap_angle(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
-}
+/// The one angle wrap of the whole swarm, to (−π, π].
+pub use swarm_types::wrap_angle;
 
 fn clamp_norm(v: Vector2<f64>, max: f64) -> Vector2<f64> {
     let n = v.norm();

@@ -6,6 +6,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{Forest, Scenario, StartArea, Tree};
+use swarm_types::UavId;
 
 /// Stream ids mixed into the scenario seed, one per purpose, so adding a draw in one place never
 /// shifts the numbers drawn in another.
@@ -67,7 +68,7 @@ pub fn scenario_trees(sc: &Scenario) -> Vec<Tree> {
 /// `(3, "0.12 m from the tree at (4.00, 5.00), r 0.30 m")`. Checks the listed or drawn starts
 /// against every tree, explicit or generated, so a forest drawn over a start area is caught
 /// before any process starts. A start touching an obstacle would fly as a collision at tick 0.
-pub fn start_in_obstacle(sc: &Scenario) -> Option<(u32, String)> {
+pub fn start_in_obstacle(sc: &Scenario) -> Option<(UavId, String)> {
     let world = crate::world::World::new(scenario_trees(sc), sc.world.walls.clone());
     let body = sc.body.radius_m;
     for (i, p) in start_positions(sc).iter().enumerate() {
@@ -87,7 +88,7 @@ pub fn start_in_obstacle(sc: &Scenario) -> Option<(u32, String)> {
             None => format!("{clear:.2} m from a wall"),
         };
         return Some((
-            i as u32 + 1,
+            UavId::from_index(i),
             format!("starts at ({:.2}, {:.2}), {what}; its body needs {body:.2} m", p[0], p[1]),
         ));
     }

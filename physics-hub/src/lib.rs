@@ -12,8 +12,9 @@
 //! - [`radio`]: who can hear whom (range with hysteresis, optional distance-dependent loss).
 //! - [`uvdar`]: onboard relative sensing for the `uvdar` localization mode: which neighbours a
 //!   UAV's cameras see, with noisy range and bearing.
-//! - [`sim`]: the pure simulation state and step: each UAV's sensors (radio, odometry, GNSS,
-//!   UVDAR, scan) out, commands in, collisions, freezes and the end condition, ground truth out.
+//! - [`sim`]: the pure simulation state and step: commands in, collisions, freezes and the end
+//!   condition, ground truth out; its `sensors` submodule puts each UAV's sensors (radio,
+//!   odometry, GNSS, UVDAR, scan) out, a large swarm's computed on worker threads in chunks.
 //! - [`lateness`]: which commands arrived after their tick had closed, and how late (the
 //!   realtime health of a run), carried to the recorder on `truth/step`.
 //! - [`node`]: the Zenoh side: router session, lockstep/realtime loop, agents' liveliness, the

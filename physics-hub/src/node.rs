@@ -26,6 +26,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use swarm_config::{Scenario, TimeMode};
+use swarm_types::UavId;
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::session::{self, Role, Writer};
 use swarm_wire::{Cmd, CmdKind, EndReason, HubTiming, Keys, Msg, TruthStep, WireError};
@@ -64,7 +65,7 @@ pub struct HubReport {
     /// Ticks integrated.
     pub ticks: u64,
     /// Sim time at the end [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Why it ended.
     pub end: EndReason,
     /// Malformed command payloads dropped.
@@ -101,13 +102,13 @@ struct Net {
     truth_step: Writer,
     /// Each UAV's `uav/{id}/sense` writer, in id order.
     sense: Vec<Writer>,
-    alive: Arc<Mutex<BTreeSet<u32>>>,
+    alive: Arc<Mutex<BTreeSet<UavId>>>,
     /// Bumped (under the `alive` lock) on every change of `alive`: the barrier re-reads the set
     /// only when this moved, so its cost per command does not grow with the agents.
     alive_gen: Arc<AtomicU64>,
     alive_changed: Arc<Notify>,
     /// Each command with the wall instant it arrived.
-    cmds: mpsc::UnboundedReceiver<(u32, Cmd, Instant)>,
+    cmds: mpsc::UnboundedReceiver<(UavId, Cmd, Instant)>,
     lateness: Lateness,
     malformed: Arc<AtomicU64>,
     ignored: Arc<AtomicU64>,
@@ -187,10 +188,7 @@ struct Subs {
 
 /// The sensor-frame writer of every UAV of the scenario, in id order.
 async fn sense_writers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result<Vec<Writer>, WireError> {
-    let sensors_cc = match sc.time.mode {
-        TimeMode::Lockstep => CongestionControl::Block,
-        TimeMode::Realtime => CongestionControl::Drop,
-    };
+    let sensors_cc = swarm_wire::session::congestion(sc.time.mode);
     let mut writers = Vec::with_capacity(sc.count());
     for id in sc.uav_ids() {
         writers.push(Writer::new(s, keys.sense(id), sensors_cc).await?);
@@ -200,8 +198,8 @@ async fn sense_writers(s: &zenoh::Session, keys: &Keys, sc: &Scenario) -> Result
 
 /// The UAV id in `key` when it is one of the scenario's `1..=count`: ids are checked at the door,
 /// so only those ever reach the loop.
-fn valid_id(keys: &Keys, count: u32, key: &str) -> Option<u32> {
-    keys.uav_id_of(key).filter(|&id| id <= count)
+fn valid_id(keys: &Keys, count: usize, key: &str) -> Option<UavId> {
+    keys.uav_id_of(key).filter(|&id| id.within(count))
 }
 
 /// Whether `c` answers a tick after `tick` without being a hover (an agent's parting word may
@@ -221,10 +219,10 @@ fn from_the_future(ignored: &AtomicU64, tick: u64, c: &Cmd) -> bool {
 async fn subscribe_cmds(
     s: &zenoh::Session,
     keys: &Keys,
-    count: u32,
+    count: usize,
     bad: Arc<AtomicU64>,
     ignored: Arc<AtomicU64>,
-) -> Result<(Subscription, mpsc::UnboundedReceiver<(u32, Cmd, Instant)>), WireError> {
+) -> Result<(Subscription, mpsc::UnboundedReceiver<(UavId, Cmd, Instant)>), WireError> {
     let (cmd_tx, cmds) = mpsc::unbounded_channel();
     let k = keys.clone();
     let sub = plumbing::subscribe(s, keys.cmd_any(), cmd_tx, move |sample| {
@@ -262,11 +260,7 @@ async fn declare_agent_keys(
 ) -> Result<Vec<zenoh::key_expr::KeyExpr<'static>>, WireError> {
     let mut declared = Vec::with_capacity(sc.count() * 3);
     for id in sc.uav_ids() {
-        let share = match sc.localization.mode {
-            swarm_config::LocalizationMode::Broadcast => Some(keys.share_pose(id)),
-            swarm_config::LocalizationMode::Icp => Some(keys.share_obstacles(id)),
-            swarm_config::LocalizationMode::Uvdar => None,
-        };
+        let share = keys.share_of(sc.localization.mode, id);
         for key in [Some(keys.cmd(id)), Some(keys.state(id)), share].into_iter().flatten() {
             declared.push(s.declare_keyexpr(key).await.map_err(WireError::zenoh)?);
         }
@@ -279,8 +273,8 @@ async fn declare_agent_keys(
 async fn watch_agents(
     s: &zenoh::Session,
     keys: &Keys,
-    count: u32,
-    alive: Arc<Mutex<BTreeSet<u32>>>,
+    count: usize,
+    alive: Arc<Mutex<BTreeSet<UavId>>>,
     alive_gen: Arc<AtomicU64>,
     changed: Arc<Notify>,
 ) -> Result<Subscription, WireError> {
@@ -292,10 +286,10 @@ async fn watch_agents(
         };
         let mut set = alive.lock().unwrap_or_else(|p| p.into_inner());
         if up {
-            info!(uav_id = id, "agent alive");
+            info!(uav_id = %id, "agent alive");
             set.insert(id);
         } else {
-            info!(uav_id = id, "agent gone");
+            info!(uav_id = %id, "agent gone");
             set.remove(&id);
         }
         alive_gen.fetch_add(1, Ordering::SeqCst);
@@ -310,12 +304,12 @@ impl Net {
         let agent_keys = declare_agent_keys(&s, &keys, sc).await?;
         let malformed = Arc::new(AtomicU64::new(0));
         let ignored = Arc::new(AtomicU64::new(0));
-        let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.swarm.count, malformed.clone(), ignored.clone()).await?;
+        let (cmd_sub, cmds) = subscribe_cmds(&s, &keys, sc.count(), malformed.clone(), ignored.clone()).await?;
         let alive = Arc::new(Mutex::new(BTreeSet::new()));
         let alive_changed = Arc::new(Notify::new());
         let alive_gen = Arc::new(AtomicU64::new(0));
         let alive_sub =
-            watch_agents(&s, &keys, sc.swarm.count, alive.clone(), alive_gen.clone(), alive_changed.clone()).await?;
+            watch_agents(&s, &keys, sc.count(), alive.clone(), alive_gen.clone(), alive_changed.clone()).await?;
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
@@ -338,7 +332,7 @@ impl Net {
         Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub, _netem: netem_sub, _agent_keys: agent_keys }))
     }
 
-    fn alive_now(&self) -> BTreeSet<u32> {
+    fn alive_now(&self) -> BTreeSet<UavId> {
         self.alive.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
@@ -379,9 +373,9 @@ impl Net {
         put(&self.truth_world, &Msg::TruthWorld(sim.truth_world())).await?;
         self.publish_rules(sim).await?;
         let started = Instant::now();
-        let mut pacer = Pacer::new(sim.clock().dt_secs / sc.time.realtime_factor);
+        let mut pacer = Pacer::new(sim.clock().dt_s / sc.time.realtime_factor);
         loop {
-            let next_t = sim.t_secs() + sim.clock().dt_secs;
+            let next_t = sim.t_s() + sim.clock().dt_s;
             self.take_added_rules(sc, sim, next_t).await?;
             let sent = self.alive_now();
             if sent.is_empty() {
@@ -412,9 +406,9 @@ impl Net {
         &mut self,
         sc: &Scenario,
         tick: u64,
-        sent: &BTreeSet<u32>,
+        sent: &BTreeSet<UavId>,
         pacer: &mut Pacer,
-    ) -> BTreeMap<u32, Cmd> {
+    ) -> BTreeMap<UavId, Cmd> {
         match sc.time.mode {
             TimeMode::Lockstep => {
                 self.collect_lockstep(tick, sent, Duration::from_millis(sc.time.tick_timeout_ms)).await
@@ -427,14 +421,14 @@ impl Net {
     }
 
     /// Step 3 of a tick: integrate the commands `got` (a UAV without one keeps its last).
-    fn integrate(&self, sc: &Scenario, sim: &mut Sim, got: &BTreeMap<u32, Cmd>, started: Instant) -> Stepped {
+    fn integrate(&self, sc: &Scenario, sim: &mut Sim, got: &BTreeMap<UavId, Cmd>, started: Instant) -> Stepped {
         let cmds: Vec<Option<Cmd>> = sc.uav_ids().map(|id| got.get(&id).copied()).collect();
         let alive = self.alive_now();
         let alive_flags: Vec<bool> = sc.uav_ids().map(|id| alive.contains(&id)).collect();
         let step = sim.step(&cmds, &alive_flags, started.elapsed().as_secs_f64());
         trace!(tick = step.tick, "stepped");
         for c in &step.collisions {
-            warn!(uav_id = c.id, other = ?c.other_uav, t = step.t_secs, "collision");
+            warn!(uav_id = %c.id, other = ?c.other_uav, t = step.t_s, "collision");
         }
         step
     }
@@ -504,22 +498,18 @@ impl Net {
     /// computed and encoded on worker threads while this thread publishes the UAVs already done
     /// ([`Sim::sensors_each`]); the puts are synchronous, inside `block_in_place`, so the
     /// runtime's other worker keeps taking commands meanwhile.
-    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<u32>) -> Result<(), WireError> {
+    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<UavId>) -> Result<(), WireError> {
         put(&self.clock, &Msg::Clock(sim.clock())).await?;
-        let ids: Vec<u32> = alive
-            .iter()
-            .copied()
-            .filter(|&id| (id as usize).checked_sub(1).is_some_and(|i| i < self.sense.len()))
-            .collect();
+        let ids: Vec<UavId> = alive.iter().copied().filter(|&id| id.within(self.sense.len())).collect();
         tokio::task::block_in_place(|| {
             sim.sensors_each(&ids, |_, s| Msg::Sense(Box::new(s)).encode(), |id, e| self.put_sensors(id, e?))
         })
     }
 
     /// Publishes UAV `id`'s encoded sensor frame.
-    fn put_sensors(&self, id: u32, frame: Vec<u8>) -> Result<(), WireError> {
+    fn put_sensors(&self, id: UavId, frame: Vec<u8>) -> Result<(), WireError> {
         // A blocking put (the caller is inside `block_in_place`), unlike the async `put` above.
-        self.sense[(id - 1) as usize].put_now(frame)
+        self.sense[id.index()].put_now(frame)
     }
 
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors
@@ -527,16 +517,16 @@ impl Net {
     /// so an agent's last word (its hover) is never lost to the liveliness change that follows it.
     /// The set still awaited is kept up to date per command, and recomputed from the live set
     /// only when that changed, so a tick costs O(agents · log agents), not O(agents²).
-    async fn collect_lockstep(&mut self, tick: u64, sent: &BTreeSet<u32>, timeout: Duration) -> BTreeMap<u32, Cmd> {
+    async fn collect_lockstep(&mut self, tick: u64, sent: &BTreeSet<UavId>, timeout: Duration) -> BTreeMap<UavId, Cmd> {
         let deadline = tokio::time::Instant::now() + timeout;
         let mut got = BTreeMap::new();
         let mut waiting = BTreeSet::new();
         let mut seen_gen = None;
         let ignored = self.ignored.clone();
-        let take = |got: &mut BTreeMap<u32, Cmd>,
-                    waiting: &mut BTreeSet<u32>,
+        let take = |got: &mut BTreeMap<UavId, Cmd>,
+                    waiting: &mut BTreeSet<UavId>,
                     lateness: &mut Lateness,
-                    (id, c, at): (u32, Cmd, Instant)| {
+                    (id, c, at): (UavId, Cmd, Instant)| {
             if from_the_future(&ignored, tick, &c) {
                 return;
             }
@@ -546,7 +536,7 @@ impl Net {
                 got.insert(id, c);
                 waiting.remove(&id);
             } else {
-                trace!(uav_id = id, cmd_tick = c.tick, tick, "late command ignored");
+                trace!(uav_id = %id, cmd_tick = c.tick, tick, "late command ignored");
             }
         };
         loop {
@@ -579,7 +569,7 @@ impl Net {
 
     /// Realtime: the newest command of each agent that arrived since the last tick (a late one
     /// is used too, and counted by [`Lateness`]).
-    fn collect_available(&mut self, tick: u64) -> BTreeMap<u32, Cmd> {
+    fn collect_available(&mut self, tick: u64) -> BTreeMap<UavId, Cmd> {
         let mut got = BTreeMap::new();
         while let Ok((id, c, at)) = self.cmds.try_recv() {
             if from_the_future(&self.ignored, tick, &c) {
@@ -599,17 +589,17 @@ impl Net {
     /// Ends the run where it stands: the last truth step is the current state, not integrated.
     async fn finish(&self, sim: &mut Sim, end: EndReason, started: Instant) -> Result<HubReport, HubError> {
         let alive = self.alive_now();
-        let alive_flags: Vec<bool> = (1..=sim.bodies().len() as u32).map(|id| alive.contains(&id)).collect();
+        let alive_flags: Vec<bool> = UavId::all(sim.bodies().len()).map(|id| alive.contains(&id)).collect();
         let step = sim.observe(&[], &alive_flags, Vec::new(), Some(end), started.elapsed().as_secs_f64());
         self.publish_step(step.with_timing(HubTiming::default())).await?;
         self.report(sim, end)
     }
 
     fn report(&self, sim: &Sim, end: EndReason) -> Result<HubReport, HubError> {
-        info!(?end, ticks = sim.tick(), t = sim.t_secs(), keys = self.keys.prefix(), "run ended");
+        info!(?end, ticks = sim.tick(), t = sim.t_s(), keys = self.keys.prefix(), "run ended");
         Ok(HubReport {
             ticks: sim.tick(),
-            t_secs: sim.t_secs(),
+            t_s: sim.t_s(),
             end,
             malformed: self.malformed.load(Ordering::Relaxed),
             ignored: self.ignored.load(Ordering::Relaxed),

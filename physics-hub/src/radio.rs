@@ -1,6 +1,6 @@
-//! Who can hear whom, from ground truth: range with hysteresis. A link comes up inside
-//! `range_m` and goes down only beyond `range_m + hysteresis_m`, so a pair balancing on the edge
-//! does not flap. Agents subscribe only to the share keys of the UAVs in their set. Optionally
+//! Who can hear whom, from ground truth: range with hysteresis ([`Hysteresis`], the rule the
+//! recorder's solitude uses too). A link comes up inside `range_m` and goes down only beyond
+//! `range_m + hysteresis_m`, so a pair balancing on the edge does not flap. Agents subscribe only to the share keys of the UAVs in their set. Optionally
 //! each link that is up also loses messages with a probability that grows with distance
 //! (`radio.distance_loss`); the agent applies it per message from the link's seeded stream.
 //!
@@ -9,6 +9,7 @@
 
 use crate::grid::Grid;
 use std::cmp::Ordering;
+use swarm_types::Hysteresis;
 
 /// `dx.hypot(dy).partial_cmp(&t)`, bit for bit, without the `hypot` call when the squared
 /// distance is clearly on one side (all but a band of 1e-9 relative around `t`): `hypot` was
@@ -32,8 +33,7 @@ fn compare_distance(dx: f64, dy: f64, t: f64) -> Option<Ordering> {
 /// Symmetric radio links between UAVs (indices 0..n).
 #[derive(Debug, Clone)]
 pub struct Radio {
-    range_m: f64,
-    hysteresis_m: f64,
+    rule: Hysteresis,
     distance_loss: Option<swarm_config::DistanceLoss>,
     /// `links[i]`: the indices linked with i, ascending (each link is in both lists).
     links: Vec<Vec<usize>>,
@@ -44,7 +44,12 @@ pub struct Radio {
 impl Radio {
     /// No links yet.
     pub fn new(range_m: f64, hysteresis_m: f64) -> Radio {
-        Radio { range_m, hysteresis_m, distance_loss: None, links: Vec::new(), positions: Vec::new() }
+        Radio {
+            rule: Hysteresis::new(range_m, hysteresis_m),
+            distance_loss: None,
+            links: Vec::new(),
+            positions: Vec::new(),
+        }
     }
 
     /// The radio of a scenario.
@@ -59,14 +64,14 @@ impl Radio {
         let p = &self.positions;
         self.in_range(i)
             .into_iter()
-            .map(|j| l.at((p[i][0] - p[j][0]).hypot(p[i][1] - p[j][1]), self.range_m) as f32)
+            .map(|j| l.at((p[i][0] - p[j][0]).hypot(p[i][1] - p[j][1]), self.rule.range_m) as f32)
             .collect()
     }
 
     /// Updates the links from positions (index = UAV index).
     #[cfg(test)]
     pub fn update(&mut self, positions: &[[f64; 2]]) {
-        self.update_with(&Grid::new(positions, self.range_m + self.hysteresis_m));
+        self.update_with(&Grid::new(positions, self.rule.keep_m()));
     }
 
     /// Updates the links from the positions `grid` was built from (any cell size).
@@ -84,23 +89,18 @@ impl Radio {
     fn links_of(&self, i: usize, grid: &Grid) -> Vec<usize> {
         let positions = grid.points();
         let p = positions[i];
-        let keep_m = self.range_m + self.hysteresis_m;
+        let keep_m = self.rule.keep_m();
         let mut out = Vec::new();
         grid.for_each_near(p, keep_m, |j| {
             if j == i {
                 return;
             }
             let (dx, dy) = (p[0] - positions[j][0], p[1] - positions[j][1]);
-            let inside_range = compare_distance(dx, dy, self.range_m) == Some(Ordering::Less);
-            let inside_keep = matches!(compare_distance(dx, dy, keep_m), Some(Ordering::Less | Ordering::Equal));
-            // Where both rules agree the previous state does not matter.
-            let linked = if inside_range == inside_keep {
-                inside_range
-            } else if self.links[i].binary_search(&j).is_ok() {
-                inside_keep
-            } else {
-                inside_range
-            };
+            let linked = Hysteresis::linked_by(
+                compare_distance(dx, dy, self.rule.range_m),
+                compare_distance(dx, dy, keep_m),
+                || self.links[i].binary_search(&j).is_ok(),
+            );
             if linked {
                 out.push(j);
             }

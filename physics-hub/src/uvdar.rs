@@ -37,12 +37,13 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use swarm_config::UvdarParams;
+use swarm_types::UavId;
 
 /// One neighbour as the observer's cameras see it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Observation {
     /// The neighbour's id, decoded from its blinking markers.
-    pub id: u32,
+    pub id: UavId,
     /// Measured distance between the centres [m], ≥ 0.
     pub range_m: f64,
     /// Measured bearing in the observer's body frame: counter-clockwise from its heading [rad],
@@ -61,7 +62,7 @@ pub struct Observation {
 pub fn observe(
     world: &World,
     observer: usize,
-    poses: &[(u32, [f64; 2], f64)],
+    poses: &[(UavId, [f64; 2], f64)],
     params: &UvdarParams,
     rng: &mut ChaCha8Rng,
 ) -> Vec<Observation> {
@@ -129,7 +130,7 @@ struct Truth {
 /// of view and not occluded (choices, seed 003 silent except V-B on occlusion; see module docs).
 fn sight(
     world: &World,
-    poses: &[(u32, [f64; 2], f64)],
+    poses: &[(UavId, [f64; 2], f64)],
     eye: &Eye,
     target: usize,
     params: &UvdarParams,
@@ -160,7 +161,7 @@ fn sight(
 /// Whether another UAV's disc (neither the observer's nor the target's) meets the line of sight
 /// `eye.origin + t·dir` before the target's centre, at t < `range_m`.
 fn blocked_by_uav(
-    poses: &[(u32, [f64; 2], f64)],
+    poses: &[(UavId, [f64; 2], f64)],
     eye: &Eye,
     target: usize,
     dir: [f64; 2],
@@ -178,7 +179,7 @@ fn blocked_by_uav(
 
 /// Applies the noise to the true geometry (choice, seed 003 silent; see module docs):
 /// range = d + range_noise_rel · d · n_r, clamped to ≥ 0; bearing = wrap(b + σ_b · n_b).
-fn measure(id: u32, truth: Truth, draws: &Draws, params: &UvdarParams) -> Observation {
+fn measure(id: UavId, truth: Truth, draws: &Draws, params: &UvdarParams) -> Observation {
     let sigma_range_m = params.range_noise_rel * truth.range_m;
     let sigma_bearing_rad = params.bearing_noise_deg.to_radians();
     Observation {
@@ -214,9 +215,14 @@ mod tests {
         World::new(vec![], vec![])
     }
 
+    /// `poses` with their ids typed.
+    fn typed(poses: &[(u32, [f64; 2], f64)]) -> Vec<(UavId, [f64; 2], f64)> {
+        poses.iter().map(|&(id, p, yaw)| (UavId::new(id), p, yaw)).collect()
+    }
+
     /// The ids seen by UAV 0 in `poses`.
     fn ids_seen(world: &World, poses: &[(u32, [f64; 2], f64)], p: &UvdarParams) -> Vec<u32> {
-        observe(world, 0, poses, p, &mut rng(1)).iter().map(|o| o.id).collect()
+        observe(world, 0, &typed(poses), p, &mut rng(1)).iter().map(|o| o.id.get()).collect()
     }
 
     #[test]
@@ -225,17 +231,17 @@ mod tests {
         // World angle atan2(4, 3) = 0.927295; body bearing 0.927295 − π/2 = −0.643501
         // (= −atan2(3, 4): the target is 36.87° to the right of the heading).
         let poses = [(7, [1.0, 2.0], FRAC_PI_2), (9, [4.0, 6.0], 0.3)];
-        let obs = observe(&open(), 0, &poses, &exact(), &mut rng(1));
+        let obs = observe(&open(), 0, &typed(&poses), &exact(), &mut rng(1));
         assert_eq!(obs.len(), 1);
-        assert_eq!(obs[0].id, 9);
+        assert_eq!(obs[0].id, UavId::new(9));
         assert!((obs[0].range_m - 5.0).abs() < 1e-12, "{obs:?}");
         assert!((obs[0].bearing_rad + 3.0f64.atan2(4.0)).abs() < 1e-12, "{obs:?}");
         assert!((obs[0].bearing_rad + 0.643_501_108_793_284_4).abs() < 1e-12);
         // And the other way: from (4, 6) at yaw 0.3, the observer is at world angle
         // atan2(−4, −3) = −(π − 0.927295) = −2.214297, body bearing −2.214297 − 0.3 = −2.514297.
-        let back = observe(&open(), 1, &poses, &exact(), &mut rng(1));
+        let back = observe(&open(), 1, &typed(&poses), &exact(), &mut rng(1));
         assert_eq!(back.len(), 1);
-        assert_eq!(back[0].id, 7);
+        assert_eq!(back[0].id, UavId::new(7));
         assert!((back[0].range_m - 5.0).abs() < 1e-12);
         assert!((back[0].bearing_rad - ((-4.0f64).atan2(-3.0) - 0.3)).abs() < 1e-12);
         assert!((back[0].bearing_rad + 2.514_297_435_588_181).abs() < 1e-9);
@@ -313,24 +319,24 @@ mod tests {
         // Entry 2 carries the observer's id (a stale duplicate): neither it nor entry 0 is seen.
         let poses = [(4, [0.0, 0.0], 0.0), (5, [2.0, 0.0], 0.0), (4, [0.0, 2.0], 0.0)];
         let p = UvdarParams { occluded_by_uavs: false, ..UvdarParams::default() };
-        let obs = observe(&open(), 0, &poses, &p, &mut rng(3));
-        assert_eq!(obs.iter().map(|o| o.id).collect::<Vec<_>>(), vec![5]);
+        let obs = observe(&open(), 0, &typed(&poses), &p, &mut rng(3));
+        assert_eq!(obs.iter().map(|o| o.id.get()).collect::<Vec<_>>(), vec![5]);
         // Alone, a UAV sees nothing.
-        assert!(observe(&open(), 0, &poses[..1], &p, &mut rng(3)).is_empty());
+        assert!(observe(&open(), 0, &typed(&poses[..1]), &p, &mut rng(3)).is_empty());
     }
 
     #[test]
     fn non_finite_or_missing_inputs_give_no_observations_and_no_panic() {
         let p = UvdarParams::default();
         let poses = [(0, [0.0, 0.0], f64::NAN), (1, [2.0, 0.0], 0.0)];
-        assert!(observe(&open(), 0, &poses, &p, &mut rng(1)).is_empty());
-        assert!(observe(&open(), 5, &poses, &p, &mut rng(1)).is_empty());
+        assert!(observe(&open(), 0, &typed(&poses), &p, &mut rng(1)).is_empty());
+        assert!(observe(&open(), 5, &typed(&poses), &p, &mut rng(1)).is_empty());
         // A neighbour with a NaN position is not seen and does not hide the others.
         let poses = [(0, [0.0, 0.0], 0.0), (1, [f64::NAN, 0.0], 0.0), (2, [3.0, 0.0], 0.0)];
         assert_eq!(ids_seen(&open(), &poses, &exact()), vec![2]);
         // A neighbour exactly on the observer has no bearing and is not reported.
         let poses = [(0, [1.0, 1.0], 0.0), (1, [1.0, 1.0], 0.0)];
-        assert!(observe(&open(), 0, &poses, &exact(), &mut rng(1)).is_empty());
+        assert!(observe(&open(), 0, &typed(&poses), &exact(), &mut rng(1)).is_empty());
     }
 
     /// Mean and (population) standard deviation.
@@ -351,7 +357,7 @@ mod tests {
         let mut r = rng(42);
         let (mut e5, mut e2, mut eb) = (vec![], vec![], vec![]);
         for _ in 0..20_000 {
-            let obs = observe(&open(), 0, &poses, &p, &mut r);
+            let obs = observe(&open(), 0, &typed(&poses), &p, &mut r);
             assert_eq!(obs.len(), 2);
             e5.push(obs[0].range_m - 5.0);
             e2.push(obs[1].range_m - 2.0);
@@ -371,12 +377,12 @@ mod tests {
         let p = UvdarParams { detection_probability: 0.7, ..exact() };
         let poses = [(0, [0.0, 0.0], 0.0), (1, [3.0, 0.0], 0.0)];
         let mut r = rng(5);
-        let seen = (0..10_000).filter(|_| !observe(&open(), 0, &poses, &p, &mut r).is_empty()).count();
+        let seen = (0..10_000).filter(|_| !observe(&open(), 0, &typed(&poses), &p, &mut r).is_empty()).count();
         let rate = seen as f64 / 10_000.0;
         assert!((rate - 0.7).abs() < 4.0 * 0.0046, "{rate}");
         // p = 0 never detects.
         let never = UvdarParams { detection_probability: 0.0, ..exact() };
-        assert!((0..100).all(|_| observe(&open(), 0, &poses, &never, &mut r).is_empty()));
+        assert!((0..100).all(|_| observe(&open(), 0, &typed(&poses), &never, &mut r).is_empty()));
     }
 
     #[test]
@@ -392,7 +398,7 @@ mod tests {
         ];
         let run = |seed: u64| {
             let mut r = rng(seed);
-            (0..50).map(|_| observe(&w, 0, &poses, &p, &mut r)).collect::<Vec<_>>()
+            (0..50).map(|_| observe(&w, 0, &typed(&poses), &p, &mut r)).collect::<Vec<_>>()
         };
         assert_eq!(run(11), run(11));
         assert_ne!(run(11), run(12));
@@ -404,16 +410,16 @@ mod tests {
         // because the draws do not depend on the geometry.
         let p = UvdarParams { detection_probability: 0.8, ..UvdarParams::default() };
         let poses = [(0, [0.0, 0.0], 0.0), (1, [6.0, 0.0], 0.0), (2, [0.0, 4.0], 0.0)];
-        let open_obs = observe(&open(), 0, &poses, &p, &mut rng(9));
+        let open_obs = observe(&open(), 0, &typed(&poses), &p, &mut rng(9));
         let hidden = World::new(vec![tree(3.0, 0.0, 0.3)], vec![]);
-        let hidden_obs = observe(&hidden, 0, &poses, &p, &mut rng(9));
-        let uav2 = |v: &[Observation]| v.iter().find(|o| o.id == 2).copied();
-        assert!(hidden_obs.iter().all(|o| o.id != 1));
+        let hidden_obs = observe(&hidden, 0, &typed(&poses), &p, &mut rng(9));
+        let uav2 = |v: &[Observation]| v.iter().find(|o| o.id == UavId::new(2)).copied();
+        assert!(hidden_obs.iter().all(|o| o.id != UavId::new(1)));
         assert_eq!(uav2(&open_obs), uav2(&hidden_obs));
         // And the stream consumed is the same length: the next draw agrees.
         let (mut a, mut b) = (rng(9), rng(9));
-        let _ = observe(&open(), 0, &poses, &p, &mut a);
-        let _ = observe(&hidden, 0, &poses, &p, &mut b);
+        let _ = observe(&open(), 0, &typed(&poses), &p, &mut a);
+        let _ = observe(&hidden, 0, &typed(&poses), &p, &mut b);
         assert_eq!(a.gen::<u64>(), b.gen::<u64>());
     }
 
@@ -436,7 +442,7 @@ mod tests {
             };
             let mut poses = vec![(100, [pose.0, pose.1], pose.2)];
             poses.extend(others.iter().enumerate().map(|(i, &(x, y))| (i as u32, [x, y], 0.0)));
-            let obs = observe(&open(), 0, &poses, &p, &mut rng(0));
+            let obs = observe(&open(), 0, &typed(&poses), &p, &mut rng(0));
             let mut expected = vec![];
             for &(id, t, _) in &poses[1..] {
                 let (dx, dy) = (t[0] - pose.0, t[1] - pose.1);
@@ -446,10 +452,10 @@ mod tests {
                     expected.push(id);
                 }
             }
-            prop_assert_eq!(obs.iter().map(|o| o.id).collect::<Vec<_>>(), expected);
+            prop_assert_eq!(obs.iter().map(|o| o.id.get()).collect::<Vec<_>>(), expected);
             for o in &obs {
-                prop_assert!(o.id != 100);
-                let t = poses[o.id as usize + 1].1;
+                prop_assert!(o.id != UavId::new(100));
+                let t = poses[o.id.get() as usize + 1].1;
                 let a = pose.2 + o.bearing_rad;
                 prop_assert!((pose.0 + o.range_m * a.cos() - t[0]).abs() < 1e-9);
                 prop_assert!((pose.1 + o.range_m * a.sin() - t[1]).abs() < 1e-9);

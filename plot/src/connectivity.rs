@@ -10,6 +10,7 @@ use super::style::{legend, time_chart, DrawResult, Figure, FAMILY};
 use netem::LinkClass;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use swarm_types::UavId;
 
 /// Picture size [px].
 const SIZE: (u32, u32) = (1000, 460);
@@ -21,7 +22,7 @@ pub(super) const IMPAIRED: RGBColor = RGBColor(255, 127, 14);
 
 /// The worst class of any link between `ids` at `t_s`, either direction (cut beats impaired
 /// beats clean).
-fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[u32]) -> LinkClass {
+fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[UavId]) -> LinkClass {
     let mut worst = LinkClass::Clean;
     for (k, &i) in ids.iter().enumerate() {
         for &j in &ids[k + 1..] {
@@ -37,7 +38,7 @@ fn links_at(tl: &netem::Timeline, t_s: f64, ids: &[u32]) -> LinkClass {
 
 /// The spans `(from_s, to_s, state)` of the timeline over `[0, t_end]` whose links are not
 /// clean; the state can change only at a rule's or a failure's time.
-pub fn spans(tl: &netem::Timeline, ids: &[u32], t_end: f64) -> Vec<(f64, f64, LinkClass)> {
+pub fn spans(tl: &netem::Timeline, ids: &[UavId], t_end: f64) -> Vec<(f64, f64, LinkClass)> {
     let mut times: Vec<f64> =
         tl.rules().iter().map(|r| r.at_s).chain(tl.failures().iter().map(|f| f.at_s)).filter(|t| *t < t_end).collect();
     times.push(0.0);
@@ -79,7 +80,8 @@ impl Figure for ConnectivityFigure<'_> {
         let t_end = run.t_end();
         let caption = "components of the estimate graph (an estimate either way joins two UAVs), on the netem timeline";
         let mut chart = time_chart(&area, caption, "count", t_end, y_hi)?;
-        let ids: Vec<u32> = if run.uavs > 0 { (1..=run.uavs).collect() } else { run.tracks.keys().copied().collect() };
+        let ids: Vec<UavId> =
+            if run.uavs > 0 { UavId::all(run.uavs as usize).collect() } else { run.tracks.keys().copied().collect() };
         let spans = spans(&run.timeline, &ids, t_end);
         // What a span means: some link, not every link; a frozen UAV's links count as cut (it
         // says nothing) while it still hears the others, so the graph may stay one component.
@@ -142,7 +144,7 @@ mod tests {
         let tl = timeline(
             "[[netem]]\nat_s = 1.0\nfrom = [2]\nrule = { delay_s = 0.1 }\n\n[[netem]]\nat_s = 2.0\npartition = { scheme = \"halves\", nodes = [1, 2] }\n\n[[netem]]\nat_s = 3.0\npartition = { scheme = \"healed\" }\n\n[[failures]]\nat_s = 5.0\nuav = 1\nkind = \"freeze\"\n",
         );
-        let s = spans(&tl, &[1, 2], 6.0);
+        let s = spans(&tl, &[UavId::new(1), UavId::new(2)], 6.0);
         assert_eq!(
             s,
             vec![
@@ -152,8 +154,11 @@ mod tests {
                 (5.0, 6.0, LinkClass::Cut)
             ]
         );
-        assert!(spans(&netem::Timeline::default(), &[1, 2], 6.0).is_empty(), "no timeline, nothing shaded");
-        assert_eq!(spans(&tl, &[1], 6.0), vec![], "one UAV has no links");
+        assert!(
+            spans(&netem::Timeline::default(), &[UavId::new(1), UavId::new(2)], 6.0).is_empty(),
+            "no timeline, nothing shaded"
+        );
+        assert_eq!(spans(&tl, &[UavId::new(1)], 6.0), vec![], "one UAV has no links");
     }
 
     #[test]

@@ -8,6 +8,7 @@ use anyhow::{anyhow, Context, Result};
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 use swarm_config::Scenario;
+use swarm_types::UavId;
 use swarm_wire::TruthWorld;
 
 /// One UAV at one tick, from `trajectories.csv`.
@@ -66,11 +67,11 @@ pub struct Run {
     /// Goal disc radius [m] (0 when unknown).
     pub goal_radius_m: f64,
     /// Each UAV's poses in tick order.
-    pub tracks: BTreeMap<u32, Vec<Pose>>,
+    pub tracks: BTreeMap<UavId, Vec<Pose>>,
     /// Each agent's states in tick order.
-    pub states: BTreeMap<u32, Vec<StateSample>>,
+    pub states: BTreeMap<UavId, Vec<StateSample>>,
     /// Each agent's mean localization error over its scored estimates, `(t_s, m)`.
-    pub loc_error: BTreeMap<u32, Vec<(f64, f64)>>,
+    pub loc_error: BTreeMap<UavId, Vec<(f64, f64)>>,
     /// Components of the estimate graph per tick.
     pub components: Vec<ComponentsSample>,
     /// The scenario's `[[netem]]` and `[[failures]]`.
@@ -122,12 +123,12 @@ impl Table {
     }
 
     /// Rows grouped by their `id` column, each turned into a `T` by `f` (in file order).
-    fn by_id<T>(&self, f: impl Fn(&[f64]) -> Option<T>) -> Result<BTreeMap<u32, Vec<T>>> {
+    fn by_id<T>(&self, f: impl Fn(&[f64]) -> Option<T>) -> Result<BTreeMap<UavId, Vec<T>>> {
         let id = self.col("id")?;
-        let mut out: BTreeMap<u32, Vec<T>> = BTreeMap::new();
+        let mut out: BTreeMap<UavId, Vec<T>> = BTreeMap::new();
         for r in &self.rows {
             if let (Some(&i), Some(v)) = (r.get(id), f(r)) {
-                out.entry(i as u32).or_default().push(v);
+                out.entry(UavId::new(i as u32)).or_default().push(v);
             }
         }
         Ok(out)
@@ -214,7 +215,7 @@ impl Run {
     }
 }
 
-fn tracks(t: &Table) -> Result<BTreeMap<u32, Vec<Pose>>> {
+fn tracks(t: &Table) -> Result<BTreeMap<UavId, Vec<Pose>>> {
     let c = [t.col("t_s")?, t.col("x_m")?, t.col("y_m")?, t.col("obstacle_distance_m")?, t.col("agent_distance_m")?];
     t.by_id(|r| {
         let v = |k: usize| r.get(c[k]).copied();
@@ -222,7 +223,7 @@ fn tracks(t: &Table) -> Result<BTreeMap<u32, Vec<Pose>>> {
     })
 }
 
-fn states(t: &Table) -> Result<BTreeMap<u32, Vec<StateSample>>> {
+fn states(t: &Table) -> Result<BTreeMap<UavId, Vec<StateSample>>> {
     let (c_t, c_n) = (t.col("t_s")?, t.col("neighbours")?);
     let c_v = VECTORS.map(|(name, _)| t.col(name));
     let c_v: Vec<usize> = c_v.into_iter().collect::<Result<_>>()?;
@@ -305,10 +306,10 @@ mod tests {
         synthetic_run_folder(&dir);
         let run = Run::read(&dir).expect("reads");
         assert_eq!(run.tracks.len(), 2);
-        assert_eq!(run.tracks[&2].len(), 30);
-        assert!(run.tracks[&1][29].agent_m.is_infinite(), "inf reads as infinity");
-        assert_eq!(run.states[&1][0].vectors, [0.25, 0.5, 0.125, 0.75, 0.4]);
-        assert_eq!(run.loc_error[&2][0], (0.1, 0.1));
+        assert_eq!(run.tracks[&UavId::new(2)].len(), 30);
+        assert!(run.tracks[&UavId::new(1)][29].agent_m.is_infinite(), "inf reads as infinity");
+        assert_eq!(run.states[&UavId::new(1)][0].vectors, [0.25, 0.5, 0.125, 0.75, 0.4]);
+        assert_eq!(run.loc_error[&UavId::new(2)][0], (0.1, 0.1));
         assert_eq!(run.components.iter().filter(|c| c.components == 2.0).count(), 10);
         assert_eq!(run.timeline.rules().len(), 2);
         assert_eq!(run.uavs, 2);

@@ -34,6 +34,7 @@ use anyhow::Result;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use swarm_types::UavId;
 
 /// The figures of a run folder, by file stem, in the order they are written.
 pub const FIGURES: [&str; 4] = ["run", "vectors", "localization", "connectivity"];
@@ -45,7 +46,7 @@ pub struct PlotArgs {
     pub run: PathBuf,
     /// The UAV whose K21 vectors are drawn (default: the lowest id that reported).
     #[arg(long)]
-    pub uav: Option<u32>,
+    pub uav: Option<UavId>,
     /// Also draw each UAV's own line in localization.png (the swarm's median and spread are
     /// always there).
     #[arg(long)]
@@ -65,14 +66,14 @@ pub fn plot(a: PlotArgs) -> Result<ExitCode> {
 
 /// Reads the run folder `dir` and writes every figure of [`FIGURES`] into it, SVG and PNG;
 /// returns the paths written. `uav` picks the vectors' UAV.
-pub fn write_all(dir: &Path, uav: Option<u32>) -> Result<Vec<PathBuf>> {
+pub fn write_all(dir: &Path, uav: Option<UavId>) -> Result<Vec<PathBuf>> {
     write_all_with(dir, uav, false)
 }
 
 /// [`write_all`], with each UAV's own line in localization.png when `per_uav`.
-pub fn write_all_with(dir: &Path, uav: Option<u32>, per_uav: bool) -> Result<Vec<PathBuf>> {
+pub fn write_all_with(dir: &Path, uav: Option<UavId>, per_uav: bool) -> Result<Vec<PathBuf>> {
     let run = data::Run::read(dir)?;
-    let uav = uav.or_else(|| run.states.keys().next().copied()).unwrap_or(1);
+    let uav = uav.or_else(|| run.states.keys().next().copied()).unwrap_or(UavId::new(1));
     let mut out = Vec::new();
     out.extend(style::write(&map::RunFigure(&run), dir, FIGURES[0])?);
     out.extend(style::write(&vectors::VectorsFigure { run: &run, uav }, dir, FIGURES[1])?);

@@ -10,6 +10,7 @@ use super::style::{beside_legend, color, legend_strip, segments, time_chart, y_t
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::collections::BTreeMap;
+use swarm_types::UavId;
 
 /// Picture size [px].
 const SIZE: (u32, u32) = (1000, 680);
@@ -33,7 +34,7 @@ impl Figure for LocalizationFigure<'_> {
         let (top, bottom) = area.split_vertically(area.dim_in_pixel().1 / 2);
         let error = "localization error (each agent's mean over its estimates)";
         panel(&top, run, error, "error [m]", &run.loc_error, self.per_uav)?;
-        let counts: BTreeMap<u32, Vec<(f64, f64)>> =
+        let counts: BTreeMap<UavId, Vec<(f64, f64)>> =
             run.states.iter().map(|(&id, s)| (id, s.iter().map(|s| (s.t_s, s.neighbours)).collect())).collect();
         panel(&bottom, run, "neighbours each agent holds an estimate of", "neighbours", &counts, self.per_uav)
     }
@@ -41,7 +42,7 @@ impl Figure for LocalizationFigure<'_> {
 
 /// At each sim time (times matched to the millisecond): the 10th, 50th and 90th percentiles
 /// over the series' finite values.
-fn quantiles_by_time(series: &BTreeMap<u32, Vec<(f64, f64)>>) -> Vec<(f64, [f64; 3])> {
+fn quantiles_by_time(series: &BTreeMap<UavId, Vec<(f64, f64)>>) -> Vec<(f64, [f64; 3])> {
     let mut at: BTreeMap<i64, (f64, Vec<f64>)> = BTreeMap::new();
     for &(t, v) in series.values().flatten().filter(|p| p.1.is_finite()) {
         at.entry((t * 1000.0).round() as i64).or_insert((t, Vec::new())).1.push(v);
@@ -62,7 +63,7 @@ fn panel<DB: DrawingBackend>(
     run: &Run,
     caption: &str,
     y_label: &str,
-    series: &BTreeMap<u32, Vec<(f64, f64)>>,
+    series: &BTreeMap<UavId, Vec<(f64, f64)>>,
     per_uav: bool,
 ) -> DrawResult<DB> {
     let (plot, strip) = beside_legend(area);
@@ -100,8 +101,9 @@ mod tests {
 
     #[test]
     fn the_quantiles_match_times_to_the_millisecond() {
-        let s: BTreeMap<u32, Vec<(f64, f64)>> =
+        let s: BTreeMap<UavId, Vec<(f64, f64)>> =
             [(1, vec![(0.1, 1.0), (0.2, 2.0)]), (2, vec![(0.1000001, 3.0), (0.3, f64::NAN)]), (3, vec![(0.1, 2.0)])]
+                .map(|(id, v)| (UavId::new(id), v))
                 .into();
         assert_eq!(quantiles_by_time(&s), vec![(0.1, [1.0, 2.0, 3.0]), (0.2, [2.0, 2.0, 2.0])]);
     }

@@ -10,6 +10,7 @@ use super::data::{Pose, Run};
 use super::style::{color, legend, thin_keeping_minima, tick, time_chart, DrawResult, Figure, FAMILY};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use swarm_types::UavId;
 
 /// Picture size [px]; the map takes the left [`MAP_W`].
 const SIZE: (u32, u32) = (1400, 680);
@@ -201,7 +202,7 @@ fn distances<DB: DrawingBackend>(
     let y_hi = super::style::y_top(run.tracks.values().flatten().map(value), 1.0).min(DISTANCE_CAP_M * 1.05);
     let (t_end, y_hi) = (run.t_end(), y_hi.max(lines.iter().map(|l| l.0 * 1.2).fold(0.0, f64::max)));
     let mut chart = time_chart(area, caption, "[m]", t_end, y_hi)?;
-    let ids: Vec<u32> = run.tracks.keys().copied().collect();
+    let ids: Vec<UavId> = run.tracks.keys().copied().collect();
     for s in spans(&run.timeline, &ids, t_end) {
         let (c, what) = match s.2 {
             netem::LinkClass::Cut => (CUT, "some link cut"),

@@ -9,6 +9,7 @@ use super::data::{Run, VECTORS};
 use super::style::{beside_legend, color, legend_strip, segments, time_chart, y_top, DrawResult, Figure, FAMILY};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use swarm_types::UavId;
 
 /// Picture size [px].
 const SIZE: (u32, u32) = (1000, 680);
@@ -18,7 +19,7 @@ pub struct VectorsFigure<'a> {
     /// The run.
     pub run: &'a Run,
     /// Which UAV.
-    pub uav: u32,
+    pub uav: UavId,
 }
 
 impl Figure for VectorsFigure<'_> {

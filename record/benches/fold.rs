@@ -10,6 +10,7 @@ use std::hint::black_box;
 use std::io::Write;
 use swarm_record::recorder::metrics::Metrics;
 use swarm_record::recorder::write_trajectory_rows;
+use swarm_types::UavId;
 use swarm_wire::{AgentState, NeighbourEstimate, Traffic, TruthBody, TruthStep, VectorMagnitudes};
 
 const UAVS: u32 = 1000;
@@ -24,7 +25,7 @@ fn step(tick: u64) -> TruthStep {
             let (i, j) = ((id - 1) % side, (id - 1) / side);
             let drift = tick as f64 * 0.01;
             TruthBody {
-                id,
+                id: UavId::new(id),
                 x: f64::from(i) * 3.0 + drift,
                 y: f64::from(j) * 3.0 - drift * 0.5,
                 yaw: 0.1 * f64::from(id % 7),
@@ -38,7 +39,7 @@ fn step(tick: u64) -> TruthStep {
             }
         })
         .collect();
-    TruthStep { tick, t_secs: tick as f64 * 0.1, bodies, ..TruthStep::default() }
+    TruthStep { tick, t_s: tick as f64 * 0.1, bodies, ..TruthStep::default() }
 }
 
 /// Every agent's state of `tick`: estimates of the next ids, a few centimetres off the truth.
@@ -48,7 +49,7 @@ fn states(s: &TruthStep) -> Vec<AgentState> {
         .map(|me| {
             let neighbours = (1..=NEIGHBOURS)
                 .map(|k| {
-                    let other = &s.bodies[((me.id - 1 + k) % UAVS) as usize];
+                    let other = &s.bodies[((me.id.get() - 1 + k) % UAVS) as usize];
                     let (dx, dy) = (other.x - me.x, other.y - me.y);
                     let (c, sn) = (me.yaw.cos(), me.yaw.sin());
                     NeighbourEstimate {
@@ -56,14 +57,14 @@ fn states(s: &TruthStep) -> Vec<AgentState> {
                         x: (c * dx + sn * dy) as f32 + 0.01 * (k % 3) as f32,
                         y: (-sn * dx + c * dy) as f32 - 0.02,
                         heading: 0.0,
-                        age_secs: 0.1 * (k % 2) as f32,
+                        age_s: 0.1 * (k % 2) as f32,
                     }
                 })
                 .collect();
             AgentState {
                 id: me.id,
                 tick: s.tick,
-                t_secs: s.t_secs,
+                t_s: s.t_s,
                 step_time_us: 10,
                 neighbours,
                 in_radio_range: NEIGHBOURS,
@@ -144,7 +145,7 @@ fn rows_std(out: &mut Vec<u8>, s: &TruthStep) {
             out,
             "{},{:.3},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{}",
             s.tick,
-            s.t_secs,
+            s.t_s,
             b.id,
             b.x,
             b.y,

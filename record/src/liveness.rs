@@ -4,6 +4,7 @@
 //! as cut) ask the same question, and one fold answers both alike. Ids index a vector (they are
 //! 1..=N), so a step costs one pass over its bodies and a question one lookup.
 
+use swarm_types::UavId;
 use swarm_wire::TruthStep;
 
 /// Per UAV: whether its agent has held its token in some step, and since when it has not after
@@ -21,7 +22,7 @@ impl Liveness {
     /// Folds one step.
     pub(crate) fn on_step(&mut self, s: &TruthStep) {
         for b in &s.bodies {
-            let Some(i) = (b.id as usize).checked_sub(1) else { continue };
+            let Some(i) = b.id.try_index() else { continue };
             if i >= self.ever.len() {
                 self.ever.resize(i + 1, false);
                 self.gone_since.resize(i + 1, None);
@@ -30,25 +31,25 @@ impl Liveness {
                 self.ever[i] = true;
                 self.gone_since[i] = None;
             } else if self.ever[i] && self.gone_since[i].is_none() {
-                self.gone_since[i] = Some(s.t_secs);
+                self.gone_since[i] = Some(s.t_s);
             }
         }
     }
 
     /// Whether the agent of UAV `id` has held its token in some step.
-    pub(crate) fn ever_alive(&self, id: u32) -> bool {
-        (id as usize).checked_sub(1).and_then(|i| self.ever.get(i)).copied().unwrap_or(false)
+    pub(crate) fn ever_alive(&self, id: UavId) -> bool {
+        id.try_index().and_then(|i| self.ever.get(i)).copied().unwrap_or(false)
     }
 
     /// Since when the agent of UAV `id`, alive before, has been gone; `None` while it is alive
     /// or if it never came.
-    pub(crate) fn lost_since(&self, id: u32) -> Option<f64> {
-        (id as usize).checked_sub(1).and_then(|i| self.gone_since.get(i)).copied().flatten()
+    pub(crate) fn lost_since(&self, id: UavId) -> Option<f64> {
+        id.try_index().and_then(|i| self.gone_since.get(i)).copied().flatten()
     }
 
     /// Every UAV gone now, with since when, by id.
-    pub(crate) fn lost(&self) -> impl Iterator<Item = (u32, f64)> + '_ {
-        self.gone_since.iter().enumerate().filter_map(|(i, g)| g.map(|t| (i as u32 + 1, t)))
+    pub(crate) fn lost(&self) -> impl Iterator<Item = (UavId, f64)> + '_ {
+        self.gone_since.iter().enumerate().filter_map(|(i, g)| g.map(|t| (UavId::from_index(i), t)))
     }
 }
 
@@ -57,12 +58,12 @@ mod tests {
     use super::*;
     use swarm_wire::TruthBody;
 
-    fn step(t_secs: f64, alive: &[bool]) -> TruthStep {
+    fn step(t_s: f64, alive: &[bool]) -> TruthStep {
         let bodies = alive
             .iter()
             .enumerate()
             .map(|(i, &alive)| TruthBody {
-                id: i as u32 + 1,
+                id: UavId::from_index(i),
                 x: 0.0,
                 y: 0.0,
                 yaw: 0.0,
@@ -75,7 +76,7 @@ mod tests {
                 colliding: false,
             })
             .collect();
-        TruthStep { t_secs, bodies, ..TruthStep::default() }
+        TruthStep { t_s, bodies, ..TruthStep::default() }
     }
 
     #[test]
@@ -84,10 +85,15 @@ mod tests {
         l.on_step(&step(0.1, &[true, false, true]));
         l.on_step(&step(0.2, &[true, false, false]));
         l.on_step(&step(0.3, &[false, false, false]));
-        assert_eq!(l.lost().collect::<Vec<_>>(), vec![(1, 0.3), (3, 0.2)]);
-        assert!(l.ever_alive(1) && !l.ever_alive(2) && !l.ever_alive(9) && !l.ever_alive(0));
-        assert_eq!(l.lost_since(2), None, "never came: not lost");
+        assert_eq!(l.lost().collect::<Vec<_>>(), vec![(UavId::new(1), 0.3), (UavId::new(3), 0.2)]);
+        assert!(
+            l.ever_alive(UavId::new(1))
+                && !l.ever_alive(UavId::new(2))
+                && !l.ever_alive(UavId::new(9))
+                && !l.ever_alive(UavId::new(0))
+        );
+        assert_eq!(l.lost_since(UavId::new(2)), None, "never came: not lost");
         l.on_step(&step(0.4, &[false, false, true]));
-        assert_eq!((l.lost_since(1), l.lost_since(3)), (Some(0.3), None), "UAV 3 is back");
+        assert_eq!((l.lost_since(UavId::new(1)), l.lost_since(UavId::new(3))), (Some(0.3), None), "UAV 3 is back");
     }
 }

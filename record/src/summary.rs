@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::fmt::Write as _;
+use swarm_types::UavId;
 
 /// Numbers that can be undefined (infinite distances with no obstacle or no other UAV, NaN means
 /// of nothing) are `null` in JSON.
@@ -100,7 +101,7 @@ pub struct Summary {
     /// The UAVs whose agent never came (never held its liveliness token in any tick): the hub
     /// flew them without one, hovering. Appended; empty in older summaries.
     #[serde(default)]
-    pub never_joined: Vec<u32>,
+    pub never_joined: Vec<UavId>,
     /// The UAVs whose agent came and was gone at the end (killed, crashed, its host gone, cut off
     /// for good), with when it went: their bodies hovered from then on; the goal check of a run
     /// that flew to its time limit judges the rest without them, and the checks count their links
@@ -113,7 +114,7 @@ pub struct Summary {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LostUav {
     /// Its id.
-    pub id: u32,
+    pub id: UavId,
     /// The sim time of the first tick its agent no longer held its token [s].
     pub at_s: f64,
 }
@@ -148,7 +149,7 @@ pub struct SessionTrafficSummary {
     pub agents: usize,
     /// Their UAV ids.
     #[serde(default)]
-    pub uavs: Vec<u32>,
+    pub uavs: Vec<UavId>,
     /// Ticks its agents reported, first to last.
     pub ticks: u64,
     /// Shares that reached it per tick.
@@ -196,7 +197,7 @@ pub const SHOWN_UAVS: usize = 8;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct UavAt {
     /// UAV id.
-    pub id: u32,
+    pub id: UavId,
     /// World x.
     pub x_m: f64,
     /// World y.
@@ -359,9 +360,9 @@ pub struct CollisionRecord {
     /// Sim time.
     pub t_s: f64,
     /// UAV id.
-    pub id: u32,
+    pub id: UavId,
     /// Other UAV, or null for an obstacle.
-    pub other_uav: Option<u32>,
+    pub other_uav: Option<UavId>,
     /// World x.
     pub x_m: f64,
     /// World y.
@@ -372,7 +373,7 @@ pub struct CollisionRecord {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct AgentSummary {
     /// UAV id.
-    pub id: u32,
+    pub id: UavId,
     /// Minimum distance from its centre to an obstacle surface.
     #[serde(with = "inf_as_null")]
     pub min_obstacle_distance_m: f64,
@@ -650,7 +651,7 @@ mod tests {
 
     #[test]
     fn a_failed_check_names_a_few_uavs_and_counts_the_rest() {
-        let uavs = |n: u32| (1..=n).map(|id| UavAt { id, x_m: 1.0, y_m: -2.0 }).collect::<Vec<_>>();
+        let uavs = |n: usize| UavId::all(n).map(|id| UavAt { id, x_m: 1.0, y_m: -2.0 }).collect::<Vec<_>>();
         let sc = swarm_config::builtin("forest-5").expect("builtin");
         let mut s = crate::recorder::metrics::Metrics::default().summary("r", &sc);
         for n in [3, 1000] {
@@ -662,7 +663,7 @@ mod tests {
             }];
             let text = s.checks_human();
             let named = text.matches(" at (1.00, -2.00)").count();
-            assert_eq!(named, (n as usize).min(SHOWN_UAVS), "{text}");
+            assert_eq!(named, n.min(SHOWN_UAVS), "{text}");
             assert_eq!(text.contains("and 992 more (summary.json lists every one)"), n == 1000, "{text}");
         }
     }
@@ -670,7 +671,7 @@ mod tests {
     #[test]
     fn infinite_distances_are_null_and_read_back() {
         let a = AgentSummary {
-            id: 1,
+            id: UavId::new(1),
             min_obstacle_distance_m: f64::INFINITY,
             min_agent_distance_m: 1.5,
             ..Default::default()

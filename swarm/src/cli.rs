@@ -1,5 +1,5 @@
 //! Argument parsing and dispatch, and nothing else: each subcommand's args live beside the
-//! command (the shared [`ZenohArgs`](swarm_node::args::ZenohArgs) in [`swarm_node::args`]), and doc
+//! command (the shared [`ZenohArgs`](swarm_args::ZenohArgs) in [`swarm_args`]), and doc
 //! comments are the help text.
 
 use clap::{Parser, Subcommand};

@@ -21,6 +21,7 @@ use anyhow::{Context, Result};
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, BTreeSet};
 use swarm_config::Scenario;
+use swarm_types::UavId;
 use swarm_wire::external::ExtCmd;
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::session::{self, Role};
@@ -34,18 +35,18 @@ use zenoh::qos::CongestionControl;
 /// What reaches the gateway.
 enum Event {
     /// An external UAV's view (JSON).
-    View(u32, Value),
+    View(UavId, Value),
     /// The hub's step.
     Truth(Box<TruthStep>),
     /// An agent's liveliness token came or went.
-    Alive(u32, bool),
+    Alive(UavId, bool),
 }
 
 /// The gateway of one run.
 pub struct Gym {
     session: zenoh::Session,
     keys: Keys,
-    external: BTreeSet<u32>,
+    external: BTreeSet<UavId>,
     rx: mpsc::UnboundedReceiver<Event>,
     _subs: Vec<Subscription>,
     _tokens: Vec<LivelinessToken>,
@@ -56,7 +57,7 @@ pub struct Gym {
 fn truth_json(t: &TruthStep) -> Value {
     json!({
         "tick": t.tick,
-        "t_s": t.t_secs,
+        "t_s": t.t_s,
         "bodies": t.bodies,
         "collisions": t.collisions,
         "goal_reached_at": t.goal_reached_at,
@@ -74,7 +75,7 @@ impl Gym {
         let (tx, rx) = mpsc::unbounded_channel();
         let mut subs = Vec::new();
         let mut tokens = Vec::new();
-        let external: BTreeSet<u32> = sc.controller.external.iter().copied().collect();
+        let external: BTreeSet<UavId> = sc.controller.external.iter().copied().collect();
         for &id in &external {
             subs.push(
                 plumbing::subscribe(&s, keys.ext_view(id), tx.clone(), move |x| {
@@ -111,8 +112,8 @@ impl Gym {
     pub async fn run(mut self) -> Result<()> {
         let mut out = tokio::io::stdout();
         let mut lines = BufReader::new(tokio::io::stdin()).lines();
-        let mut alive: BTreeSet<u32> = BTreeSet::new();
-        let mut views: BTreeMap<u64, BTreeMap<u32, Value>> = BTreeMap::new();
+        let mut alive: BTreeSet<UavId> = BTreeSet::new();
+        let mut views: BTreeMap<u64, BTreeMap<UavId, Value>> = BTreeMap::new();
         let mut truth: Option<Box<TruthStep>> = None;
         let mut stdin_open = true;
         loop {
@@ -154,12 +155,12 @@ impl Gym {
     async fn hand_on(
         &self,
         out: &mut tokio::io::Stdout,
-        views: &mut BTreeMap<u64, BTreeMap<u32, Value>>,
-        alive: &BTreeSet<u32>,
+        views: &mut BTreeMap<u64, BTreeMap<UavId, Value>>,
+        alive: &BTreeSet<UavId>,
         truth: Option<&TruthStep>,
     ) -> Result<()> {
         let Some((&tick, got)) = views.iter().next() else { return Ok(()) };
-        let expected: Vec<u32> = self.external.iter().copied().filter(|id| alive.contains(id)).collect();
+        let expected: Vec<UavId> = self.external.iter().copied().filter(|id| alive.contains(id)).collect();
         if expected.is_empty() || !expected.iter().all(|id| got.contains_key(id)) {
             return Ok(());
         }
@@ -187,7 +188,7 @@ impl Gym {
             }
         };
         for (id, c) in cmds {
-            let Some(id) = id.parse::<u32>().ok().filter(|id| self.external.contains(id)) else {
+            let Some(id) = id.parse::<UavId>().ok().filter(|id| self.external.contains(id)) else {
                 warn!("gym gateway: a command for {id:?}, which is not an external UAV, ignored");
                 continue;
             };
@@ -195,13 +196,13 @@ impl Gym {
             c["tick"] = json!(tick);
             let bytes = c.to_string().into_bytes();
             if ExtCmd::parse(&bytes).is_none() {
-                warn!(uav_id = id, "gym gateway: not a command, ignored: {c}");
+                warn!(uav_id = %id, "gym gateway: not a command, ignored: {c}");
                 continue;
             }
             // Blocking, not dropped under congestion: the tick waits for every command.
             let put = self.session.put(self.keys.ext_cmd(id), bytes).congestion_control(CongestionControl::Block);
             if let Err(e) = put.await {
-                warn!(uav_id = id, "gym gateway: {e}");
+                warn!(uav_id = %id, "gym gateway: {e}");
             }
         }
     }

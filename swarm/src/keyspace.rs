@@ -23,6 +23,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::process::ExitCode;
 use std::time::Duration;
+use swarm_types::UavId;
 use swarm_wire::{Keys, WireError};
 use zenoh::key_expr::KeyExpr;
 
@@ -35,7 +36,7 @@ pub struct KeysArgs {
     /// Endpoints and login (an observer's: `--user observer --password-file
     /// <run>/credentials/observer.password`).
     #[command(flatten)]
-    pub zenoh: swarm_node::args::ZenohArgs,
+    pub zenoh: swarm_args::ZenohArgs,
     /// Seconds to listen for message rates and bandwidth (0: no rates, the graph only).
     #[arg(long, default_value_t = 2.0)]
     pub window: f64,
@@ -126,7 +127,7 @@ impl KeySpace {
     pub fn label(&self, zid: &str) -> String {
         let tokens = self.tokens.get(zid);
         let held = |t: &str| tokens.is_some_and(|s| s.contains(t));
-        let uavs: Vec<u32> =
+        let uavs: Vec<UavId> =
             tokens.into_iter().flatten().filter_map(|t| t.strip_prefix("alive/uav/")?.parse().ok()).collect();
         if held("alive/hub") {
             "hub".into()

@@ -17,12 +17,13 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{ExitCode, Stdio};
 use std::time::Duration;
+use swarm_args::{default_run_id, scenario_value, RosArgs};
 use swarm_config::{FailureKind, Scenario};
-use swarm_node::args::{default_run_id, scenario_value, RosArgs};
 use swarm_node::auth::{bridge_user, ext_user, host_user, ids_text, uav_user, Credentials};
 use swarm_node::pieces::LISTENING_PREFIX;
 use swarm_record::recorder::{progress_bar, Recording};
 use swarm_record::summary::Summary;
+use swarm_types::UavId;
 use swarm_wire::Keys;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, ChildStdin, Command};
@@ -58,8 +59,8 @@ pub struct RunArgs {
     pub experiment: Option<PathBuf>,
     /// Fly these UAVs (`3`, `1-4,7`) with an external controller (docs/own-controller.md),
     /// added to the scenario's `[controller] external`.
-    #[arg(long, value_parser = swarm_node::args::parse_ids)]
-    pub external: Option<swarm_node::args::UavIds>,
+    #[arg(long, value_parser = swarm_args::parse_ids)]
+    pub external: Option<swarm_args::UavIds>,
     /// Set a scenario field for this run, `SECTION.FIELD=VALUE` in the scenario file's TOML
     /// (`time.tick_timeout_ms=60000`, `end.time_limit_s=30`, `localization.mode="icp"`;
     /// repeatable); the result is validated as a whole, like a file.
@@ -111,8 +112,8 @@ pub struct RunArgs {
     /// Run these UAVs' agents (`3`, `1-4,7`) on ROS 2 topics, as on a vehicle: each reads its
     /// scan, odometry and goal from ROS and sends its command there, and the bridge drives its
     /// body (implies `--ros2`; `swarm agent --sensors ros2`).
-    #[arg(long, value_parser = swarm_node::args::parse_ids)]
-    pub ros2_agents: Option<swarm_node::args::UavIds>,
+    #[arg(long, value_parser = swarm_args::parse_ids)]
+    pub ros2_agents: Option<swarm_args::UavIds>,
     /// The run as a step function on this process's standard input and output: one JSON line of
     /// every external UAV's view (and the hub's truth) out per tick, one line of their commands
     /// in (docs/python.md; the Python package `uavswarm` speaks it). Needs `--external`; the
@@ -144,7 +145,7 @@ pub struct Ros2Side {
     /// Truth on DDS too.
     pub truth: bool,
     /// The UAVs whose agents read their sensors from ROS topics.
-    pub agents: Vec<u32>,
+    pub agents: Vec<UavId>,
 }
 
 /// Up to this many UAVs, `swarm run` starts one process per UAV by default.
@@ -374,7 +375,7 @@ pub async fn execute(sc: &Scenario, text: &str, run_id: &str, out: &Path, how: &
 }
 
 /// The UAVs whose agents run on ROS topics, each checked to have an agent of ours.
-fn ros_agents(sc: &Scenario, side: Option<&Ros2Side>) -> Result<Vec<u32>> {
+fn ros_agents(sc: &Scenario, side: Option<&Ros2Side>) -> Result<Vec<UavId>> {
     let ids = side.map(|r| r.agents.clone()).unwrap_or_default();
     for &id in &ids {
         anyhow::ensure!(
@@ -476,7 +477,7 @@ const OBSERVER: &str = "observer";
 /// (`ext{id}`) and `controller` for all of them at once, with `--ros2` the bridge's (`bridge`, or `bridge-uavs{ids}` when it drives the
 /// bodies of agents on ROS topics) and a `ros` for ROS machines, the recorder's
 /// `observer`, and an `operator` for `swarm netem` on the running swarm.
-fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>], ros2: Option<&Ros2Side>) -> Result<Credentials> {
+fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<UavId>], ros2: Option<&Ros2Side>) -> Result<Credentials> {
     let mut users: Vec<String> = sc.agent_ids().map(uav_user).collect();
     users.extend(hosts.iter().map(|g| host_user(g)));
     users.extend(sc.controller.external.iter().map(|&id| ext_user(id)));
@@ -492,7 +493,7 @@ fn run_credentials(sc: &Scenario, out: &Path, hosts: &[Vec<u32>], ros2: Option<&
 }
 
 /// Whether `[[failures]]` kills, restarts or cuts off UAV `id` (it then runs alone).
-fn has_own_failures(sc: &Scenario, id: u32) -> bool {
+fn has_own_failures(sc: &Scenario, id: UavId) -> bool {
     sc.failures.iter().any(|f| f.kind != FailureKind::Freeze && f.uav == id)
 }
 
@@ -509,7 +510,7 @@ fn children_cfg(sc: &Scenario, zenoh_cfg: &[String]) -> Vec<String> {
 }
 
 /// One TCP proxy per UAV with link faults, in front of the hub's first TCP locator.
-async fn start_proxies(sc: &Scenario, locators: &[String]) -> Result<BTreeMap<u32, LinkProxy>> {
+async fn start_proxies(sc: &Scenario, locators: &[String]) -> Result<BTreeMap<UavId, LinkProxy>> {
     let mut proxies = BTreeMap::new();
     for f in sc.failures.iter().filter(|f| f.kind.is_link()) {
         if proxies.contains_key(&f.uav) {
@@ -520,7 +521,7 @@ async fn start_proxies(sc: &Scenario, locators: &[String]) -> Result<BTreeMap<u3
             .find_map(|l| l.strip_prefix("tcp/").and_then(|a| a.parse::<std::net::SocketAddr>().ok()))
             .with_context(|| format!("link faults need a TCP locator of the hub, got {locators:?}"))?;
         let p = LinkProxy::start(upstream).await.context("cannot start the link proxy")?;
-        info!(uav_id = f.uav, proxy = %p.addr(), "link proxy up");
+        info!(uav_id = %f.uav, proxy = %p.addr(), "link proxy up");
         proxies.insert(f.uav, p);
     }
     Ok(proxies)
@@ -529,7 +530,7 @@ async fn start_proxies(sc: &Scenario, locators: &[String]) -> Result<BTreeMap<u3
 /// How long UAV `id`'s agent waits for a lost hub [wall s]: its longest link outage in the
 /// scenario (sim time divided by the realtime factor), plus 10 s for the lease and the
 /// reconnection backoff.
-fn link_grace_s(sc: &Scenario, id: u32) -> f64 {
+fn link_grace_s(sc: &Scenario, id: UavId) -> f64 {
     let mut events: Vec<(f64, FailureKind)> =
         sc.failures.iter().filter(|f| f.uav == id && f.kind.is_link()).map(|f| (f.at_s, f.kind)).collect();
     events.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -592,12 +593,12 @@ impl Launcher {
 
     /// Starts `swarm agent` for UAV `id`, connected through its link proxy (with a hub grace
     /// long enough for the scenario's outages) or straight to the hub's `locators`.
-    fn agent(&self, id: u32, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
+    fn agent(&self, id: UavId, log: &str, proxy: Option<(&LinkProxy, f64)>, locators: &[String]) -> Result<Piece> {
         self.agents(AgentProcess::Uav(id), log, proxy, locators)
     }
 
     /// Starts `swarm agent --ids ids` (an agent host) straight on the hub's `locators`.
-    fn host(&self, ids: &[u32], locators: &[String]) -> Result<Piece> {
+    fn host(&self, ids: &[UavId], locators: &[String]) -> Result<Piece> {
         let log = format!("agents-{}-{}.log", ids[0], ids[ids.len() - 1]);
         self.agents(AgentProcess::Host(ids), &log, None, locators)
     }
@@ -652,9 +653,9 @@ impl Launcher {
 /// One agent process to start: a UAV's own, or an agent host's.
 #[derive(Debug, Clone, Copy)]
 enum AgentProcess<'a> {
-    Uav(u32),
+    Uav(UavId),
     /// The UAVs it serves, ascending.
-    Host(&'a [u32]),
+    Host(&'a [UavId]),
 }
 
 impl AgentProcess<'_> {
@@ -683,10 +684,10 @@ struct Agents<'a> {
     launcher: &'a Launcher,
     sc: &'a Scenario,
     locators: Vec<String>,
-    proxies: BTreeMap<u32, LinkProxy>,
-    running: BTreeMap<u32, Piece>,
+    proxies: BTreeMap<UavId, LinkProxy>,
+    running: BTreeMap<UavId, Piece>,
     hosts: Vec<Piece>,
-    schedule: Vec<(f64, u32, FailureKind)>,
+    schedule: Vec<(f64, UavId, FailureKind)>,
     restarts: u32,
 }
 
@@ -696,10 +697,10 @@ impl<'a> Agents<'a> {
         launcher: &'a Launcher,
         sc: &'a Scenario,
         locators: Vec<String>,
-        proxies: BTreeMap<u32, LinkProxy>,
+        proxies: BTreeMap<UavId, LinkProxy>,
         spread: Spread,
     ) -> Result<Agents<'a>> {
-        let mut schedule: Vec<(f64, u32, FailureKind)> =
+        let mut schedule: Vec<(f64, UavId, FailureKind)> =
             sc.failures.iter().filter(|f| f.kind != FailureKind::Freeze).map(|f| (f.at_s, f.uav, f.kind)).collect();
         schedule.sort_by(|x, y| x.0.total_cmp(&y.0));
         let mut agents = Agents {
@@ -722,13 +723,13 @@ impl<'a> Agents<'a> {
     }
 
     /// Starts UAV `id`'s agent in a process of its own.
-    fn start_solo(&mut self, id: u32) -> Result<()> {
+    fn start_solo(&mut self, id: UavId) -> Result<()> {
         let piece = self.spawn(id, &format!("agent-{id}.log"))?;
         self.running.insert(id, piece);
         Ok(())
     }
 
-    fn spawn(&self, id: u32, log: &str) -> Result<Piece> {
+    fn spawn(&self, id: UavId, log: &str) -> Result<Piece> {
         let proxy = self.proxies.get(&id).map(|p| (p, link_grace_s(self.sc, id)));
         self.launcher.agent(id, log, proxy, &self.locators)
     }
@@ -745,12 +746,12 @@ impl<'a> Agents<'a> {
                 continue;
             }
             if let Some(mut old) = self.running.remove(&id) {
-                info!(uav_id = id, t, "killing agent");
+                info!(uav_id = %id, t, "killing agent");
                 let _ = old.child.start_kill();
             }
             if kind == FailureKind::Restart {
                 self.restarts += 1;
-                info!(uav_id = id, t, "restarting agent");
+                info!(uav_id = %id, t, "restarting agent");
                 let piece = self.spawn(id, &format!("agent-{id}-restart-{}.log", self.restarts))?;
                 self.running.insert(id, piece);
             }
@@ -759,9 +760,9 @@ impl<'a> Agents<'a> {
     }
 
     /// Sets UAV `id`'s link proxy to the state a link fault asks for.
-    fn link_fault(&self, id: u32, kind: FailureKind, t: f64) {
+    fn link_fault(&self, id: UavId, kind: FailureKind, t: f64) {
         if let Some(p) = self.proxies.get(&id) {
-            info!(uav_id = id, t, ?kind, "link fault");
+            info!(uav_id = %id, t, ?kind, "link fault");
             p.set(match kind {
                 FailureKind::LinkStall => LinkState::Stalled,
                 FailureKind::LinkClose => LinkState::Closed,
@@ -798,16 +799,16 @@ impl<'a> Agents<'a> {
 #[derive(Debug, Clone, PartialEq)]
 struct Spread {
     /// The UAVs with a process of their own, ascending.
-    solo: Vec<u32>,
+    solo: Vec<UavId>,
     /// The agent hosts, each its UAVs ascending.
-    hosts: Vec<Vec<u32>>,
+    hosts: Vec<Vec<UavId>>,
 }
 
 /// Spreads UAVs `ids` over processes, `per_process` to a host in id order: the UAVs that get a
 /// process of their own (those `alone` picks, and a last group of one) and the hosts. Computed
 /// once per run: the credentials and the launch must agree on it.
-fn spread(ids: impl Iterator<Item = u32>, per_process: u32, alone: impl Fn(u32) -> bool) -> Spread {
-    let (mut solo, shared): (Vec<u32>, Vec<u32>) = ids.partition(|&id| per_process <= 1 || alone(id));
+fn spread(ids: impl Iterator<Item = UavId>, per_process: u32, alone: impl Fn(UavId) -> bool) -> Spread {
+    let (mut solo, shared): (Vec<UavId>, Vec<UavId>) = ids.partition(|&id| per_process <= 1 || alone(id));
     let mut hosts = Vec::new();
     for group in shared.chunks(per_process.max(1) as usize) {
         match group {
@@ -867,29 +868,34 @@ mod tests {
         assert_eq!(per_process(5, 2, Some(5)), 5);
     }
 
+    /// The ids `v`, typed.
+    fn ids(v: &[u32]) -> Vec<UavId> {
+        v.iter().copied().map(UavId::new).collect()
+    }
+
     #[test]
     fn uavs_with_failures_keep_a_process_of_their_own() {
-        let Spread { solo, hosts } = spread(1..=7, 3, |id| id == 2);
-        assert_eq!(hosts, vec![vec![1, 3, 4], vec![5, 6, 7]]);
-        assert_eq!(solo, vec![2]);
-        let Spread { solo, hosts } = spread(1..=5, 2, |_| false);
-        assert_eq!(hosts, vec![vec![1, 2], vec![3, 4]]);
-        assert_eq!(solo, vec![5], "a group of one is a plain agent");
-        let Spread { solo, hosts } = spread(1..=3, 1, |_| false);
+        let Spread { solo, hosts } = spread(UavId::all(7), 3, |id| id == UavId::new(2));
+        assert_eq!(hosts, vec![ids(&[1, 3, 4]), ids(&[5, 6, 7])]);
+        assert_eq!(solo, ids(&[2]));
+        let Spread { solo, hosts } = spread(UavId::all(5), 2, |_| false);
+        assert_eq!(hosts, vec![ids(&[1, 2]), ids(&[3, 4])]);
+        assert_eq!(solo, ids(&[5]), "a group of one is a plain agent");
+        let Spread { solo, hosts } = spread(UavId::all(3), 1, |_| false);
         assert!(hosts.is_empty());
-        assert_eq!(solo, vec![1, 2, 3]);
+        assert_eq!(solo, ids(&[1, 2, 3]));
     }
 
     #[test]
     fn an_agent_process_logs_in_as_the_user_of_what_it_serves() {
-        let host = AgentProcess::Host(&[1, 2, 3, 7]);
+        let host = AgentProcess::Host(&ids(&[1, 2, 3, 7]));
         assert_eq!(host.args(), ["--ids".to_string(), "1-3,7".to_string()]);
         assert_eq!(host.user(), "uavs1-3,7");
         assert_eq!(
             swarm_node::auth::Role::of(&host.user()).expect("a role"),
-            swarm_node::auth::Role::Agents(vec![1, 2, 3, 7])
+            swarm_node::auth::Role::Agents(ids(&[1, 2, 3, 7]))
         );
-        let uav = AgentProcess::Uav(4);
+        let uav = AgentProcess::Uav(UavId::new(4));
         assert_eq!(uav.args(), ["--id".to_string(), "4".to_string()]);
         assert_eq!(uav.user(), "uav4");
     }

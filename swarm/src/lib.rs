@@ -28,6 +28,8 @@
 //! - [`sweep_seeds`]: `swarm sweep-seeds`: one scenario over many seeds, several runs at once and
 //!   resumable, every headline metric as a mean with its 95 % interval (Student t) and the success
 //!   rate with its Wilson interval, a table and a plot of the distributions.
+//! - [`stats`]: the studies' statistics (Student-t means with 95 % intervals, Wilson intervals)
+//!   and how a table prints them, below `study` and `sweep_seeds`, which both use them.
 //! - [`icp_eval`]: `swarm icp-eval`: pairs of views (generated from a seed, or a JSON file) run
 //!   through the neighbour database's own initial-placement decision; right / no estimate /
 //!   wrong-but-accepted rates by shared trees, ms per case.
@@ -63,6 +65,7 @@ mod proxy;
 mod ros2;
 mod scale;
 mod scenarios;
+mod stats;
 mod study;
 mod sweep_seeds;
 /// The `summary.json` schema, for programs that read run folders (it lives in `swarm-record`).

@@ -11,6 +11,7 @@ use clap::{Args, Subcommand};
 use netem::impair::{Impairment, JitterDistribution, LossModel, Partition};
 use std::process::ExitCode;
 use swarm_config::{Failure, FailureKind, NetemRule, Timeline, UavSet};
+use swarm_types::UavId;
 use swarm_wire::plumbing;
 use swarm_wire::{Keys, Msg, NetemAck};
 
@@ -28,7 +29,7 @@ pub struct NetemArgs {
     pub wait: f64,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: swarm_node::args::ZenohArgs,
+    pub zenoh: swarm_args::ZenohArgs,
 }
 
 /// Which links a rule is for.
@@ -36,7 +37,7 @@ pub struct NetemArgs {
 pub struct LinkSel {
     /// Messages to and from this UAV (both directions).
     #[arg(long, conflicts_with_all = ["from", "to"])]
-    pub uav: Option<u32>,
+    pub uav: Option<UavId>,
     /// Senders, e.g. `1,2,3` (default: all).
     #[arg(long)]
     pub from: Option<String>,
@@ -83,7 +84,7 @@ pub enum NetemOp {
     /// Freeze a UAV: it hovers where it is and stops talking (an obstacle to the others).
     Freeze {
         /// The UAV.
-        uav: u32,
+        uav: UavId,
     },
     /// Send a whole experiment file (`[[netem]]` and `[[failures]]` tables, only `freeze`
     /// failures), its `at_s` counted from the hub's next tick.
@@ -94,7 +95,7 @@ pub enum NetemOp {
     /// Make one UAV deaf and mute.
     Isolate {
         /// The UAV.
-        uav: u32,
+        uav: UavId,
     },
     /// Remove every fault: all links pass everything.
     Heal,
@@ -120,8 +121,8 @@ fn percent(s: &str) -> std::result::Result<f64, String> {
     }
 }
 
-fn ids(s: &str) -> Result<Vec<u32>> {
-    s.split(',').map(|x| x.trim().parse::<u32>().with_context(|| format!("`{x}` is not a UAV id"))).collect()
+fn ids(s: &str) -> Result<Vec<UavId>> {
+    s.split(',').map(|x| x.trim().parse::<UavId>().with_context(|| format!("`{x}` is not a UAV id"))).collect()
 }
 
 fn set(s: &Option<String>) -> Result<UavSet> {
@@ -192,7 +193,7 @@ pub fn timeline_of(op: &NetemOp) -> Result<Timeline> {
 
 fn partition(groups: &str, scheme: Option<Scheme>) -> Result<Partition> {
     let Some(scheme) = scheme else {
-        let groups: Vec<Vec<u32>> = groups.split('/').map(ids).collect::<Result<_>>()?;
+        let groups: Vec<Vec<UavId>> = groups.split('/').map(ids).collect::<Result<_>>()?;
         if groups.len() < 2 {
             bail!("partition: give at least two groups, e.g. 1,2,3/4,5");
         }
@@ -280,11 +281,11 @@ mod tests {
 
     #[test]
     fn commands_become_timelines() {
-        let loss = |p| NetemOp::Loss { percent: p, links: LinkSel { uav: Some(7), ..LinkSel::default() } };
+        let loss = |p| NetemOp::Loss { percent: p, links: LinkSel { uav: Some(UavId::new(7)), ..LinkSel::default() } };
         let r = timeline_of(&loss(30.0)).expect("ok").netem;
         assert_eq!(r.len(), 2, "to and from UAV 7");
-        assert_eq!(r[0].from, UavSet::Ids(vec![7]));
-        assert_eq!(r[1].to, UavSet::Ids(vec![7]));
+        assert_eq!(r[0].from, UavSet::Ids(vec![UavId::new(7)]));
+        assert_eq!(r[1].to, UavSet::Ids(vec![UavId::new(7)]));
         assert_eq!(r[0].rule.loss, LossModel::Random { p: 0.3 });
         assert_eq!(percent("30%"), Ok(30.0));
         assert!(percent("130").is_err() && percent("x%").is_err());
@@ -293,15 +294,24 @@ mod tests {
         assert_eq!(p.len(), 1);
         let part = p[0].partition.as_ref().expect("a partition event");
         let blocked = |from, to| netem::impair::blocked(part, from, to);
-        assert!(blocked(1, 3) && blocked(4, 2) && !blocked(1, 2));
+        assert!(
+            blocked(UavId::new(1), UavId::new(3))
+                && blocked(UavId::new(4), UavId::new(2))
+                && !blocked(UavId::new(1), UavId::new(2))
+        );
         assert!(!p[0].rule.hold);
         let held = timeline_of(&op("1,2,3,4,5", Some(Scheme::Bridge), true)).expect("ok").netem;
-        assert_eq!(held[0].partition, Some(Partition::Bridge { nodes: vec![1, 2, 3, 4, 5] }));
+        assert_eq!(
+            held[0].partition,
+            Some(Partition::Bridge {
+                nodes: vec![UavId::new(1), UavId::new(2), UavId::new(3), UavId::new(4), UavId::new(5)]
+            })
+        );
         assert!(held[0].rule.hold);
         let heal = timeline_of(&NetemOp::Heal).expect("ok").netem;
         assert!(heal[0].rule.is_identity() && heal[1].partition == Some(Partition::Healed {}));
-        let f = timeline_of(&NetemOp::Freeze { uav: 3 }).expect("ok").failures;
-        assert_eq!(f, vec![Failure { at_s: 0.0, uav: 3, kind: FailureKind::Freeze }]);
+        let f = timeline_of(&NetemOp::Freeze { uav: UavId::new(3) }).expect("ok").failures;
+        assert_eq!(f, vec![Failure { at_s: 0.0, uav: UavId::new(3), kind: FailureKind::Freeze }]);
         assert!(timeline_of(&op("1,2", None, false)).is_err());
         assert!(timeline_of(&op("1,x/2", None, false)).is_err());
         assert!(timeline_of(&op("1", Some(Scheme::Halves), false)).is_err());

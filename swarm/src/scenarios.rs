@@ -4,6 +4,7 @@
 use anyhow::{Context, Result};
 use std::process::ExitCode;
 use swarm_config::Scenario;
+use swarm_types::UavId;
 use uav_agent::Controllers;
 
 /// Runs `swarm scenarios`: one line per built-in scenario, its name and description.
@@ -170,15 +171,15 @@ fn changed(rule: &swarm_config::Impairment) -> String {
 /// What explicit partition groups do beyond the obvious: a UAV in two groups bridges them
 /// (Jepsen's complete-grudge: two UAVs hear each other iff some group holds both), and a UAV in
 /// none is untouched by the partition.
-pub fn groups_note(groups: &[Vec<u32>], count: u32) -> String {
-    let mut seen: std::collections::BTreeMap<u32, usize> = std::collections::BTreeMap::new();
+pub fn groups_note(groups: &[Vec<UavId>], count: u32) -> String {
+    let mut seen: std::collections::BTreeMap<UavId, usize> = std::collections::BTreeMap::new();
     for g in groups {
         for &id in g {
             *seen.entry(id).or_default() += 1;
         }
     }
-    let bridges: Vec<u32> = seen.iter().filter(|(_, &n)| n > 1).map(|(&id, _)| id).collect();
-    let untouched: Vec<u32> = (1..=count).filter(|id| !seen.contains_key(id)).collect();
+    let bridges: Vec<UavId> = seen.iter().filter(|(_, &n)| n > 1).map(|(&id, _)| id).collect();
+    let untouched: Vec<UavId> = UavId::all(count as usize).filter(|id| !seen.contains_key(id)).collect();
     let mut notes = Vec::new();
     if !bridges.is_empty() {
         notes.push(format!("UAVs {bridges:?} in more than one group hear both, bridging them"));
@@ -231,10 +232,13 @@ mod tests {
     #[test]
     fn overlapping_and_missing_partition_groups_are_said() {
         assert_eq!(
-            groups_note(&[vec![1, 2, 3], vec![3, 4, 5]], 7),
+            groups_note(
+                &[vec![UavId::new(1), UavId::new(2), UavId::new(3)], vec![UavId::new(3), UavId::new(4), UavId::new(5)]],
+                7
+            ),
             " (UAVs [3] in more than one group hear both, bridging them; UAVs [6, 7] in no group are untouched by it)"
         );
-        assert_eq!(groups_note(&[vec![1, 2], vec![3]], 3), "");
+        assert_eq!(groups_note(&[vec![UavId::new(1), UavId::new(2)], vec![UavId::new(3)]], 3), "");
     }
 
     #[test]

@@ -17,8 +17,7 @@
 //! (the `sweep-seeds` statistics); such a study is resumable like `sweep-seeds`.
 
 use crate::launch::{agents_per_process, execute, How};
-use crate::sweep_seeds::stats::{mean_ci, wilson};
-use crate::sweep_seeds::{mean_pm, parse_seeds};
+use crate::stats::{mean_ci, mean_pm, wilson};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::fmt::Write as _;
@@ -27,10 +26,11 @@ use std::path::{Path, PathBuf};
 use std::pin::Pin;
 use std::process::ExitCode;
 use std::task::Poll;
+use swarm_args::{default_run_id, scenario_value, unix_secs};
 use swarm_config::{BroadcastError, ControllerKind, LocalizationMode, Scenario, UavSet};
-use swarm_node::args::{default_run_id, scenario_value, unix_secs};
 use swarm_plot::{line_chart, Series};
 use swarm_record::summary::{f, Summary};
+use swarm_types::UavId;
 
 /// `swarm compare`.
 #[derive(Args, Debug, Clone)]
@@ -216,7 +216,7 @@ pub(crate) fn finished(dir: &Path) -> Option<Summary> {
 /// A run read back from a study's folder must be of the variant's scenario and localization mode,
 /// or one row would mix two experiments.
 pub(crate) fn same_variant(dir: &Path, s: &Summary, sc: &Scenario) -> Result<()> {
-    let mode = format!("{:?}", sc.localization.mode).to_lowercase();
+    let mode = sc.localization.mode.name();
     if s.scenario != sc.name || s.localization.mode != mode {
         bail!(
             "{} was flown as {} ({}), not {} ({mode}): give another --out, or remove the folder to fly it again",
@@ -427,7 +427,7 @@ pub async fn sweep_error(a: SweepArgs) -> Result<ExitCode> {
     let mut points = Vec::new();
     for (world, name) in [("free", &a.free), ("forest", &a.forest)] {
         let (base, _) = Scenario::from_arg(name)?;
-        for (who, uavs) in [("one", UavSet::Ids(vec![1])), ("all", UavSet::default())] {
+        for (who, uavs) in [("one", UavSet::Ids(vec![UavId::new(1)])), ("all", UavSet::default())] {
             for &delta in &deltas {
                 let mut sc = base.clone();
                 sc.localization.mode = LocalizationMode::Broadcast;
@@ -494,4 +494,22 @@ fn sweep_svg(points: &[Point]) -> anyhow::Result<String> {
         &series,
         Some(0.6),
     )
+}
+
+/// `A..B`, `A`, comma-separated, in order, without repeats.
+pub fn parse_seeds(text: &str) -> Result<Vec<u64>> {
+    let mut seeds = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let n = |s: &str| s.trim().parse::<u64>().with_context(|| format!("--seeds: `{s}` is not a seed"));
+        let range = match part.split_once("..") {
+            Some((a, b)) => n(a)?..=n(b.trim_start_matches('='))?,
+            None => n(part)?..=n(part)?,
+        };
+        if range.is_empty() {
+            bail!("--seeds: `{part}` is an empty range");
+        }
+        seeds.extend(range.filter(|s| !seeds.contains(s)).collect::<Vec<_>>());
+    }
+    anyhow::ensure!(!seeds.is_empty(), "--seeds: no seed in `{text}`");
+    Ok(seeds)
 }

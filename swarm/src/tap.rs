@@ -23,7 +23,7 @@ pub struct TapArgs {
     pub keyexpr: String,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: swarm_node::args::ZenohArgs,
+    pub zenoh: swarm_args::ZenohArgs,
     /// Stop after this many messages.
     #[arg(long)]
     pub count: Option<u64>,
@@ -57,7 +57,7 @@ pub struct PutArgs {
     pub every_ms: u64,
     /// Endpoints.
     #[command(flatten)]
-    pub zenoh: swarm_node::args::ZenohArgs,
+    pub zenoh: swarm_args::ZenohArgs,
 }
 
 fn parse_hex(h: &str) -> Result<Vec<u8>> {

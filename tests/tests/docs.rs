@@ -15,23 +15,14 @@
 
 mod common;
 
-use common::{output_within, read, rel, root, SWARM, TOOL_LIMIT};
+use common::{files_with_extension, output_within, read, rel, root, SWARM, TOOL_LIMIT};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
 use std::process::Command;
 
-/// Every `.md` file under `dir`, recursively.
+/// Every `.md` file under `dir`, recursively, sorted.
 fn markdown_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let Ok(entries) = std::fs::read_dir(dir) else { return out };
-    for entry in entries.map(|e| e.expect("directory entry").path()) {
-        if entry.is_dir() {
-            out.extend(markdown_files(&entry));
-        } else if entry.extension().is_some_and(|e| e == "md") {
-            out.push(entry);
-        }
-    }
-    out
+    files_with_extension(dir, "md")
 }
 
 /// The README and the guide: README.md and `docs/**/*.md`.

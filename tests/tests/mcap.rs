@@ -51,14 +51,14 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
         .find(|v| v["msg"]["Sense"]["scan"]["tick"] == TICK)
         .unwrap_or_else(|| panic!("tap saw no scan of tick {TICK}"));
     let wire = &wire["msg"]["Sense"]["scan"];
-    let t_secs = wire["t_secs"].as_f64().expect("t_secs");
+    let t_s = wire["t_s"].as_f64().expect("t_s");
 
     let py = common::output_within(
         Command::new(python())
             .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/py/read_mcap.py"))
             .arg(out.join("run.mcap"))
             .arg("1")
-            .arg(format!("{t_secs:?}")),
+            .arg(format!("{t_s:?}")),
         TOOL_LIMIT,
     );
     assert!(py.status.success(), "read_mcap.py: {}", String::from_utf8_lossy(&py.stderr));

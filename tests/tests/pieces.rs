@@ -149,9 +149,9 @@ fn children_die_with_a_killed_launcher() {
 /// A sensor frame that decodes but whose parts are of different ticks (scan 1, odometry 2).
 const MIXED_TICKS: &str = r#"{"Sense": {
     "radio": {"tick": 1, "id": 1, "in_range": [], "loss": []},
-    "odom": {"tick": 2, "t_secs": 0.2, "x": 0.0, "y": 0.0, "yaw": 0.0, "vx": 0.0, "vy": 0.0, "goal": null, "goal_vel": null},
+    "odom": {"tick": 2, "t_s": 0.2, "x": 0.0, "y": 0.0, "yaw": 0.0, "vx": 0.0, "vy": 0.0, "goal": null, "goal_vel": null},
     "gnss": null, "uvdar": null,
-    "scan": {"tick": 1, "t_secs": 0.1, "angle_min": 0.0, "angle_increment": 0.1, "max_range_m": 12.0, "ranges_m": []}}}"#;
+    "scan": {"tick": 1, "t_s": 0.1, "angle_min": 0.0, "angle_increment": 0.1, "max_range_m": 12.0, "ranges_m": []}}}"#;
 
 /// Garbage on the wire is counted and dropped, never a panic: malformed payloads on an agent's
 /// sensor key (bytes that do not decode, and a frame whose parts disagree on the tick) and on

@@ -23,7 +23,7 @@ fn rosbags_reads_our_scan_odometry_and_twist_and_we_read_its_twist() {
     let dir = tempfile::tempdir().expect("tempdir");
     let scan = Scan {
         tick: 12,
-        t_secs: 1.25,
+        t_s: 1.25,
         angle_min: -3.0,
         angle_increment: 0.5,
         max_range_m: 12.0,
@@ -31,7 +31,7 @@ fn rosbags_reads_our_scan_odometry_and_twist_and_we_read_its_twist() {
     };
     let odom = Odom {
         tick: 12,
-        t_secs: 1.25,
+        t_s: 1.25,
         x: 2.0,
         y: -1.0,
         yaw: std::f64::consts::FRAC_PI_2,

@@ -26,7 +26,7 @@
 
 mod common;
 
-use common::{read, rel, root};
+use common::{files_with_extension, read, rel, root};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -53,17 +53,7 @@ fn members() -> Vec<Member> {
 
 /// Every `.rs` file under `dir`, recursively, sorted.
 fn rust_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let Ok(entries) = std::fs::read_dir(dir) else { return out };
-    for entry in entries.map(|e| e.expect("directory entry").path()) {
-        if entry.is_dir() {
-            out.extend(rust_files(&entry));
-        } else if entry.extension().is_some_and(|e| e == "rs") {
-            out.push(entry);
-        }
-    }
-    out.sort();
-    out
+    files_with_extension(dir, "rs")
 }
 
 /// The source files the checks cover: each member's `src/` and `benches/`.
@@ -179,9 +169,9 @@ fn keys_rs_functions() -> BTreeSet<String> {
 /// What a `pub fn` of `wire/src/keys.rs` is to the table.
 enum KeyFn {
     /// Builds one key: a row of the table.
-    Key(fn(&swarm_wire::Keys, u32) -> String),
+    Key(fn(&swarm_wire::Keys, swarm_types::UavId) -> String),
     /// Builds a wildcard subscription: it must match some row.
-    Wildcard(fn(&swarm_wire::Keys, u32) -> String),
+    Wildcard(fn(&swarm_wire::Keys, swarm_types::UavId) -> String),
     /// Not a key (constructor, parser, prefix).
     Other,
 }
@@ -189,6 +179,7 @@ enum KeyFn {
 /// Every `pub fn` of `wire/src/keys.rs`, called. A function added there and not here fails
 /// [`key_table_matches_wire_keys`]: add it here, and its row to ARCHITECTURE.md if it is a key.
 fn key_fns() -> Vec<(&'static str, KeyFn)> {
+    use swarm_types::mode::{LocalizationMode, ShareKind};
     use swarm_wire::Keys;
     use KeyFn::{Key, Other, Wildcard};
     vec![
@@ -196,6 +187,7 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("new", Other),
         ("prefix", Other),
         ("uav_id_of", Other),
+        ("all", Wildcard(|k: &Keys, _| k.all())),
         ("clock", Key(|k: &Keys, _| k.clock())),
         ("scenario", Key(|k: &Keys, _| k.scenario())),
         ("sense", Key(|k: &Keys, id| k.sense(id))),
@@ -204,6 +196,10 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("cmd_any", Wildcard(|k: &Keys, _| k.cmd_any())),
         ("share_pose", Key(|k: &Keys, id| k.share_pose(id))),
         ("share_obstacles", Key(|k: &Keys, id| k.share_obstacles(id))),
+        ("share", Key(|k: &Keys, id| k.share(id, ShareKind::Obstacles))),
+        ("share_of", Key(|k: &Keys, id| k.share_of(LocalizationMode::Broadcast, id).expect("broadcast shares"))),
+        ("shares_of", Wildcard(|k: &Keys, id| k.shares_of(id))),
+        ("shares_any", Wildcard(|k: &Keys, _| k.shares_any())),
         ("share_pose_any", Wildcard(|k: &Keys, _| k.share_pose_any())),
         ("share_obstacles_any", Wildcard(|k: &Keys, _| k.share_obstacles_any())),
         ("state", Key(|k: &Keys, id| k.state(id))),
@@ -221,6 +217,9 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("ext_view", Key(|k: &Keys, id| k.ext_view(id))),
         ("ext_cmd", Key(|k: &Keys, id| k.ext_cmd(id))),
         ("alive_uav_any", Wildcard(|k: &Keys, _| k.alive_uav_any())),
+        ("ext_view_any", Wildcard(|k: &Keys, _| k.ext_view_any())),
+        ("ext_cmd_any", Wildcard(|k: &Keys, _| k.ext_cmd_any())),
+        ("alive_ext_any", Wildcard(|k: &Keys, _| k.alive_ext_any())),
     ]
 }
 
@@ -258,7 +257,7 @@ fn key_table_matches_wire_keys() {
     for (name, f) in &fns {
         match f {
             KeyFn::Key(make) => {
-                let key = as_pattern(&make(&keys, 4242));
+                let key = as_pattern(&make(&keys, swarm_types::UavId::new(4242)));
                 if !table.contains(&key) {
                     problems.push(format!(
                         "ARCHITECTURE.md: add a row for `{key}` (built by `Keys::{name}`) to the key table"
@@ -267,7 +266,7 @@ fn key_table_matches_wire_keys() {
                 built.insert(key);
             }
             KeyFn::Wildcard(make) => {
-                let w = as_pattern(&make(&keys, 4242));
+                let w = as_pattern(&make(&keys, swarm_types::UavId::new(4242)));
                 if !table.iter().any(|row| matches(&w, row)) {
                     problems.push(format!(
                         "ARCHITECTURE.md: `Keys::{name}` subscribes to `{w}`, which matches no row of the key table"

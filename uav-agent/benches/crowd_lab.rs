@@ -11,6 +11,7 @@
 //! per agent, step CPU time) in minutes. `cargo bench -p uav-agent --bench crowd_lab -- [N] [TICKS]`
 //! (default 40 UAVs, 300 ticks = 30 s).
 
+use swarm_types::UavId;
 use swarm_wire::{Odom, Scan};
 use uav_agent::{Agent, Controllers, SensorFrame, Share};
 
@@ -96,14 +97,7 @@ fn scan(
             }
         })
         .collect();
-    Scan {
-        tick,
-        t_secs: tick as f64 * 0.1,
-        angle_min: 0.0,
-        angle_increment: inc,
-        max_range_m: RANGE_M as f32,
-        ranges_m,
-    }
+    Scan { tick, t_s: tick as f64 * 0.1, angle_min: 0.0, angle_increment: inc, max_range_m: RANGE_M as f32, ranges_m }
 }
 
 /// CPU time of this thread so far [s] (`/proc/thread-self/schedstat`, nanoseconds on CPU), so the
@@ -130,7 +124,7 @@ fn main() {
     let trees = forest(&mut rng);
     let mut poses = starts(&mut rng, n);
     let mut agents: Vec<Agent> =
-        (0..n).map(|i| Agent::new(i as u32 + 1, sc.clone(), &Controllers::builtin()).expect("agent")).collect();
+        (0..n).map(|i| Agent::new(UavId::from_index(i), sc.clone(), &Controllers::builtin()).expect("agent")).collect();
     let mut errors: Vec<f64> = Vec::new();
     let (mut step_s, mut steps, mut estimates) = (0.0, 0u64, 0u64);
     // Full-grid ICPs (placements and re-checks) and short ICPs, over all agents.
@@ -149,7 +143,7 @@ fn main() {
                 let scan = scan(&circles, p, i, trees.len(), &mut rng, tick);
                 let odom = Odom {
                     tick,
-                    t_secs: t,
+                    t_s: t,
                     x: p.0,
                     y: p.1,
                     yaw: p.2,
@@ -179,7 +173,7 @@ fn main() {
             full_grids += u64::from(out.report.icp.long + out.report.icp.initial);
             shorts += u64::from(out.report.icp.short);
             for e in &out.report.neighbours {
-                let Some(j) = e.id.map(|id| id as usize - 1) else { continue };
+                let Some(j) = e.id.map(UavId::index) else { continue };
                 let (x, y) = relative(p, poses[j]);
                 let err = (f64::from(e.x) - x).hypot(f64::from(e.y) - y);
                 if err > 1.0 {

@@ -11,6 +11,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
+use swarm_types::UavId;
 use swarm_wire::{Gnss, ObstacleShare, Odom, PoseShare, Scan};
 use uav_agent::{Agent, Controllers, SensorFrame, Share};
 
@@ -61,7 +62,7 @@ fn scan_of(trees: &[(f64, f64, f64)], beams: usize) -> Scan {
         })
         .map(|d| if d <= 12.0 { d as f32 } else { f32::INFINITY })
         .collect();
-    Scan { tick: 10, t_secs: 1.0, angle_min: 0.0, angle_increment: inc, max_range_m: 12.0, ranges_m }
+    Scan { tick: 10, t_s: 1.0, angle_min: 0.0, angle_increment: inc, max_range_m: 12.0, ranges_m }
 }
 
 fn bench_step(c: &mut Criterion) {
@@ -69,7 +70,7 @@ fn bench_step(c: &mut Criterion) {
     let scan = forest_scan(750);
     let odom = Odom {
         tick: 10,
-        t_secs: 1.0,
+        t_s: 1.0,
         x: 0.0,
         y: 0.0,
         yaw: 0.0,
@@ -78,18 +79,18 @@ fn bench_step(c: &mut Criterion) {
         goal: Some([30.0, 0.0]),
         goal_vel: None,
     };
-    let gnss = Gnss { tick: 10, t_secs: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0 };
+    let gnss = Gnss { tick: 10, t_s: 1.0, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.3, vy: 0.0 };
     let frame = SensorFrame { scan, odom, gnss: Some(gnss), uvdar: None };
     for n in [4u32, 8] {
-        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
+        let mut agent = Agent::new(UavId::new(1), sc.clone(), &Controllers::builtin()).expect("agent");
         c.bench_function(&format!("agent/step_750b_{n}_neighbours"), |b| {
             b.iter(|| {
                 for j in 0..n {
                     let a = f64::from(j) * 0.8;
                     agent.on_share(&Share::Pose(PoseShare {
-                        from: j + 2,
+                        from: UavId::new(j + 2),
                         tick: 9,
-                        t_secs: 0.9,
+                        t_s: 0.9,
                         x: 2.0 * a.cos(),
                         y: 2.0 * a.sin(),
                         yaw: 0.1,
@@ -106,12 +107,12 @@ fn bench_step(c: &mut Criterion) {
 }
 
 /// What neighbour `j` at pose (x, y, θ) shares: the tree centres within 12 m, its body frame.
-fn share_of(j: u32, pose: (f64, f64, f64), tick: u64) -> Share {
+fn share_of(j: UavId, pose: (f64, f64, f64), tick: u64) -> Share {
     share_in(&forest(), j, pose, tick)
 }
 
 /// What neighbour `j` at pose (x, y, θ) among `trees` shares: the centres within 12 m, its body frame.
-fn share_in(trees: &[(f64, f64, f64)], j: u32, pose: (f64, f64, f64), tick: u64) -> Share {
+fn share_in(trees: &[(f64, f64, f64)], j: UavId, pose: (f64, f64, f64), tick: u64) -> Share {
     let (s, c) = pose.2.sin_cos();
     let pts = trees.iter().copied().filter(|t| (t.0 - pose.0).hypot(t.1 - pose.1) < 12.0).map(|t| {
         let (dx, dy) = (t.0 - pose.0, t.1 - pose.1);
@@ -120,7 +121,7 @@ fn share_in(trees: &[(f64, f64, f64)], j: u32, pose: (f64, f64, f64), tick: u64)
     Share::Obstacles(ObstacleShare {
         from: j,
         tick,
-        t_secs: tick as f64 * 0.1,
+        t_s: tick as f64 * 0.1,
         centres_cm: ObstacleShare::quantize(pts),
         hops: 0,
         arrival: 0,
@@ -137,20 +138,20 @@ fn bench_icp_step(c: &mut Criterion) {
     for (n, sc, schedule) in
         [(4u32, &sc, ""), (8, &sc, ""), (4, &seed_clock, "_seed_clock"), (8, &seed_clock, "_seed_clock")]
     {
-        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
+        let mut agent = Agent::new(UavId::new(1), sc.clone(), &Controllers::builtin()).expect("agent");
         let poses: Vec<(f64, f64, f64)> =
             (0..n).map(|j| (f64::from(j) * 0.8).sin_cos()).map(|(s, c)| (2.5 * c, 2.5 * s, 0.2 * s)).collect();
         let mut tick = 1u64;
         c.bench_function(&format!("agent/step_icp_750b_{n}_neighbours{schedule}"), |b| {
             b.iter(|| {
                 for (j, &p) in poses.iter().enumerate() {
-                    agent.on_share(&share_of(j as u32 + 2, p, tick - 1));
+                    agent.on_share(&share_of(UavId::from_index(j + 1), p, tick - 1));
                 }
                 let t = tick as f64 * 0.1;
-                let scan = Scan { tick, t_secs: t, ..scan.clone() };
+                let scan = Scan { tick, t_s: t, ..scan.clone() };
                 let odom = Odom {
                     tick,
-                    t_secs: t,
+                    t_s: t,
                     x: 0.0,
                     y: 0.0,
                     yaw: 0.0,
@@ -169,12 +170,12 @@ fn bench_icp_step(c: &mut Criterion) {
             continue;
         }
         let t = tick as f64 * 0.1;
-        let odom = Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None };
+        let odom = Odom { tick, t_s: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None };
         for (j, &p) in poses.iter().enumerate() {
-            agent.on_share(&share_of(j as u32 + 2, p, tick - 1));
+            agent.on_share(&share_of(UavId::from_index(j + 1), p, tick - 1));
         }
         let out =
-            agent.step(&SensorFrame { scan: Scan { tick, t_secs: t, ..scan.clone() }, odom, gnss: None, uvdar: None });
+            agent.step(&SensorFrame { scan: Scan { tick, t_s: t, ..scan.clone() }, odom, gnss: None, uvdar: None });
         assert_eq!(out.report.neighbours.len(), n as usize, "all neighbours localized: {:?}", out.report.icp);
     }
 }
@@ -209,12 +210,12 @@ fn crowd_step(
     tick: u64,
 ) -> uav_agent::StepOutput {
     for (j, &p) in poses.iter().enumerate() {
-        agent.on_share(&share_in(trees, j as u32 + 2, p, tick - 1));
+        agent.on_share(&share_in(trees, UavId::from_index(j + 1), p, tick - 1));
     }
     let t = tick as f64 * 0.1;
-    let scan = Scan { tick, t_secs: t, ..scan.clone() };
+    let scan = Scan { tick, t_s: t, ..scan.clone() };
     let odom =
-        Odom { tick, t_secs: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
+        Odom { tick, t_s: t, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: Some([30.0, 0.0]), goal_vel: None };
     agent.step(&SensorFrame { scan, odom, gnss: None, uvdar: None })
 }
 
@@ -233,7 +234,7 @@ fn bench_icp_crowd(c: &mut Criterion) {
     let mut group = c.benchmark_group("agent/step_icp_crowd");
     for n in [8usize, 16, 32, 64] {
         let poses = crowd(&trees, n);
-        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
+        let mut agent = Agent::new(UavId::new(1), sc.clone(), &Controllers::builtin()).expect("agent");
         let mut placed = 0;
         for tick in 1..=WARM_UP_TICKS {
             placed = crowd_step(&mut agent, &trees, &poses, &scan, tick).report.neighbours.len();
@@ -267,7 +268,7 @@ fn cpu_table(sc: swarm_config::Scenario, trees: &[(f64, f64, f64)], scan: &Scan)
     const TICKS: u64 = 200;
     for n in [8usize, 16, 32, 64] {
         let poses = crowd(trees, n);
-        let mut agent = Agent::new(1, sc.clone(), &Controllers::builtin()).expect("agent");
+        let mut agent = Agent::new(UavId::new(1), sc.clone(), &Controllers::builtin()).expect("agent");
         for tick in 1..=WARM_UP_TICKS {
             crowd_step(&mut agent, trees, &poses, scan, tick);
         }

@@ -29,6 +29,7 @@ use crate::agent::LinkReport;
 use crate::localization::Share;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
+use swarm_types::{SimTime, UavId};
 use tracing::{debug, trace};
 
 /// Ticks from the radio set that brings a neighbour into range to the first tick whose share
@@ -44,7 +45,7 @@ pub(crate) const WINDOW_OPENS_AFTER: u64 = 2;
 #[derive(Debug, Clone)]
 pub(crate) struct Arrived {
     /// The sender's id (from the key it came on).
-    pub(crate) from: u32,
+    pub(crate) from: UavId,
     /// The share, `None` when the payload was malformed.
     pub(crate) share: Option<Arc<Share>>,
     /// The payload's size on the wire [bytes], for the link.
@@ -55,9 +56,9 @@ pub(crate) struct Arrived {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub(crate) struct RadioChange {
     /// Left range, in id order.
-    pub(crate) left: Vec<u32>,
+    pub(crate) left: Vec<UavId>,
     /// Entered range, in the radio set's order (ids ascending).
-    pub(crate) entered: Vec<u32>,
+    pub(crate) entered: Vec<UavId>,
 }
 
 /// The hub's ticks went backwards: from the last tick stepped to this one.
@@ -71,7 +72,7 @@ pub(crate) struct WentBack {
 
 /// One agent's share admission: windows, early shares, the netem link and its inbox.
 pub(crate) struct Admission {
-    me: u32,
+    me: UavId,
     dt: f64,
     /// Whether the localization mode shares at all (`uvdar` does not: nobody to listen to).
     shares: bool,
@@ -82,9 +83,9 @@ pub(crate) struct Admission {
     /// The netem timeline in force (the scenario's, then the hub's).
     timeline: netem::Timeline,
     /// First tick whose share is accepted, per neighbour in radio range.
-    windows: BTreeMap<u32, u64>,
+    windows: BTreeMap<UavId, u64>,
     /// The radio's distance-dependent loss probability per neighbour in range.
-    radio_loss: BTreeMap<u32, f64>,
+    radio_loss: BTreeMap<UavId, f64>,
     /// Malformed payloads received (shares, sensors, rules), counted and dropped.
     malformed: u64,
     /// Last tick stepped, `None` before the first.
@@ -94,7 +95,7 @@ pub(crate) struct Admission {
 impl Admission {
     /// The admission of agent `me`: tick length `dt`, netem draws seeded from the run's `seed`,
     /// `timeline` the scenario's; `shares` whether the mode has shares.
-    pub(crate) fn new(me: u32, seed: u64, dt: f64, timeline: netem::Timeline, shares: bool) -> Admission {
+    pub(crate) fn new(me: UavId, seed: u64, dt: f64, timeline: netem::Timeline, shares: bool) -> Admission {
         Admission {
             me,
             dt,
@@ -127,12 +128,12 @@ impl Admission {
 
     /// The radio set of `tick` (`in_range` ascending, `loss` each one's distance loss, or empty):
     /// moves the windows and says whom to stop and start listening to.
-    pub(crate) fn on_radio(&mut self, tick: u64, in_range: &[u32], loss: &[f32]) -> RadioChange {
+    pub(crate) fn on_radio(&mut self, tick: u64, in_range: &[UavId], loss: &[f32]) -> RadioChange {
         self.radio_loss = in_range.iter().zip(loss).map(|(&id, &p)| (id, f64::from(p))).collect();
-        let left: Vec<u32> = self.windows.keys().copied().filter(|id| !in_range.contains(id)).collect();
+        let left: Vec<UavId> = self.windows.keys().copied().filter(|id| !in_range.contains(id)).collect();
         for &id in &left {
             self.windows.remove(&id);
-            debug!(neighbour = id, "stopped listening");
+            debug!(neighbour = %id, "stopped listening");
         }
         if !self.shares {
             return RadioChange { left, entered: Vec::new() };
@@ -140,7 +141,7 @@ impl Admission {
         let mut entered = Vec::new();
         for &id in in_range {
             if id != self.me && !self.windows.contains_key(&id) {
-                debug!(neighbour = id, "listening");
+                debug!(neighbour = %id, "listening");
                 self.windows.insert(id, tick.saturating_add(WINDOW_OPENS_AFTER));
                 entered.push(id);
             }
@@ -154,7 +155,7 @@ impl Admission {
         let Arrived { from, share, len } = arrived;
         let Some(share) = share else {
             self.malformed += 1;
-            debug!(from, len, "dropped malformed share");
+            debug!(%from, len, "dropped malformed share");
             return;
         };
         if self.last_tick.is_none_or(|last| share.tick() > last) {
@@ -183,19 +184,19 @@ impl Admission {
     fn admit(&mut self, share: Arc<Share>, len: usize) {
         let from = share.from();
         if self.windows.get(&from).is_none_or(|&first| share.tick() < first) {
-            trace!(from, tick = share.tick(), "share outside the neighbour's window");
+            trace!(%from, tick = share.tick(), "share outside the neighbour's window");
             return;
         }
-        let now = self.last_tick.unwrap_or(0) as f64 * self.dt;
-        let rule = self.timeline.rule_at(share.t_secs(), from, self.me);
+        let now = SimTime::of_tick(self.last_tick.unwrap_or(0), self.dt).s();
+        let rule = self.timeline.rule_at(share.t_s(), from, self.me);
         let radio_loss = self.radio_loss.get(&from).copied().unwrap_or(0.0);
-        match self.link.on_receive_with(rule, radio_loss, from, share.t_secs(), now, self.dt, len) {
+        match self.link.on_receive_with(rule, radio_loss, from, share.t_s(), now, self.dt, len) {
             netem::Verdict::DeliverAt(at) => self.inbox.push(at, share),
             netem::Verdict::DeliverTwice(a, b) => {
                 self.inbox.push(a, share.clone());
                 self.inbox.push(b, share);
             }
-            netem::Verdict::Drop => trace!(from, "share dropped by netem"),
+            netem::Verdict::Drop => trace!(%from, "share dropped by netem"),
             netem::Verdict::Hold => self.inbox.push_held(share),
         }
     }
@@ -220,14 +221,14 @@ impl Admission {
         }
         // One rule lookup per sender that has held messages.
         let (timeline, me) = (&self.timeline, self.me);
-        let senders: BTreeSet<u32> = self.inbox.held().map(|m| m.from()).collect();
-        let open: Vec<u32> =
+        let senders: BTreeSet<UavId> = self.inbox.held().map(|m| m.from()).collect();
+        let open: Vec<UavId> =
             senders.into_iter().filter(|&from| !timeline.rule_at(now, from, me).is_some_and(|r| r.hold)).collect();
         let mut released = Vec::new();
         self.inbox.release(now, |m| {
             let go = open.contains(&m.from());
             if go {
-                released.push(m.t_secs());
+                released.push(m.t_s());
             }
             go
         });
@@ -285,14 +286,14 @@ mod tests {
     const DT: f64 = 0.1;
 
     fn admission() -> Admission {
-        Admission::new(1, 7, DT, netem::Timeline::default(), true)
+        Admission::new(UavId::new(1), 7, DT, netem::Timeline::default(), true)
     }
 
-    fn share(from: u32, tick: u64) -> Arrived {
+    fn share(from: UavId, tick: u64) -> Arrived {
         let pose = PoseShare {
             from,
             tick,
-            t_secs: tick as f64 * DT,
+            t_s: tick as f64 * DT,
             x: 0.0,
             y: 0.0,
             yaw: 0.0,
@@ -306,7 +307,7 @@ mod tests {
     }
 
     /// The (sender, tick) of each share delivered at the step of `tick`.
-    fn step(a: &mut Admission, tick: u64) -> Vec<(u32, u64)> {
+    fn step(a: &mut Admission, tick: u64) -> Vec<(UavId, u64)> {
         a.admit_early();
         a.begin_step(tick, tick as f64 * DT).expect("ticks go forward").iter().map(|s| (s.from(), s.tick())).collect()
     }
@@ -314,22 +315,33 @@ mod tests {
     #[test]
     fn a_neighbour_counts_from_the_second_tick_after_it_entered_until_it_left() {
         let mut a = admission();
-        assert_eq!(a.on_radio(4, &[1, 2, 3], &[]), RadioChange { left: vec![], entered: vec![2, 3] }, "never itself");
-        a.on_arrived(share(2, 4));
+        assert_eq!(
+            a.on_radio(4, &[UavId::new(1), UavId::new(2), UavId::new(3)], &[]),
+            RadioChange { left: vec![], entered: vec![UavId::new(2), UavId::new(3)] },
+            "never itself"
+        );
+        a.on_arrived(share(UavId::new(2), 4));
         step(&mut a, 4);
-        a.on_arrived(share(2, 5));
-        a.on_arrived(share(3, 5));
+        a.on_arrived(share(UavId::new(2), 5));
+        a.on_arrived(share(UavId::new(3), 5));
         step(&mut a, 5);
-        a.on_arrived(share(2, 6));
-        a.on_arrived(share(3, 6));
+        a.on_arrived(share(UavId::new(2), 6));
+        a.on_arrived(share(UavId::new(3), 6));
         assert_eq!(step(&mut a, 6), vec![], "ticks 4 and 5 are before the window; tick 6's is due at tick 7");
-        assert_eq!(step(&mut a, 7), vec![(2, 6), (3, 6)]);
-        a.on_arrived(share(2, 7));
+        assert_eq!(step(&mut a, 7), vec![(UavId::new(2), 6), (UavId::new(3), 6)]);
+        a.on_arrived(share(UavId::new(2), 7));
         // The node admits what arrived at every hub message, before it offers the message.
         a.admit_early();
-        assert_eq!(a.on_radio(8, &[1, 3], &[]), RadioChange { left: vec![2], entered: vec![] });
-        a.on_arrived(share(2, 8));
-        assert_eq!(step(&mut a, 8), vec![(2, 7)], "its last share in range still counts; the one after does not");
+        assert_eq!(
+            a.on_radio(8, &[UavId::new(1), UavId::new(3)], &[]),
+            RadioChange { left: vec![UavId::new(2)], entered: vec![] }
+        );
+        a.on_arrived(share(UavId::new(2), 8));
+        assert_eq!(
+            step(&mut a, 8),
+            vec![(UavId::new(2), 7)],
+            "its last share in range still counts; the one after does not"
+        );
         assert_eq!(step(&mut a, 9), vec![]);
         let report = a.report();
         assert_eq!(report.in_radio_range, 1);
@@ -340,25 +352,25 @@ mod tests {
     fn a_share_that_arrives_before_its_tick_is_stepped_waits_and_is_delivered_alike() {
         let (mut early, mut late) = (admission(), admission());
         for a in [&mut early, &mut late] {
-            a.on_radio(0, &[2], &[]);
+            a.on_radio(0, &[UavId::new(2)], &[]);
             step(a, 0);
             step(a, 1);
         }
-        early.on_arrived(share(2, 2));
+        early.on_arrived(share(UavId::new(2), 2));
         assert_eq!(early.report().counters.recv_msgs, 0, "not counted before this agent stepped tick 2");
         step(&mut early, 2);
         step(&mut late, 2);
-        late.on_arrived(share(2, 2));
+        late.on_arrived(share(UavId::new(2), 2));
         let (e, l) = (step(&mut early, 3), step(&mut late, 3));
-        assert_eq!((e.clone(), e), (l, vec![(2, 2)]));
+        assert_eq!((e.clone(), e), (l, vec![(UavId::new(2), 2)]));
         assert_eq!(early.report().counters, late.report().counters);
     }
 
     #[test]
     fn malformed_shares_are_counted_and_dropped_and_ticks_may_not_go_back() {
         let mut a = admission();
-        a.on_radio(0, &[2], &[]);
-        a.on_arrived(Arrived { from: 2, share: None, len: 3 });
+        a.on_radio(0, &[UavId::new(2)], &[]);
+        a.on_arrived(Arrived { from: UavId::new(2), share: None, len: 3 });
         a.count_malformed();
         assert_eq!(a.report().counters.malformed, 2);
         step(&mut a, 3);
@@ -367,36 +379,39 @@ mod tests {
 
     #[test]
     fn a_mode_without_shares_listens_to_nobody() {
-        let mut a = Admission::new(1, 7, DT, netem::Timeline::default(), false);
-        assert_eq!(a.on_radio(0, &[1, 2, 3], &[0.0, 0.1, 0.2]), RadioChange::default());
+        let mut a = Admission::new(UavId::new(1), 7, DT, netem::Timeline::default(), false);
+        assert_eq!(
+            a.on_radio(0, &[UavId::new(1), UavId::new(2), UavId::new(3)], &[0.0, 0.1, 0.2]),
+            RadioChange::default()
+        );
         assert_eq!(a.report().in_radio_range, 0);
     }
 
     #[test]
     fn a_neighbour_that_comes_back_counts_again_from_the_second_tick_after() {
         let mut a = admission();
-        a.on_radio(0, &[2], &[]);
+        a.on_radio(0, &[UavId::new(2)], &[]);
         step(&mut a, 0);
         step(&mut a, 1);
-        a.on_arrived(share(2, 2));
+        a.on_arrived(share(UavId::new(2), 2));
         step(&mut a, 2);
         a.admit_early();
-        assert_eq!(a.on_radio(3, &[], &[]), RadioChange { left: vec![2], entered: vec![] });
-        assert_eq!(step(&mut a, 3), vec![(2, 2)], "sent in range: delivered though it left since");
-        a.on_arrived(share(2, 3));
+        assert_eq!(a.on_radio(3, &[], &[]), RadioChange { left: vec![UavId::new(2)], entered: vec![] });
+        assert_eq!(step(&mut a, 3), vec![(UavId::new(2), 2)], "sent in range: delivered though it left since");
+        a.on_arrived(share(UavId::new(2), 3));
         a.admit_early();
-        assert_eq!(a.on_radio(4, &[2], &[]), RadioChange { left: vec![], entered: vec![2] });
-        a.on_arrived(share(2, 4));
+        assert_eq!(a.on_radio(4, &[UavId::new(2)], &[]), RadioChange { left: vec![], entered: vec![UavId::new(2)] });
+        a.on_arrived(share(UavId::new(2), 4));
         step(&mut a, 4);
-        a.on_arrived(share(2, 5));
+        a.on_arrived(share(UavId::new(2), 5));
         step(&mut a, 5);
-        a.on_arrived(share(2, 6));
+        a.on_arrived(share(UavId::new(2), 6));
         assert_eq!(
             step(&mut a, 6),
             vec![],
             "tick 3's share was sent out of range, ticks 4 and 5's before the window reopened"
         );
-        assert_eq!(step(&mut a, 7), vec![(2, 6)]);
+        assert_eq!(step(&mut a, 7), vec![(UavId::new(2), 6)]);
         assert_eq!(a.report().counters.recv_msgs, 2, "ticks 2 and 6");
     }
 
@@ -405,14 +420,18 @@ mod tests {
         let json = r#"{"netem":[{"at_s":0.0,"rule":{"hold":true}},{"at_s":0.45}],"failures":[]}"#;
         let mut a = admission();
         a.set_timeline(serde_json::from_str(json).expect("a timeline"));
-        a.on_radio(0, &[2], &[]);
+        a.on_radio(0, &[UavId::new(2)], &[]);
         step(&mut a, 0);
         step(&mut a, 1);
         for t in 2..=4 {
-            a.on_arrived(share(2, t));
+            a.on_arrived(share(UavId::new(2), t));
             assert_eq!(step(&mut a, t), vec![], "held at tick {t}");
         }
-        assert_eq!(step(&mut a, 5), vec![(2, 2), (2, 3), (2, 4)], "released together once the rule stops holding");
+        assert_eq!(
+            step(&mut a, 5),
+            vec![(UavId::new(2), 2), (UavId::new(2), 3), (UavId::new(2), 4)],
+            "released together once the rule stops holding"
+        );
         let cut = a.report().counters.classes[2];
         assert_eq!((cut.held, cut.released), (3, 3));
     }
@@ -422,12 +441,12 @@ mod tests {
         let in_window = |a: &mut Admission| {
             step(a, 0);
             step(a, 1);
-            a.on_arrived(share(2, 2));
+            a.on_arrived(share(UavId::new(2), 2));
             step(a, 2);
             step(a, 3)
         };
         let mut lossy = admission();
-        lossy.on_radio(0, &[2], &[1.0]);
+        lossy.on_radio(0, &[UavId::new(2)], &[1.0]);
         assert_eq!(in_window(&mut lossy), vec![], "a certain radio loss drops it");
         assert_eq!(
             (lossy.report().counters.recv_msgs, lossy.report().counters.delivered_msgs),
@@ -437,7 +456,7 @@ mod tests {
         let json = r#"{"netem":[{"at_s":0.0,"rule":{"blocked":true}}],"failures":[]}"#;
         let mut cut = admission();
         cut.set_timeline(serde_json::from_str(json).expect("a timeline"));
-        cut.on_radio(0, &[2], &[]);
+        cut.on_radio(0, &[UavId::new(2)], &[]);
         assert_eq!(in_window(&mut cut), vec![], "the rule in force drops it");
         assert_eq!(cut.report().counters.classes[2].dropped, 1, "counted on a cut link");
     }

@@ -23,6 +23,7 @@ use crate::world_model::{Body, Circle, Estimate};
 use nalgebra::Point2;
 use std::time::Instant;
 use swarm_config::Scenario;
+use swarm_types::UavId;
 use swarm_wire::{AgentState, Cmd, DelaySample, IcpCounts, LinkCounters, NeighbourEstimate, Traffic, VectorMagnitudes};
 
 /// What one step produces.
@@ -40,11 +41,11 @@ pub struct StepOutput {
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepReport {
     /// Agent id.
-    pub id: u32,
+    pub id: UavId,
     /// Tick of the step.
     pub tick: u64,
     /// Sim time [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Wall time the step took (perception + localization + control) [µs].
     pub step_time_us: u32,
     /// Obstacles that are not a neighbour.
@@ -76,7 +77,7 @@ impl StepReport {
         AgentState {
             id: self.id,
             tick: self.tick,
-            t_secs: self.t_secs,
+            t_s: self.t_s,
             step_time_us: self.step_time_us,
             obstacles: self.obstacles,
             neighbours: self.neighbours,
@@ -92,7 +93,7 @@ impl StepReport {
 
 /// The onboard state of one UAV between steps.
 pub struct Agent {
-    id: u32,
+    id: UavId,
     sc: Scenario,
     /// The localization mode's localizer and what it keeps between steps.
     localizer: Localizer,
@@ -111,7 +112,7 @@ pub struct Agent {
 impl Agent {
     /// The agent of UAV `id` under scenario `sc`, flown by the controller of `controllers`
     /// the scenario names.
-    pub fn new(id: u32, sc: Scenario, controllers: &Controllers) -> Result<Agent, UnknownController> {
+    pub fn new(id: UavId, sc: Scenario, controllers: &Controllers) -> Result<Agent, UnknownController> {
         let localizer = Localizer::new(id, &sc);
         let pilot = controllers.make(&sc)?;
         Ok(Agent {
@@ -127,7 +128,7 @@ impl Agent {
     }
 
     /// The UAV this agent flies.
-    pub fn id(&self) -> u32 {
+    pub fn id(&self) -> UavId {
         self.id
     }
 
@@ -141,8 +142,8 @@ impl Agent {
     /// keeps only what it needs of it.
     pub fn on_share(&mut self, share: &Share) {
         if share.from() != self.id {
-            self.hops.hear(share.from(), share.hops(), share.t_secs());
-            self.arrival.hear(share.from(), share.arrival(), share.t_secs());
+            self.hops.hear(share.from(), share.hops(), share.t_s());
+            self.arrival.hear(share.from(), share.arrival(), share.t_s());
         }
         self.localizer.receive(share);
     }
@@ -179,7 +180,7 @@ impl Agent {
     /// where the swarm was), the share, and the report.
     pub fn finish(&mut self, frame: &SensorFrame, seen: Perceived, command: Command) -> StepOutput {
         let view = seen.view(self.id, frame);
-        let now = frame.scan.t_secs;
+        let now = frame.scan.t_s;
         let hops = self.hops.own(frame.odom.goal.is_some(), now, self.sc.lost_contact.max_hops);
         let arrival = self.arrival.own(&self.sc, &view, now);
         self.counts = (hops, arrival);
@@ -191,7 +192,7 @@ impl Agent {
         let report = StepReport {
             id: self.id,
             tick: frame.tick(),
-            t_secs: frame.scan.t_secs,
+            t_s: frame.scan.t_s,
             step_time_us: seen.started.elapsed().as_micros().min(u128::from(u32::MAX)) as u32,
             obstacles: seen.around.trees.len() as u32,
             neighbours: seen.localized.estimates.iter().map(neighbour_estimate).collect(),
@@ -217,10 +218,10 @@ pub struct Perceived {
 
 impl Perceived {
     /// The controller's view of this step for UAV `id`.
-    pub fn view<'a>(&'a self, id: u32, frame: &'a SensorFrame) -> View<'a> {
+    pub fn view<'a>(&'a self, id: UavId, frame: &'a SensorFrame) -> View<'a> {
         View {
             id,
-            t_secs: frame.scan.t_secs,
+            t_s: frame.scan.t_s,
             odom: &frame.odom,
             neighbours: &self.localized.estimates,
             trees: &self.around.trees,
@@ -276,7 +277,7 @@ fn neighbour_estimate(e: &Estimate) -> NeighbourEstimate {
         x: e.pos_in_body.x as f32,
         y: e.pos_in_body.y as f32,
         heading: e.heading as f32,
-        age_secs: e.age_secs as f32,
+        age_s: e.age_s as f32,
     }
 }
 
@@ -292,34 +293,34 @@ mod tests {
     fn frame(goal: Option<[f64; 2]>, gnss: Option<Gnss>) -> SensorFrame {
         let scan = Scan {
             tick: 1,
-            t_secs: 0.1,
+            t_s: 0.1,
             angle_min: 0.0,
             angle_increment: std::f32::consts::TAU / 8.0,
             max_range_m: 12.0,
             ranges_m: vec![f32::INFINITY; 8],
         };
-        let odom = Odom { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None };
+        let odom = Odom { tick: 1, t_s: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None };
         SensorFrame { scan, odom, gnss, uvdar: None }
     }
 
     fn fix() -> Gnss {
-        Gnss { tick: 1, t_secs: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }
+        Gnss { tick: 1, t_s: 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0 }
     }
 
     #[test]
     fn alone_in_open_field_an_informed_agent_flies_at_kf_toward_the_goal() {
-        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
+        let mut a = Agent::new(UavId::new(1), scenario(), &Controllers::builtin()).expect("agent");
         let out = a.step(&frame(Some([30.0, 0.0]), Some(fix())));
         assert_eq!(out.cmd.tick, 1);
         assert!((out.cmd.x - 0.4).abs() < 1e-6 && out.cmd.y.abs() < 1e-6, "{:?}", out.cmd);
         assert!(out.cmd.yaw_rate.abs() < 1e-6);
         let share = out.share.expect("broadcast mode shares its pose");
-        assert_eq!(share.from(), 1);
+        assert_eq!(share.from(), UavId::new(1));
     }
 
     #[test]
     fn goal_to_the_left_turns_left() {
-        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
+        let mut a = Agent::new(UavId::new(1), scenario(), &Controllers::builtin()).expect("agent");
         let out = a.step(&frame(Some([0.0, 10.0]), None));
         assert!(out.cmd.yaw_rate > 0.0, "{:?}", out.cmd);
         assert!(out.share.is_none(), "no fix, nothing to share");
@@ -327,11 +328,11 @@ mod tests {
 
     #[test]
     fn own_pose_is_ignored() {
-        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
+        let mut a = Agent::new(UavId::new(1), scenario(), &Controllers::builtin()).expect("agent");
         a.on_share(&Share::Pose(PoseShare {
-            from: 1,
+            from: UavId::new(1),
             tick: 0,
-            t_secs: 0.0,
+            t_s: 0.0,
             x: 9.0,
             y: 9.0,
             yaw: 0.0,
@@ -341,9 +342,9 @@ mod tests {
             arrival: 0,
         }));
         a.on_share(&Share::Pose(PoseShare {
-            from: 2,
+            from: UavId::new(2),
             tick: 0,
-            t_secs: 0.0,
+            t_s: 0.0,
             x: 3.0,
             y: 0.0,
             yaw: 0.0,
@@ -354,13 +355,17 @@ mod tests {
         }));
         let out = a.step(&frame(None, Some(fix())));
         assert_eq!(out.report.neighbours.len(), 1, "own echo ignored");
-        assert_eq!(out.report.neighbours[0].id, Some(2));
+        assert_eq!(out.report.neighbours[0].id, Some(UavId::new(2)));
     }
 
     #[test]
     fn a_neighbour_seen_by_lidar_is_not_an_obstacle() {
-        let neighbour =
-            Estimate { id: Some(2), pos_in_body: nalgebra::Vector2::new(3.0, 0.0), heading: 0.0, age_secs: 0.0 };
+        let neighbour = Estimate {
+            id: Some(UavId::new(2)),
+            pos_in_body: nalgebra::Vector2::new(3.0, 0.0),
+            heading: 0.0,
+            age_s: 0.0,
+        };
         let circle = Circle { center: Point2::new(3.05, 0.0), radius: 0.3 };
         let tree = Circle { center: Point2::new(0.0, 5.0), radius: 0.3 };
         let seen = Extracted {
@@ -414,7 +419,7 @@ mod tests {
 
     #[test]
     fn the_state_message_joins_the_step_and_the_link() {
-        let mut a = Agent::new(1, scenario(), &Controllers::builtin()).expect("agent");
+        let mut a = Agent::new(UavId::new(1), scenario(), &Controllers::builtin()).expect("agent");
         let out = a.step(&frame(None, Some(fix())));
         let link = LinkReport {
             in_radio_range: 3,
@@ -422,7 +427,7 @@ mod tests {
             ..LinkReport::default()
         };
         let state = out.report.clone().into_state(link);
-        assert_eq!((state.id, state.tick, state.in_radio_range, state.link.sent_msgs), (1, 1, 3, 1));
+        assert_eq!((state.id, state.tick, state.in_radio_range, state.link.sent_msgs), (UavId::new(1), 1, 3, 1));
         assert_eq!(state.vectors, out.report.vectors);
     }
 }

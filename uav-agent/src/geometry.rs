@@ -1,7 +1,7 @@
 //! The geometry every stage shares, kept below all of them so no stage reaches sideways into
 //! another for it: the odometry-frame pose [`Pose2`] and its frame change, the one angle-wrap
-//! convention ([`wrap_angle`], to [−π, π)), and the small 2D vector helpers (what counts as zero,
-//! how non-finite values are kept out of a command, scatter sums).
+//! convention ([`wrap_angle`], to [−π, π)), and the small 2D vector helpers
+//! (what counts as zero, how non-finite values are kept out of a command, scatter sums).
 
 use nalgebra::{Point2, Vector2};
 

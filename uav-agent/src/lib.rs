@@ -35,17 +35,15 @@
 //! agent sees the world only through its own sensor frames and its neighbours' shares; it never
 //! reads `truth/**`.
 
-// The algorithm modules keep the whole of their seed's method, tested beside it, though one
-// agent step uses only part of it: outside tests that part is dead code, on purpose.
+// No module-wide `allow(dead_code)`: a seed's item that only the tests use is `#[cfg(test)]` at
+// the item, so the compiler reports whatever else falls out of use.
 mod admission;
 mod agent;
 mod control;
 mod geometry;
 mod localization;
 mod net;
-#[cfg_attr(not(test), allow(dead_code))]
 mod perception;
-#[cfg_attr(not(test), allow(dead_code))]
 mod planning;
 mod sensing;
 mod world_model;

@@ -74,32 +74,26 @@ pub struct Needs {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use swarm_types::UavId;
 
     fn scan(tick: u64) -> Scan {
-        Scan {
-            tick,
-            t_secs: tick as f64 * 0.1,
-            angle_min: 0.0,
-            angle_increment: 0.1,
-            max_range_m: 12.0,
-            ranges_m: vec![],
-        }
+        Scan { tick, t_s: tick as f64 * 0.1, angle_min: 0.0, angle_increment: 0.1, max_range_m: 12.0, ranges_m: vec![] }
     }
 
     fn odom(tick: u64) -> Odom {
-        Odom { tick, t_secs: tick as f64 * 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None }
+        Odom { tick, t_s: tick as f64 * 0.1, x: 0.0, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None }
     }
 
     fn gnss(tick: u64) -> Gnss {
-        Gnss { tick, t_secs: tick as f64 * 0.1, x: 1.0, y: 2.0, yaw: 0.0, vx: 0.0, vy: 0.0 }
+        Gnss { tick, t_s: tick as f64 * 0.1, x: 1.0, y: 2.0, yaw: 0.0, vx: 0.0, vy: 0.0 }
     }
 
     fn uvdar(tick: u64) -> Uvdar {
-        Uvdar { tick, t_secs: tick as f64 * 0.1, seen: Vec::new() }
+        Uvdar { tick, t_s: tick as f64 * 0.1, seen: Vec::new() }
     }
 
     fn radio(tick: u64) -> RadioSet {
-        RadioSet { tick, id: 1, in_range: vec![2, 3], loss: vec![] }
+        RadioSet { tick, id: UavId::new(1), in_range: vec![UavId::new(2), UavId::new(3)], loss: vec![] }
     }
 
     /// A frame of `tick` with an empty scan, still odometry and nothing else.

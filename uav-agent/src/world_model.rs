@@ -12,6 +12,7 @@
 //! stages.
 
 use nalgebra::{Point2, Vector2};
+use swarm_types::UavId;
 
 /// One body close to the UAV inside a group of scan points that joins several, body frame: what
 /// K21's barrier keeps off.
@@ -52,11 +53,11 @@ impl Segment {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
     /// Sender id where known (metrics only).
-    pub id: Option<u32>,
+    pub id: Option<UavId>,
     /// Relative position, body frame [m].
     pub pos_in_body: Vector2<f64>,
     /// Relative heading [rad].
     pub heading: f64,
     /// Age of the information [s].
-    pub age_secs: f64,
+    pub age_s: f64,
 }

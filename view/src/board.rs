@@ -6,6 +6,7 @@ use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use swarm_record::scene;
+use swarm_types::UavId;
 use swarm_wire::msg::{AgentState, CollisionEvent, RadioSet, TruthStep, TruthWorld};
 
 /// The page's view of the run.
@@ -13,11 +14,11 @@ use swarm_wire::msg::{AgentState, CollisionEvent, RadioSet, TruthStep, TruthWorl
 pub struct Board {
     world: Option<Value>,
     step: Option<Arc<TruthStep>>,
-    radio: BTreeMap<u32, Vec<u32>>,
+    radio: BTreeMap<UavId, Vec<UavId>>,
     timeline: netem::Timeline,
-    states: BTreeMap<u32, AgentState>,
+    states: BTreeMap<UavId, AgentState>,
     collisions: Vec<CollisionEvent>,
-    lost: BTreeMap<u32, f64>,
+    lost: BTreeMap<UavId, f64>,
     /// The scenario's goal radius [m], drawn around the goal.
     goal_radius_m: f64,
     /// The scenario's controller by name (`k21`, ...): what the panels' numbers mean.
@@ -68,7 +69,7 @@ impl Board {
     pub fn on_step(&mut self, s: Arc<TruthStep>) {
         self.collisions.extend(s.collisions.iter().copied());
         for b in s.bodies.iter().filter(|b| !b.alive) {
-            self.lost.entry(b.id).or_insert(s.t_secs);
+            self.lost.entry(b.id).or_insert(s.t_s);
         }
         self.step = Some(s);
     }
@@ -86,9 +87,9 @@ impl Board {
             .iter()
             .map(|b| json!({"id": b.id, "x": b.x, "y": b.y, "yaw": b.yaw, "v": b.vx.hypot(b.vy), "alive": b.alive, "colliding": b.colliding}))
             .collect();
-        let pos: BTreeMap<u32, [f64; 3]> = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
+        let pos: BTreeMap<UavId, [f64; 3]> = s.bodies.iter().map(|b| (b.id, [b.x, b.y, b.yaw])).collect();
         let links: Vec<Value> =
-            scene::radio_links(&self.radio, &self.timeline, s.t_secs, |id| pos.get(&id).map(|p| [p[0], p[1]]))
+            scene::radio_links(&self.radio, &self.timeline, s.t_s, |id| pos.get(&id).map(|p| [p[0], p[1]]))
                 .into_iter()
                 .map(|l| json!([l.ids[0], l.ids[1], l.class.name()]))
                 .collect();
@@ -99,9 +100,9 @@ impl Board {
             estimates.insert(id.to_string(), scene::estimates_in_world(pose, st));
             numbers.insert(id.to_string(), scene::numbers(st));
         }
-        let speed = if s.wall_secs > 0.0 { Some(s.t_secs / s.wall_secs) } else { None };
+        let speed = if s.wall_s > 0.0 { Some(s.t_s / s.wall_s) } else { None };
         Some(json!({
-            "kind": "step", "tick": s.tick, "t": s.t_secs, "speed": speed, "ended": s.ended.map(|e| format!("{e:?}")),
+            "kind": "step", "tick": s.tick, "t": s.t_s, "speed": speed, "ended": s.ended.map(|e| format!("{e:?}")),
             "uavs": uavs, "links": links, "estimates": estimates, "numbers": numbers,
             "collisions": self.collisions.iter().map(|c| json!([c.id, c.x, c.y, c.other_uav])).collect::<Vec<_>>(),
             "lost": self.lost,
@@ -116,7 +117,7 @@ mod tests {
 
     fn body(id: u32, x: f64, alive: bool) -> TruthBody {
         TruthBody {
-            id,
+            id: UavId::new(id),
             x,
             y: 0.0,
             yaw: 0.0,
@@ -146,15 +147,15 @@ mod tests {
         let sc = swarm_config::Scenario::from_arg("forest-5").expect("built-in").0;
         let mut b = Board::new(&sc);
         assert!(b.frame().is_none());
-        b.on_radio(&RadioSet { tick: 1, id: 1, in_range: vec![2], loss: vec![] });
+        b.on_radio(&RadioSet { tick: 1, id: UavId::new(1), in_range: vec![UavId::new(2)], loss: vec![] });
         let step = |tick, alive| TruthStep {
             tick,
-            t_secs: tick as f64 * 0.1,
+            t_s: tick as f64 * 0.1,
             bodies: vec![body(1, 1.0, true), body(2, 2.0, alive)],
             collisions: vec![],
             goal_reached_at: None,
             ended: None,
-            wall_secs: 0.01,
+            wall_s: 0.01,
             timing: Box::default(),
         };
         b.on_step(Arc::new(step(1, true)));

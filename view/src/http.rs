@@ -14,6 +14,7 @@
 use super::scans::ScanSource;
 use super::trails::TrailSource;
 use std::sync::Arc;
+use swarm_types::UavId;
 use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{mpsc, watch};
@@ -81,7 +82,7 @@ async fn handle(mut s: TcpStream, Sources { snap, control, scans, trails }: Sour
         "/events" => events(s, snap, trails).await,
         "/trails" => respond(&mut s, "200 OK", "application/json", trails.trails().to_string().as_bytes()).await,
         "/scan" => {
-            let id = parse_query(query).into_iter().find(|(k, _)| k == "id").and_then(|(_, v)| v.parse::<u32>().ok());
+            let id = parse_query(query).into_iter().find(|(k, _)| k == "id").and_then(|(_, v)| v.parse::<UavId>().ok());
             match id.and_then(|id| scans.scan(id)) {
                 Some(p) => respond(&mut s, "200 OK", "application/json", p.to_json().as_bytes()).await,
                 None => respond(&mut s, "404 Not Found", "text/plain", b"no scan of that UAV yet").await,

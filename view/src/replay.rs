@@ -26,6 +26,7 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use swarm_record::scene::TRAIL_S;
+use swarm_types::UavId;
 use tokio::sync::{mpsc, watch};
 
 /// `swarm replay`.
@@ -57,7 +58,7 @@ struct Recording {
     /// (tick, log time [ns], frame) per tick.
     frames: Vec<(u64, u64, Value)>,
     /// Per UAV, the indices in `messages` of its `/uav/{id}/scan` messages, in time order.
-    scans: BTreeMap<u32, Vec<usize>>,
+    scans: BTreeMap<UavId, Vec<usize>>,
 }
 
 /// What the replay shows now, for the page's server: each UAV's latest scan and its recent trail
@@ -69,7 +70,7 @@ struct ReplayShown {
 }
 
 impl ScanSource for ReplayShown {
-    fn scan(&self, id: u32) -> Option<ScanPicture> {
+    fn scan(&self, id: UavId) -> Option<ScanPicture> {
         let rec = &self.rec;
         let t_ns = self.shown_ns.load(Ordering::Relaxed);
         let idx = rec.scans.get(&id)?;
@@ -77,7 +78,7 @@ impl ScanSource for ReplayShown {
             &rec.messages[*idx.get(idx.partition_point(|&i| rec.messages[i].log_time_ns <= t_ns).checked_sub(1)?)?];
         let l = LaserScan::decode(m.data.as_slice()).ok()?;
         let (tick, _, frame) = &rec.frames[rec.frames.binary_search_by_key(&m.log_time_ns, |f| f.1).ok()?];
-        let u = frame["uavs"].as_array()?.iter().find(|u| u["id"] == id)?;
+        let u = frame["uavs"].as_array()?.iter().find(|u| u["id"] == id.get())?;
         let pose = [u["x"].as_f64()?, u["y"].as_f64()?, u["yaw"].as_f64()?];
         let n = l.ranges.len().max(2) as f64;
         let angle_increment = (l.end_angle - l.start_angle) / (n - 1.0);
@@ -103,7 +104,7 @@ impl TrailSource for ReplayShown {
         let mut trails = Trails::default();
         for (_, ns, frame) in frames {
             for u in frame["uavs"].as_array().into_iter().flatten() {
-                let id = u["id"].as_u64().and_then(|id| u32::try_from(id).ok());
+                let id = u["id"].as_u64().and_then(|id| u32::try_from(id).ok()).map(UavId::new);
                 if let (Some(id), Some(x), Some(y)) = (id, u["x"].as_f64(), u["y"].as_f64()) {
                     trails.push(id, *ns as f64 * 1e-9, x, y);
                 }
@@ -258,7 +259,7 @@ fn load(path: &Path) -> Result<Recording> {
     world["controller"] = head["controller"].clone();
     let frames = frames(&messages, &|m| topic(m), dt);
     world["replay"] = replay_span(&frames, dt);
-    let mut scans: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+    let mut scans: BTreeMap<UavId, Vec<usize>> = BTreeMap::new();
     for (i, m) in messages.iter().enumerate() {
         let id = topic(m).strip_prefix("/uav/").and_then(|r| r.strip_suffix("/scan")).and_then(|id| id.parse().ok());
         if let Some(id) = id {
@@ -314,7 +315,7 @@ fn frames<'a>(messages: &'a [Rec], topic: &dyn Fn(&'a Rec) -> &'a str, dt: f64) 
             .transforms
             .iter()
             .filter_map(|x| {
-                let id: u32 = x.child_frame_id.strip_prefix("uav")?.parse().ok()?;
+                let id: UavId = x.child_frame_id.strip_prefix("uav")?.parse().ok()?;
                 let p = x.translation?;
                 let q = x.rotation?;
                 // yaw = 2 atan2(z, w) for a rotation about z.
@@ -376,12 +377,12 @@ fn frames<'a>(messages: &'a [Rec], topic: &dyn Fn(&'a Rec) -> &'a str, dt: f64) 
 /// the time between [m/s] (`/tf` holds no velocity), null at its first.
 #[derive(Default)]
 struct Speeds {
-    last: BTreeMap<u32, (f64, f64, f64)>,
+    last: BTreeMap<UavId, (f64, f64, f64)>,
 }
 
 impl Speeds {
     /// UAV `id` at (`x`, `y`) at `t` [s]: its speed since its previous position, if any.
-    fn at(&mut self, id: u32, t: f64, x: f64, y: f64) -> Option<f64> {
+    fn at(&mut self, id: UavId, t: f64, x: f64, y: f64) -> Option<f64> {
         let v = self.last.get(&id).filter(|(t0, ..)| t > *t0).map(|&(t0, x0, y0)| (x - x0).hypot(y - y0) / (t - t0));
         self.last.insert(id, (t, x, y));
         v
@@ -394,7 +395,7 @@ impl Speeds {
 fn radio_links(u: &SceneUpdate) -> Vec<Value> {
     let mut out = Vec::new();
     for e in &u.entities {
-        let ids: Vec<u32> = e
+        let ids: Vec<UavId> = e
             .metadata
             .iter()
             .filter(|kv| kv.key == "links")
@@ -419,7 +420,7 @@ fn event(l: &Log, collisions: &mut Vec<Value>, lost: &mut serde_json::Map<String
             let at =
                 l.message.rsplit_once("at (").map(|(_, r)| r.trim_end_matches(')').to_string()).unwrap_or_default();
             let xy: Vec<f64> = at.split(',').filter_map(|v| v.trim().parse().ok()).collect();
-            if let (Ok(id), [x, y]) = (id.parse::<u32>(), xy.as_slice()) {
+            if let (Ok(id), [x, y]) = (id.parse::<UavId>(), xy.as_slice()) {
                 collisions.push(json!([id, x, y, null]));
             }
         }
@@ -448,9 +449,9 @@ mod tests {
     #[test]
     fn speeds_come_from_successive_positions() {
         let mut s = Speeds::default();
-        assert_eq!(s.at(1, 0.0, 0.0, 0.0), None);
-        assert_eq!(s.at(1, 0.5, 3.0, 4.0), Some(10.0));
-        assert_eq!(s.at(2, 0.5, 1.0, 1.0), None, "each UAV its own");
-        assert_eq!(s.at(1, 0.5, 9.0, 9.0), None, "no time between: no speed");
+        assert_eq!(s.at(UavId::new(1), 0.0, 0.0, 0.0), None);
+        assert_eq!(s.at(UavId::new(1), 0.5, 3.0, 4.0), Some(10.0));
+        assert_eq!(s.at(UavId::new(2), 0.5, 1.0, 1.0), None, "each UAV its own");
+        assert_eq!(s.at(UavId::new(1), 0.5, 9.0, 9.0), None, "no time between: no speed");
     }
 }

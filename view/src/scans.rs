@@ -7,6 +7,7 @@
 use serde_json::json;
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Arc, Mutex};
+use swarm_types::UavId;
 use swarm_wire::msg::{Scan, TruthStep};
 
 /// How many ticks of truth steps a live view keeps to pair scans with.
@@ -16,7 +17,7 @@ const POSE_TICKS: usize = 32;
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScanPicture {
     /// The UAV.
-    pub id: u32,
+    pub id: UavId,
     /// The scan's tick.
     pub tick: u64,
     /// Its sim time [s].
@@ -33,11 +34,11 @@ pub struct ScanPicture {
 
 impl ScanPicture {
     /// UAV `id`'s wire scan at `pose`.
-    pub fn of_wire(id: u32, s: &Scan, pose: [f64; 3]) -> ScanPicture {
+    pub fn of_wire(id: UavId, s: &Scan, pose: [f64; 3]) -> ScanPicture {
         ScanPicture {
             id,
             tick: s.tick,
-            t_s: s.t_secs,
+            t_s: s.t_s,
             pose,
             angle_min: f64::from(s.angle_min),
             angle_increment: f64::from(s.angle_increment),
@@ -71,7 +72,7 @@ impl ScanPicture {
 /// Where `/scan?id=N` gets UAV N's latest scan.
 pub trait ScanSource: Send + Sync {
     /// UAV `id`'s latest scan whose pose is known, if any.
-    fn scan(&self, id: u32) -> Option<ScanPicture>;
+    fn scan(&self, id: UavId) -> Option<ScanPicture>;
 }
 
 /// A live view's latest scan per UAV and the truth steps of the last ticks, shared between the
@@ -85,7 +86,7 @@ pub struct LiveScans {
 #[derive(Default)]
 struct Book {
     steps: VecDeque<Arc<TruthStep>>,
-    scans: BTreeMap<u32, Scan>,
+    scans: BTreeMap<UavId, Scan>,
 }
 
 impl LiveScans {
@@ -103,13 +104,13 @@ impl LiveScans {
     }
 
     /// A scan the hub sent UAV `id`.
-    pub fn on_scan(&self, id: u32, s: Scan) {
+    pub fn on_scan(&self, id: UavId, s: Scan) {
         self.book().scans.insert(id, s);
     }
 }
 
 impl ScanSource for LiveScans {
-    fn scan(&self, id: u32) -> Option<ScanPicture> {
+    fn scan(&self, id: UavId) -> Option<ScanPicture> {
         let book = self.book();
         let s = book.scans.get(&id)?;
         let step = book.steps.iter().rev().find(|step| step.tick == s.tick)?;
@@ -127,7 +128,7 @@ mod tests {
     fn a_live_scan_is_placed_at_the_pose_of_its_own_tick() {
         let scans = LiveScans::default();
         let body = |tick: u64| TruthBody {
-            id: 2,
+            id: UavId::new(2),
             x: tick as f64,
             y: 1.0,
             yaw: std::f64::consts::FRAC_PI_2,
@@ -139,20 +140,20 @@ mod tests {
             agent_distance_m: 1.0,
             colliding: false,
         };
-        let step = |tick| TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body(tick)], ..Default::default() };
+        let step = |tick| TruthStep { tick, t_s: tick as f64 * 0.1, bodies: vec![body(tick)], ..Default::default() };
         let scan = Scan {
             tick: 5,
-            t_secs: 0.5,
+            t_s: 0.5,
             angle_min: 0.0,
             angle_increment: std::f32::consts::FRAC_PI_2,
             max_range_m: 9.0,
             ranges_m: vec![2.0, f32::INFINITY, 3.0],
         };
-        scans.on_scan(2, scan.clone());
-        assert!(scans.scan(2).is_none(), "no pose of tick 5 yet");
+        scans.on_scan(UavId::new(2), scan.clone());
+        assert!(scans.scan(UavId::new(2)).is_none(), "no pose of tick 5 yet");
         scans.on_step(Arc::new(step(5)));
         scans.on_step(Arc::new(step(6)));
-        let p = scans.scan(2).expect("scan of tick 5");
+        let p = scans.scan(UavId::new(2)).expect("scan of tick 5");
         assert_eq!(p.pose, [5.0, 1.0, std::f64::consts::FRAC_PI_2]);
         // Beam 0 points along the heading (+y), beam 2 at +pi from it (-y); beam 1 has no return.
         let hits = p.hits();
@@ -163,6 +164,6 @@ mod tests {
         assert_eq!(json["tick"], 5);
         assert_eq!(json["beams"], 3);
         assert_eq!(json["hits"][0], json!([5.0, 3.0]));
-        assert!(scans.scan(1).is_none(), "no scan of UAV 1");
+        assert!(scans.scan(UavId::new(1)).is_none(), "no scan of UAV 1");
     }
 }

@@ -12,6 +12,7 @@ use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Mutex;
 use swarm_record::scene::TRAIL_S;
+use swarm_types::UavId;
 use swarm_wire::msg::TruthStep;
 
 /// The sim time between two kept points of a path [s].
@@ -24,13 +25,13 @@ const TIME_EPS: f64 = 1e-6;
 /// [`EVERY_S`] apart and none older than [`TRAIL_S`] before the UAV's newest.
 #[derive(Debug, Default, Clone, PartialEq)]
 pub struct Trails {
-    by_uav: BTreeMap<u32, VecDeque<[f64; 3]>>,
+    by_uav: BTreeMap<UavId, VecDeque<[f64; 3]>>,
 }
 
 impl Trails {
     /// UAV `id` at (`x`, `y`) at sim time `t`: kept if at least [`EVERY_S`] after its last kept
     /// point; a time before that point (a replay sought back) starts its path again.
-    pub fn push(&mut self, id: u32, t: f64, x: f64, y: f64) {
+    pub fn push(&mut self, id: UavId, t: f64, x: f64, y: f64) {
         let path = self.by_uav.entry(id).or_default();
         match path.back() {
             Some(last) if t < last[2] - TIME_EPS => path.clear(),
@@ -46,13 +47,13 @@ impl Trails {
     /// Every body of a truth step.
     pub fn push_step(&mut self, s: &TruthStep) {
         for b in &s.bodies {
-            self.push(b.id, s.t_secs, b.x, b.y);
+            self.push(b.id, s.t_s, b.x, b.y);
         }
     }
 
     /// UAV `id`'s kept points.
     #[cfg(test)]
-    fn path(&self, id: u32) -> Vec<[f64; 3]> {
+    fn path(&self, id: UavId) -> Vec<[f64; 3]> {
         self.by_uav.get(&id).map(|p| p.iter().copied().collect()).unwrap_or_default()
     }
 
@@ -114,9 +115,9 @@ mod tests {
         // 60 s of ticks of 0.1 s along x at 1 m/s.
         for tick in 0..=600u32 {
             let t = f64::from(tick) * 0.1;
-            tr.push(3, t, t, 0.0);
+            tr.push(UavId::new(3), t, t, 0.0);
         }
-        let path = tr.path(3);
+        let path = tr.path(UavId::new(3));
         assert_eq!(path.len(), (TRAIL_S / EVERY_S) as usize + 1, "{path:?}");
         assert!((path[0][2] - 40.0).abs() < 1e-9 && (path[path.len() - 1][2] - 60.0).abs() < 1e-9, "{path:?}");
         assert!(path.windows(2).all(|w| (w[1][2] - w[0][2] - EVERY_S).abs() < 1e-9), "a point every {EVERY_S} s");
@@ -127,17 +128,17 @@ mod tests {
     fn a_time_going_back_starts_the_path_again() {
         let mut tr = Trails::default();
         for t in [1.0, 1.2, 1.4] {
-            tr.push(1, t, t, 1.0);
+            tr.push(UavId::new(1), t, t, 1.0);
         }
-        tr.push(1, 0.5, 9.0, 9.0);
-        assert_eq!(tr.path(1), vec![[9.0, 9.0, 0.5]]);
+        tr.push(UavId::new(1), 0.5, 9.0, 9.0);
+        assert_eq!(tr.path(UavId::new(1)), vec![[9.0, 9.0, 0.5]]);
     }
 
     #[test]
     fn the_json_names_each_uav_and_the_bounds() {
         let mut tr = Trails::default();
-        tr.push(2, 0.1, 1.23456, -2.0);
-        tr.push(4, 0.1, 0.0, 0.0);
+        tr.push(UavId::new(2), 0.1, 1.23456, -2.0);
+        tr.push(UavId::new(4), 0.1, 0.0, 0.0);
         let j = tr.to_json();
         assert_eq!(j["uavs"]["2"], json!([[1.235, -2.0, 0.1]]));
         assert_eq!(j["uavs"].as_object().map(|o| o.len()), Some(2));

@@ -10,23 +10,18 @@ use swarm_wire::*;
 fn frame() -> Msg {
     let ranges_m = (0..750).map(|i| if i % 3 == 0 { f32::INFINITY } else { 2.0 + (i as f32) * 0.01 }).collect();
     Msg::Sense(Box::new(SenseFrame {
-        radio: RadioSet { tick: 1234, id: 7, in_range: (1..=18).collect(), loss: Vec::new() },
-        odom: Odom {
+        radio: RadioSet {
             tick: 1234,
-            t_secs: 123.4,
-            x: 1.5,
-            y: -2.5,
-            yaw: 0.3,
-            vx: 0.5,
-            vy: 0.1,
-            goal: None,
-            goal_vel: None,
+            id: UavId::new(7),
+            in_range: (1..=18).map(UavId::new).collect(),
+            loss: Vec::new(),
         },
-        gnss: Some(Gnss { tick: 1234, t_secs: 123.4, x: 10.5, y: -20.5, yaw: 0.3, vx: 0.5, vy: 0.1 }),
+        odom: Odom { tick: 1234, t_s: 123.4, x: 1.5, y: -2.5, yaw: 0.3, vx: 0.5, vy: 0.1, goal: None, goal_vel: None },
+        gnss: Some(Gnss { tick: 1234, t_s: 123.4, x: 10.5, y: -20.5, yaw: 0.3, vx: 0.5, vy: 0.1 }),
         uvdar: None,
         scan: Scan {
             tick: 1234,
-            t_secs: 123.4,
+            t_s: 123.4,
             angle_min: -std::f32::consts::PI,
             angle_increment: 2.0 * std::f32::consts::PI / 750.0,
             max_range_m: 12.0,
@@ -37,12 +32,12 @@ fn frame() -> Msg {
 
 fn state() -> Msg {
     let neighbours = (1..=20)
-        .map(|i| NeighbourEstimate { id: Some(i), x: i as f32 * 0.5, y: -1.0, heading: 0.1, age_secs: 0.1 })
+        .map(|i| NeighbourEstimate { id: Some(UavId::new(i)), x: i as f32 * 0.5, y: -1.0, heading: 0.1, age_s: 0.1 })
         .collect();
     Msg::State(Box::new(AgentState {
-        id: 7,
+        id: UavId::new(7),
         tick: 1234,
-        t_secs: 123.4,
+        t_s: 123.4,
         step_time_us: 150,
         obstacles: 12,
         neighbours,

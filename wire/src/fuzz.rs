@@ -97,7 +97,7 @@ fn f64s() -> impl Strategy<Value = f64> {
 fn structured() -> impl Strategy<Value = Msg> {
     let kind = prop_oneof![Just(CmdKind::Velocity), Just(CmdKind::Acceleration), Just(CmdKind::Hover)];
     prop_oneof![
-        (any::<u64>(), f64s(), f64s()).prop_map(|(tick, t_secs, dt_secs)| Msg::Clock(Clock { tick, t_secs, dt_secs })),
+        (any::<u64>(), f64s(), f64s()).prop_map(|(tick, t_s, dt_s)| Msg::Clock(Clock { tick, t_s, dt_s })),
         (any::<u64>(), kind, f32s(), f32s(), f32s()).prop_map(|(tick, kind, x, y, yaw_rate)| Msg::Cmd(Cmd {
             tick,
             kind,
@@ -106,9 +106,9 @@ fn structured() -> impl Strategy<Value = Msg> {
             yaw_rate
         })),
         (any::<u32>(), any::<u64>(), prop::array::uniform6(f64s())).prop_map(|(from, tick, v)| Msg::Pose(PoseShare {
-            from,
+            from: UavId::new(from),
             tick,
-            t_secs: v[0],
+            t_s: v[0],
             x: v[1],
             y: v[2],
             yaw: v[3],
@@ -118,8 +118,8 @@ fn structured() -> impl Strategy<Value = Msg> {
             arrival: (tick / 256 % 256) as u8,
         })),
         (any::<u32>(), any::<u64>(), f64s(), prop::collection::vec(any::<[i16; 2]>(), 0..40), any::<[u8; 2]>())
-            .prop_map(|(from, tick, t_secs, centres_cm, [hops, arrival])| {
-                Msg::Obstacles(ObstacleShare { from, tick, t_secs, centres_cm, hops, arrival })
+            .prop_map(|(from, tick, t_s, centres_cm, [hops, arrival])| {
+                Msg::Obstacles(ObstacleShare { from: UavId::new(from), tick, t_s, centres_cm, hops, arrival })
             }),
         radio_sets().prop_map(Msg::Radio),
         scans().prop_map(Msg::Scan),
@@ -133,13 +133,18 @@ fn structured() -> impl Strategy<Value = Msg> {
 
 fn radio_sets() -> impl Strategy<Value = RadioSet> {
     (any::<u64>(), any::<u32>(), prop::collection::vec(any::<u32>(), 0..20), prop::collection::vec(f32s(), 0..20))
-        .prop_map(|(tick, id, in_range, loss)| RadioSet { tick, id, in_range, loss })
+        .prop_map(|(tick, id, in_range, loss)| RadioSet {
+            tick,
+            id: UavId::new(id),
+            in_range: in_range.into_iter().map(UavId::new).collect(),
+            loss,
+        })
 }
 
 fn scans() -> impl Strategy<Value = Scan> {
     (any::<u64>(), prop::array::uniform4(f32s()), prop::collection::vec(f32s(), 0..100)).prop_map(|(tick, a, r)| Scan {
         tick,
-        t_secs: f64::from(a[0]),
+        t_s: f64::from(a[0]),
         angle_min: a[1],
         angle_increment: a[2],
         max_range_m: a[3],
@@ -148,20 +153,23 @@ fn scans() -> impl Strategy<Value = Scan> {
 }
 
 fn uvdars() -> impl Strategy<Value = Uvdar> {
-    (any::<u64>(), f64s(), prop::collection::vec((any::<u32>(), f32s(), f32s()), 0..10)).prop_map(
-        |(tick, t_secs, s)| Uvdar {
+    (any::<u64>(), f64s(), prop::collection::vec((any::<u32>(), f32s(), f32s()), 0..10)).prop_map(|(tick, t_s, s)| {
+        Uvdar {
             tick,
-            t_secs,
-            seen: s.into_iter().map(|(id, range_m, bearing_rad)| UvdarSeen { id, range_m, bearing_rad }).collect(),
-        },
-    )
+            t_s,
+            seen: s
+                .into_iter()
+                .map(|(id, range_m, bearing_rad)| UvdarSeen { id: UavId::new(id), range_m, bearing_rad })
+                .collect(),
+        }
+    })
 }
 
 fn odoms() -> impl Strategy<Value = Odom> {
     (any::<u64>(), prop::array::uniform6(f64s()), prop::option::of(any::<[i32; 2]>()), prop::option::of(f64s()))
         .prop_map(|(tick, v, goal, goal_vx)| Odom {
             tick,
-            t_secs: v[0],
+            t_s: v[0],
             x: v[1],
             y: v[2],
             yaw: v[3],
@@ -175,7 +183,7 @@ fn odoms() -> impl Strategy<Value = Odom> {
 fn gnss_fixes() -> impl Strategy<Value = Gnss> {
     (any::<u64>(), prop::array::uniform6(f64s())).prop_map(|(tick, v)| Gnss {
         tick,
-        t_secs: v[0],
+        t_s: v[0],
         x: v[1],
         y: v[2],
         yaw: v[3],

@@ -17,6 +17,8 @@
 //! key of this run.
 
 use crate::WireError;
+use swarm_types::mode::{LocalizationMode, ShareKind};
+use swarm_types::UavId;
 
 /// Builds every key of run `run`.
 #[derive(Debug, Clone)]
@@ -44,6 +46,10 @@ impl Keys {
     pub fn prefix(&self) -> &str {
         &self.prefix
     }
+    /// `swarm/{run}/**`: every key of the run.
+    pub fn all(&self) -> String {
+        format!("{}/**", self.prefix)
+    }
     /// `swarm/{run}/clock`
     pub fn clock(&self) -> String {
         format!("{}/clock", self.prefix)
@@ -53,7 +59,7 @@ impl Keys {
         format!("{}/scenario", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/sense`
-    pub fn sense(&self, id: u32) -> String {
+    pub fn sense(&self, id: UavId) -> String {
         format!("{}/uav/{id}/sense", self.prefix)
     }
     /// `swarm/{run}/uav/*/sense`: every UAV's sensor frames.
@@ -61,7 +67,7 @@ impl Keys {
         format!("{}/uav/*/sense", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/cmd`
-    pub fn cmd(&self, id: u32) -> String {
+    pub fn cmd(&self, id: UavId) -> String {
         format!("{}/uav/{id}/cmd", self.prefix)
     }
     /// `swarm/{run}/uav/*/cmd`
@@ -69,15 +75,23 @@ impl Keys {
         format!("{}/uav/*/cmd", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/share/pose`
-    pub fn share_pose(&self, id: u32) -> String {
-        format!("{}/uav/{id}/share/pose", self.prefix)
+    pub fn share_pose(&self, id: UavId) -> String {
+        self.share(id, ShareKind::Pose)
     }
     /// `swarm/{run}/uav/{id}/share/obstacles`
-    pub fn share_obstacles(&self, id: u32) -> String {
-        format!("{}/uav/{id}/share/obstacles", self.prefix)
+    pub fn share_obstacles(&self, id: UavId) -> String {
+        self.share(id, ShareKind::Obstacles)
+    }
+    /// `swarm/{run}/uav/{id}/share/{kind}`
+    pub fn share(&self, id: UavId, kind: ShareKind) -> String {
+        format!("{}/uav/{id}/share/{}", self.prefix, kind.name())
+    }
+    /// The key UAV `id` shares on in localization mode `mode`, if it shares anything.
+    pub fn share_of(&self, mode: LocalizationMode, id: UavId) -> Option<String> {
+        mode.share().map(|kind| self.share(id, kind))
     }
     /// `swarm/{run}/uav/{id}/state`
-    pub fn state(&self, id: u32) -> String {
+    pub fn state(&self, id: UavId) -> String {
         format!("{}/uav/{id}/state", self.prefix)
     }
     /// `swarm/{run}/uav/*/state`
@@ -91,6 +105,14 @@ impl Keys {
     /// `swarm/{run}/uav/*/share/obstacles`: every UAV's obstacle set.
     pub fn share_obstacles_any(&self) -> String {
         format!("{}/uav/*/share/obstacles", self.prefix)
+    }
+    /// `swarm/{run}/uav/{id}/share/**`: whatever UAV `id` shares.
+    pub fn shares_of(&self, id: UavId) -> String {
+        format!("{}/uav/{id}/share/**", self.prefix)
+    }
+    /// `swarm/{run}/uav/*/share/**`: whatever any UAV shares.
+    pub fn shares_any(&self) -> String {
+        format!("{}/uav/*/share/**", self.prefix)
     }
     /// `swarm/{run}/netem/rules`
     pub fn netem_rules(&self) -> String {
@@ -121,20 +143,32 @@ impl Keys {
         format!("{}/alive/hub", self.prefix)
     }
     /// `swarm/{run}/alive/uav/{id}`
-    pub fn alive_uav(&self, id: u32) -> String {
+    pub fn alive_uav(&self, id: UavId) -> String {
         format!("{}/alive/uav/{id}", self.prefix)
     }
     /// `swarm/{run}/alive/ext/{id}`: an external controller of UAV `id` is connected.
-    pub fn alive_ext(&self, id: u32) -> String {
+    pub fn alive_ext(&self, id: UavId) -> String {
         format!("{}/alive/ext/{id}", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/ext/view`: each tick's view of an externally controlled UAV (JSON).
-    pub fn ext_view(&self, id: u32) -> String {
+    pub fn ext_view(&self, id: UavId) -> String {
         format!("{}/uav/{id}/ext/view", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/ext/cmd`: an external controller's command (JSON).
-    pub fn ext_cmd(&self, id: u32) -> String {
+    pub fn ext_cmd(&self, id: UavId) -> String {
         format!("{}/uav/{id}/ext/cmd", self.prefix)
+    }
+    /// `swarm/{run}/uav/*/ext/view`
+    pub fn ext_view_any(&self) -> String {
+        format!("{}/uav/*/ext/view", self.prefix)
+    }
+    /// `swarm/{run}/uav/*/ext/cmd`
+    pub fn ext_cmd_any(&self) -> String {
+        format!("{}/uav/*/ext/cmd", self.prefix)
+    }
+    /// `swarm/{run}/alive/ext/*`
+    pub fn alive_ext_any(&self) -> String {
+        format!("{}/alive/ext/*", self.prefix)
     }
     /// `swarm/{run}/alive/recorder`
     pub fn alive_recorder(&self) -> String {
@@ -148,13 +182,12 @@ impl Keys {
     /// The UAV id in a key of this run: `swarm/{run}/uav/{id}/...` or `swarm/{run}/alive/uav/{id}`,
     /// read by position after the run prefix (so a run named `uav` cannot confuse it). Ids are
     /// 1-based: 0, non-numbers and other keys give `None`.
-    pub fn uav_id_of(&self, key: &str) -> Option<u32> {
+    pub fn uav_id_of(&self, key: &str) -> Option<UavId> {
         let rest = key.strip_prefix(self.prefix.as_str())?.strip_prefix('/')?;
-        let id = match rest.split('/').collect::<Vec<_>>().as_slice() {
-            ["uav", id, ..] | ["alive", "uav", id] => id.parse::<u32>().ok()?,
-            _ => return None,
-        };
-        (id > 0).then_some(id)
+        match rest.split('/').collect::<Vec<_>>().as_slice() {
+            ["uav", id, ..] | ["alive", "uav", id] => id.parse::<UavId>().ok(),
+            _ => None,
+        }
     }
 }
 
@@ -165,10 +198,10 @@ mod tests {
     #[test]
     fn keys_are_under_the_run_prefix() {
         let k = Keys::new("r-1_a").expect("valid run id");
-        assert_eq!(k.sense(3), "swarm/r-1_a/uav/3/sense");
+        assert_eq!(k.sense(UavId::new(3)), "swarm/r-1_a/uav/3/sense");
         assert_eq!(k.cmd_any(), "swarm/r-1_a/uav/*/cmd");
         assert_eq!(k.truth_step(), "swarm/r-1_a/truth/step");
-        assert_eq!(k.alive_uav(7), "swarm/r-1_a/alive/uav/7");
+        assert_eq!(k.alive_uav(UavId::new(7)), "swarm/r-1_a/alive/uav/7");
     }
 
     #[test]
@@ -181,8 +214,8 @@ mod tests {
     #[test]
     fn uav_id_is_read_back_from_keys() {
         let k = Keys::new("r").expect("valid");
-        assert_eq!(k.uav_id_of(&k.cmd(12)), Some(12));
-        assert_eq!(k.uav_id_of(&k.alive_uav(4)), Some(4));
+        assert_eq!(k.uav_id_of(&k.cmd(UavId::new(12))), Some(UavId::new(12)));
+        assert_eq!(k.uav_id_of(&k.alive_uav(UavId::new(4))), Some(UavId::new(4)));
         assert_eq!(k.uav_id_of(&k.clock()), None);
         assert_eq!(k.uav_id_of("swarm/r/uav/x/cmd"), None);
         assert_eq!(k.uav_id_of("swarm/r/uav/0/cmd"), None, "ids are 1-based");
@@ -192,8 +225,8 @@ mod tests {
     #[test]
     fn a_run_named_uav_parses() {
         let k = Keys::new("uav").expect("valid");
-        assert_eq!(k.uav_id_of(&k.alive_uav(1)), Some(1));
-        assert_eq!(k.uav_id_of(&k.cmd(2)), Some(2));
+        assert_eq!(k.uav_id_of(&k.alive_uav(UavId::new(1))), Some(UavId::new(1)));
+        assert_eq!(k.uav_id_of(&k.cmd(UavId::new(2))), Some(UavId::new(2)));
         assert_eq!(k.uav_id_of(&k.alive_hub()), None);
     }
 }

@@ -8,6 +8,7 @@
 
 use crate::WireError;
 use serde::{Deserialize, Serialize};
+pub use swarm_types::UavId;
 
 /// Schema name put into the Zenoh encoding of every payload.
 pub const SCHEMA: &str = "swarm.Msg.v1";
@@ -95,7 +96,7 @@ pub struct Uvdar {
     /// Tick.
     pub tick: u64,
     /// Sim time [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// What was seen.
     pub seen: Vec<UvdarSeen>,
 }
@@ -104,7 +105,7 @@ pub struct Uvdar {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct UvdarSeen {
     /// Its id (the blinking code of its markers).
-    pub id: u32,
+    pub id: UavId,
     /// Range [m].
     pub range_m: f32,
     /// Bearing in the observer's body frame [rad], counter-clockwise from its heading.
@@ -117,9 +118,9 @@ pub struct Clock {
     /// Tick number, from 0.
     pub tick: u64,
     /// Sim time of this tick [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Tick length [s].
-    pub dt_secs: f64,
+    pub dt_s: f64,
 }
 
 /// One 360° LIDAR scan in the body frame. Beam `i` points at `angle_min + i·angle_increment`.
@@ -128,7 +129,7 @@ pub struct Scan {
     /// Tick of the scan.
     pub tick: u64,
     /// Sim time [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Angle of beam 0 [rad], body frame.
     pub angle_min: f32,
     /// Angle between beams [rad].
@@ -145,7 +146,7 @@ pub struct Odom {
     /// Tick.
     pub tick: u64,
     /// Sim time [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Position x in the odom frame [m].
     pub x: f64,
     /// Position y in the odom frame [m].
@@ -168,7 +169,7 @@ pub struct Gnss {
     /// Tick.
     pub tick: u64,
     /// Sim time [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// World x [m].
     pub x: f64,
     /// World y [m].
@@ -187,9 +188,9 @@ pub struct RadioSet {
     /// Tick.
     pub tick: u64,
     /// Whose set this is.
-    pub id: u32,
+    pub id: UavId,
     /// UAV ids in radio range, sorted.
-    pub in_range: Vec<u32>,
+    pub in_range: Vec<UavId>,
     /// Distance-dependent loss probability of each link in `in_range` (same order; empty when
     /// the scenario has no distance loss).
     pub loss: Vec<f32>,
@@ -246,15 +247,23 @@ pub struct Cmd {
     pub yaw_rate: f32,
 }
 
+impl Cmd {
+    /// Hold position, answering tick `tick`: what an agent sends when it has nothing better (no
+    /// hub, shutting down) and what the hub holds for a UAV that has sent nothing yet.
+    pub const fn hover(tick: u64) -> Cmd {
+        Cmd { tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 }
+    }
+}
+
 /// `broadcast` mode: a UAV's own pose in the shared (GNSS-like) frame, sent to its neighbours.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PoseShare {
     /// Sender id (routing and metrics; K21 agents stay anonymous in `icp` mode).
-    pub from: u32,
+    pub from: UavId,
     /// Tick the pose belongs to.
     pub tick: u64,
     /// Sim time of the pose [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// World x [m].
     pub x: f64,
     /// World y [m].
@@ -283,11 +292,11 @@ pub const NO_PATH: u8 = u8::MAX;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObstacleShare {
     /// Sender id (routing and metrics; identity only with `identify = "key"`).
-    pub from: u32,
+    pub from: UavId,
     /// Tick of the scan the centres come from.
     pub tick: u64,
     /// Sim time of that scan [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Obstacle centres `[x, y]` in the sender's body frame [cm].
     pub centres_cm: Vec<[i16; 2]>,
     /// The sender's hop count to the nearest informed UAV (see [`PoseShare::hops`]).
@@ -330,7 +339,7 @@ pub struct IcpCounts {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct NeighbourEstimate {
     /// The neighbour's id where known (its key), for metrics only.
-    pub id: Option<u32>,
+    pub id: Option<UavId>,
     /// Relative position x [m], body frame.
     pub x: f32,
     /// Relative position y [m], body frame.
@@ -338,7 +347,7 @@ pub struct NeighbourEstimate {
     /// Relative heading [rad].
     pub heading: f32,
     /// Age of the information [s].
-    pub age_secs: f32,
+    pub age_s: f32,
 }
 
 /// Message and byte counts of one agent's inter-agent link (the netem seam).
@@ -423,11 +432,11 @@ pub struct VectorMagnitudes {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct AgentState {
     /// Agent id.
-    pub id: u32,
+    pub id: UavId,
     /// Tick of the step.
     pub tick: u64,
     /// Sim time [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Wall time the step took (perception + localization + control) [µs].
     pub step_time_us: u32,
     /// Obstacles extracted from this scan.
@@ -500,7 +509,7 @@ pub struct TruthWorld {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TruthBody {
     /// UAV id.
-    pub id: u32,
+    pub id: UavId,
     /// World x [m].
     pub x: f64,
     /// World y [m].
@@ -540,9 +549,9 @@ pub enum EndReason {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CollisionEvent {
     /// The UAV.
-    pub id: u32,
+    pub id: UavId,
     /// The other UAV, or `None` for an obstacle.
-    pub other_uav: Option<u32>,
+    pub other_uav: Option<UavId>,
     /// World position [m].
     pub x: f64,
     /// World position [m].
@@ -556,7 +565,7 @@ pub struct TruthStep {
     /// Tick just integrated.
     pub tick: u64,
     /// Sim time at the end of the tick [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// Every body.
     pub bodies: Vec<TruthBody>,
     /// Collisions that began this tick.
@@ -566,7 +575,7 @@ pub struct TruthStep {
     /// Set on the last step of the run.
     pub ended: Option<EndReason>,
     /// Wall seconds since tick 0.
-    pub wall_secs: f64,
+    pub wall_s: f64,
     /// The hub's own wall-clock cost of this tick and the commands it took. Appended in v1;
     /// boxed (same bytes on the wire) so that `Msg` stays small.
     pub timing: Box<HubTiming>,
@@ -662,12 +671,18 @@ pub(crate) mod tests {
     /// in the bytes.
     pub(crate) fn golden() -> Vec<(Msg, &'static str)> {
         let state = AgentState {
-            id: 2,
+            id: UavId::new(2),
             tick: 7,
-            t_secs: 0.5,
+            t_s: 0.5,
             step_time_us: 300,
             obstacles: 4,
-            neighbours: vec![NeighbourEstimate { id: Some(3), x: 1.5, y: -2.0, heading: 0.25, age_secs: 0.125 }],
+            neighbours: vec![NeighbourEstimate {
+                id: Some(UavId::new(3)),
+                x: 1.5,
+                y: -2.0,
+                heading: 0.25,
+                age_s: 0.125,
+            }],
             in_radio_range: 1,
             vectors: VectorMagnitudes { cohesion: 0.5, separation: 1.0, avoidance: 2.0, navigation: 0.25, output: 1.5 },
             link: LinkCounters {
@@ -699,7 +714,7 @@ pub(crate) mod tests {
             },
         };
         let body = |id: u32, colliding: bool| TruthBody {
-            id,
+            id: UavId::new(id),
             x: 1.0,
             y: -1.0,
             yaw: 0.5,
@@ -712,11 +727,11 @@ pub(crate) mod tests {
             colliding,
         };
         vec![
-            (Msg::Clock(Clock { tick: 3, t_secs: 0.25, dt_secs: 0.125 }), "0003000000000000d03f000000000000c03f"),
+            (Msg::Clock(Clock { tick: 3, t_s: 0.25, dt_s: 0.125 }), "0003000000000000d03f000000000000c03f"),
             (
                 Msg::Scan(Scan {
                     tick: 1,
-                    t_secs: 0.125,
+                    t_s: 0.125,
                     angle_min: 0.0,
                     angle_increment: 0.5,
                     max_range_m: 12.0,
@@ -727,7 +742,7 @@ pub(crate) mod tests {
             (
                 Msg::Odom(Odom {
                     tick: 2,
-                    t_secs: 0.25,
+                    t_s: 0.25,
                     x: 1.0,
                     y: -2.0,
                     yaw: 0.5,
@@ -739,13 +754,13 @@ pub(crate) mod tests {
                 "0202000000000000d03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf010000000000003e40000000000000000000",
             ),
             (
-                Msg::Gnss(Gnss { tick: 2, t_secs: 0.25, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125 }),
+                Msg::Gnss(Gnss { tick: 2, t_s: 0.25, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125 }),
                 "0302000000000000d03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf",
             ),
-            (Msg::Radio(RadioSet { tick: 4, id: 2, in_range: vec![1, 3], loss: vec![0.0, 0.25] }), "04040202010302000000000000803e"),
+            (Msg::Radio(RadioSet { tick: 4, id: UavId::new(2), in_range: vec![UavId::new(1), UavId::new(3)], loss: vec![0.0, 0.25] }), "04040202010302000000000000803e"),
             (Msg::Cmd(Cmd { tick: 2, kind: CmdKind::Velocity, x: 0.25, y: -0.5, yaw_rate: 0.0 }), "0502000000803e000000bf00000000"),
             (
-                Msg::Pose(PoseShare { from: 3, tick: 5, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125, hops: 0, arrival: 7 }),
+                Msg::Pose(PoseShare { from: UavId::new(3), tick: 5, t_s: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125, hops: 0, arrival: 7 }),
                 "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf0007",
             ),
             (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a"),
@@ -762,28 +777,28 @@ pub(crate) mod tests {
             (
                 Msg::TruthStep(TruthStep {
                     tick: 9,
-                    t_secs: 1.0,
+                    t_s: 1.0,
                     bodies: vec![body(1, false), body(2, true)],
-                    collisions: vec![CollisionEvent { id: 2, other_uav: None, x: 1.0, y: -1.0 }],
+                    collisions: vec![CollisionEvent { id: UavId::new(2), other_uav: None, x: 1.0, y: -1.0 }],
                     goal_reached_at: Some(0.5),
                     ended: Some(EndReason::Goal),
-                    wall_secs: 2.0,
+                    wall_s: 2.0,
                     timing: Box::new(HubTiming { work_us: 300, cmds: 2, late_ms: vec![1.5] }),
                 }),
                 "0909000000000000f03f0201000000000000f03f000000000000f0bf000000000000e03f000000000000d03f00000000000000000101000000000000004000000000000010400002000000000000f03f000000000000f0bf000000000000e03f000000000000d03f000000000000000001000000000000000040000000000000104001010200000000000000f03f000000000000f0bf01000000000000e03f01000000000000000040ac0202010000c03f",
             ),
-            (Msg::Obstacles(ObstacleShare { from: 3, tick: 100, t_secs: 10.0, centres_cm: vec![[150, -200], [-1, 0]], hops: 0, arrival: 7 }), "0a0364000000000000244002ac028f0301000007"),
+            (Msg::Obstacles(ObstacleShare { from: UavId::new(3), tick: 100, t_s: 10.0, centres_cm: vec![[150, -200], [-1, 0]], hops: 0, arrival: 7 }), "0a0364000000000000244002ac028f0301000007"),
             (Msg::NetemRules(r#"{"netem":[],"failures":[]}"#.to_string()), "0b1a7b226e6574656d223a5b5d2c226661696c75726573223a5b5d7d"),
             (
-                Msg::Uvdar(Uvdar { tick: 6, t_secs: 0.5, seen: vec![UvdarSeen { id: 4, range_m: 2.5, bearing_rad: -0.5 }] }),
+                Msg::Uvdar(Uvdar { tick: 6, t_s: 0.5, seen: vec![UvdarSeen { id: UavId::new(4), range_m: 2.5, bearing_rad: -0.5 }] }),
                 "0c06000000000000e03f010400002040000000bf",
             ),
             (
                 Msg::Sense(Box::new(SenseFrame {
-                    radio: RadioSet { tick: 4, id: 2, in_range: vec![1], loss: vec![] },
+                    radio: RadioSet { tick: 4, id: UavId::new(2), in_range: vec![UavId::new(1)], loss: vec![] },
                     odom: Odom {
                         tick: 4,
-                        t_secs: 0.5,
+                        t_s: 0.5,
                         x: 1.0,
                         y: -2.0,
                         yaw: 0.5,
@@ -792,9 +807,9 @@ pub(crate) mod tests {
                         goal: None,
                         goal_vel: Some([0.5, 0.0]),
                     },
-                    gnss: Some(Gnss { tick: 4, t_secs: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: 0.0 }),
+                    gnss: Some(Gnss { tick: 4, t_s: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: 0.0 }),
                     uvdar: None,
-                    scan: Scan { tick: 4, t_secs: 0.5, angle_min: 0.0, angle_increment: 0.5, max_range_m: 12.0, ranges_m: vec![1.0] },
+                    scan: Scan { tick: 4, t_s: 0.5, angle_min: 0.0, angle_increment: 0.5, max_range_m: 12.0, ranges_m: vec![1.0] },
                 })),
                 "0d040201010004000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000001000000000000e03f00000000000000000104000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000004000000000000e03f000000000000003f00004041010000803f",
             ),
@@ -843,9 +858,9 @@ pub(crate) mod tests {
     fn obstacle_shares_are_compact_and_round_to_centimetres() {
         let pts: Vec<[f64; 2]> = (0..20).map(|i| [f64::from(i) * 0.5 - 5.0, 7.123 - f64::from(i) * 0.3]).collect();
         let share = ObstacleShare {
-            from: 3,
+            from: UavId::new(3),
             tick: 100,
-            t_secs: 10.0,
+            t_s: 10.0,
             centres_cm: ObstacleShare::quantize(pts.clone()),
             hops: 0,
             arrival: 0,

@@ -72,6 +72,17 @@ pub async fn open(
     zenoh::open(c).await.map_err(WireError::zenoh)
 }
 
+/// The congestion control of the data a run's pieces publish in time mode `mode`: block in
+/// lockstep (every message counts, and the barrier waits for it), drop in real time (a late
+/// message is worth less than the next one).
+pub fn congestion(mode: swarm_types::TimeMode) -> CongestionControl {
+    if mode.blocks() {
+        CongestionControl::Block
+    } else {
+        CongestionControl::Drop
+    }
+}
+
 /// The Zenoh encoding of every payload: octet stream with our schema name.
 pub fn encoding() -> Encoding {
     Encoding::APPLICATION_OCTET_STREAM.with_schema(crate::msg::SCHEMA)

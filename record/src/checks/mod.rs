@@ -14,6 +14,7 @@ mod verdicts;
 use crate::summary::{CheckFailure, CheckResult, Summary, UavAt};
 use std::collections::BTreeMap;
 use swarm_config::{Bounds, CheckName, LocalizationMode, Scenario};
+use swarm_types::UavId;
 use swarm_wire::{AgentState, TruthBody, TruthStep};
 
 /// Ticks of positions kept to place a failure found in a state that arrived late.
@@ -39,14 +40,14 @@ struct Deadline {
     due_s: f64,
     /// The tick of the first agent state at or after `due_s`, and the estimate graph then.
     tick: Option<u64>,
-    graph: BTreeMap<u32, Vec<u32>>,
+    graph: BTreeMap<UavId, Vec<UavId>>,
     positions: Option<Vec<UavAt>>,
 }
 
 /// A state that reported neighbours, waiting for the truth of its tick to judge "alone".
 #[derive(Debug, Clone, Copy)]
 struct Reported {
-    id: u32,
+    id: UavId,
     tick: u64,
     t_s: f64,
     count: usize,
@@ -65,7 +66,7 @@ pub struct Checker {
     stale: Option<CheckFailure>,
     alone: Option<CheckFailure>,
     /// Per UAV, the intervals `[from, to)` it was truly alone (`to` infinite while it lasts).
-    alone_spans: BTreeMap<u32, Vec<(f64, f64)>>,
+    alone_spans: BTreeMap<UavId, Vec<(f64, f64)>>,
     pending: Vec<Reported>,
     recent: BTreeMap<u64, Vec<UavAt>>,
     /// The last step's tick and its live UAVs (agent alive, not frozen): all the checks need of
@@ -130,7 +131,7 @@ impl Checker {
                 let mut uavs = vec![UavAt { id: c.id, x_m: c.x, y_m: c.y }];
                 uavs.extend(c.other_uav.and_then(|o| s.bodies.iter().find(|b| b.id == o)).map(at));
                 let with = c.other_uav.map_or("an obstacle".to_string(), |o| format!("UAV {o}"));
-                self.collision = failure(s.t_secs, format!("UAV {} touched {with}", c.id), uavs);
+                self.collision = failure(s.t_s, format!("UAV {} touched {with}", c.id), uavs);
             }
         }
         if self.separation.is_none() {
@@ -142,10 +143,10 @@ impl Checker {
         while self.recent.len() > RECENT_TICKS {
             self.recent.pop_first();
         }
-        for d in self.deadlines.iter_mut().filter(|d| d.positions.is_none() && s.t_secs >= d.due_s - 1e-9) {
+        for d in self.deadlines.iter_mut().filter(|d| d.positions.is_none() && s.t_s >= d.due_s - 1e-9) {
             d.positions = Some(s.bodies.iter().map(at).collect());
         }
-        let live = s.bodies.iter().filter(|b| b.alive && !self.timeline.frozen_at(b.id, s.t_secs)).map(at).collect();
+        let live = s.bodies.iter().filter(|b| b.alive && !self.timeline.frozen_at(b.id, s.t_s)).map(at).collect();
         self.last = Some((s.tick, live));
         let pending = std::mem::take(&mut self.pending);
         let (ready, waiting): (Vec<_>, Vec<_>) = pending.into_iter().partition(|r| r.tick <= s.tick);
@@ -171,34 +172,34 @@ impl Checker {
             "UAVs {} and {} {:.2} m apart (bound {:.2} m)",
             b.id, other.id, b.agent_distance_m, self.bounds.min_separation_m
         );
-        failure(s.t_secs, what, vec![at(b), at(other)])
+        failure(s.t_s, what, vec![at(b), at(other)])
     }
 
     /// Opens and closes each UAV's spans of being truly alone.
     fn track_alone(&mut self, s: &TruthStep) {
-        let all_company = s.bodies.iter().all(|b| self.company(b, s.t_secs));
+        let all_company = s.bodies.iter().all(|b| self.company(b, s.t_s));
         for b in &s.bodies {
             // The nearest body of any kind is the quick answer; only when some bodies are no
             // company (dead, frozen) is the UAV's company looked up one by one.
             let alone = b.agent_distance_m > self.bounds.alone_m
                 || (!all_company
                     && !s.bodies.iter().any(|o| {
-                        o.id != b.id && self.company(o, s.t_secs) && (o.x - b.x).hypot(o.y - b.y) <= self.bounds.alone_m
+                        o.id != b.id && self.company(o, s.t_s) && (o.x - b.x).hypot(o.y - b.y) <= self.bounds.alone_m
                     }));
             let spans = self.alone_spans.entry(b.id).or_default();
             let open = spans.last().is_some_and(|&(_, to)| to.is_infinite());
             if alone && !open {
-                spans.push((s.t_secs, f64::INFINITY));
+                spans.push((s.t_s, f64::INFINITY));
             } else if !alone && open {
                 if let Some(last) = spans.last_mut() {
-                    last.1 = s.t_secs;
+                    last.1 = s.t_s;
                 }
             }
         }
     }
 
     /// Whether `id` was alone all through `[t_s - grace, t_s]`.
-    fn alone_through(&self, id: u32, t_s: f64) -> bool {
+    fn alone_through(&self, id: UavId, t_s: f64) -> bool {
         let from = t_s - self.bounds.stale_grace_s;
         self.alone_spans.get(&id).is_some_and(|v| v.iter().any(|&(a, b)| a <= from + 1e-9 && b > t_s + 1e-9))
     }
@@ -214,22 +215,22 @@ impl Checker {
     }
 
     /// Where `ids` were at `tick` (or at the last step, if that tick is no longer kept).
-    fn positions(&self, tick: u64, ids: &[u32]) -> Vec<UavAt> {
+    fn positions(&self, tick: u64, ids: &[UavId]) -> Vec<UavAt> {
         let bodies = self.recent.get(&tick).or_else(|| self.recent.values().next_back());
         bodies.map_or_else(Vec::new, |v| v.iter().filter(|u| ids.contains(&u.id)).cloned().collect())
     }
 
     /// Whether the link from `from` to `to` is cut (blocked, held, a frozen sender, or one whose
     /// agent is gone) at `t_s`.
-    fn cut(&self, from: u32, to: u32, t_s: f64) -> bool {
+    fn cut(&self, from: UavId, to: UavId, t_s: f64) -> bool {
         self.liveness.lost_since(from).is_some_and(|t0| t0 <= t_s + 1e-9)
             || self.timeline.rule_at(t_s, from, to).is_some_and(|r| r.blocked || r.hold)
     }
 
     /// Folds one agent state.
     pub fn on_state(&mut self, st: &AgentState) {
-        let ids: Vec<u32> = st.neighbours.iter().filter_map(|e| e.id).collect();
-        for d in self.deadlines.iter_mut().filter(|d| st.t_secs >= d.due_s - 1e-9) {
+        let ids: Vec<UavId> = st.neighbours.iter().filter_map(|e| e.id).collect();
+        for d in self.deadlines.iter_mut().filter(|d| st.t_s >= d.due_s - 1e-9) {
             if d.tick.is_none() {
                 d.tick = Some(st.tick);
             }
@@ -240,14 +241,14 @@ impl Checker {
         if self.stale.is_none() && !self.senses_bodies {
             let g = self.bounds.stale_grace_s;
             // Cut at the state's time, a grace ago, and half way: cut through the whole grace.
-            let across = ids.iter().find(|&&j| [0.0, 0.5 * g, g].iter().all(|dt| self.cut(j, st.id, st.t_secs - dt)));
+            let across = ids.iter().find(|&&j| [0.0, 0.5 * g, g].iter().all(|dt| self.cut(j, st.id, st.t_s - dt)));
             if let Some(&j) = across {
                 let what = format!("UAV {} held an estimate of UAV {j} over a link cut for more than {g:.2} s", st.id);
-                self.stale = failure(st.t_secs, what, self.positions(st.tick, &[st.id, j]));
+                self.stale = failure(st.t_s, what, self.positions(st.tick, &[st.id, j]));
             }
         }
         if !st.neighbours.is_empty() && self.alone.is_none() {
-            let r = Reported { id: st.id, tick: st.tick, t_s: st.t_secs, count: st.neighbours.len() };
+            let r = Reported { id: st.id, tick: st.tick, t_s: st.t_s, count: st.neighbours.len() };
             if self.last.as_ref().is_some_and(|&(tick, _)| tick >= st.tick) {
                 self.judge_alone(r);
             } else {

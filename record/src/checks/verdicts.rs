@@ -6,14 +6,15 @@ use super::{failure, Checker};
 use crate::summary::{CheckFailure, CheckResult, Summary, UavAt};
 use std::collections::{BTreeMap, BTreeSet};
 use swarm_config::{CheckName, GoalRule, Scenario};
+use swarm_types::UavId;
 
 fn result(c: CheckName, detail: String, first_failure: Option<CheckFailure>) -> CheckResult {
     CheckResult { name: c.as_str().into(), passed: first_failure.is_none(), detail, first_failure }
 }
 
 /// The ids of the weakly connected components of an estimate graph, largest first.
-fn component_sets(graph: &BTreeMap<u32, Vec<u32>>) -> Vec<BTreeSet<u32>> {
-    let mut adjacent: BTreeMap<u32, BTreeSet<u32>> = graph.keys().map(|&i| (i, BTreeSet::new())).collect();
+fn component_sets(graph: &BTreeMap<UavId, Vec<UavId>>) -> Vec<BTreeSet<UavId>> {
+    let mut adjacent: BTreeMap<UavId, BTreeSet<UavId>> = graph.keys().map(|&i| (i, BTreeSet::new())).collect();
     for (&i, js) in graph {
         for &j in js.iter().filter(|j| graph.contains_key(j)) {
             adjacent.entry(i).or_default().insert(j);
@@ -89,7 +90,7 @@ impl Checker {
             let was_connected = s.connectivity.components_changes.iter().any(|c| c.t_s < d.heal_s && c.components == 1);
             if late && was_connected && d.due_s <= s.sim_time_s + 1e-9 {
                 let sets = component_sets(&d.graph);
-                let apart: Vec<u32> = sets.iter().skip(1).flatten().copied().collect();
+                let apart: Vec<UavId> = sets.iter().skip(1).flatten().copied().collect();
                 let what = format!(
                     "{} component(s) {within:.1} s after the heal at {:.1} s; outside the largest: {apart:?}",
                     sets.len(),

@@ -61,12 +61,12 @@ impl Journal {
     }
 
     /// Appends one payload, stamped with the sim time the recorder was at [s].
-    pub fn append(&mut self, kind: Kind, payload: &[u8], t_secs: f64) -> Result<()> {
+    pub fn append(&mut self, kind: Kind, payload: &[u8], t_s: f64) -> Result<()> {
         let channel_id = match kind {
             Kind::Truth => self.truth,
             Kind::State => self.state,
         };
-        let ns = crate::scene::log_time_ns(t_secs);
+        let ns = crate::scene::log_time_ns(t_s);
         let header =
             mcap::records::MessageHeader { channel_id, sequence: self.sequence, log_time: ns, publish_time: ns };
         self.sequence = self.sequence.wrapping_add(1);

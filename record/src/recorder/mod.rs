@@ -43,8 +43,8 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::process::ExitCode;
+use swarm_args::ZenohArgs;
 use swarm_config::Scenario;
-use swarm_node::args::ZenohArgs;
 
 /// `swarm record`.
 #[derive(Args, Debug, Clone)]
@@ -74,8 +74,8 @@ pub struct McapArgs {
     #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..))]
     pub mcap_every: Option<u64>,
     /// Keep scans, estimates and numbers of these UAVs only, e.g. `1-4,9` (default: all).
-    #[arg(long, value_parser = swarm_node::args::parse_ids, value_name = "IDS")]
-    pub mcap_uavs: Option<swarm_node::args::UavIds>,
+    #[arg(long, value_parser = swarm_args::parse_ids, value_name = "IDS")]
+    pub mcap_uavs: Option<swarm_args::UavIds>,
     /// Keep no journal (`journal.mcap`, removed at a clean end): a killed run's summary, CSVs
     /// and figures then cannot be rebuilt by `swarm recover` (its run.mcap still can).
     #[arg(long)]

@@ -86,19 +86,19 @@ impl<'a> Sink<'a> {
     /// Journals one payload (stamped with the latest truth step's time).
     fn journal(&mut self, kind: Kind, b: &[u8]) -> Result<()> {
         if let Some(j) = self.journal.as_mut() {
-            j.append(kind, b, self.m.last_step().map_or(0.0, |s| s.t_secs))?;
+            j.append(kind, b, self.m.last_step().map_or(0.0, |s| s.t_s))?;
         }
         Ok(())
     }
 
     /// Hands the CSVs, the scene's file and the journal to the file system, once every
     /// [`CHECKPOINT_S`] of sim time.
-    fn checkpoint(&mut self, t_secs: f64) -> Result<()> {
-        if t_secs < self.next_checkpoint_t {
+    fn checkpoint(&mut self, t_s: f64) -> Result<()> {
+        if t_s < self.next_checkpoint_t {
             return Ok(());
         }
         // A hair early, so a sum of tick lengths that rounds below a whole second still counts.
-        self.next_checkpoint_t = t_secs + CHECKPOINT_S - 1e-6;
+        self.next_checkpoint_t = t_s + CHECKPOINT_S - 1e-6;
         self.files.flush()?;
         if let Some(scene) = &self.scene {
             scene.flush()?;
@@ -147,10 +147,10 @@ impl<'a> Sink<'a> {
                 self.pb.set_position(s.tick);
                 self.pb.set_message(format!(
                     "t={:.1}s  farthest UAV {d:.1} m from goal  collisions {}",
-                    s.t_secs,
+                    s.t_s,
                     self.m.collision_count()
                 ));
-                self.checkpoint(s.t_secs)?;
+                self.checkpoint(s.t_s)?;
                 Ok(self.m.ended().is_some())
             }
             Some(Msg::TruthWorld(w)) => {
@@ -168,7 +168,7 @@ impl<'a> Sink<'a> {
     fn state(&mut self, b: &[u8]) -> Result<()> {
         self.journal(Kind::State, b)?;
         if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
-            if (1..=self.sc.swarm.count).contains(&st.id) {
+            if st.id.within(self.sc.count()) {
                 self.files.write_state(&st)?;
                 if let Some(scene) = self.scene.as_mut() {
                     scene.on_state(&st);
@@ -308,7 +308,7 @@ impl Recording {
                 Some(b) = self.states.recv() => sink.state(&b)?,
                 Some(b) = self.truth.recv() => {
                     if sink.truth(&b)? { break }
-                    if let Some(t) = sink.m.last_step().map(|s| s.t_secs) { on_tick(t)?; }
+                    if let Some(t) = sink.m.last_step().map(|s| s.t_s) { on_tick(t)?; }
                 },
                 Some(e) = extra => if let Some(scene) = sink.scene.as_mut() { scene.on_extra(e) },
                 changed = self.hub_alive.changed() => {

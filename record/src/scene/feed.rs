@@ -5,6 +5,7 @@
 
 use super::Scene;
 use anyhow::Result;
+use swarm_types::UavId;
 use swarm_wire::msg::SenseFrame;
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::{Keys, Msg};
@@ -13,7 +14,7 @@ use tokio::sync::mpsc;
 /// One message for the scene.
 pub enum Extra {
     /// The sensor frame the hub sent UAV `.0`.
-    Sense(u32, Box<SenseFrame>),
+    Sense(UavId, Box<SenseFrame>),
     /// The netem timeline in force.
     Timeline(swarm_config::Timeline),
 }

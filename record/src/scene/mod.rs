@@ -48,6 +48,7 @@ use std::io::BufWriter;
 use std::path::Path;
 use std::sync::Arc;
 use swarm_config::Scenario;
+use swarm_types::UavId;
 use swarm_wire::msg::{AgentState, RadioSet, Scan, TruthBody, TruthStep, TruthWorld};
 
 /// How much of each UAV's path `/trails` shows [sim s]: each piece's lifetime.
@@ -83,19 +84,19 @@ pub struct Scene {
     trails_ch: Channel<SceneUpdate>,
     radio_ch: Channel<SceneUpdate>,
     events: Channel<Log>,
-    uavs: BTreeMap<u32, UavChannels>,
+    uavs: BTreeMap<UavId, UavChannels>,
     timeline: netem::Timeline,
     /// Latest truth of every UAV (the pose its next state's estimates are relative to).
-    bodies: BTreeMap<u32, TruthBody>,
+    bodies: BTreeMap<UavId, TruthBody>,
     /// Each UAV's path since the last `/trails` piece, from that piece's last point on.
-    trails: BTreeMap<u32, Vec<[f64; 2]>>,
-    radio: BTreeMap<u32, Vec<u32>>,
+    trails: BTreeMap<UavId, Vec<[f64; 2]>>,
+    radio: BTreeMap<UavId, Vec<UavId>>,
     last_t: Option<f64>,
     next_trail_t: f64,
     mcap: Option<foxglove::McapWriterHandle<BufWriter<File>>>,
     detail: Detail,
     /// Scans seen per UAV (for [`Detail::every`]).
-    scans_seen: BTreeMap<u32, u64>,
+    scans_seen: BTreeMap<UavId, u64>,
 }
 
 /// How much of each UAV a scene logs. Poses, transforms, trails and events are always logged;
@@ -107,7 +108,7 @@ pub struct Detail {
     /// radio graph (at least 1: everything).
     pub every: u64,
     /// Log scans, estimates and numbers of these UAVs only (`None`: of every UAV).
-    pub uavs: Option<std::collections::BTreeSet<u32>>,
+    pub uavs: Option<std::collections::BTreeSet<UavId>>,
 }
 
 impl Default for Detail {
@@ -128,7 +129,7 @@ impl Detail {
     }
 
     /// Whether the `n`-th (0-based) heavy message of UAV `id` is logged.
-    fn keeps(&self, id: u32, n: u64) -> bool {
+    fn keeps(&self, id: UavId, n: u64) -> bool {
         n.is_multiple_of(self.every.max(1)) && self.uavs.as_ref().is_none_or(|u| u.contains(&id))
     }
 }
@@ -139,7 +140,7 @@ impl Scene {
         let ctx = foxglove::Context::new();
         let numbers_schema = Schema::new("swarm.AgentNumbers", "jsonschema", NUMBERS_SCHEMA.as_bytes());
         let mut uavs = BTreeMap::new();
-        for id in 1..=sc.swarm.count {
+        for id in sc.uav_ids() {
             let numbers = ctx
                 .channel_builder(format!("/uav/{id}/numbers"))
                 .message_encoding("json")
@@ -165,7 +166,7 @@ impl Scene {
                 .schema(Schema::new("swarm.World", "jsonschema", WORLD_SCHEMA.as_bytes()))
                 .build_raw()
                 .context("cannot make the world channel")?,
-            dt_s: sc.dt_secs(),
+            dt_s: sc.dt_s(),
             goal_radius_m: sc.end.goal_radius_m,
             controller: sc.controller.kind.name().to_string(),
             name: sc.name.clone(),
@@ -254,20 +255,20 @@ impl Scene {
     }
 
     /// One scan the hub sent UAV `id`.
-    pub fn on_scan(&mut self, id: u32, s: &Scan) {
+    pub fn on_scan(&mut self, id: UavId, s: &Scan) {
         let seen = self.scans_seen.entry(id).or_default();
         *seen += 1;
         if !self.detail.keeps(id, *seen - 1) {
             return;
         }
         if let Some(u) = self.uavs.get(&id) {
-            u.scan.log_with_time(&shapes::laser_scan(id, s), shapes::log_time_ns(s.t_secs));
+            u.scan.log_with_time(&shapes::laser_scan(id, s), shapes::log_time_ns(s.t_s));
         }
     }
 
     /// One truth step: poses, transforms, trails, the radio graph, and the step's events.
     pub fn on_step(&mut self, s: &TruthStep) {
-        let t = s.t_secs;
+        let t = s.t_s;
         let ns = shapes::log_time_ns(t);
         let transforms = s.bodies.iter().map(|b| shapes::transform(b, t)).collect();
         self.tf.log_with_time(&FrameTransforms { transforms }, ns);
@@ -297,11 +298,11 @@ impl Scene {
         if !self.detail.keeps(st.id, st.tick) {
             return;
         }
-        let ns = shapes::log_time_ns(st.t_secs);
+        let ns = shapes::log_time_ns(st.t_s);
         let (update, error) = self.estimates(st);
         u.estimates.log_with_time(&update, ns);
         let mut fields = numbers(st);
-        fields.insert("t_s".into(), st.t_secs.into());
+        fields.insert("t_s".into(), st.t_s.into());
         fields.insert("localization_error_m".into(), error.into());
         let numbers = serde_json::Value::Object(fields);
         u.numbers.log_with_meta(numbers.to_string().as_bytes(), PartialMetadata::with_log_time(ns));
@@ -310,7 +311,7 @@ impl Scene {
     /// The estimates of `st` in the world (placed by the agent's true pose), lines from each to
     /// its neighbour's truth, and their mean error [m] (estimates of known id only).
     fn estimates(&self, st: &AgentState) -> (SceneUpdate, Option<f64>) {
-        let mut e = shapes::entity(format!("estimates{}", st.id), st.t_secs);
+        let mut e = shapes::entity(format!("estimates{}", st.id), st.t_s);
         let Some(me) = self.bodies.get(&st.id) else {
             return (SceneUpdate { entities: vec![e], ..Default::default() }, None);
         };
@@ -364,7 +365,7 @@ impl Scene {
     /// Logs the step's collisions, UAVs lost, and the netem rules and failures that came due
     /// since the last step.
     fn events_of(&self, s: &TruthStep) {
-        let t = s.t_secs;
+        let t = s.t_s;
         let ns = shapes::log_time_ns(t);
         let log = |level, message: String| self.events.log_with_time(&shapes::log(t, level, "swarm", message), ns);
         for c in &s.collisions {
@@ -403,7 +404,7 @@ pub fn estimates_in_world(pose: [f64; 3], st: &AgentState) -> Vec<[f64; 2]> {
 /// worse netem class of its two directions.
 pub struct RadioLink {
     /// The two UAVs, lower id first.
-    pub ids: [u32; 2],
+    pub ids: [UavId; 2],
     /// Their positions [m, world], in the order of `ids`.
     pub ends: [[f64; 2]; 2],
     /// The worse netem class of the link's two directions.
@@ -413,10 +414,10 @@ pub struct RadioLink {
 /// The links of the latest radio sets (`radio`: each UAV's ids in range) between UAVs whose
 /// position `at` knows, each once, classed by `timeline` at `t`.
 pub fn radio_links(
-    radio: &BTreeMap<u32, Vec<u32>>,
+    radio: &BTreeMap<UavId, Vec<UavId>>,
     timeline: &netem::Timeline,
     t: f64,
-    at: impl Fn(u32) -> Option<[f64; 2]>,
+    at: impl Fn(UavId) -> Option<[f64; 2]>,
 ) -> Vec<RadioLink> {
     let mut links = Vec::new();
     for (&i, ids) in radio {
@@ -483,7 +484,7 @@ mod tests {
     /// The truth step `tick` with UAV 1 alone, at (x, y) heading `yaw`.
     fn one_uav_step(tick: u64, x: f64, y: f64, yaw: f64) -> TruthStep {
         let body = TruthBody {
-            id: 1,
+            id: UavId::new(1),
             x,
             y,
             yaw,
@@ -495,17 +496,17 @@ mod tests {
             agent_distance_m: 1.0,
             colliding: false,
         };
-        TruthStep { tick, t_secs: tick as f64 * 0.1, bodies: vec![body], ..Default::default() }
+        TruthStep { tick, t_s: tick as f64 * 0.1, bodies: vec![body], ..Default::default() }
     }
 
     #[test]
     fn detail_thins_heavy_topics_per_uav_and_grows_with_the_swarm() {
         assert_eq!(Detail::auto(40), Detail::default());
         assert_eq!(Detail::auto(1000).every, 20);
-        let d = Detail { every: 3, uavs: Some([2, 5].into()) };
-        let kept: Vec<u64> = (0..10).filter(|&n| d.keeps(2, n)).collect();
+        let d = Detail { every: 3, uavs: Some([UavId::new(2), UavId::new(5)].into()) };
+        let kept: Vec<u64> = (0..10).filter(|&n| d.keeps(UavId::new(2), n)).collect();
         assert_eq!(kept, vec![0, 3, 6, 9]);
-        assert!(!d.keeps(1, 0), "UAV 1 is not chosen");
+        assert!(!d.keeps(UavId::new(1), 0), "UAV 1 is not chosen");
     }
 
     #[test]
@@ -514,7 +515,7 @@ mod tests {
         scene.set_detail(Detail { every: 4, uavs: None });
         let scan = |tick: u64| Scan {
             tick,
-            t_secs: tick as f64 * 0.1,
+            t_s: tick as f64 * 0.1,
             angle_min: 0.0,
             angle_increment: 0.1,
             max_range_m: 10.0,
@@ -522,7 +523,7 @@ mod tests {
         };
         for tick in 1..=12u64 {
             scene.on_step(&one_uav_step(tick, tick as f64, 0.0, 0.0));
-            scene.on_scan(1, &scan(tick));
+            scene.on_scan(UavId::new(1), &scan(tick));
         }
         let bytes = finished(scene, &path);
         let count = |topic: &str| {

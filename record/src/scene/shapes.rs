@@ -7,6 +7,7 @@ use foxglove::messages::{
     Color, CubePrimitive, CylinderPrimitive, FrameTransform, LaserScan, LinePrimitive, Log, Point3, Pose, PoseInFrame,
     Quaternion, SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, Vector3,
 };
+use swarm_types::UavId;
 use swarm_wire::msg::{Scan, TruthBody, TruthWorld};
 
 /// The world frame's name.
@@ -17,18 +18,18 @@ pub const FLY_Z_M: f64 = 1.0;
 const OBSTACLE_HEIGHT_M: f64 = 2.0;
 
 /// UAV `id`'s body frame name.
-pub fn body_frame(id: u32) -> String {
+pub fn body_frame(id: UavId) -> String {
     format!("uav{id}")
 }
 
 /// A sim time [s] as a Foxglove timestamp (sim time counts from the Unix epoch).
-pub fn stamp(t_secs: f64) -> Timestamp {
-    Timestamp::saturating_from_epoch_secs_f64(t_secs.max(0.0))
+pub fn stamp(t_s: f64) -> Timestamp {
+    Timestamp::saturating_from_epoch_secs_f64(t_s.max(0.0))
 }
 
 /// A sim time [s] as the log time of an MCAP message [ns].
-pub fn log_time_ns(t_secs: f64) -> u64 {
-    (t_secs.max(0.0) * 1e9).round() as u64
+pub fn log_time_ns(t_s: f64) -> u64 {
+    (t_s.max(0.0) * 1e9).round() as u64
 }
 
 /// The rotation of `yaw` [rad] about z as a unit quaternion: (0, 0, sin(yaw/2), cos(yaw/2)).
@@ -81,10 +82,10 @@ pub fn world(w: &TruthWorld, goal_radius_m: f64) -> SceneUpdate {
     SceneUpdate { entities: vec![e], ..Default::default() }
 }
 
-/// The transform placing UAV `b`'s body frame in the world at `t_secs`.
-pub fn transform(b: &TruthBody, t_secs: f64) -> FrameTransform {
+/// The transform placing UAV `b`'s body frame in the world at `t_s`.
+pub fn transform(b: &TruthBody, t_s: f64) -> FrameTransform {
     FrameTransform {
-        timestamp: Some(stamp(t_secs)),
+        timestamp: Some(stamp(t_s)),
         parent_frame_id: WORLD.into(),
         child_frame_id: body_frame(b.id),
         translation: Some(Vector3 { x: b.x, y: b.y, z: FLY_Z_M }),
@@ -92,17 +93,17 @@ pub fn transform(b: &TruthBody, t_secs: f64) -> FrameTransform {
     }
 }
 
-/// UAV `b`'s pose in the world at `t_secs`.
-pub fn pose(b: &TruthBody, t_secs: f64) -> PoseInFrame {
-    PoseInFrame { timestamp: Some(stamp(t_secs)), frame_id: WORLD.into(), pose: at(b.x, b.y, FLY_Z_M, b.yaw) }
+/// UAV `b`'s pose in the world at `t_s`.
+pub fn pose(b: &TruthBody, t_s: f64) -> PoseInFrame {
+    PoseInFrame { timestamp: Some(stamp(t_s)), frame_id: WORLD.into(), pose: at(b.x, b.y, FLY_Z_M, b.yaw) }
 }
 
 /// UAV `id`'s scan, in its body frame. Ranges are the wire's, widened to f64 exactly (no return
 /// stays +inf).
-pub fn laser_scan(id: u32, s: &Scan) -> LaserScan {
+pub fn laser_scan(id: UavId, s: &Scan) -> LaserScan {
     let n = s.ranges_m.len().max(1) as f64;
     LaserScan {
-        timestamp: Some(stamp(s.t_secs)),
+        timestamp: Some(stamp(s.t_s)),
         frame_id: body_frame(id),
         pose: at(0.0, 0.0, 0.0, 0.0),
         start_angle: f64::from(s.angle_min),
@@ -149,21 +150,14 @@ pub fn dots(points: &[[f64; 2]], color: Color, diameter_m: f64) -> Vec<SpherePri
         .collect()
 }
 
-/// One entity in the world frame at `t_secs`, to be replaced by the next of the same `id`.
-pub fn entity(id: String, t_secs: f64) -> SceneEntity {
-    SceneEntity { timestamp: Some(stamp(t_secs)), frame_id: WORLD.into(), id, ..Default::default() }
+/// One entity in the world frame at `t_s`, to be replaced by the next of the same `id`.
+pub fn entity(id: String, t_s: f64) -> SceneEntity {
+    SceneEntity { timestamp: Some(stamp(t_s)), frame_id: WORLD.into(), id, ..Default::default() }
 }
 
-/// A log line of the run at `t_secs`.
-pub fn log(t_secs: f64, level: foxglove::messages::log::Level, name: &str, message: String) -> Log {
-    Log {
-        timestamp: Some(stamp(t_secs)),
-        level: level as i32,
-        message,
-        name: name.into(),
-        file: String::new(),
-        line: 0,
-    }
+/// A log line of the run at `t_s`.
+pub fn log(t_s: f64, level: foxglove::messages::log::Level, name: &str, message: String) -> Log {
+    Log { timestamp: Some(stamp(t_s)), level: level as i32, message, name: name.into(), file: String::new(), line: 0 }
 }
 
 #[cfg(test)]
@@ -182,13 +176,13 @@ mod tests {
     fn laser_scan_keeps_the_wire_ranges_exactly() {
         let s = Scan {
             tick: 3,
-            t_secs: 0.3,
+            t_s: 0.3,
             angle_min: -1.0,
             angle_increment: 0.5,
             max_range_m: 9.0,
             ranges_m: vec![1.25, f32::INFINITY, 0.1],
         };
-        let l = laser_scan(4, &s);
+        let l = laser_scan(UavId::new(4), &s);
         assert_eq!(l.frame_id, "uav4");
         assert_eq!(l.ranges.iter().map(|&r| r as f32).collect::<Vec<_>>(), s.ranges_m);
         assert!((l.end_angle - 0.0).abs() < 1e-12);

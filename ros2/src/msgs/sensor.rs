@@ -10,7 +10,7 @@ use swarm_wire::{Odom, Scan};
 /// `+inf`, as REP 117 asks; no intensities.
 pub fn laser_scan(s: &Scan, frame_id: &str, scan_period_s: f32) -> Vec<u8> {
     let mut w = Writer::new();
-    Header::new(s.t_secs, frame_id).write(&mut w);
+    Header::new(s.t_s, frame_id).write(&mut w);
     let n = s.ranges_m.len().max(1) as f32;
     w.f32(s.angle_min)
         .f32(s.angle_min + s.angle_increment * (n - 1.0))
@@ -66,7 +66,7 @@ impl LaserScan {
         let ranges_m = self.ranges.into_iter().map(|r| if r >= lo && r <= hi { r } else { f32::INFINITY }).collect();
         Scan {
             tick,
-            t_secs: self.header.stamp_s,
+            t_s: self.header.stamp_s,
             angle_min: self.angle_min,
             angle_increment: self.angle_increment,
             max_range_m: self.range_max,
@@ -79,7 +79,7 @@ impl LaserScan {
 /// frame), the twist in `child_frame_id` (its body frame, as REP 105 asks), covariances 0.
 pub fn odometry(o: &Odom, frame_id: &str, child_frame_id: &str) -> Vec<u8> {
     let mut w = Writer::new();
-    Header::new(o.t_secs, frame_id).write(&mut w);
+    Header::new(o.t_s, frame_id).write(&mut w);
     w.string(child_frame_id);
     // geometry_msgs/PoseWithCovariance: Pose, float64[36].
     pose(&mut w, o.x, o.y, o.yaw);
@@ -140,7 +140,7 @@ impl Odometry {
     /// As our odometry of `tick`, with the goal the UAV was given (if any).
     pub fn into_odom(self, tick: u64, goal: Option<[f64; 2]>) -> Odom {
         let Odometry { header, x, y, yaw, vx, vy, .. } = self;
-        Odom { tick, t_secs: header.stamp_s, x, y, yaw, vx, vy, goal, goal_vel: None }
+        Odom { tick, t_s: header.stamp_s, x, y, yaw, vx, vy, goal, goal_vel: None }
     }
 }
 
@@ -150,7 +150,7 @@ mod tests {
 
     #[test]
     fn odometry_puts_the_pose_after_the_frames_on_an_8_byte_boundary() {
-        let o = Odom { tick: 1, t_secs: 1.5, x: 2.0, y: 3.0, yaw: 0.0, vx: 1.0, vy: 0.0, goal: None, goal_vel: None };
+        let o = Odom { tick: 1, t_s: 1.5, x: 2.0, y: 3.0, yaw: 0.0, vx: 1.0, vy: 0.0, goal: None, goal_vel: None };
         let b = odometry(&o, "odom", "base_link");
         // After the header: sec 0, nanosec 4, "odom" 8..17, "base_link" 20..34, pose x at 40.
         assert_eq!(&b[4..8], &1i32.to_le_bytes());
@@ -161,7 +161,7 @@ mod tests {
 
     #[test]
     fn odometry_and_scans_read_back_as_ours() {
-        let o = Odom { tick: 7, t_secs: 0.7, x: 2.0, y: -3.0, yaw: 1.0, vx: 0.3, vy: -0.4, goal: None, goal_vel: None };
+        let o = Odom { tick: 7, t_s: 0.7, x: 2.0, y: -3.0, yaw: 1.0, vx: 0.3, vy: -0.4, goal: None, goal_vel: None };
         let back = Odometry::decode(&odometry(&o, "uav2/odom", "uav2/base_link")).expect("decode");
         assert_eq!(back.child_frame_id, "uav2/base_link");
         let back = back.into_odom(7, Some([30.0, 0.0]));
@@ -170,15 +170,15 @@ mod tests {
 
         let s = Scan {
             tick: 7,
-            t_secs: 0.7,
+            t_s: 0.7,
             angle_min: -3.1,
             angle_increment: 0.01,
             max_range_m: 12.0,
             ranges_m: vec![1.0, f32::INFINITY, 11.5],
         };
         let back = LaserScan::decode(&laser_scan(&s, "uav2/base_link", 0.1)).expect("decode").into_scan(7);
-        assert!((back.t_secs - 0.7).abs() < 1e-9, "a stamp is whole nanoseconds: {}", back.t_secs);
-        assert_eq!(Scan { t_secs: 0.7, ..back }, s);
+        assert!((back.t_s - 0.7).abs() < 1e-9, "a stamp is whole nanoseconds: {}", back.t_s);
+        assert_eq!(Scan { t_s: 0.7, ..back }, s);
         assert!(LaserScan::decode(&laser_scan(&s, "f", 0.1)[..40]).is_err());
     }
 

@@ -7,6 +7,7 @@ use netem::nemesis::{schedule, Fault, NemesisKind, ScheduleSpec};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use swarm_config::{ControllerKind, LocalizationMode, Scenario, Tree};
+use swarm_types::UavId;
 
 /// What `--weaken` turns off, to show the fuzzer finds a broken swarm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -184,9 +185,9 @@ impl Case {
         sc.swarm.goal = [self.goal_x_m, 0.0];
         sc.swarm.failed.clear();
         if let swarm_config::Informed::Ids(ids) = &mut sc.swarm.informed {
-            ids.retain(|&id| id <= self.uavs());
+            ids.retain(|&id| id.get() <= self.uavs());
             if ids.is_empty() {
-                ids.push(1);
+                ids.push(UavId::new(1));
             }
         }
         sc.controller.kind = self.controller.clone();

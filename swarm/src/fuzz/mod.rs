@@ -24,8 +24,8 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
+use swarm_args::unix_secs;
 use swarm_config::ControllerKind;
-use swarm_node::args::unix_secs;
 use swarm_record::summary::{CheckResult, Summary};
 
 /// `swarm fuzz`.
@@ -118,16 +118,13 @@ fn first_failed(s: &Summary) -> Option<Failure> {
 }
 
 fn space(a: &FuzzArgs) -> Result<Space> {
-    let controllers: Vec<ControllerKind> = a
-        .controllers
-        .split(',')
-        .map(|c| swarm_node::args::scenario_value("--controllers", c))
-        .collect::<Result<_>>()?;
+    let controllers: Vec<ControllerKind> =
+        a.controllers.split(',').map(|c| swarm_args::scenario_value("--controllers", c)).collect::<Result<_>>()?;
     let nemesis: Vec<NemesisKind> = a
         .nemesis
         .split(',')
         .filter(|n| !n.trim().is_empty())
-        .map(|n| swarm_node::args::scenario_value("--nemesis", n))
+        .map(|n| swarm_args::scenario_value("--nemesis", n))
         .collect::<Result<_>>()?;
     anyhow::ensure!(!controllers.is_empty(), "--controllers: none given");
     if let Some(own) = controllers.iter().find(|k| matches!(k, ControllerKind::Own(_))) {

@@ -31,10 +31,11 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{ExitCode, Stdio};
 use std::time::Duration;
+use swarm_args::{default_run_id, scenario_value, unix_secs};
 use swarm_config::Scenario;
-use swarm_node::args::{default_run_id, scenario_value, unix_secs};
 use swarm_node::auth::{host_user, ids_text, Credentials};
 use swarm_record::summary::Summary;
+use swarm_types::UavId;
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::Child;
 
@@ -126,7 +127,7 @@ fn scenario(a: &MeshArgs) -> Result<Scenario> {
     Ok(sc)
 }
 
-fn sizes(groups: &[Vec<u32>]) -> String {
+fn sizes(groups: &[Vec<UavId>]) -> String {
     groups.iter().map(|g| g.len().to_string()).collect::<Vec<_>>().join(" + ")
 }
 
@@ -137,7 +138,14 @@ struct Flown {
 }
 
 /// Starts the pieces in their namespaces, flies the run to its end, and reads the link counters.
-async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[Vec<u32>], mcap: bool) -> Result<Flown> {
+async fn fly(
+    net: &Net,
+    sc: &Scenario,
+    out: &Path,
+    hosts: &[String],
+    groups: &[Vec<UavId>],
+    mcap: bool,
+) -> Result<Flown> {
     let exe = std::env::current_exe().context("cannot find this executable")?;
     let scenario_file = out.join("scenario.toml");
     std::fs::write(&scenario_file, toml::to_string(sc)?)?;
@@ -145,6 +153,7 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     users.push("observer".into());
     let creds = Credentials::create(&out.join("credentials"), &users)?;
     let run = default_run_id("mesh");
+    let keys = swarm_wire::Keys::new(&run)?;
     let hub_ep = format!("tcp/{}:{PORT}", net.addr("hub"));
     let start =
         |machine: &str, args: Vec<String>, log: &str| spawn(net, machine, &exe, args, &out.join(log), Stdio::piped());
@@ -177,17 +186,8 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
     // and stall it.
     let printed = std::fs::File::create(out.join("summary.txt")).context("cannot create summary.txt")?;
     let mut rec = spawn(net, "hub", &exe, rec_args, &out.join("recorder.log"), Stdio::from(printed))?;
-    let mut up = strings(&[
-        "tap",
-        &format!("swarm/{run}/alive/recorder"),
-        "--alive",
-        "--count",
-        "1",
-        "--duration",
-        "60",
-        "--connect",
-        &hub_ep,
-    ]);
+    let mut up =
+        strings(&["tap", &keys.alive_recorder(), "--alive", "--count", "1", "--duration", "60", "--connect", &hub_ep]);
     up.extend(observer.iter().cloned());
     let seen =
         spawn(net, "hub", &exe, up, &out.join("tap-recorder.log"), Stdio::piped())?.child.wait_with_output().await?;
@@ -217,7 +217,7 @@ async fn fly(net: &Net, sc: &Scenario, out: &Path, hosts: &[String], groups: &[V
         a_args.extend(creds.client_args(&host_user(ids)));
         pieces.push(spawn(net, host, &exe, a_args, &out.join(format!("agents-{host}.log")), Stdio::null())?);
     }
-    let mut clock = strings(&["tap", &format!("swarm/{run}/clock"), "--connect", &hub_ep]);
+    let mut clock = strings(&["tap", &keys.clock(), "--connect", &hub_ep]);
     clock.extend(observer.iter().cloned());
     let progress = spawn(net, "hub", &exe, clock, &out.join("tap-clock.log"), Stdio::piped())?;
     follow(sc, &mut rec, &mut hub, progress).await?;
@@ -308,14 +308,20 @@ async fn follow(sc: &Scenario, rec: &mut Piece, hub: &mut Piece, mut clock: Piec
 }
 
 /// The report from the run folder and the link counters.
-fn build_report(sc: &Scenario, out: &Path, hosts: &[String], groups: &[Vec<u32>], flown: &Flown) -> Result<MeshReport> {
+fn build_report(
+    sc: &Scenario,
+    out: &Path,
+    hosts: &[String],
+    groups: &[Vec<UavId>],
+    flown: &Flown,
+) -> Result<MeshReport> {
     let run = out.join("run");
     let summary: Summary = serde_json::from_str(
         &std::fs::read_to_string(run.join("summary.json")).context("the run left no summary.json")?,
     )?;
     let csv = std::fs::read_to_string(run.join("trajectories.csv")).context("the run left no trajectories.csv")?;
     let ticks = report::positions_by_tick(&csv).map_err(anyhow::Error::msg)?;
-    let host_of: HashMap<u32, usize> =
+    let host_of: HashMap<UavId, usize> =
         groups.iter().enumerate().flat_map(|(h, ids)| ids.iter().map(move |&id| (id, h))).collect();
     let heard = report::outside_heard_per_tick(&ticks, &host_of, groups.len(), sc.radio.range_m);
     let heard_wide =

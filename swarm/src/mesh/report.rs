@@ -5,12 +5,13 @@
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt::Write as _;
+use swarm_types::UavId;
 
 /// Splits the UAVs (ids 1..=n, `starts[id - 1]`) into `hosts` groups by where they start: sorted
 /// by the coordinate across the way from their centroid to `goal`, cut into strips of nearly
 /// equal size, so a UAV's radio neighbours are mostly on its own host and only the strips'
 /// borders talk across hosts. Each group's ids ascend.
-pub fn strips(starts: &[[f64; 2]], goal: [f64; 2], hosts: usize) -> Vec<Vec<u32>> {
+pub fn strips(starts: &[[f64; 2]], goal: [f64; 2], hosts: usize) -> Vec<Vec<UavId>> {
     let n = starts.len();
     let hosts = hosts.clamp(1, n.max(1));
     let c = starts.iter().fold([0.0, 0.0], |a, p| [a[0] + p[0] / n as f64, a[1] + p[1] / n as f64]);
@@ -18,8 +19,8 @@ pub fn strips(starts: &[[f64; 2]], goal: [f64; 2], hosts: usize) -> Vec<Vec<u32>
     let len = dx.hypot(dy);
     let (ux, uy) = if len > 1e-9 { (dx / len, dy / len) } else { (1.0, 0.0) };
     let across = |p: &[f64; 2]| ux * (p[1] - c[1]) - uy * (p[0] - c[0]);
-    let mut order: Vec<u32> = (1..=n as u32).collect();
-    order.sort_by(|&a, &b| across(&starts[a as usize - 1]).total_cmp(&across(&starts[b as usize - 1])).then(a.cmp(&b)));
+    let mut order: Vec<UavId> = UavId::all(n).collect();
+    order.sort_by(|&a, &b| across(&starts[a.index()]).total_cmp(&across(&starts[b.index()])).then(a.cmp(&b)));
     (0..hosts)
         .map(|h| {
             let mut ids = order[h * n / hosts..(h + 1) * n / hosts].to_vec();
@@ -38,23 +39,23 @@ pub fn strips(starts: &[[f64; 2]], goal: [f64; 2], hosts: usize) -> Vec<Vec<u32>
 pub fn renumbered(
     sc: &swarm_config::Scenario,
     starts: &[[f64; 2]],
-    groups: &[Vec<u32>],
-) -> Result<(swarm_config::Scenario, Vec<Vec<u32>>), String> {
+    groups: &[Vec<UavId>],
+) -> Result<(swarm_config::Scenario, Vec<Vec<UavId>>), String> {
     if !sc.netem.is_empty() || !sc.failures.is_empty() || !sc.mission.is_empty() {
         return Err(format!(
             "{}: swarm mesh numbers UAVs host by host, and this scenario's [[netem]], [[failures]] or [[mission]] name UAVs by id; fly one without them",
             sc.name
         ));
     }
-    let order: Vec<u32> = groups.iter().flatten().copied().collect();
-    let new_of: HashMap<u32, u32> = order.iter().enumerate().map(|(i, &old)| (old, i as u32 + 1)).collect();
-    let map = |ids: &[u32]| -> Vec<u32> {
-        let mut v: Vec<u32> = ids.iter().filter_map(|i| new_of.get(i).copied()).collect();
+    let order: Vec<UavId> = groups.iter().flatten().copied().collect();
+    let new_of: HashMap<UavId, UavId> = order.iter().enumerate().map(|(i, &old)| (old, UavId::from_index(i))).collect();
+    let map = |ids: &[UavId]| -> Vec<UavId> {
+        let mut v: Vec<UavId> = ids.iter().filter_map(|i| new_of.get(i).copied()).collect();
         v.sort_unstable();
         v
     };
     let mut out = sc.clone();
-    out.swarm.start_positions = Some(order.iter().map(|&old| starts[old as usize - 1]).collect());
+    out.swarm.start_positions = Some(order.iter().map(|&old| starts[old.index()]).collect());
     out.swarm.start_area = None;
     if let swarm_config::Informed::Ids(ids) = &sc.swarm.informed {
         out.swarm.informed = swarm_config::Informed::Ids(map(ids));
@@ -64,7 +65,7 @@ pub fn renumbered(
     let ranges = groups
         .iter()
         .map(|g| {
-            let r: Vec<u32> = (next..next + g.len() as u32).collect();
+            let r: Vec<UavId> = (next..next + g.len() as u32).map(UavId::new).collect();
             next += g.len() as u32;
             r
         })
@@ -73,7 +74,7 @@ pub fn renumbered(
 }
 
 /// One tick of the truth track: each live UAV's position.
-pub type Positions = Vec<(u32, [f64; 2])>;
+pub type Positions = Vec<(UavId, [f64; 2])>;
 
 /// The live UAVs' positions per tick of a `trajectories.csv` (`tick,t_s,id,x_m,y_m,...,alive,...`).
 pub fn positions_by_tick(csv: &str) -> Result<BTreeMap<u64, Positions>, String> {
@@ -102,7 +103,7 @@ pub fn positions_by_tick(csv: &str) -> Result<BTreeMap<u64, Positions>, String> 
 /// one session). `host_of` maps a UAV to its host's index.
 pub fn outside_heard_per_tick(
     ticks: &BTreeMap<u64, Positions>,
-    host_of: &HashMap<u32, usize>,
+    host_of: &HashMap<UavId, usize>,
     hosts: usize,
     range: f64,
 ) -> Vec<f64> {
@@ -114,7 +115,7 @@ pub fn outside_heard_per_tick(
         for (i, &(_, p)) in positions.iter().enumerate() {
             grid.entry(cell(p)).or_default().push(i);
         }
-        let mut heard: Vec<BTreeSet<u32>> = vec![BTreeSet::new(); hosts];
+        let mut heard: Vec<BTreeSet<UavId>> = vec![BTreeSet::new(); hosts];
         for &(id, p) in positions {
             let Some(&h) = host_of.get(&id) else { continue };
             let (cx, cy) = cell(p);
@@ -233,13 +234,18 @@ pub fn table(r: &MeshReport) -> String {
 mod tests {
     use super::*;
 
+    /// The ids `v`, typed.
+    fn ids(v: &[u32]) -> Vec<UavId> {
+        v.iter().copied().map(UavId::new).collect()
+    }
+
     #[test]
     fn strips_cut_across_the_way_to_the_goal() {
         // Six UAVs in two columns flying along +x: strips by y.
         let starts = [[0.0, 0.0], [0.0, 5.0], [0.0, 10.0], [2.0, 0.0], [2.0, 5.0], [2.0, 10.0]];
-        assert_eq!(strips(&starts, [100.0, 5.0], 3), vec![vec![1, 4], vec![2, 5], vec![3, 6]]);
+        assert_eq!(strips(&starts, [100.0, 5.0], 3), vec![ids(&[1, 4]), ids(&[2, 5]), ids(&[3, 6])]);
         // Flying along +y: strips by x.
-        assert_eq!(strips(&starts, [1.0, 100.0], 2), vec![vec![4, 5, 6], vec![1, 2, 3]]);
+        assert_eq!(strips(&starts, [1.0, 100.0], 2), vec![ids(&[4, 5, 6]), ids(&[1, 2, 3])]);
         let all: usize = strips(&starts, [100.0, 5.0], 4).iter().map(Vec::len).sum();
         assert_eq!(all, 6, "every UAV on exactly one host");
     }
@@ -247,20 +253,23 @@ mod tests {
     #[test]
     fn renumbering_gives_each_host_a_range_and_keeps_where_each_uav_starts() {
         let mut sc = swarm_config::builtin("open-field-5").expect("builtin");
-        sc.swarm.informed = swarm_config::Informed::Ids(vec![2, 5]);
-        sc.swarm.failed = vec![4];
+        sc.swarm.informed = swarm_config::Informed::Ids(ids(&[2, 5]));
+        sc.swarm.failed = ids(&[4]);
         let starts = physics_hub::start_positions(&sc);
-        let groups = vec![vec![2, 4], vec![1, 3, 5]];
+        let groups = vec![ids(&[2, 4]), ids(&[1, 3, 5])];
         let (out, ranges) = renumbered(&sc, &starts, &groups).expect("renumbered");
-        assert_eq!(ranges, vec![vec![1, 2], vec![3, 4, 5]]);
+        assert_eq!(ranges, vec![ids(&[1, 2]), ids(&[3, 4, 5])]);
         let listed = out.swarm.start_positions.clone().expect("listed");
         assert_eq!(
             listed,
             vec![starts[1], starts[3], starts[0], starts[2], starts[4]],
             "old 2, 4, 1, 3, 5 are new 1 to 5"
         );
-        assert!(matches!(&out.swarm.informed, swarm_config::Informed::Ids(ids) if ids == &vec![1, 5]), "old 2 and 5");
-        assert_eq!(out.swarm.failed, vec![2], "old 4");
+        assert!(
+            matches!(&out.swarm.informed, swarm_config::Informed::Ids(ids) if ids == &self::ids(&[1, 5])),
+            "old 2 and 5"
+        );
+        assert_eq!(out.swarm.failed, ids(&[2]), "old 4");
         sc.failures.push(serde_json::from_str(r#"{"at_s": 1.0, "uav": 3, "kind": "kill"}"#).expect("a failure"));
         assert!(renumbered(&sc, &starts, &groups).is_err(), "timelines that name UAVs are refused");
     }
@@ -271,7 +280,7 @@ mod tests {
         let ticks = positions_by_tick(csv).expect("parses");
         assert_eq!(ticks.len(), 2);
         assert_eq!(ticks[&2].len(), 3, "a dead UAV is heard by no one");
-        let host_of: HashMap<u32, usize> = [(1, 0), (2, 1), (3, 1), (4, 1)].into();
+        let host_of: HashMap<UavId, usize> = [(1, 0), (2, 1), (3, 1), (4, 1)].map(|(id, h)| (UavId::new(id), h)).into();
         let heard = outside_heard_per_tick(&ticks, &host_of, 2, 10.0);
         // Host 0 (UAV 1) hears 2 and 3 at tick 1, 2 at tick 2; host 1 hears UAV 1 at both.
         assert_eq!(heard, vec![1.5, 1.0]);

@@ -30,6 +30,7 @@ use swarm_ros2::types::{
     TWIST_STAMPED,
 };
 use swarm_ros2::{Graph, Middleware, NodeRef, Publisher, Qos, SubscriptionGuard};
+use swarm_types::UavId;
 use swarm_wire::external::{ExtCmd, ExtCmdKind};
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::session::{self, Role};
@@ -58,7 +59,7 @@ pub struct BridgeOptions {
     /// truth have them; DDS lets anyone).
     pub truth: bool,
     /// The UAVs whose bodies this bridge drives for agents on ROS topics.
-    pub vehicles: Vec<u32>,
+    pub vehicles: Vec<UavId>,
 }
 
 /// What reaches the bridge, in one channel.
@@ -66,13 +67,13 @@ enum Event {
     /// The hub's clock, and when the hub put it (ns since the Unix epoch; see [`source_ns`]).
     Clock(swarm_wire::Clock, Option<i64>),
     /// A UAV's sensor frame, and when the hub put it.
-    Sense(u32, Box<SenseFrame>, Option<i64>),
+    Sense(UavId, Box<SenseFrame>, Option<i64>),
     /// An agent's state, and when the agent put it.
-    State(u32, Box<AgentState>, Option<i64>),
+    State(UavId, Box<AgentState>, Option<i64>),
     /// An external UAV's view (JSON).
-    View(u32, Vec<u8>),
+    View(UavId, Vec<u8>),
     /// A command from ROS for UAV `id`.
-    Command(u32, CommandTopic, Vec<u8>),
+    Command(UavId, CommandTopic, Vec<u8>),
 }
 
 /// The ROS topics a command comes on.
@@ -119,12 +120,12 @@ pub struct Bridge {
     tf: Publisher,
     /// `/tf_static` and `/world/markers`, with the world they show, when truth may go out.
     truth: Option<(Publisher, Publisher, Box<TruthWorld>)>,
-    uavs: BTreeMap<u32, UavTopics>,
-    vehicles: BTreeSet<u32>,
+    uavs: BTreeMap<UavId, UavTopics>,
+    vehicles: BTreeSet<UavId>,
     /// The newest Twist of each external UAV, and when it came.
-    twists: BTreeMap<u32, (Twist, Instant)>,
+    twists: BTreeMap<UavId, (Twist, Instant)>,
     /// The newest tick each vehicle's sensor frame named (a plain Twist for a vehicle answers it).
-    vehicle_ticks: BTreeMap<u32, u64>,
+    vehicle_ticks: BTreeMap<UavId, u64>,
     /// Payloads on a command or view key that were not their message.
     malformed: u64,
     /// Messages published on ROS so far.
@@ -168,7 +169,7 @@ impl Bridge {
         let mut graph = Graph::open(middleware, o.domain).await?;
         let (tx, rx) = mpsc::unbounded_channel();
         let mut subs = run_subscriptions(&s, &keys, &tx).await?;
-        let vehicles: BTreeSet<u32> = o.vehicles.iter().copied().collect();
+        let vehicles: BTreeSet<UavId> = o.vehicles.iter().copied().collect();
 
         let root = graph.node("/", "swarm_bridge").await?;
         let clock = graph.publisher(root, "/clock", CLOCK, Qos::CLOCK).await?;
@@ -279,7 +280,7 @@ impl Bridge {
     async fn on_event(&mut self, ev: Event) -> Result<()> {
         match ev {
             Event::Clock(c, at) => {
-                self.clock.put_at(clock(c.t_secs), at).await?;
+                self.clock.put_at(clock(c.t_s), at).await?;
                 self.published += 1;
             }
             Event::Sense(id, f, at) => self.on_sense(id, &f, at).await?,
@@ -287,7 +288,7 @@ impl Bridge {
                 if let Some(u) = self.uavs.get(&id) {
                     let poses: Vec<(f64, f64, f64)> =
                         st.neighbours.iter().map(|n| (f64::from(n.x), f64::from(n.y), f64::from(n.heading))).collect();
-                    let header = Header::new(st.t_secs, format!("uav{id}/base_link"));
+                    let header = Header::new(st.t_s, format!("uav{id}/base_link"));
                     u.neighbours.put_at(pose_array(&header, &poses), at).await?;
                     self.published += 1;
                 }
@@ -303,7 +304,7 @@ impl Bridge {
 
     /// A UAV's sensor frame: its goal, odometry, scan and transform, in that order (an agent on
     /// ROS topics steps once it has all of a tick).
-    async fn on_sense(&mut self, id: u32, f: &SenseFrame, at: Option<i64>) -> Result<()> {
+    async fn on_sense(&mut self, id: UavId, f: &SenseFrame, at: Option<i64>) -> Result<()> {
         let Some(u) = self.uavs.get(&id) else { return Ok(()) };
         if self.vehicles.contains(&id) {
             // Its agent steps on what it gets: a volatile sample written before the agent's
@@ -311,17 +312,17 @@ impl Bridge {
             // start), and the hub waits for the tick meanwhile.
             for p in [Some(&u.scan), Some(&u.odom), u.goal.as_ref()].into_iter().flatten() {
                 if !p.wait_matched(MATCH_WAIT).await {
-                    warn!(uav_id = id, "no agent subscribes to this vehicle's sensor topics yet");
+                    warn!(uav_id = %id, "no agent subscribes to this vehicle's sensor topics yet");
                 }
             }
         }
         let (odom_frame, base) = (format!("uav{id}/odom"), format!("uav{id}/base_link"));
-        let t = f.odom.t_secs;
+        let t = f.odom.t_s;
         if let (Some(p), Some(g)) = (&u.goal, f.odom.goal) {
             p.put_at(pose_stamped(&Header::new(t, odom_frame.clone()), g[0], g[1], 0.0), at).await?;
         }
         u.odom.put_at(odometry(&f.odom, &odom_frame, &base), at).await?;
-        u.scan.put_at(laser_scan(&f.scan, &base, self.sc.dt_secs() as f32), at).await?;
+        u.scan.put_at(laser_scan(&f.scan, &base, self.sc.dt_s() as f32), at).await?;
         let tf =
             Transform { header: Header::new(t, odom_frame), child: base, x: f.odom.x, y: f.odom.y, yaw: f.odom.yaw };
         self.tf.put_at(tf_message(&[tf]), at).await?;
@@ -334,7 +335,7 @@ impl Bridge {
 
     /// A command from ROS: kept for an external UAV's next view, or sent to the hub at once
     /// for a vehicle.
-    async fn on_command(&mut self, id: u32, topic: CommandTopic, bytes: &[u8]) -> Result<()> {
+    async fn on_command(&mut self, id: UavId, topic: CommandTopic, bytes: &[u8]) -> Result<()> {
         let (twist, stamp) = match topic {
             CommandTopic::Twist => (Twist::decode(bytes).ok(), None),
             CommandTopic::TwistStamped | CommandTopic::AccelStamped => match Stamped::decode(bytes) {
@@ -353,7 +354,7 @@ impl Bridge {
             return Ok(());
         }
         let tick = match stamp {
-            Some(t) => (t / self.sc.dt_secs()).round() as u64,
+            Some(t) => (t / self.sc.dt_s()).round() as u64,
             None => self.vehicle_ticks.get(&id).copied().unwrap_or(0),
         };
         let kind = if topic == CommandTopic::AccelStamped { CmdKind::Acceleration } else { CmdKind::Velocity };
@@ -365,11 +366,11 @@ impl Bridge {
     }
 
     /// Counts a payload that was not its message; says so the first time, then every 1000th.
-    fn dropped(&mut self, id: u32, what: &str) {
+    fn dropped(&mut self, id: UavId, what: &str) {
         self.malformed += 1;
         if self.malformed % 1000 == 1 {
             warn!(
-                uav_id = id,
+                uav_id = %id,
                 malformed = self.malformed,
                 "malformed {what} payload dropped (counted; said every 1000th)"
             );
@@ -378,7 +379,7 @@ impl Bridge {
 
     /// Answers the view of `tick` of external UAV `id` with its newest Twist, or zero when none
     /// came in the last [`CMD_VEL_TIMEOUT`].
-    async fn answer(&self, id: u32, tick: u64) -> Result<()> {
+    async fn answer(&self, id: UavId, tick: u64) -> Result<()> {
         let fresh = self.twists.get(&id).filter(|(_, at)| at.elapsed() <= CMD_VEL_TIMEOUT);
         let t = fresh.map(|(t, _)| *t).unwrap_or_default();
         let cmd = ExtCmd { tick, kind: ExtCmdKind::Velocity, x: t.linear[0], y: t.linear[1], yaw_rate: t.angular[2] };
@@ -437,7 +438,7 @@ async fn fetch_world(s: &zenoh::Session, keys: &Keys) -> Result<Box<TruthWorld>>
 }
 
 /// UAV `id`'s publishers on its node.
-async fn uav_topics(graph: &mut Graph, node: NodeRef, id: u32, informed: bool) -> Result<UavTopics> {
+async fn uav_topics(graph: &mut Graph, node: NodeRef, id: UavId, informed: bool) -> Result<UavTopics> {
     let ns = format!("/uav{id}");
     let goal = match informed {
         true => Some(graph.publisher(node, &format!("{ns}/goal"), POSE_STAMPED, Qos::DEFAULT).await?),
@@ -461,7 +462,7 @@ async fn uav_topics(graph: &mut Graph, node: NodeRef, id: u32, informed: bool) -
 async fn command_subscriptions(
     graph: &mut Graph,
     node: NodeRef,
-    id: u32,
+    id: UavId,
     vehicle: bool,
     tx: &mpsc::UnboundedSender<Event>,
 ) -> Result<Vec<SubscriptionGuard>> {

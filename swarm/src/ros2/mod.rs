@@ -20,7 +20,7 @@ pub use bridge::{Bridge, BridgeOptions};
 use anyhow::Result;
 use clap::Args;
 use std::process::ExitCode;
-use swarm_node::args::{RosArgs, UavIds, ZenohArgs};
+use swarm_args::{RosArgs, UavIds, ZenohArgs};
 
 /// `swarm ros2`.
 #[derive(Args, Debug, Clone)]
@@ -38,7 +38,7 @@ pub struct Ros2Args {
     pub truth: bool,
     /// Drive the bodies of these UAVs (`3`, `1-4,7`), whose agents read their sensors from ROS
     /// topics (`swarm agent --sensors ros2`): their stamped commands become the hub's.
-    #[arg(long, value_parser = swarm_node::args::parse_ids)]
+    #[arg(long, value_parser = swarm_args::parse_ids)]
     pub vehicles: Option<UavIds>,
     /// Where and how to connect (log in as `bridge`, or with `--vehicles 3` as `bridge-uavs3`,
     /// the one user that may command those UAVs' bodies).

@@ -34,8 +34,8 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
+use swarm_args::{scenario_value, unix_secs};
 use swarm_config::Scenario;
-use swarm_node::args::{scenario_value, unix_secs};
 use swarm_record::summary::Summary;
 
 mod chart;
@@ -177,7 +177,7 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut rows = Vec::new();
     for (i, sc) in plan.iter().enumerate() {
-        let mode = format!("{:?}", sc.localization.mode).to_lowercase();
+        let mode = sc.localization.mode.name();
         eprintln!(
             "[{}/{}] {}: {} UAVs, {mode}, {:.0} s of sim time",
             i + 1,
@@ -191,7 +191,7 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
         let tag = format!("{:02}-{}", i + 1, sc.name);
         let summary = run_variant(sc, &out, &tag, how).await;
         let mem = sampler.stop().await;
-        let mut row = ScaleRow::new(&summary?, &mode, mem);
+        let mut row = ScaleRow::new(&summary?, mode, mem);
         if let Some(cmd) = &peer_cmd {
             let size = peer::PeerSize {
                 agents: sc.count(),
@@ -260,9 +260,13 @@ pub fn resized(sc: &Scenario, n: u32) -> Result<Scenario> {
         .context("the scenario lists its start positions; only a start disc can be resized")?;
     area.radius_m *= (f64::from(n) / f64::from(sc.swarm.count)).sqrt();
     if let swarm_config::Informed::Ids(ids) = &sc.swarm.informed {
-        anyhow::ensure!(ids.iter().all(|&i| i <= n), "informed UAVs {ids:?} are not all among {n}");
+        anyhow::ensure!(ids.iter().all(|&i| i.get() <= n), "informed UAVs {ids:?} are not all among {n}");
     }
-    anyhow::ensure!(sc.swarm.failed.iter().all(|&i| i <= n), "failed UAVs {:?} are not all among {n}", sc.swarm.failed);
+    anyhow::ensure!(
+        sc.swarm.failed.iter().all(|&i| i.get() <= n),
+        "failed UAVs {:?} are not all among {n}",
+        sc.swarm.failed
+    );
     out.swarm.count = n;
     out.name = format!("{}-n{n}", sc.name);
     Ok(out)

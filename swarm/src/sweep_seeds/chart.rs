@@ -3,7 +3,8 @@
 //! the success rate's Wilson interval in the title. SVG and PNG, drawn with plotters and the
 //! embedded font, like every figure of [`swarm_plot`] (no system font needed).
 
-use super::{mean_pm, Report, METRICS};
+use super::{Report, METRICS};
+use crate::stats::mean_pm;
 use anyhow::Result;
 use std::path::Path;
 use swarm_plot::plotters::coord::Shift;

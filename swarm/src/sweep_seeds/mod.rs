@@ -2,7 +2,7 @@
 //! flies the same scenario with the master seed set to each of `1..N` (so each run has its own
 //! generated forest, sensor noise and link draws; fixed start positions stay fixed), several at
 //! once, and reports every headline metric as a mean with its 95 % Student-t interval and the
-//! success rate (goal reached and no collision) with its Wilson interval ([`stats`]).
+//! success rate (goal reached and no collision) with its Wilson interval ([`crate::stats`]).
 //!
 //! Named apart from `swarm sweep-error`, which sweeps seed 001's broadcast error δa on one seed:
 //! this one sweeps seeds and changes nothing else.
@@ -27,14 +27,14 @@ use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use swarm_args::scenario_value;
 use swarm_config::{LocalizationMode, Scenario};
-use swarm_node::args::scenario_value;
 use swarm_record::summary::Summary;
 
 mod chart;
-pub mod stats;
 
-use stats::{mean_ci, wilson, MeanCi, Rate};
+use crate::stats::{self, mean_ci, mean_pm, num, wilson, MeanCi, Rate};
+use crate::study::parse_seeds;
 
 /// `swarm sweep-seeds`.
 #[derive(Args, Debug, Clone)]
@@ -226,42 +226,6 @@ impl Report {
     }
 }
 
-/// `mean ± half-width`, or the mean alone with one value, or `-`.
-pub fn mean_pm(c: &MeanCi) -> String {
-    match (c.mean.is_finite(), c.half_width.is_finite()) {
-        (true, true) => format!("{} ± {}", num(c.mean), num(c.half_width)),
-        (true, false) => num(c.mean),
-        _ => "-".into(),
-    }
-}
-
-/// Three significant-ish digits: 2 decimals, 3 below 1, `-` when not finite.
-fn num(v: f64) -> String {
-    match v {
-        v if !v.is_finite() => "-".into(),
-        v if v.abs() < 1.0 && v != 0.0 => format!("{v:.3}"),
-        v => format!("{v:.2}"),
-    }
-}
-
-/// `A..B`, `A`, comma-separated, in order, without repeats.
-pub fn parse_seeds(text: &str) -> Result<Vec<u64>> {
-    let mut seeds = Vec::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let n = |s: &str| s.trim().parse::<u64>().with_context(|| format!("--seeds: `{s}` is not a seed"));
-        let range = match part.split_once("..") {
-            Some((a, b)) => n(a)?..=n(b.trim_start_matches('='))?,
-            None => n(part)?..=n(part)?,
-        };
-        if range.is_empty() {
-            bail!("--seeds: `{part}` is an empty range");
-        }
-        seeds.extend(range.filter(|s| !seeds.contains(s)).collect::<Vec<_>>());
-    }
-    anyhow::ensure!(!seeds.is_empty(), "--seeds: no seed in `{text}`");
-    Ok(seeds)
-}
-
 /// The folder of one seed's run.
 fn tag(seed: u64) -> String {
     format!("seed-{seed:03}")
@@ -282,7 +246,7 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
     if let Some(t) = a.time_limit {
         base.end.time_limit_s = t;
     }
-    let mode = format!("{:?}", base.localization.mode).to_lowercase();
+    let mode = base.localization.mode.name();
     let out = a
         .out
         .clone()
@@ -313,7 +277,7 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
     pb.finish_and_clear();
     runs.sort_by_key(|(seed, _)| *seed);
 
-    let report = Report::new(&base.name, &mode, &runs);
+    let report = Report::new(&base.name, mode, &runs);
     let table = report.table();
     std::fs::write(out.join("sweep.md"), &table)?;
     std::fs::write(out.join("sweep.json"), serde_json::to_string_pretty(&report)?)?;

@@ -328,6 +328,21 @@ pub fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
 }
 
+/// Every file under `dir` whose name ends in `.{ext}`, recursively, sorted.
+pub fn files_with_extension(dir: &Path, ext: &str) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let Ok(entries) = std::fs::read_dir(dir) else { return out };
+    for entry in entries.map(|e| e.expect("directory entry").path()) {
+        if entry.is_dir() {
+            out.extend(files_with_extension(&entry, ext));
+        } else if entry.extension().is_some_and(|e| e == ext) {
+            out.push(entry);
+        }
+    }
+    out.sort();
+    out
+}
+
 /// `path` relative to the workspace root, for messages.
 pub fn rel(path: &Path) -> String {
     path.strip_prefix(root()).unwrap_or(path).display().to_string()

@@ -17,10 +17,12 @@
 //! figures are untouched. Nothing here reads ground truth: odometry, the estimates and the
 //! counts heard.
 
+use super::controller::{Command, View};
 use super::hops::Hops;
-use super::pilot::{bearing_in_body, k21_command, Command, View};
+use super::pilot::{bearing_in_body, k21_command};
 use nalgebra::Vector2;
 use swarm_config::{ControllerKind, K21Params, Scenario};
+use swarm_types::UavId;
 use swarm_wire::NO_PATH;
 
 /// The arrival counts heard in shares, and this UAV's own.
@@ -38,9 +40,9 @@ fn radius_m(sc: &Scenario) -> f64 {
 }
 
 impl Arrival {
-    /// Notes sender `from`'s arrival count, sent at sim time `t_secs`.
-    pub fn hear(&mut self, from: u32, count: u8, t_secs: f64) {
-        self.heard.hear(from, count, t_secs);
+    /// Notes sender `from`'s arrival count, sent at sim time `t_s`.
+    pub fn hear(&mut self, from: UavId, count: u8, t_s: f64) {
+        self.heard.hear(from, count, t_s);
     }
 
     /// Our own count at sim time `now`: 0 for an informed UAV within the arrival radius of its
@@ -117,13 +119,13 @@ mod tests {
     }
 
     fn odom(x: f64, goal: Option<[f64; 2]>) -> Odom {
-        Odom { tick: 0, t_secs: 0.0, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None }
+        Odom { tick: 0, t_s: 0.0, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal, goal_vel: None }
     }
 
     fn view<'a>(o: &'a Odom, n: &'a [Estimate]) -> View<'a> {
         View {
-            id: 1,
-            t_secs: 1.0,
+            id: UavId::new(1),
+            t_s: 1.0,
             odom: o,
             neighbours: n,
             trees: &[],
@@ -142,8 +144,8 @@ mod tests {
         }
     }
 
-    fn neighbour(id: u32, x: f64) -> Estimate {
-        Estimate { id: Some(id), pos_in_body: Vector2::new(x, 0.0), heading: 0.0, age_secs: 0.0 }
+    fn neighbour(id: UavId, x: f64) -> Estimate {
+        Estimate { id: Some(id), pos_in_body: Vector2::new(x, 0.0), heading: 0.0, age_s: 0.0 }
     }
 
     #[test]
@@ -174,8 +176,8 @@ mod tests {
         // On the goal, its three neighbours 4 m to its right (south): it aims 1.5 m north of
         // the goal (half of the 3 m its neighbourhood's centroid lies south of it) and turns left.
         let o = odom(goal[0], Some(goal));
-        let south = |id| Estimate { id: Some(id), pos_in_body: Vector2::new(0.0, -4.0), heading: 0.0, age_secs: 0.0 };
-        let right = [south(2), south(3), south(4)];
+        let south = |id| Estimate { id: Some(id), pos_in_body: Vector2::new(0.0, -4.0), heading: 0.0, age_s: 0.0 };
+        let right = [south(UavId::new(2)), south(UavId::new(3)), south(UavId::new(4))];
         let aim = centred(&view(&o, &right), goal);
         assert!((aim[0] - goal[0]).abs() < 1e-9 && (aim[1] - (goal[1] + 1.5)).abs() < 1e-9, "{aim:?}");
         let c = Arrival::default().steer(&sc, &view(&o, &right), 0, flock());
@@ -194,14 +196,14 @@ mod tests {
         let sc = scenario();
         let mut a = Arrival::default();
         let o = odom(0.0, None);
-        a.hear(2, 0, 1.0);
-        a.hear(3, 4, 1.0);
+        a.hear(UavId::new(2), 0, 1.0);
+        a.hear(UavId::new(3), 4, 1.0);
         assert_eq!(a.own(&sc, &view(&o, &[]), 1.0), 1);
         // The neighbour with count 0 is 6 m ahead, the one with count 4 closer behind.
-        let far = [neighbour(2, 6.0), neighbour(3, -3.0)];
+        let far = [neighbour(UavId::new(2), 6.0), neighbour(UavId::new(3), -3.0)];
         let c = a.steer(&sc, &view(&o, &far), 1, flock());
         assert!(c.xy.x > 0.0, "towards the lower count: {c:?}");
-        let close = [neighbour(2, sc.controller.k21.cohesion_radius_m - 0.1)];
+        let close = [neighbour(UavId::new(2), sc.controller.k21.cohesion_radius_m - 0.1)];
         let stopped = a.steer(&sc, &view(&o, &close), 1, flock());
         assert!(
             stopped.xy.norm() < 1e-9,

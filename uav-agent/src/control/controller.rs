@@ -1,20 +1,15 @@
-//! The seam a researcher plugs a controller into: the [`Controller`] trait, and the
-//! [`Controllers`] registry that turns a scenario's `[controller] kind` into one.
+//! The seam a researcher plugs a controller into: the [`Controller`] trait, with the [`View`]
+//! it reads each tick and the [`Command`] it returns.
 //!
-//! Why a registry and not an enum: the built-in controllers (K21, P17, A21, M23) and a user's
-//! own are the same kind of thing, a step from a [`View`] to a [`Command`] with memory of its
-//! own, and a user's crate must add controllers without editing ours. The `swarm` command line
-//! is a library function taking a registry (`swarm::cli::main_with`), and the agents it starts
-//! are the same executable, so a binary that registers a controller flies it in every agent.
-//!
-//! The scenario's name is checked against the registry where a run starts (a clear error that
-//! names the known controllers) and again where each agent starts.
+//! Why a module of its own, at the bottom of `control`: the built-in pilots, the registry that
+//! names them and a user's own controller all stand on this trait and its two types, so it
+//! imports none of them. The registry of controllers by name is [`super::registry`]; the
+//! built-in controllers' pilots are [`super::pilot`].
 
-use super::pilot::{A21Pilot, K21Pilot, M23Pilot, P17Pilot};
-use super::{Command, View};
-use std::collections::BTreeMap;
-use std::sync::Arc;
-use swarm_config::{ControllerKind, Scenario};
+use crate::world_model::{Body, Circle, Estimate, Segment};
+use nalgebra::{Point2, Vector2};
+use swarm_types::UavId;
+use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
 /// A controller: each tick, what the UAV saw in, a command out. It keeps whatever it needs
 /// between steps in `self`; one instance flies one UAV for a whole run.
@@ -30,160 +25,46 @@ pub trait Controller: Send {
     }
 }
 
-/// Makes the controller of one UAV from the scenario (its parameters, its time step).
-pub type MakeController = dyn Fn(&Scenario) -> Box<dyn Controller> + Send + Sync;
-
-/// The controllers a program knows, by the name a scenario's `[controller] kind` gives.
-#[derive(Clone)]
-pub struct Controllers {
-    makers: BTreeMap<String, Arc<MakeController>>,
+/// What one step saw, in the body frame: the neighbours, and the obstacles once the neighbours
+/// the LIDAR sees are taken out of them (built once per step by the agent).
+#[derive(Debug, Clone, Copy)]
+pub struct View<'a> {
+    /// This UAV's id.
+    pub id: UavId,
+    /// Sim time [s].
+    pub t_s: f64,
+    /// Own odometry (pose and velocity in the start frame, and the goal of an informed UAV).
+    pub odom: &'a Odom,
+    /// Localized neighbours.
+    pub neighbours: &'a [Estimate],
+    /// Obstacle circles that are not a localized neighbour.
+    pub trees: &'a [Circle],
+    /// Wall faces.
+    pub walls: &'a [Segment],
+    /// The scan points that are not a localized neighbour: what goes into a map (empty unless the
+    /// controller asks for them, see [`Controller::wants_scan_points`]).
+    pub static_points: &'a [Point2<f64>],
+    /// The bodies near the UAV inside scan groups that join several (neighbours or not): what
+    /// K21's barrier keeps off besides the circles.
+    pub near_bodies: &'a [Body],
 }
 
-/// A scenario names a controller the program does not know.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown controller `{name}` ([controller] kind); this program knows: {}", known.join(", "))]
-pub struct UnknownController {
-    /// The name the scenario gives.
-    pub name: String,
-    /// The names the program knows.
-    pub known: Vec<String>,
+/// A command in the body frame, with the magnitudes of the controller's terms.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Command {
+    /// Velocity or acceleration.
+    pub kind: CmdKind,
+    /// x, y [m/s or m/s²], body frame.
+    pub xy: Vector2<f64>,
+    /// Yaw rate [rad/s].
+    pub yaw_rate: f64,
+    /// Term magnitudes for diagnostics (the K21 names; other controllers map theirs).
+    pub vectors: VectorMagnitudes,
 }
 
-impl Controllers {
-    /// The four built-in controllers: `k21`, `p17`, `a21`, `m23`.
-    pub fn builtin() -> Controllers {
-        let mut c = Controllers { makers: BTreeMap::new() };
-        c.insert(ControllerKind::K21, |sc| Box::new(K21Pilot::new(sc)));
-        c.insert(ControllerKind::P17, |sc| Box::new(P17Pilot::new(sc)));
-        c.insert(ControllerKind::A21, |sc| Box::new(A21Pilot::new(sc)));
-        c.insert(ControllerKind::M23, |sc| Box::new(M23Pilot::new(sc)));
-        c
-    }
-
-    fn insert(
-        &mut self,
-        kind: ControllerKind,
-        make: impl Fn(&Scenario) -> Box<dyn Controller> + Send + Sync + 'static,
-    ) {
-        self.makers.insert(kind.name().to_string(), Arc::new(make));
-    }
-
-    /// These controllers and `make` under `name`, which a scenario names as
-    /// `[controller] kind = "name"`.
-    ///
-    /// # Panics
-    /// If `name` is taken (a built-in or one registered before) or is not a valid controller
-    /// name (lower-case letters, digits, `-` and `_`, starting with a letter or digit): both are
-    /// mistakes in the program, found the first time it runs.
-    pub fn with(
-        mut self,
-        name: &str,
-        make: impl Fn(&Scenario) -> Box<dyn Controller> + Send + Sync + 'static,
-    ) -> Controllers {
-        let kind =
-            ControllerKind::try_from(name.to_string()).unwrap_or_else(|e| panic!("controller name `{name}`: {e}"));
-        assert!(!self.makers.contains_key(name), "a controller named `{name}` is registered already");
-        self.insert(kind, make);
-        self
-    }
-
-    /// The names known, sorted.
-    pub fn names(&self) -> Vec<String> {
-        self.makers.keys().cloned().collect()
-    }
-
-    /// Whether the scenario's controller is known.
-    pub fn check(&self, sc: &Scenario) -> Result<(), UnknownController> {
-        self.maker(&sc.controller.kind).map(|_| ())
-    }
-
-    /// The controller of one UAV of `sc`.
-    pub fn make(&self, sc: &Scenario) -> Result<Box<dyn Controller>, UnknownController> {
-        Ok(self.maker(&sc.controller.kind)?(sc))
-    }
-
-    fn maker(&self, kind: &ControllerKind) -> Result<&Arc<MakeController>, UnknownController> {
-        self.makers
-            .get(kind.name())
-            .ok_or_else(|| UnknownController { name: kind.name().to_string(), known: self.names() })
-    }
-}
-
-impl Default for Controllers {
-    fn default() -> Self {
-        Controllers::builtin()
-    }
-}
-
-impl std::fmt::Debug for Controllers {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_set().entries(self.makers.keys()).finish()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::control::Command;
-    use nalgebra::Vector2;
-    use swarm_wire::{CmdKind, VectorMagnitudes};
-
-    /// Hovers: the smallest controller there is.
-    struct Hover;
-    impl Controller for Hover {
-        fn step(&mut self, _: &View) -> Command {
-            Command {
-                kind: CmdKind::Velocity,
-                xy: Vector2::zeros(),
-                yaw_rate: 0.0,
-                vectors: VectorMagnitudes::default(),
-            }
-        }
-    }
-
-    fn scenario(kind: &str) -> Scenario {
-        let mut sc = swarm_config::builtin("open-field-5").expect("builtin");
-        sc.controller.kind = ControllerKind::try_from(kind.to_string()).expect("a controller name");
-        sc
-    }
-
-    #[test]
-    fn the_builtins_are_known_by_their_scenario_names() {
-        let c = Controllers::builtin();
-        assert_eq!(c.names(), ["a21", "k21", "m23", "p17"]);
-        for name in c.names() {
-            let sc = scenario(&name);
-            assert!(c.make(&sc).is_ok(), "{name}");
-        }
-        assert!(c.make(&scenario("m23")).expect("m23").wants_scan_points());
-        assert!(!c.make(&scenario("k21")).expect("k21").wants_scan_points());
-    }
-
-    #[test]
-    fn an_unknown_name_is_an_error_naming_the_known_ones() {
-        let e = Controllers::builtin().make(&scenario("hover")).err().expect("unknown");
-        assert_eq!(
-            e.to_string(),
-            "unknown controller `hover` ([controller] kind); this program knows: a21, k21, m23, p17"
-        );
-    }
-
-    #[test]
-    fn a_registered_controller_is_made_by_name() {
-        let c = Controllers::builtin().with("hover", |_| Box::new(Hover));
-        assert!(c.check(&scenario("hover")).is_ok());
-        assert_eq!(c.names().len(), 5);
-    }
-
-    #[test]
-    #[should_panic(expected = "registered already")]
-    fn a_builtin_name_cannot_be_taken() {
-        let _ = Controllers::builtin().with("k21", |_| Box::new(Hover));
-    }
-
-    #[test]
-    #[should_panic(expected = "controller name `Hover Craft`")]
-    fn a_name_a_scenario_could_not_give_is_refused() {
-        let _ = Controllers::builtin().with("Hover Craft", |_| Box::new(Hover));
+impl Command {
+    /// Hold position: for a tick nobody steered, or a UAV waiting where it should.
+    pub fn hover() -> Command {
+        Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
     }
 }

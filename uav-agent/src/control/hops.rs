@@ -10,6 +10,7 @@
 use crate::world_model::Estimate;
 use nalgebra::Vector2;
 use std::collections::BTreeMap;
+use swarm_types::UavId;
 use swarm_wire::NO_PATH;
 
 /// A sender's count is used for this long after its share [sim s]: the neighbour database's
@@ -19,21 +20,21 @@ pub const HEARD_S: f64 = 0.5;
 /// The counts heard, by sender.
 #[derive(Debug, Default)]
 pub struct Hops {
-    heard: BTreeMap<u32, (u8, f64)>,
+    heard: BTreeMap<UavId, (u8, f64)>,
 }
 
 impl Hops {
-    /// Notes sender `from`'s count, sent at sim time `t_secs`.
-    pub fn hear(&mut self, from: u32, hops: u8, t_secs: f64) {
-        let e = self.heard.entry(from).or_insert((hops, t_secs));
-        if t_secs >= e.1 {
-            *e = (hops, t_secs);
+    /// Notes sender `from`'s count, sent at sim time `t_s`.
+    pub fn hear(&mut self, from: UavId, hops: u8, t_s: f64) {
+        let e = self.heard.entry(from).or_insert((hops, t_s));
+        if t_s >= e.1 {
+            *e = (hops, t_s);
         }
     }
 
     /// The latest count heard from `from` (none if not heard within [`HEARD_S`] of the last
     /// [`Hops::own`]).
-    pub fn of(&self, from: u32) -> u8 {
+    pub fn of(&self, from: UavId) -> u8 {
         self.heard.get(&from).map_or(NO_PATH, |(h, _)| *h)
     }
 
@@ -71,16 +72,16 @@ mod tests {
         let mut h = Hops::default();
         assert_eq!(h.own(false, 0.0, 32), NO_PATH, "nothing heard");
         assert_eq!(h.own(true, 0.0, 32), 0, "informed");
-        h.hear(2, 3, 1.0);
-        h.hear(3, 0, 1.0);
+        h.hear(UavId::new(2), 3, 1.0);
+        h.hear(UavId::new(3), 0, 1.0);
         assert_eq!(h.own(false, 1.1, 32), 1);
-        h.hear(3, 0, 0.9);
-        h.hear(3, NO_PATH, 1.2);
+        h.hear(UavId::new(3), 0, 0.9);
+        h.hear(UavId::new(3), NO_PATH, 1.2);
         assert_eq!(h.own(false, 1.3, 32), 4, "the latest count of each sender counts, not an older one");
         assert_eq!(h.own(false, 1.8, 32), NO_PATH, "silent senders stop vouching");
-        h.hear(4, 30, 2.0);
+        h.hear(UavId::new(4), 30, 2.0);
         assert_eq!(h.own(false, 2.0, 32), 31);
-        h.hear(4, 31, 2.1);
+        h.hear(UavId::new(4), 31, 2.1);
         assert_eq!(h.own(false, 2.1, 32), NO_PATH, "the cap cuts the count to infinity short");
     }
 
@@ -96,7 +97,7 @@ mod tests {
             for (i, hops) in uavs.iter_mut().enumerate() {
                 for j in [i.wrapping_sub(1), i + 1] {
                     if j < 3 && (j != 0 || informed_here) {
-                        hops.hear(j as u32, sent[j], t);
+                        hops.hear(UavId::from_index(j), sent[j], t);
                     }
                 }
                 counts[i] = hops.own(i == 0, t + 0.1, 8);

@@ -10,8 +10,9 @@
 //! controller still runs every step, so its maps and memory stay current for when contact is
 //! back. Nothing here reads ground truth: odometry, the scan and the estimates only.
 
+use super::controller::{Command, View};
 use super::hops::Hops;
-use super::pilot::{bearing_in_body, k21_command, Command, View};
+use super::pilot::{bearing_in_body, k21_command};
 use nalgebra::{Rotation2, Vector2};
 use swarm_config::{ControllerKind, Scenario};
 
@@ -81,7 +82,7 @@ impl LostContact {
         let p = &sc.lost_contact;
         let p0 = Vector2::new(v.odom.x, v.odom.y);
         if hops < p.max_hops {
-            self.last_path_s = Some(v.t_secs);
+            self.last_path_s = Some(v.t_s);
             self.path_odom = Some(p0);
         }
         if !v.neighbours.is_empty() {
@@ -91,13 +92,13 @@ impl LostContact {
             self.holding = false;
             let reach = contact_radius_m(sc);
             if v.neighbours.iter().any(|e| e.pos_in_body.norm() <= reach) {
-                self.last_contact_s = Some(v.t_secs);
+                self.last_contact_s = Some(v.t_s);
                 return self.group_phase(sc, v, p0, hops, heard);
             }
         }
         let (Some(since), Some(target)) = (self.last_contact_s, self.swarm_odom) else { return Phase::Flock };
         let informed_flies_on = v.odom.goal.is_some() && !p.informed_return;
-        if !p.enabled || informed_flies_on || v.t_secs - since < p.after_s - 1e-9 {
+        if !p.enabled || informed_flies_on || v.t_s - since < p.after_s - 1e-9 {
             return Phase::Flock;
         }
         if !v.neighbours.is_empty() {
@@ -117,7 +118,7 @@ impl LostContact {
         if !p.enabled || p.regroup_after_s <= 0.0 || v.odom.goal.is_some() {
             return Phase::Flock;
         }
-        if v.t_secs - since < p.regroup_after_s - 1e-9 {
+        if v.t_s - since < p.regroup_after_s - 1e-9 {
             self.regroup_holding = false;
             return self.follow_phase(sc, v, p0, hops, heard);
         }
@@ -131,10 +132,10 @@ impl LostContact {
         let nearest = heard.nearest_lower(v.neighbours, hops);
         let led = hops >= sc.lost_contact.max_hops || nearest.is_none_or(|n| n.norm() <= reach);
         if led || self.led_s.is_none() {
-            self.led_s = Some(v.t_secs);
+            self.led_s = Some(v.t_s);
         }
         match nearest {
-            Some(n) if !led && v.t_secs - self.led_s.unwrap_or(v.t_secs) >= sc.lost_contact.after_s - 1e-9 => {
+            Some(n) if !led && v.t_s - self.led_s.unwrap_or(v.t_s) >= sc.lost_contact.after_s - 1e-9 => {
                 Phase::Follow(p0 + Rotation2::new(v.odom.yaw) * n)
             }
             _ => Phase::Flock,
@@ -201,6 +202,7 @@ mod tests {
     use super::*;
     use crate::world_model::{Circle, Estimate};
     use nalgebra::Point2;
+    use swarm_types::UavId;
     use swarm_wire::NO_PATH;
     use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
@@ -209,11 +211,20 @@ mod tests {
     }
 
     fn odom(x: f64, y: f64, yaw: f64, goal: Option<[f64; 2]>) -> Odom {
-        Odom { tick: 0, t_secs: 0.0, x, y, yaw, vx: 0.0, vy: 0.0, goal, goal_vel: None }
+        Odom { tick: 0, t_s: 0.0, x, y, yaw, vx: 0.0, vy: 0.0, goal, goal_vel: None }
     }
 
     fn view<'a>(t: f64, o: &'a Odom, n: &'a [Estimate], trees: &'a [Circle]) -> View<'a> {
-        View { id: 1, t_secs: t, odom: o, neighbours: n, trees, walls: &[], static_points: &[], near_bodies: &[] }
+        View {
+            id: UavId::new(1),
+            t_s: t,
+            odom: o,
+            neighbours: n,
+            trees,
+            walls: &[],
+            static_points: &[],
+            near_bodies: &[],
+        }
     }
 
     fn flock() -> Command {
@@ -226,7 +237,7 @@ mod tests {
     }
 
     fn neighbour(x: f64, y: f64) -> Estimate {
-        Estimate { id: Some(2), pos_in_body: Vector2::new(x, y), heading: 0.0, age_secs: 0.0 }
+        Estimate { id: Some(UavId::new(2)), pos_in_body: Vector2::new(x, y), heading: 0.0, age_s: 0.0 }
     }
 
     #[test]
@@ -273,11 +284,11 @@ mod tests {
         let after = sc.lost_contact.after_s;
         let reach = sc.controller.k21.neighbour_radius_m;
         // UAV 3 within reach has our count; UAV 2, one hop nearer an informed UAV, is beyond reach.
-        let mate = Estimate { id: Some(3), ..neighbour(2.0, 0.0) };
-        let ahead = Estimate { id: Some(2), ..neighbour(reach + 3.0, 1.0) };
+        let mate = Estimate { id: Some(UavId::new(3)), ..neighbour(2.0, 0.0) };
+        let ahead = Estimate { id: Some(UavId::new(2)), ..neighbour(reach + 3.0, 1.0) };
         let mut heard = Hops::default();
-        heard.hear(3, 2, 0.0);
-        heard.hear(2, 1, 0.0);
+        heard.hear(UavId::new(3), 2, 0.0);
+        heard.hear(UavId::new(2), 1, 0.0);
         let o = odom(0.0, 0.0, 0.0, None);
         let mut l = LostContact::new();
         assert_eq!(l.phase(&sc, &view(0.0, &o, &[mate, ahead], &[]), 2, &heard), Phase::Flock, "not for after_s yet");
@@ -285,13 +296,13 @@ mod tests {
             l.phase(&sc, &view(after, &o, &[mate, ahead], &[]), 2, &heard),
             Phase::Follow(Vector2::new(reach + 3.0, 1.0))
         );
-        let near = Estimate { id: Some(2), ..neighbour(3.0, 1.0) };
+        let near = Estimate { id: Some(UavId::new(2)), ..neighbour(3.0, 1.0) };
         assert_eq!(
             l.phase(&sc, &view(after + 0.1, &o, &[mate, near], &[]), 2, &heard),
             Phase::Flock,
             "within reach: flock"
         );
-        heard.hear(2, 2, 0.1);
+        heard.hear(UavId::new(2), 2, 0.1);
         assert_eq!(
             l.phase(&sc, &view(2.0 * after + 1.0, &o, &[mate, ahead], &[]), 2, &heard),
             Phase::Flock,

@@ -10,7 +10,8 @@
 //! implementation)
 //! and the sim time come in as arguments.
 //!
-//! Entry points: [`formation_goal`] / [`formation_target`] (GET_FORMATION_GOAL), [`validate_goal`]
+//! Entry points: [`formation_target`] (GET_FORMATION_GOAL; the tests read its goal alone with
+//! `formation_goal`), [`validate_goal`]
 //! and [`nearest_low_cost`] (Fig. 42b/d), [`follower_goal`] (one pass of the Fig. 40 loop),
 //! [`LeaderWait`] (Fig. 38), [`track`] (the local tracker).
 //!
@@ -50,6 +51,7 @@
 
 use nalgebra::{Point2, Rotation2, Vector2};
 use swarm_config::{LfFrame, M23Params, Topology};
+use swarm_types::UavId;
 
 // ROS costmap_2d values, as the costmap writes them (NO_INFORMATION counts as free here).
 #[cfg(test)]
@@ -69,7 +71,7 @@ const WINDOW_RINGS: [f64; 3] = [1.0, 2.0 / 3.0, 1.0 / 3.0];
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UavState {
     /// UAV id (1-based).
-    pub id: u32,
+    pub id: UavId,
     /// Position [m], world frame.
     pub position: Point2<f64>,
     /// Heading [rad], world frame.
@@ -90,10 +92,11 @@ fn finite_point(p: &Point2<f64>) -> bool {
     p.x.is_finite() && p.y.is_finite()
 }
 
-/// Position in the formation order: the leader 0, every other UAV its id (ids start at 1).
-fn rank(id: u32, leader_id: u32) -> u32 {
+/// Position in the formation order: the leader id 0 (which is no UAV: ids start at 1, so it
+/// comes first), every other UAV its id.
+fn rank(id: UavId, leader_id: UavId) -> UavId {
     if id == leader_id {
-        0
+        UavId::default()
     } else {
         id
     }
@@ -101,18 +104,18 @@ fn rank(id: u32, leader_id: u32) -> u32 {
 
 /// Whether `a` comes before `b` in the formation order (leader first, then ascending id; seed
 /// 004 Fig. 42f line 498 keeps the neighbours whose name sorts before this UAV's).
-pub fn precedes(a: u32, b: u32, leader_id: u32) -> bool {
+pub fn precedes(a: UavId, b: UavId, leader_id: UavId) -> bool {
     rank(a, leader_id) < rank(b, leader_id)
 }
 
 /// 0-based index of follower `id` among the followers (ascending id, leader skipped), the index
 /// into the LF offsets; `None` for the leader and for id 0.
-pub fn follower_index(id: u32, leader_id: u32) -> Option<usize> {
-    if id == leader_id || id == 0 {
+pub fn follower_index(id: UavId, leader_id: UavId) -> Option<usize> {
+    if id == leader_id {
         return None;
     }
-    let skipped = u32::from(id > leader_id);
-    Some((id - 1 - skipped) as usize)
+    let skipped = usize::from(id > leader_id);
+    Some(id.try_index()? - skipped)
 }
 
 /// The reference pulled back towards the follower by `distance` (seed 004 Fig. 42e lines
@@ -207,7 +210,9 @@ pub fn formation_target(
     target.filter(|t| finite_point(&t.goal))
 }
 
-/// The formation goal alone: [`formation_target`] without its reference point.
+/// The formation goal alone: [`formation_target`] without its reference point (what the tests
+/// check; the pilot takes the whole target).
+#[cfg(test)]
 pub fn formation_goal(
     topology: Topology,
     me: &UavState,
@@ -380,7 +385,7 @@ impl LeaderWait {
         matches!(self.state, LeaderState::Waiting { .. })
     }
 
-    /// Advances the rule to sim time `t_secs` and returns whether the leader holds.
+    /// Advances the rule to sim time `t_s` and returns whether the leader holds.
     ///
     /// `far`: whether a follower is farther than MAX_DISTANCE ([`any_follower_far`]), or `None`
     /// when the follower poses are not all available (Fig. 39 line 788: the state is kept). The
@@ -388,18 +393,18 @@ impl LeaderWait {
     /// longer far (lines 794–796); Waiting → TimedOut when it has lasted more than MAX_TIME
     /// (lines 798–801, also without poses); TimedOut → Going when no longer far. A non-finite
     /// time changes nothing.
-    pub fn step(&mut self, t_secs: f64, far: Option<bool>, p: &M23Params) -> bool {
-        if !t_secs.is_finite() {
+    pub fn step(&mut self, t_s: f64, far: Option<bool>, p: &M23Params) -> bool {
+        if !t_s.is_finite() {
             return self.holding();
         }
         self.state = match (self.state, far) {
-            (LeaderState::Going, Some(true)) => LeaderState::Waiting { since_secs: t_secs },
+            (LeaderState::Going, Some(true)) => LeaderState::Waiting { since_secs: t_s },
             (LeaderState::Waiting { .. } | LeaderState::TimedOut, Some(false)) => LeaderState::Going,
             (state, _) => state,
         };
         if let LeaderState::Waiting { since_secs } = self.state {
             // seed 004 Fig. 39 line 799: now − start_waiting > MAX_TIME → go.
-            if t_secs - since_secs > p.max_time_s {
+            if t_s - since_secs > p.max_time_s {
                 self.state = LeaderState::TimedOut;
             }
         }
@@ -503,25 +508,25 @@ fn blocks(cost: Option<u8>, own: Option<u8>) -> bool {
 /// Admissible velocity (the dynamic window's obstacle condition): the straight segment flown in
 /// this step plus the braking distance |v|²/(2a) crosses no blocking cell, sampled every half
 /// cell. Standing still is always admissible.
-fn admissible(c: Vector2<f64>, position: Point2<f64>, dt_secs: f64, costs: &impl CostQuery, p: &M23Params) -> bool {
+fn admissible(c: Vector2<f64>, position: Point2<f64>, dt_s: f64, costs: &impl CostQuery, p: &M23Params) -> bool {
     let speed = c.norm();
     if speed <= EPS {
         return true;
     }
-    let reach = speed * dt_secs + speed * speed / (2.0 * p.max_accel_mps2);
+    let reach = speed * dt_s + speed * speed / (2.0 * p.max_accel_mps2);
     let res = costs.resolution();
     let step = if res.is_finite() && res > 0.0 { res / 2.0 } else { reach };
     let samples = ((reach / step).ceil() as usize).clamp(1, 100_000);
     let dir = c / speed;
     let own = costs.cost_at(position);
     // Every half cell along the ray, plus the end of this step and the end of the braking.
-    let along = (1..samples).map(|k| k as f64 * step).chain([speed * dt_secs, reach]);
+    let along = (1..samples).map(|k| k as f64 * step).chain([speed * dt_s, reach]);
     along.filter(|s| *s > 0.0).all(|s| !blocks(costs.cost_at(position + dir * s), own))
 }
 
 /// The local tracker (replaces seed 004's DWA, see the module doc): a velocity command [m/s],
 /// world frame, following `path` from `position` at current velocity `velocity`, for a control
-/// step of `dt_secs`.
+/// step of `dt_s`.
 ///
 /// The candidates are the velocities v + Δ with |Δ| ≤ max_accel·dt (the dynamic window, seed 004
 /// eq. 8, here a disk around the current velocity) projected into |v| ≤ max_speed: the
@@ -534,7 +539,7 @@ pub fn track(
     path: &[Point2<f64>],
     position: Point2<f64>,
     velocity: Vector2<f64>,
-    dt_secs: f64,
+    dt_s: f64,
     costs: &impl CostQuery,
     p: &M23Params,
 ) -> TrackerOutput {
@@ -543,7 +548,7 @@ pub fn track(
         return stop;
     }
     let v = if velocity.x.is_finite() && velocity.y.is_finite() { velocity } else { Vector2::zeros() };
-    let dt = if dt_secs.is_finite() && dt_secs > 0.0 { dt_secs } else { 0.0 };
+    let dt = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
     let finite_path: Vec<Point2<f64>> = path.iter().copied().filter(finite_point).collect();
     let (desired, carrot) = desired_velocity(&finite_path, position, p);
     let window = p.max_accel_mps2 * dt;
@@ -622,7 +627,7 @@ mod tests {
         }
     }
 
-    fn uav(id: u32, x: f64, y: f64) -> UavState {
+    fn uav(id: UavId, x: f64, y: f64) -> UavState {
         UavState { id, position: Point2::new(x, y), heading: 0.0 }
     }
 
@@ -644,60 +649,65 @@ mod tests {
     #[test]
     fn lf_adds_the_table_7_offset_in_world_axes() {
         let p = params();
-        let leader = UavState { id: 1, position: pt(10.0, 5.0), heading: 0.7 };
+        let leader = UavState { id: UavId::new(1), position: pt(10.0, 5.0), heading: 0.7 };
         let goal = |id| formation_goal(Topology::Lf, &uav(id, 0.0, 0.0), Some(&leader), &[], &p).unwrap();
         // Offsets (−2, 0), (0, −2), (−2, −2); heading 0.7 ignored in the world frame.
-        close(goal(2), pt(8.0, 5.0));
-        close(goal(3), pt(10.0, 3.0));
-        close(goal(4), pt(8.0, 3.0));
+        close(goal(UavId::new(2)), pt(8.0, 5.0));
+        close(goal(UavId::new(3)), pt(10.0, 3.0));
+        close(goal(UavId::new(4)), pt(8.0, 3.0));
         // Follower index 3 → generated slot 4 = (0, −4): (10, 1).
-        close(goal(5), pt(10.0, 1.0));
-        let t = formation_target(Topology::Lf, &uav(3, 0.0, 0.0), Some(&leader), &[], &p).unwrap();
+        close(goal(UavId::new(5)), pt(10.0, 1.0));
+        let t = formation_target(Topology::Lf, &uav(UavId::new(3), 0.0, 0.0), Some(&leader), &[], &p).unwrap();
         close(t.reference, pt(10.0, 5.0));
     }
 
     #[test]
     fn lf_in_the_leader_frame_rotates_the_offset() {
         let p = M23Params { lf_frame: LfFrame::LeaderHeading, ..params() };
-        let leader = UavState { id: 1, position: pt(10.0, 5.0), heading: FRAC_PI_2 };
+        let leader = UavState { id: UavId::new(1), position: pt(10.0, 5.0), heading: FRAC_PI_2 };
         // R(90°)·(−2, 0) = (0, −2) → (10, 3).
-        let g = formation_goal(Topology::Lf, &uav(2, 0.0, 0.0), Some(&leader), &[], &p).unwrap();
+        let g = formation_goal(Topology::Lf, &uav(UavId::new(2), 0.0, 0.0), Some(&leader), &[], &p).unwrap();
         close(g, pt(10.0, 3.0));
         let blind = UavState { heading: f64::NAN, ..leader };
-        assert_eq!(formation_goal(Topology::Lf, &uav(2, 0.0, 0.0), Some(&blind), &[], &p), None);
+        assert_eq!(formation_goal(Topology::Lf, &uav(UavId::new(2), 0.0, 0.0), Some(&blind), &[], &p), None);
     }
 
     #[test]
     fn follower_order_skips_the_leader() {
-        assert_eq!(follower_index(1, 3), Some(0));
-        assert_eq!(follower_index(2, 3), Some(1));
-        assert_eq!(follower_index(4, 3), Some(2));
-        assert_eq!(follower_index(3, 3), None);
-        assert_eq!(follower_index(0, 3), None);
-        assert!(precedes(3, 1, 3) && precedes(1, 2, 3) && !precedes(4, 2, 3) && !precedes(2, 2, 3));
+        assert_eq!(follower_index(UavId::new(1), UavId::new(3)), Some(0));
+        assert_eq!(follower_index(UavId::new(2), UavId::new(3)), Some(1));
+        assert_eq!(follower_index(UavId::new(4), UavId::new(3)), Some(2));
+        assert_eq!(follower_index(UavId::new(3), UavId::new(3)), None);
+        assert_eq!(follower_index(UavId::new(0), UavId::new(3)), None);
+        assert!(
+            precedes(UavId::new(3), UavId::new(1), UavId::new(3))
+                && precedes(UavId::new(1), UavId::new(2), UavId::new(3))
+                && !precedes(UavId::new(4), UavId::new(2), UavId::new(3))
+                && !precedes(UavId::new(2), UavId::new(2), UavId::new(3))
+        );
     }
 
     #[test]
     fn no_goal_without_reference_or_for_the_leader() {
         let p = params();
-        let leader = uav(1, 10.0, 5.0);
-        let me = uav(3, 0.0, 0.0);
+        let leader = uav(UavId::new(1), 10.0, 5.0);
+        let me = uav(UavId::new(3), 0.0, 0.0);
         assert_eq!(formation_goal(Topology::Lf, &me, None, &[], &p), None);
-        assert_eq!(formation_goal(Topology::Pf, &me, None, &[uav(4, 1.0, 1.0)], &p), None);
-        assert_eq!(formation_goal(Topology::Tnpf, &me, None, &[uav(5, 1.0, 1.0)], &p), None);
+        assert_eq!(formation_goal(Topology::Pf, &me, None, &[uav(UavId::new(4), 1.0, 1.0)], &p), None);
+        assert_eq!(formation_goal(Topology::Tnpf, &me, None, &[uav(UavId::new(5), 1.0, 1.0)], &p), None);
         assert_eq!(formation_goal(Topology::None, &me, Some(&leader), &[], &p), None);
         assert_eq!(formation_goal(Topology::Lf, &leader, Some(&leader), &[], &p), None);
         // A leader with a non-finite position is unknown.
-        let lost = uav(1, f64::NAN, 0.0);
+        let lost = uav(UavId::new(1), f64::NAN, 0.0);
         assert_eq!(formation_goal(Topology::Lf, &me, Some(&lost), &[], &p), None);
     }
 
     #[test]
     fn pf_pulls_the_predecessor_back_towards_me() {
         let p = params();
-        let me = uav(3, 0.0, 0.0);
-        let leader = uav(1, 6.0, 8.0);
-        let known = [uav(2, 3.0, 4.0), uav(4, 1.0, 1.0)];
+        let me = uav(UavId::new(3), 0.0, 0.0);
+        let leader = uav(UavId::new(1), 6.0, 8.0);
+        let known = [uav(UavId::new(2), 3.0, 4.0), uav(UavId::new(4), 1.0, 1.0)];
         // Predecessor uav2 at (3, 4), |·| = 5: goal = (3, 4) − 2·(0.6, 0.8) = (1.8, 2.4).
         let t = formation_target(Topology::Pf, &me, Some(&leader), &known, &p).unwrap();
         close(t.goal, pt(1.8, 2.4));
@@ -710,28 +720,34 @@ mod tests {
 
     #[test]
     fn pf_with_a_leader_that_is_not_uav_1() {
-        let p = M23Params { leader_id: 3, ..params() };
+        let p = M23Params { leader_id: UavId::new(3), ..params() };
         // Order 3, 1, 2, 4: uav1 follows the leader uav3 at (0, 5); me at the origin:
         // (0, 5) − 2·(0, 1) = (0, 3).
-        let known = [uav(3, 0.0, 5.0), uav(2, 9.0, 9.0)];
-        let g = formation_goal(Topology::Pf, &uav(1, 0.0, 0.0), None, &known, &p).unwrap();
+        let known = [uav(UavId::new(3), 0.0, 5.0), uav(UavId::new(2), 9.0, 9.0)];
+        let g = formation_goal(Topology::Pf, &uav(UavId::new(1), 0.0, 0.0), None, &known, &p).unwrap();
         close(g, pt(0.0, 3.0));
     }
 
     #[test]
     fn pf_at_the_reference_pulls_back_along_minus_x() {
         // atan2(0, 0) = 0: (4, 4) − 2·(1, 0) = (2, 4).
-        let g = formation_goal(Topology::Pf, &uav(2, 4.0, 4.0), Some(&uav(1, 4.0, 4.0)), &[], &params());
+        let g = formation_goal(
+            Topology::Pf,
+            &uav(UavId::new(2), 4.0, 4.0),
+            Some(&uav(UavId::new(1), 4.0, 4.0)),
+            &[],
+            &params(),
+        );
         close(g.unwrap(), pt(2.0, 4.0));
     }
 
     #[test]
     fn tnpf_pulls_the_centre_of_the_two_nearest_predecessors_back() {
         let p = params();
-        let me = uav(4, 0.0, 0.0);
-        let leader = uav(1, 6.0, 0.0);
+        let me = uav(UavId::new(4), 0.0, 0.0);
+        let leader = uav(UavId::new(1), 6.0, 0.0);
         // Predecessors: uav2 at distance 4, uav1 at 6, uav3 at 14.1; uav5 (distance 1) follows me.
-        let known = [uav(2, 0.0, 4.0), uav(3, 10.0, 10.0), uav(5, 1.0, 0.0)];
+        let known = [uav(UavId::new(2), 0.0, 4.0), uav(UavId::new(3), 10.0, 10.0), uav(UavId::new(5), 1.0, 0.0)];
         let t = formation_target(Topology::Tnpf, &me, Some(&leader), &known, &p).unwrap();
         // Centre (3, 2), |·| = √13: goal = (3 − 2·3/√13, 2 − 2·2/√13) = (1.33591…, 0.89061…).
         let s = 13f64.sqrt();
@@ -743,17 +759,23 @@ mod tests {
     fn tnpf_with_one_predecessor_is_pf() {
         let p = M23Params { tnpf_distance_m: 1.0, ..params() };
         // Only the leader precedes uav2: (0, 3) − 1·(0, 1) = (0, 2).
-        let g = formation_goal(Topology::Tnpf, &uav(2, 0.0, 0.0), Some(&uav(1, 0.0, 3.0)), &[uav(3, 0.0, 1.0)], &p);
+        let g = formation_goal(
+            Topology::Tnpf,
+            &uav(UavId::new(2), 0.0, 0.0),
+            Some(&uav(UavId::new(1), 0.0, 3.0)),
+            &[uav(UavId::new(3), 0.0, 1.0)],
+            &p,
+        );
         close(g.unwrap(), pt(0.0, 2.0));
     }
 
     #[test]
     fn non_finite_uavs_are_ignored() {
         let p = params();
-        let known = [uav(2, f64::NAN, 0.0), uav(1, 0.0, 5.0)];
+        let known = [uav(UavId::new(2), f64::NAN, 0.0), uav(UavId::new(1), 0.0, 5.0)];
         // uav2 ignored: PF on the leader, (0, 5) − 2·(0, 1) = (0, 3).
-        close(formation_goal(Topology::Pf, &uav(3, 0.0, 0.0), None, &known, &p).unwrap(), pt(0.0, 3.0));
-        assert_eq!(formation_goal(Topology::Pf, &uav(3, f64::NAN, 0.0), None, &known, &p), None);
+        close(formation_goal(Topology::Pf, &uav(UavId::new(3), 0.0, 0.0), None, &known, &p).unwrap(), pt(0.0, 3.0));
+        assert_eq!(formation_goal(Topology::Pf, &uav(UavId::new(3), f64::NAN, 0.0), None, &known, &p), None);
     }
 
     proptest! {
@@ -762,7 +784,7 @@ mod tests {
             px in -50.0..50.0f64, py in -50.0..50.0f64, mx in -50.0..50.0f64, my in -50.0..50.0f64,
         ) {
             let p = params();
-            let (me, leader) = (uav(2, mx, my), uav(1, px, py));
+            let (me, leader) = (uav(UavId::new(2), mx, my), uav(UavId::new(1), px, py));
             let g = formation_goal(Topology::Pf, &me, Some(&leader), &[], &p).unwrap();
             let reference = pt(px, py);
             prop_assert!(((g - reference).norm() - p.pf_distance_m).abs() < 1e-9);
@@ -806,12 +828,12 @@ mod tests {
         let t = FormationTarget { goal: pt(5.25, 5.25), reference: pt(1.25, 5.25) };
         assert_eq!(validate_goal(&t, &blocked_grid(), &p), None);
         // Through the follower loop: uav2 in LF with the leader at (7.25, 5.25), offset (−2, 0).
-        let leader = uav(1, 7.25, 5.25);
+        let leader = uav(UavId::new(1), 7.25, 5.25);
         let mut grid = blocked_grid();
         grid.fill_rect(12..=13, 8..=12, LETHAL);
         let previous = Some(pt(0.5, 0.5));
         let input = FollowerInput {
-            me: uav(2, 0.0, 0.0),
+            me: uav(UavId::new(2), 0.0, 0.0),
             leader: Some(&leader),
             neighbours: &[],
             leader_goal: pt(40.0, 0.0),
@@ -854,10 +876,10 @@ mod tests {
     #[test]
     fn followers_go_to_their_own_goal_once_the_leader_arrived() {
         let p = params();
-        let mut leader = uav(1, 29.0, 0.0);
+        let mut leader = uav(UavId::new(1), 29.0, 0.0);
         fn input(leader: &UavState) -> FollowerInput<'_> {
             FollowerInput {
-                me: uav(3, 20.0, 0.0),
+                me: uav(UavId::new(3), 20.0, 0.0),
                 leader: Some(leader),
                 neighbours: &[],
                 leader_goal: pt(30.0, 0.0),

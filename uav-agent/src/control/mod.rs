@@ -1,10 +1,12 @@
 //! Control: from what perception and localization made of a tick to a command for the hub.
 //!
 //! - [`controller`]: the [`Controller`] trait (a [`View`] in, a [`Command`] out, memory of its
-//!   own) and the [`Controllers`] registry a scenario's `[controller] kind` names one from; a
-//!   user's crate adds its own there.
+//!   own), the seam every controller, built in or a user's, plugs into.
 //! - [`pilot`]: the built-in controllers' pilots: each runs its seed's controller step by step,
 //!   with what it keeps between steps, and does the frame conversions.
+//! - [`registry`]: the [`Controllers`] registry a scenario's `[controller] kind` names one from:
+//!   the built-in pilots by name, and a user's crate adds its own there. Imports run registry →
+//!   pilot → controller, never back.
 //! - `k21`: the Boids-style K21 controller of seed 000 chapter 4.
 //! - `p17`: the P17 controller of seed 001 chapter 3 (β-agents for cylinders and walls).
 //! - `a21`: the A21 controller of seed 003 section III (proximal control, φ-limited navigation).
@@ -26,16 +28,14 @@ pub(crate) mod controller;
 pub(crate) mod hops;
 mod k21;
 pub(crate) mod lost_contact;
-// Seed API kept whole and tested, partly unused by the pilot (see `lib.rs`).
-#[cfg_attr(not(test), allow(dead_code))]
 mod m23;
-#[cfg_attr(not(test), allow(dead_code))]
 pub(crate) mod neighbour_velocity;
 mod p17;
 pub(crate) mod pilot;
+pub(crate) mod registry;
 
 pub use arrival::Arrival;
-pub use controller::{Controller, Controllers, MakeController, UnknownController};
+pub use controller::{Command, Controller, View};
 pub use hops::Hops;
 pub use lost_contact::LostContact;
-pub use pilot::{Command, View};
+pub use registry::{Controllers, MakeController, UnknownController};

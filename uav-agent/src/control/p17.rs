@@ -561,6 +561,7 @@ mod tests {
     use proptest::prelude::*;
     use proptest::test_runner::RngSeed;
     use swarm_config::P17Preset;
+    use swarm_types::UavId;
 
     /// Table 1, Fig. 28/29/35: r 10, k1 10, d 4, b1 10, b2 4; the X fields from forest_9:
     /// k2 25, w 4, c1 0.15, c2 0.9; 5 Hz, 0.75 m. A velocity of 5 m/s is 1 m per loop.
@@ -1131,7 +1132,7 @@ mod tests {
                 let ns: Vec<Neighbour> = (0..4)
                     .filter(|&j| j != i)
                     .map(|j| {
-                        let est = trackers[i].update(j as u32, pos[j], t);
+                        let est = trackers[i].update(UavId::from_index(j), pos[j], t);
                         Neighbour { pos: pos[j], vel_mps: est.unwrap_or_else(Vector2::zeros) }
                     })
                     .collect();

@@ -26,7 +26,7 @@
 //!   and subtracts `damping_per_s`·v from eq. 1's acceleration (the seed's tracker damps; ours
 //!   is a bare double integrator).
 
-use super::controller::Controller;
+use super::controller::{Command, Controller, View};
 use super::m23::{self, FollowerInput, LeaderWait, UavState};
 use super::neighbour_velocity::VelocityTracker;
 use super::{a21, k21, p17};
@@ -34,55 +34,11 @@ use crate::geometry::{wrap_angle, Pose2};
 use crate::planning::{
     CostQuery, Costmap, GridParams, Heuristic, OccupancyGrid, PlanParams, SocialAgent, LETHAL_OBSTACLE,
 };
-use crate::world_model::{Body, Circle, Estimate, Segment};
+use crate::world_model::Estimate;
 use nalgebra::{Point2, Rotation2, Vector2};
 use std::sync::Arc;
 use swarm_config::Scenario;
 use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
-
-/// What one step saw, in the body frame: the neighbours, and the obstacles once the neighbours
-/// the LIDAR sees are taken out of them (built once per step by the agent).
-#[derive(Debug, Clone, Copy)]
-pub struct View<'a> {
-    /// This UAV's id.
-    pub id: u32,
-    /// Sim time [s].
-    pub t_secs: f64,
-    /// Own odometry (pose and velocity in the start frame, and the goal of an informed UAV).
-    pub odom: &'a Odom,
-    /// Localized neighbours.
-    pub neighbours: &'a [Estimate],
-    /// Obstacle circles that are not a localized neighbour.
-    pub trees: &'a [Circle],
-    /// Wall faces.
-    pub walls: &'a [Segment],
-    /// The scan points that are not a localized neighbour: what goes into a map (empty unless the
-    /// controller asks for them, see [`Controller::wants_scan_points`]).
-    pub static_points: &'a [Point2<f64>],
-    /// The bodies near the UAV inside scan groups that join several (neighbours or not): what
-    /// K21's barrier keeps off besides the circles.
-    pub near_bodies: &'a [Body],
-}
-
-/// A command in the body frame, with the magnitudes of the controller's terms.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Command {
-    /// Velocity or acceleration.
-    pub kind: CmdKind,
-    /// x, y [m/s or m/s²], body frame.
-    pub xy: Vector2<f64>,
-    /// Yaw rate [rad/s].
-    pub yaw_rate: f64,
-    /// Term magnitudes for diagnostics (the K21 names; other controllers map theirs).
-    pub vectors: VectorMagnitudes,
-}
-
-impl Command {
-    /// Hold position: for a tick nobody steered, or a UAV waiting where it should.
-    pub fn hover() -> Command {
-        Command { kind: CmdKind::Hover, xy: Vector2::zeros(), yaw_rate: 0.0, vectors: VectorMagnitudes::default() }
-    }
-}
 
 /// K21 (seed 000 chapter 4): keeps nothing between steps.
 #[derive(Debug)]
@@ -223,14 +179,14 @@ fn fly_p17(
 ) -> Command {
     let (p0, rot) = pose(v.odom);
     let to_odom = |b: Vector2<f64>| p0 + rot * b;
-    tracker.forget_stale(v.t_secs);
+    tracker.forget_stale(v.t_s);
     let neighbours: Vec<p17::Neighbour> = v
         .neighbours
         .iter()
         .map(|e| {
             let pos = to_odom(e.pos_in_body);
             // seed 001 eq. 9: a neighbour's velocity from its position differences.
-            let vel = e.id.and_then(|id| tracker.update(id, pos, v.t_secs - e.age_secs)).unwrap_or_else(Vector2::zeros);
+            let vel = e.id.and_then(|id| tracker.update(id, pos, v.t_s - e.age_s)).unwrap_or_else(Vector2::zeros);
             p17::Neighbour { pos, vel_mps: vel }
         })
         .collect();
@@ -290,12 +246,12 @@ fn fly_a21(
     let (p0, rot) = pose(v.odom);
     grid.update(Pose2::new(p0.x, p0.y, v.odom.yaw), v.static_points);
     let direction = v.odom.goal.and_then(|g| {
-        let due = planned_at.is_none_or(|t| v.t_secs - t >= a.replan_period_s - 1e-9);
+        let due = planned_at.is_none_or(|t| v.t_s - t >= a.replan_period_s - 1e-9);
         if due {
             let params =
                 PlanParams { heuristic: Heuristic::A21, inflation_radius_m: a.inflation_m, ..PlanParams::default() };
             *path = grid.plan(Point2::from(p0), Point2::new(g[0], g[1]), &params).map(|p| p.points).unwrap_or_default();
-            *planned_at = Some(v.t_secs);
+            *planned_at = Some(v.t_s);
         }
         // seed 003 eq. 7: x̂ⁿ along the path, turned into the body frame.
         a21::navigation_direction(path, Point2::from(p0), a.path_lookahead_m).map(|d| rot.inverse() * d)
@@ -375,13 +331,12 @@ impl M23Pilot {
         // The map: the static scan points (a neighbour's hits would leave a trail of lethal cells
         // behind it), and the neighbours as social costs (seed 004 eq. 11).
         self.costmap.update(Pose2::new(p0.x, p0.y, v.odom.yaw), v.static_points);
-        self.tracker.forget_stale(v.t_secs);
+        self.tracker.forget_stale(v.t_s);
         let mut known = Vec::new();
         let mut social = Vec::new();
         for e in v.neighbours {
             let pos = p0 + rot * e.pos_in_body;
-            let vel =
-                e.id.and_then(|id| self.tracker.update(id, pos, v.t_secs - e.age_secs)).unwrap_or_else(Vector2::zeros);
+            let vel = e.id.and_then(|id| self.tracker.update(id, pos, v.t_s - e.age_s)).unwrap_or_else(Vector2::zeros);
             social.push(SocialAgent { position: Point2::from(pos), velocity: vel });
             if let Some(id) = e.id {
                 known.push(UavState { id, position: Point2::from(pos), heading: v.odom.yaw + e.heading });
@@ -390,8 +345,8 @@ impl M23Pilot {
         self.costmap.set_neighbours(&social);
         let me = UavState { id: me_id, position: Point2::from(p0), heading: v.odom.yaw };
         let own_goal = v.odom.goal.map(|g| Point2::new(g[0], g[1]));
-        let hold = self.leader_holds(sc, v.t_secs, &me, &known);
-        self.update_goal(sc, v.t_secs, &me, &known, own_goal);
+        let hold = self.leader_holds(sc, v.t_s, &me, &known);
+        self.update_goal(sc, v.t_s, &me, &known, own_goal);
         let path: &[Point2<f64>] = if hold { &[] } else { &self.path };
         let vel_odom = Vector2::new(v.odom.vx, v.odom.vy);
         // The tracker sees the neighbours where they are now as lethal discs, as seed 004's local
@@ -399,7 +354,7 @@ impl M23Pilot {
         let others = social.iter().map(|a| a.position);
         let costs =
             WithNeighbours::new(&self.costmap, others, Point2::from(p0), 2.0 * sc.body.radius_m + NEIGHBOUR_MARGIN_M);
-        let out = m23::track(path, Point2::from(p0), vel_odom, sc.dt_secs(), &costs, p);
+        let out = m23::track(path, Point2::from(p0), vel_odom, sc.dt_s(), &costs, p);
         let speed = out.velocity.norm() as f32;
         odom_velocity(
             rot,

@@ -10,19 +10,20 @@ use crate::sensing::SensorFrame;
 use crate::world_model::Estimate;
 use nalgebra::{Rotation2, Vector2};
 use std::collections::BTreeMap;
+use swarm_types::UavId;
 use swarm_wire::{Gnss, PoseShare};
 
 /// The `broadcast` localizer: the table of poses heard, and what it shares.
 #[derive(Debug)]
 pub(crate) struct Broadcast {
-    id: u32,
+    id: UavId,
     stale_after_s: f64,
     table: BroadcastTable,
 }
 
 impl Broadcast {
     /// The localizer of UAV `id`, forgetting poses older than `stale_after_s`.
-    pub(crate) fn new(id: u32, stale_after_s: f64) -> Broadcast {
+    pub(crate) fn new(id: UavId, stale_after_s: f64) -> Broadcast {
         Broadcast { id, stale_after_s, table: BroadcastTable::default() }
     }
 
@@ -50,11 +51,11 @@ impl Broadcast {
 }
 
 /// What UAV `from` tells its neighbours of its fix `g`: the same pose, signed.
-pub(crate) fn pose_share(from: u32, g: &Gnss) -> PoseShare {
+pub(crate) fn pose_share(from: UavId, g: &Gnss) -> PoseShare {
     PoseShare {
         from,
         tick: g.tick,
-        t_secs: g.t_secs,
+        t_s: g.t_s,
         x: g.x,
         y: g.y,
         yaw: g.yaw,
@@ -68,13 +69,13 @@ pub(crate) fn pose_share(from: u32, g: &Gnss) -> PoseShare {
 /// Newest broadcast pose per neighbour.
 #[derive(Debug, Default)]
 struct BroadcastTable {
-    poses: BTreeMap<u32, PoseShare>,
+    poses: BTreeMap<UavId, PoseShare>,
 }
 
 impl BroadcastTable {
     /// Keeps `p` if it is newer than what we hold for its sender.
     fn update(&mut self, p: PoseShare) {
-        let newer = self.poses.get(&p.from).is_none_or(|old| p.t_secs > old.t_secs);
+        let newer = self.poses.get(&p.from).is_none_or(|old| p.t_s > old.t_s);
         if newer {
             self.poses.insert(p.from, p);
         }
@@ -82,20 +83,20 @@ impl BroadcastTable {
 
     /// Estimates of every neighbour heard from within `stale_after_s`, in the body frame of `own`.
     fn estimates(&mut self, own: &Gnss, stale_after_s: f64) -> Vec<Estimate> {
-        let now = own.t_secs;
-        self.poses.retain(|_, p| now - p.t_secs <= stale_after_s + 1e-9);
+        let now = own.t_s;
+        self.poses.retain(|_, p| now - p.t_s <= stale_after_s + 1e-9);
         let body_from_world = Rotation2::new(-own.yaw);
         let own_pos = Vector2::new(own.x, own.y);
         self.poses
             .values()
             .map(|p| {
-                let age = (now - p.t_secs).max(0.0);
+                let age = (now - p.t_s).max(0.0);
                 let pos_now = Vector2::new(p.x, p.y) + Vector2::new(p.vx, p.vy) * age;
                 Estimate {
                     id: Some(p.from),
                     pos_in_body: body_from_world * (pos_now - own_pos),
                     heading: wrap_angle(p.yaw - own.yaw),
-                    age_secs: age,
+                    age_s: age,
                 }
             })
             .collect()
@@ -107,17 +108,17 @@ mod tests {
     use super::*;
 
     fn gnss(t: f64, x: f64, y: f64, yaw: f64) -> Gnss {
-        Gnss { tick: 0, t_secs: t, x, y, yaw, vx: 0.0, vy: 0.0 }
+        Gnss { tick: 0, t_s: t, x, y, yaw, vx: 0.0, vy: 0.0 }
     }
 
-    fn pose(from: u32, t: f64, x: f64, y: f64, yaw: f64, vx: f64) -> PoseShare {
-        PoseShare { from, tick: 0, t_secs: t, x, y, yaw, vx, vy: 0.0, hops: 0, arrival: 0 }
+    fn pose(from: UavId, t: f64, x: f64, y: f64, yaw: f64, vx: f64) -> PoseShare {
+        PoseShare { from, tick: 0, t_s: t, x, y, yaw, vx, vy: 0.0, hops: 0, arrival: 0 }
     }
 
     #[test]
     fn neighbour_is_expressed_in_the_body_frame() {
         let mut t = BroadcastTable::default();
-        t.update(pose(2, 1.0, 1.0, 3.0, 0.5, 0.0));
+        t.update(pose(UavId::new(2), 1.0, 1.0, 3.0, 0.5, 0.0));
         // Own pose (1, 1) facing +y: the neighbour 2 m ahead is at body (2, 0).
         let e = t.estimates(&gnss(1.0, 1.0, 1.0, std::f64::consts::FRAC_PI_2), 0.5);
         assert_eq!(e.len(), 1);
@@ -128,23 +129,23 @@ mod tests {
     #[test]
     fn old_poses_are_extrapolated_then_dropped() {
         let mut t = BroadcastTable::default();
-        t.update(pose(2, 1.0, 0.0, 0.0, 0.0, 1.0));
+        t.update(pose(UavId::new(2), 1.0, 0.0, 0.0, 0.0, 1.0));
         let e = t.estimates(&gnss(1.2, -5.0, 0.0, 0.0), 0.5);
         assert!((e[0].pos_in_body.x - 5.2).abs() < 1e-12, "moved 0.2 m in 0.2 s");
-        assert!((e[0].age_secs - 0.2).abs() < 1e-12);
+        assert!((e[0].age_s - 0.2).abs() < 1e-12);
         assert!(t.estimates(&gnss(1.6, 0.0, 0.0, 0.0), 0.5).is_empty(), "stale after 0.5 s");
     }
 
     #[test]
     fn the_share_is_the_fix_signed_by_its_sender() {
-        let g = Gnss { tick: 3, t_secs: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1 };
-        let p = pose_share(4, &g);
+        let g = Gnss { tick: 3, t_s: 0.3, x: 1.0, y: 2.0, yaw: 0.5, vx: 0.1, vy: -0.1 };
+        let p = pose_share(UavId::new(4), &g);
         assert_eq!(
             p,
             PoseShare {
-                from: 4,
+                from: UavId::new(4),
                 tick: 3,
-                t_secs: 0.3,
+                t_s: 0.3,
                 x: 1.0,
                 y: 2.0,
                 yaw: 0.5,
@@ -159,8 +160,8 @@ mod tests {
     #[test]
     fn older_pose_does_not_replace_newer() {
         let mut t = BroadcastTable::default();
-        t.update(pose(2, 2.0, 5.0, 0.0, 0.0, 0.0));
-        t.update(pose(2, 1.0, 9.0, 0.0, 0.0, 0.0));
+        t.update(pose(UavId::new(2), 2.0, 5.0, 0.0, 0.0, 0.0));
+        t.update(pose(UavId::new(2), 1.0, 9.0, 0.0, 0.0, 0.0));
         let e = t.estimates(&gnss(2.0, 0.0, 0.0, 0.0), 0.5);
         assert!((e[0].pos_in_body.x - 5.0).abs() < 1e-12);
     }

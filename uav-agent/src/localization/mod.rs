@@ -3,8 +3,8 @@
 //!
 //! - `broadcast` (`broadcast`, SPEC section 5): share the own GNSS pose, subtract it from the
 //!   neighbours' poses.
-//! - `icp` ([`icp`]: the alignment, the placement policy, the neighbour database and its gate,
-//!   the localizer; seed 000 chapters 3 and 5): share the obstacle set, place each neighbour by
+//! - `icp` ([`icp`]: the alignment, the full-grid initial estimate, the placement policy, the
+//!   neighbour database and its gate, the localizer; seed 000 chapters 3 and 5): share the obstacle set, place each neighbour by
 //!   matching its set to our own, remembered in the neighbour database.
 //! - `uvdar` (`uvdar`): onboard relative sensing, no communication.
 //!
@@ -19,7 +19,8 @@ use crate::sensing::{Needs, SensorFrame};
 use crate::world_model::{Circle, Estimate};
 use std::time::Instant;
 use swarm_config::{LocalizationMode, Scenario, TimeMode};
-use swarm_wire::{IcpCounts, Keys, Msg, ObstacleShare, PoseShare};
+use swarm_types::UavId;
+use swarm_wire::{IcpCounts, Msg, ObstacleShare, PoseShare};
 
 /// What agents tell their neighbours: a pose (`broadcast`) or an obstacle set (`icp`).
 #[derive(Debug, Clone, PartialEq)]
@@ -32,7 +33,7 @@ pub enum Share {
 
 impl Share {
     /// Sender id.
-    pub fn from(&self) -> u32 {
+    pub fn from(&self) -> UavId {
         match self {
             Share::Pose(p) => p.from,
             Share::Obstacles(o) => o.from,
@@ -46,10 +47,10 @@ impl Share {
         }
     }
     /// Sim time it was sent at [s].
-    pub fn t_secs(&self) -> f64 {
+    pub fn t_s(&self) -> f64 {
         match self {
-            Share::Pose(p) => p.t_secs,
-            Share::Obstacles(o) => o.t_secs,
+            Share::Pose(p) => p.t_s,
+            Share::Obstacles(o) => o.t_s,
         }
     }
     /// The sender's hop count to the nearest informed UAV ([`swarm_wire::NO_PATH`]: none).
@@ -82,7 +83,7 @@ impl Share {
         }
     }
     /// The share in a wire message, if it is one signed by `from` (the sender its key names).
-    pub fn from_msg(msg: Msg, from: u32) -> Result<Share, Msg> {
+    pub fn from_msg(msg: Msg, from: UavId) -> Result<Share, Msg> {
         match msg {
             Msg::Pose(p) if p.from == from => Ok(Share::Pose(p)),
             Msg::Obstacles(o) if o.from == from => Ok(Share::Obstacles(o)),
@@ -111,18 +112,9 @@ pub(crate) enum Localizer {
     Uvdar,
 }
 
-/// The key UAV `id` shares on in localization `mode`; `None` in `uvdar` mode, which never shares.
-pub(crate) fn share_key(mode: LocalizationMode, keys: &Keys, id: u32) -> Option<String> {
-    match mode {
-        LocalizationMode::Broadcast => Some(keys.share_pose(id)),
-        LocalizationMode::Icp => Some(keys.share_obstacles(id)),
-        LocalizationMode::Uvdar => None,
-    }
-}
-
 impl Localizer {
     /// The localizer of UAV `id` for the scenario's mode.
-    pub(crate) fn new(id: u32, sc: &Scenario) -> Localizer {
+    pub(crate) fn new(id: UavId, sc: &Scenario) -> Localizer {
         let stale_after_s = sc.localization.stale_after_s;
         match sc.localization.mode {
             LocalizationMode::Broadcast => Localizer::Broadcast(broadcast::Broadcast::new(id, stale_after_s)),
@@ -159,7 +151,7 @@ impl Localizer {
         match self {
             Localizer::Broadcast(b) => Localized { estimates: b.estimates(frame), icp: IcpCounts::default() },
             Localizer::Icp(i) => {
-                let (estimates, icp) = i.estimates(frame.scan.t_secs, circles, started);
+                let (estimates, icp) = i.estimates(frame.scan.t_s, circles, started);
                 Localized { estimates, icp }
             }
             Localizer::Uvdar => Localized { estimates: uvdar::estimates(frame), icp: IcpCounts::default() },

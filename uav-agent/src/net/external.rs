@@ -17,6 +17,7 @@ use crate::control::{Command, View};
 use nalgebra::Vector2;
 use std::time::Duration;
 use swarm_config::{Scenario, TimeMode};
+use swarm_types::UavId;
 use swarm_wire::external::{ExtCmd, ExtCmdKind, ExtNeighbour, ExtOdom, ExtTree, ExtView, ExtWall};
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::{CmdKind, Keys, VectorMagnitudes, WireError};
@@ -60,7 +61,7 @@ impl ExternalLink {
     pub(super) async fn open(
         s: &zenoh::Session,
         keys: &Keys,
-        id: u32,
+        id: UavId,
         sc: &Scenario,
     ) -> Result<ExternalLink, AgentError> {
         let (tx, cmds) = mpsc::unbounded_channel();
@@ -71,7 +72,7 @@ impl ExternalLink {
         let view_key = s.declare_keyexpr(keys.ext_view(id)).await.map_err(WireError::zenoh)?;
         let wait = match sc.time.mode {
             TimeMode::Lockstep => Duration::from_millis(sc.time.tick_timeout_ms).mul_f64(LOCKSTEP_SHARE),
-            TimeMode::Realtime => Duration::from_secs_f64(sc.dt_secs() / sc.time.realtime_factor.max(1e-9)),
+            TimeMode::Realtime => Duration::from_secs_f64(sc.dt_s() / sc.time.realtime_factor.max(1e-9)),
         };
         let startup_wait = Duration::from_secs_f64(sc.time.startup_timeout_s.max(0.0));
         Ok(ExternalLink {
@@ -82,10 +83,7 @@ impl ExternalLink {
             controller_alive,
             _alive_sub: alive_sub,
             wait,
-            congestion: match sc.time.mode {
-                TimeMode::Lockstep => CongestionControl::Block,
-                TimeMode::Realtime => CongestionControl::Drop,
-            },
+            congestion: swarm_wire::session::congestion(sc.time.mode),
             startup_wait,
             missed: 0,
             malformed: 0,
@@ -94,9 +92,9 @@ impl ExternalLink {
     }
 
     /// Waits until the external controller's token is alive, at most the startup timeout.
-    pub(super) async fn wait_for_controller(&mut self, id: u32) -> Result<(), AgentError> {
+    pub(super) async fn wait_for_controller(&mut self, id: UavId) -> Result<(), AgentError> {
         let limit = self.startup_wait;
-        info!(uav_id = id, "waiting for the external controller (alive/ext/{id})");
+        info!(uav_id = %id, "waiting for the external controller (alive/ext/{id})");
         match tokio::time::timeout(limit, self.controller_alive.wait_for(|up| *up)).await {
             Ok(Ok(_)) => Ok(()),
             _ => Err(AgentError::NoExternalController(id, limit.as_secs())),
@@ -116,10 +114,10 @@ impl ExternalLink {
         // serde_json writes a non-finite number as null; a view has none (see `finite`).
         let mut ext = ext_view(tick, view);
         (ext.hops_informed, ext.hops_arrived) = counts;
-        self.velocities.forget_stale(view.t_secs);
+        self.velocities.forget_stale(view.t_s);
         for (n, e) in ext.neighbours.iter_mut().zip(view.neighbours) {
             n.vel =
-                e.id.and_then(|id| self.velocities.update(id, e.pos_in_body, view.t_secs))
+                e.id.and_then(|id| self.velocities.update(id, e.pos_in_body, view.t_s))
                     .map(|v| [finite(v.x), finite(v.y)]);
         }
         let text = serde_json::to_vec(&ext).expect("a view serializes");
@@ -159,19 +157,20 @@ fn ext_view(tick: u64, v: &View) -> ExtView {
     let o = v.odom;
     ExtView {
         tick,
-        t_s: finite(v.t_secs),
-        id: v.id,
+        t_s: finite(v.t_s),
+        // The JSON view's ids are plain numbers (`swarm_wire::external`).
+        id: v.id.get(),
         odom: ExtOdom { x: finite(o.x), y: finite(o.y), yaw: finite(o.yaw), vx: finite(o.vx), vy: finite(o.vy) },
         goal: o.goal.map(|[x, y]| [finite(x), finite(y)]),
         neighbours: v
             .neighbours
             .iter()
             .map(|e| ExtNeighbour {
-                id: e.id,
+                id: e.id.map(UavId::get),
                 x: finite(e.pos_in_body.x),
                 y: finite(e.pos_in_body.y),
                 heading: finite(e.heading),
-                age_s: finite(e.age_secs),
+                age_s: finite(e.age_s),
                 vel: None,
             })
             .collect(),

@@ -44,6 +44,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use swarm_config::{LocalizationMode, Scenario};
+use swarm_types::UavId;
 use swarm_wire::plumbing::Subscription;
 use swarm_wire::{Keys, Msg, Traffic, WireError};
 use zenoh::key_expr::KeyExpr;
@@ -51,15 +52,15 @@ use zenoh::Wait;
 
 impl Arrived {
     /// Decodes `bytes`, received on sender `from`'s share key.
-    fn decode(from: u32, bytes: &[u8]) -> Arrived {
+    fn decode(from: UavId, bytes: &[u8]) -> Arrived {
         let share = match Msg::decode(bytes).map(|m| Share::from_msg(m, from)) {
             Ok(Ok(share)) => Some(Arc::new(share)),
             Ok(Err(other)) => {
-                tracing::debug!(from, ?other, "not a share of its sender");
+                tracing::debug!(%from, ?other, "not a share of its sender");
                 None
             }
             Err(e) => {
-                tracing::debug!(from, error = %e, "undecodable share");
+                tracing::debug!(%from, error = %e, "undecodable share");
                 None
             }
         };
@@ -147,12 +148,12 @@ impl SessionCounts {
 /// subscriptions' callbacks read it; no Zenoh call is ever made while it is locked.
 #[derive(Default)]
 struct Listeners {
-    by_sender: HashMap<u32, Vec<(u32, Mailbox)>>,
+    by_sender: HashMap<UavId, Vec<(UavId, Mailbox)>>,
 }
 
 impl Listeners {
     /// Agent `me` no longer listens to `from` (a sender's entry goes with its last listener).
-    fn remove(&mut self, from: u32, me: u32) {
+    fn remove(&mut self, from: UavId, me: UavId) {
         if let Some(v) = self.by_sender.get_mut(&from) {
             v.retain(|(id, _)| *id != me);
             if v.is_empty() {
@@ -163,7 +164,7 @@ impl Listeners {
 
     /// Hands sender `from`'s share to every agent listening to it, decoded once (not at all when
     /// no one listens).
-    fn deliver(&self, from: u32, bytes: &[u8]) {
+    fn deliver(&self, from: UavId, bytes: &[u8]) {
         let Some(listening) = self.by_sender.get(&from) else { return };
         let arrived = Arrived::decode(from, bytes);
         for (_, mailbox) in listening {
@@ -176,9 +177,9 @@ impl Listeners {
 #[derive(Default)]
 struct Declared {
     /// Each UAV's share key, declared the first time the session needed it, kept for its life.
-    keys: HashMap<u32, KeyExpr<'static>>,
+    keys: HashMap<UavId, KeyExpr<'static>>,
     /// Per sender listened to: the subscription and how many of the session's agents listen.
-    subs: HashMap<u32, (Subscription, usize)>,
+    subs: HashMap<UavId, (Subscription, usize)>,
 }
 
 /// What the feed's handles share.
@@ -187,7 +188,7 @@ struct Inner {
     keys: Keys,
     mode: LocalizationMode,
     /// The UAVs this session flies: their shares reach it without crossing the network.
-    local: Vec<u32>,
+    local: Vec<UavId>,
     listeners: Arc<Mutex<Listeners>>,
     declared: Mutex<Declared>,
     traffic: Arc<SessionCounts>,
@@ -202,8 +203,8 @@ pub(crate) struct ShareFeed(Arc<Inner>);
 /// subscription, when it was the last listener).
 pub(crate) struct Listening {
     feed: ShareFeed,
-    from: u32,
-    me: u32,
+    from: UavId,
+    me: UavId,
 }
 
 impl Drop for Listening {
@@ -225,7 +226,7 @@ impl Drop for Listening {
 impl ShareFeed {
     /// The feed of session `s`, which flies the UAVs `local`, for scenario `sc`'s localization
     /// mode.
-    pub(crate) fn new(s: &zenoh::Session, keys: &Keys, sc: &Scenario, local: &[u32]) -> ShareFeed {
+    pub(crate) fn new(s: &zenoh::Session, keys: &Keys, sc: &Scenario, local: &[UavId]) -> ShareFeed {
         ShareFeed(Arc::new(Inner {
             session: s.clone(),
             keys: keys.clone(),
@@ -244,16 +245,16 @@ impl ShareFeed {
 
     /// UAV `id`'s share key, declared on the session (once for its life); `None` when the mode
     /// has no shares.
-    pub(crate) fn key(&self, id: u32) -> Result<Option<KeyExpr<'static>>, AgentError> {
+    pub(crate) fn key(&self, id: UavId) -> Result<Option<KeyExpr<'static>>, AgentError> {
         let mut d = self.0.declared.lock().unwrap_or_else(PoisonError::into_inner);
         self.key_locked(&mut d, id)
     }
 
-    fn key_locked(&self, d: &mut Declared, id: u32) -> Result<Option<KeyExpr<'static>>, AgentError> {
+    fn key_locked(&self, d: &mut Declared, id: UavId) -> Result<Option<KeyExpr<'static>>, AgentError> {
         if let Some(k) = d.keys.get(&id) {
             return Ok(Some(k.clone()));
         }
-        let Some(key) = crate::localization::share_key(self.0.mode, &self.0.keys, id) else { return Ok(None) };
+        let Some(key) = self.0.keys.share_of(self.0.mode, id) else { return Ok(None) };
         let declared = self.0.session.declare_keyexpr(key).wait().map_err(WireError::zenoh)?;
         d.keys.insert(id, declared.clone());
         Ok(Some(declared))
@@ -262,7 +263,7 @@ impl ShareFeed {
     /// Agent `me` listens to `from`'s shares from now on, posted to `mailbox`, until the returned
     /// guard is dropped; `None` when the mode has no shares. The session's subscription to
     /// `from` is declared before this returns (when it is the first listener).
-    pub(crate) fn listen(&self, from: u32, me: u32, mailbox: &Mailbox) -> Result<Option<Listening>, AgentError> {
+    pub(crate) fn listen(&self, from: UavId, me: UavId, mailbox: &Mailbox) -> Result<Option<Listening>, AgentError> {
         let inner = &self.0;
         let mut d = inner.declared.lock().unwrap_or_else(PoisonError::into_inner);
         let Some(key) = self.key_locked(&mut d, from)? else { return Ok(None) };
@@ -318,7 +319,7 @@ impl SessionShared {
         s: &zenoh::Session,
         keys: &Keys,
         sc: &Scenario,
-        ids: &[u32],
+        ids: &[UavId],
     ) -> Result<Arc<SessionShared>, AgentError> {
         let netem_rules = s.declare_keyexpr(keys.netem_rules()).await.map_err(WireError::zenoh)?;
         Ok(Arc::new(SessionShared { feed: ShareFeed::new(s, keys, sc, ids), netem_rules, zid: s.zid().to_string() }))
@@ -336,7 +337,7 @@ mod tests {
         out
     }
 
-    fn listeners(pairs: &[(u32, u32, &Mailbox)]) -> Listeners {
+    fn listeners(pairs: &[(UavId, UavId, &Mailbox)]) -> Listeners {
         let mut l = Listeners::default();
         for &(from, me, mailbox) in pairs {
             l.by_sender.entry(from).or_default().push((me, mailbox.clone()));
@@ -347,23 +348,31 @@ mod tests {
     #[test]
     fn a_listener_gets_only_its_senders_shares() {
         let mailbox = Mailbox::default();
-        let l = listeners(&[(3, 1, &mailbox)]);
-        l.deliver(3, &Msg::Pose(pose(3)).encode().expect("encode"));
-        l.deliver(4, &Msg::Pose(pose(4)).encode().expect("encode"));
+        let l = listeners(&[(UavId::new(3), UavId::new(1), &mailbox)]);
+        l.deliver(UavId::new(3), &Msg::Pose(pose(UavId::new(3))).encode().expect("encode"));
+        l.deliver(UavId::new(4), &Msg::Pose(pose(UavId::new(4))).encode().expect("encode"));
         let got = taken(&mailbox);
         assert_eq!(got.len(), 1, "only sender 3's share");
-        assert!(matches!(got[0].share.as_deref(), Some(Share::Pose(p)) if *p == pose(3)), "decoded: {:?}", got[0]);
+        assert!(
+            matches!(got[0].share.as_deref(), Some(Share::Pose(p)) if *p == pose(UavId::new(3))),
+            "decoded: {:?}",
+            got[0]
+        );
         assert!(taken(&mailbox).is_empty(), "taking empties the mailbox");
     }
 
     #[test]
     fn every_listener_gets_the_same_decoded_share_and_a_bad_one_as_malformed() {
         let mailboxes: Vec<Mailbox> = (0..3).map(|_| Mailbox::default()).collect();
-        let l = listeners(&[(7, 1, &mailboxes[0]), (7, 2, &mailboxes[1]), (7, 3, &mailboxes[2])]);
-        let bytes = Msg::Pose(pose(7)).encode().expect("encode");
-        l.deliver(7, &bytes);
-        l.deliver(7, &Msg::Pose(pose(8)).encode().expect("encode"));
-        l.deliver(7, &[0xff, 0xff]);
+        let l = listeners(&[
+            (UavId::new(7), UavId::new(1), &mailboxes[0]),
+            (UavId::new(7), UavId::new(2), &mailboxes[1]),
+            (UavId::new(7), UavId::new(3), &mailboxes[2]),
+        ]);
+        let bytes = Msg::Pose(pose(UavId::new(7))).encode().expect("encode");
+        l.deliver(UavId::new(7), &bytes);
+        l.deliver(UavId::new(7), &Msg::Pose(pose(UavId::new(8))).encode().expect("encode"));
+        l.deliver(UavId::new(7), &[0xff, 0xff]);
         let got: Vec<Vec<Arrived>> = mailboxes.iter().map(taken).collect();
         assert!(got.iter().all(|g| g.len() == 3), "each listener gets all three: {got:?}");
         let first = got[0][0].share.clone().expect("a good share");
@@ -372,7 +381,7 @@ mod tests {
             "one decode, shared"
         );
         assert!(
-            got.iter().all(|g| g[1..].iter().all(|a| a.share.is_none() && a.from == 7)),
+            got.iter().all(|g| g[1..].iter().all(|a| a.share.is_none() && a.from == UavId::new(7))),
             "a share whose sender is not its key's, or garbage, is malformed for each"
         );
     }
@@ -422,21 +431,21 @@ mod tests {
         let (router, client) = router_and_client().await;
         let keys = Keys::new("feedtest").expect("run id");
         let sc = swarm_config::builtin("open-field-5").expect("builtin");
-        let feed = ShareFeed::new(&client, &keys, &sc, &[1, 2]);
+        let feed = ShareFeed::new(&client, &keys, &sc, &[UavId::new(1), UavId::new(2)]);
         let (m1, m2) = (Mailbox::default(), Mailbox::default());
-        let a = feed.listen(3, 1, &m1).expect("declared").expect("broadcast shares");
-        let b = feed.listen(3, 2, &m2).expect("declared").expect("broadcast shares");
-        let c = feed.listen(4, 1, &m1).expect("declared").expect("broadcast shares");
+        let a = feed.listen(UavId::new(3), UavId::new(1), &m1).expect("declared").expect("broadcast shares");
+        let b = feed.listen(UavId::new(3), UavId::new(2), &m2).expect("declared").expect("broadcast shares");
+        let c = feed.listen(UavId::new(4), UavId::new(1), &m1).expect("declared").expect("broadcast shares");
         let subs = || feed.traffic().snapshot("s", (0, 0)).subscriptions;
         assert_eq!(subs(), 2, "one subscription per sender, however many agents listen");
-        let put = |from: u32, tick: u64| {
+        let put = |from: UavId, tick: u64| {
             let bytes = Msg::Pose(swarm_wire::PoseShare { tick, ..pose(from) }).encode().expect("encode");
             router.put(keys.share_pose(from), bytes).wait().expect("put");
         };
         // The router has the client's subscriptions once it has handled their declarations,
         // which this test cannot see: put until a share of each sender arrives, then count only
         // tick 100's.
-        for from in [3, 4] {
+        for from in [UavId::new(3), UavId::new(4)] {
             for _ in 0..500 {
                 put(from, 0);
                 if !wait_for(&m1, None, 1, 5).await.is_empty() {
@@ -444,11 +453,15 @@ mod tests {
                 }
             }
         }
-        put(3, 100);
-        put(4, 100);
+        put(UavId::new(3), 100);
+        put(UavId::new(4), 100);
         let (one, two) = (wait_for(&m1, Some(100), 2, 500).await, wait_for(&m2, Some(100), 1, 500).await);
-        assert_eq!(one.iter().map(|a| a.from).collect::<Vec<_>>(), [3, 4], "agent 1 hears 3 and 4");
-        assert_eq!(two.iter().map(|a| a.from).collect::<Vec<_>>(), [3], "agent 2 hears 3 only");
+        assert_eq!(
+            one.iter().map(|a| a.from).collect::<Vec<_>>(),
+            [UavId::new(3), UavId::new(4)],
+            "agent 1 hears 3 and 4"
+        );
+        assert_eq!(two.iter().map(|a| a.from).collect::<Vec<_>>(), [UavId::new(3)], "agent 2 hears 3 only");
         assert!(
             Arc::ptr_eq(one[0].share.as_ref().expect("share"), two[0].share.as_ref().expect("share")),
             "decoded once for both"
@@ -459,8 +472,8 @@ mod tests {
         assert_eq!(subs(), 1, "nobody listens to 3: its subscription is gone");
         drop(c);
         assert_eq!(subs(), 0);
-        put(3, 200);
-        put(4, 200);
+        put(UavId::new(3), 200);
+        put(UavId::new(4), 200);
         assert!(
             wait_for(&m1, Some(200), 1, 30).await.is_empty() && wait_for(&m2, Some(200), 1, 1).await.is_empty(),
             "nobody hears anything any more"
@@ -471,11 +484,11 @@ mod tests {
         let _ = router.close().await;
     }
 
-    fn pose(from: u32) -> swarm_wire::PoseShare {
+    fn pose(from: UavId) -> swarm_wire::PoseShare {
         swarm_wire::PoseShare {
             from,
             tick: 4,
-            t_secs: 0.4,
+            t_s: 0.4,
             x: 1.0,
             y: 2.0,
             yaw: 0.3,

@@ -19,6 +19,7 @@ use crate::control::Controllers;
 use std::future::Future;
 use std::sync::Arc;
 use swarm_config::Scenario;
+use swarm_types::UavId;
 use swarm_wire::session::{self, Role};
 use swarm_wire::Keys;
 use tokio::sync::watch;
@@ -30,7 +31,7 @@ pub struct HostOptions {
     /// Run id.
     pub run: String,
     /// UAV ids, 1-based.
-    pub ids: Vec<u32>,
+    pub ids: Vec<UavId>,
     /// Hub endpoints, e.g. `tcp/10.0.0.5:7447`.
     pub connect: Vec<String>,
     /// `KEY:JSON5` Zenoh config overrides.
@@ -49,7 +50,7 @@ pub struct HostOptions {
 pub async fn run_host(
     opts: HostOptions,
     shutdown: impl Future<Output = ()>,
-) -> Result<Vec<(u32, Result<AgentExit, AgentError>)>, AgentError> {
+) -> Result<Vec<(UavId, Result<AgentExit, AgentError>)>, AgentError> {
     let keys = Keys::new(&opts.run)?;
     let s = session::open(Role::Client, &[], &opts.connect, &opts.zenoh_cfg).await?;
     let result = async {
@@ -74,7 +75,7 @@ async fn fly_all(
     opts: &HostOptions,
     sc: Scenario,
     shutdown: impl Future<Output = ()>,
-) -> Vec<(u32, Result<AgentExit, AgentError>)> {
+) -> Vec<(UavId, Result<AgentExit, AgentError>)> {
     let (stop_tx, stop_rx) = watch::channel(false);
     let mut tasks = Vec::with_capacity(opts.ids.len());
     for &id in &opts.ids {
@@ -82,7 +83,7 @@ async fn fly_all(
         let stopped = async move {
             let _ = stop.wait_for(|v| *v).await;
         };
-        let span = info_span!("agent", uav_id = id, run = %opts.run);
+        let span = info_span!("agent", uav_id = %id, run = %opts.run);
         let flight = Flight {
             sc: sc.clone(),
             hub_grace_s: opts.hub_grace_s,

@@ -29,6 +29,7 @@ pub use node::{run, AgentExit, AgentOptions};
 pub use ros::Sensors;
 
 use swarm_config::ScenarioError;
+use swarm_types::UavId;
 use swarm_wire::WireError;
 
 /// Errors of an agent.
@@ -45,7 +46,7 @@ pub enum AgentError {
     NoHub(String, u64),
     /// The UAV id is not in the scenario.
     #[error("UAV id {0} is not in this scenario (ids 1..={1})")]
-    BadId(u32, u32),
+    BadId(UavId, u32),
     /// The hub's ticks went backwards: another hub run took over the keys.
     #[error("tick went back from {0} to {1}: the hub restarted; start the agent again for the new run")]
     TickWentBack(u64, u64),
@@ -54,13 +55,13 @@ pub enum AgentError {
     UnknownController(#[from] crate::control::UnknownController),
     /// The UAV is flown by an external controller, which did not come.
     #[error("UAV {0} waits for its external controller (alive/ext/{0}), which did not come within {1} s")]
-    NoExternalController(u32, u64),
+    NoExternalController(UavId, u64),
     /// ROS 2 (DDS or rmw_zenoh) refused something.
     #[error("ROS 2: {0}")]
     Ros2(String),
     /// An agent on ROS topics gets a scan and odometry only.
     #[error("UAV {0}: an agent on ROS 2 topics gets its scan and odometry only, so its localization must be `icp`")]
-    RosNeedsIcp(u32),
+    RosNeedsIcp(UavId),
     /// An agent's task of an agent host panicked.
     #[error("the agent's task panicked: {0}")]
     Panicked(String),

@@ -33,10 +33,11 @@ use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
-use swarm_config::{Scenario, TimeMode};
+use swarm_config::Scenario;
+use swarm_types::{SimTime, UavId};
 use swarm_wire::plumbing::{self, Subscription as Subscriber};
 use swarm_wire::session::{self, Role, Writer};
-use swarm_wire::{Cmd, CmdKind, Keys, Msg, WireError};
+use swarm_wire::{Cmd, Keys, Msg, WireError};
 use tokio::sync::{mpsc, watch};
 use tracing::{debug, info, info_span, trace, warn, Instrument};
 use zenoh::qos::CongestionControl;
@@ -47,7 +48,7 @@ pub struct AgentOptions {
     /// Run id.
     pub run: String,
     /// UAV id, 1-based.
-    pub id: u32,
+    pub id: UavId,
     /// Hub endpoints, e.g. `tcp/10.0.0.5:7447`.
     pub connect: Vec<String>,
     /// `KEY:JSON5` Zenoh config overrides.
@@ -77,7 +78,7 @@ pub enum AgentExit {
 pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Result<AgentExit, AgentError> {
     let keys = Keys::new(&opts.run)?;
     let s = session::open(Role::Client, &[], &opts.connect, &opts.zenoh_cfg).await?;
-    let span = info_span!("agent", uav_id = opts.id, run = %opts.run);
+    let span = info_span!("agent", uav_id = %opts.id, run = %opts.run);
     let result = async {
         let sc = match opts.scenario.clone() {
             Some(sc) => sc,
@@ -118,11 +119,11 @@ pub(crate) async fn fly(
     s: zenoh::Session,
     keys: Keys,
     shared: Arc<SessionShared>,
-    id: u32,
+    id: UavId,
     flight: Flight,
     shutdown: impl Future<Output = ()>,
 ) -> Result<AgentExit, AgentError> {
-    if id == 0 || id > flight.sc.swarm.count {
+    if !id.within(flight.sc.swarm.count as usize) {
         return Err(AgentError::BadId(id, flight.sc.swarm.count));
     }
     let agent = Agent::new(id, flight.sc.clone(), &flight.controllers)?;
@@ -168,7 +169,7 @@ struct Node {
     /// The control period [s].
     dt_s: f64,
     keys: Keys,
-    id: u32,
+    id: UavId,
     agent: Agent,
     /// The sensors a frame must carry for this agent's localizer.
     needs: Needs,
@@ -185,7 +186,7 @@ struct Node {
     /// What the agents of this session share (the share feed, declared keys).
     shared: Arc<SessionShared>,
     /// Listening to each neighbour in radio range (dropping one stops it).
-    listening: BTreeMap<u32, Listening>,
+    listening: BTreeMap<UavId, Listening>,
     publish: Outputs,
     _inputs: Inputs,
     /// The link to this UAV's external controller, when it has one instead of ours.
@@ -242,7 +243,7 @@ async fn declare_inputs(
     s: &zenoh::Session,
     keys: &Keys,
     shared: &SessionShared,
-    (id, from_hub): (u32, bool),
+    (id, from_hub): (UavId, bool),
     tx: &mpsc::UnboundedSender<Incoming>,
     own_bytes: &Arc<AtomicU64>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
@@ -271,13 +272,10 @@ async fn declare_outputs(
     s: &zenoh::Session,
     keys: &Keys,
     shared: &SessionShared,
-    (id, to_hub): (u32, bool),
+    (id, to_hub): (UavId, bool),
     sc: &Scenario,
 ) -> Result<Outputs, AgentError> {
-    let cc = match sc.time.mode {
-        TimeMode::Lockstep => CongestionControl::Block,
-        TimeMode::Realtime => CongestionControl::Drop,
-    };
+    let cc = swarm_wire::session::congestion(sc.time.mode);
     // The share key as the session declared it (once, for every agent of the session). `uvdar`
     // never shares (no communication): its writer is on the pose key, and stays silent.
     let share = match shared.feed.key(id)? {
@@ -322,18 +320,18 @@ impl Node {
         } else {
             None
         };
-        let shares = crate::localization::share_key(sc.localization.mode, &keys, id).is_some();
+        let shares = keys.share_of(sc.localization.mode, id).is_some();
         Ok(Node {
             needs,
             ros,
-            admission: Admission::new(id, sc.seed, sc.dt_secs(), netem::Timeline::from_scenario(&sc), shares),
+            admission: Admission::new(id, sc.seed, sc.dt_s(), netem::Timeline::from_scenario(&sc), shares),
             agent,
             _tx: tx,
             rx,
             mailbox: Mailbox::default(),
             posted: Vec::new(),
             hub_grace_s: 0.0,
-            dt_s: sc.dt_secs(),
+            dt_s: sc.dt_s(),
             hub_alive,
             _flying: Flying::new(shared.feed.traffic()),
             own_bytes,
@@ -400,8 +398,8 @@ impl Node {
 
     async fn hover(&mut self) {
         let tick = self.admission.last_tick().map_or(0, |t| t.saturating_add(1));
-        let cmd = Cmd { tick, kind: CmdKind::Hover, x: 0.0, y: 0.0, yaw_rate: 0.0 };
-        let _ = self.command(&cmd, tick as f64 * self.dt_s).await;
+        let cmd = Cmd::hover(tick);
+        let _ = self.command(&cmd, SimTime::of_tick(tick, self.dt_s).s()).await;
     }
 
     /// Sends a command of the tick at `t_s`: to the hub, or on ROS.
@@ -454,7 +452,7 @@ impl Node {
 
     /// The radio set of `tick`: listens to the shares of exactly the UAVs in range (see
     /// [`crate::admission`] for which of them count).
-    fn on_radio(&mut self, tick: u64, in_range: &[u32], loss: &[f32]) -> Result<(), AgentError> {
+    fn on_radio(&mut self, tick: u64, in_range: &[UavId], loss: &[f32]) -> Result<(), AgentError> {
         let change = self.admission.on_radio(tick, in_range, loss);
         for id in change.left {
             self.listening.remove(&id);
@@ -485,7 +483,7 @@ impl Node {
     async fn step(&mut self, frame: SensorFrame) -> Result<(), AgentError> {
         let tick = frame.tick();
         let due =
-            self.admission.begin_step(tick, frame.scan.t_secs).map_err(|w| AgentError::TickWentBack(w.last, w.tick))?;
+            self.admission.begin_step(tick, frame.scan.t_s).map_err(|w| AgentError::TickWentBack(w.last, w.tick))?;
         for share in due {
             self.agent.on_share(&share);
         }
@@ -498,7 +496,7 @@ impl Node {
                 self.agent.finish(&frame, seen, command)
             }
         };
-        self.publish_step(out, frame.scan.t_secs).await?;
+        self.publish_step(out, frame.scan.t_s).await?;
         trace!(tick, "stepped");
         Ok(())
     }

@@ -33,6 +33,7 @@ use swarm_ros2::msgs::sensor::{LaserScan, Odometry};
 use swarm_ros2::msgs::{stamp_ns, Header};
 use swarm_ros2::types::{ACCEL_STAMPED, LASER_SCAN, ODOMETRY, POSE_STAMPED, TWIST_STAMPED};
 use swarm_ros2::{Graph, Middleware, Publisher, Qos, SubscriptionGuard};
+use swarm_types::UavId;
 use swarm_wire::{Cmd, CmdKind, Keys, Msg, RadioSet, SenseFrame, WireError};
 use tokio::sync::mpsc;
 use tracing::{debug, info, warn};
@@ -117,7 +118,7 @@ impl RosLink {
         s: &zenoh::Session,
         keys: &Keys,
         sc: &Scenario,
-        id: u32,
+        id: UavId,
         sensors: &Sensors,
         tx: mpsc::UnboundedSender<Option<Msg>>,
     ) -> Result<RosLink, AgentError> {
@@ -191,11 +192,11 @@ impl RosLink {
 
 /// The parts of the frames not yet complete, by stamp.
 struct Assembly {
-    id: u32,
+    id: UavId,
     dt_s: f64,
     informed: bool,
     /// Every other UAV of the scenario: the radio set of every frame.
-    others: Vec<u32>,
+    others: Vec<UavId>,
     scans: BTreeMap<i64, LaserScan>,
     odoms: BTreeMap<i64, Odometry>,
     goals: BTreeMap<i64, [f64; 2]>,
@@ -204,10 +205,10 @@ struct Assembly {
 }
 
 impl Assembly {
-    fn new(sc: &Scenario, id: u32) -> Assembly {
+    fn new(sc: &Scenario, id: UavId) -> Assembly {
         Assembly {
             id,
-            dt_s: sc.dt_secs(),
+            dt_s: sc.dt_s(),
             informed: sc.is_informed(id),
             others: sc.uav_ids().filter(|&o| o != id).collect(),
             scans: BTreeMap::new(),
@@ -231,7 +232,7 @@ impl Assembly {
             while let Some(frame) = self.next_frame() {
                 if let Some(o) = &order {
                     if let Err(e) = o.round_trip().await {
-                        warn!(uav_id = self.id, "cannot order the frame behind the shares: {e}");
+                        warn!(uav_id = %self.id, "cannot order the frame behind the shares: {e}");
                     }
                 }
                 if tx.send(Some(Msg::Sense(Box::new(frame)))).is_err() {
@@ -258,7 +259,7 @@ impl Assembly {
                 self.goals.insert(stamp_ns(h.stamp_s), [x, y]);
             }),
         }
-        .map_err(|e| debug!(uav_id = self.id, "dropped a malformed ROS message: {e}"))
+        .map_err(|e| debug!(uav_id = %self.id, "dropped a malformed ROS message: {e}"))
         .is_ok()
     }
 
@@ -286,7 +287,7 @@ impl Assembly {
         let tick = (scan.header.stamp_s / self.dt_s).round() as u64;
         let radio = RadioSet { tick, id: self.id, in_range: self.others.clone(), loss: Vec::new() };
         let (mut odom, mut scan) = (odom.into_odom(tick, goal), scan.into_scan(tick));
-        (odom.t_secs, scan.t_secs) = (self.on_tick(odom.t_secs), self.on_tick(scan.t_secs));
+        (odom.t_s, scan.t_s) = (self.on_tick(odom.t_s), self.on_tick(scan.t_s));
         Some(SenseFrame { radio, odom, gnss: None, uvdar: None, scan })
     }
 }
@@ -327,19 +328,18 @@ mod tests {
     use swarm_wire::{Odom, Scan};
 
     fn scan(t: f64) -> Part {
-        let s =
-            Scan { tick: 0, t_secs: t, angle_min: 0.0, angle_increment: 0.1, max_range_m: 10.0, ranges_m: vec![1.0] };
+        let s = Scan { tick: 0, t_s: t, angle_min: 0.0, angle_increment: 0.1, max_range_m: 10.0, ranges_m: vec![1.0] };
         Part::Scan(laser_scan(&s, "b", 0.1))
     }
 
     fn odom(t: f64, x: f64) -> Part {
-        let o = Odom { tick: 0, t_secs: t, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None };
+        let o = Odom { tick: 0, t_s: t, x, y: 0.0, yaw: 0.0, vx: 0.0, vy: 0.0, goal: None, goal_vel: None };
         Part::Odom(odometry(&o, "o", "b"))
     }
 
     fn assembly(informed: bool) -> Assembly {
         let sc = Scenario::from_arg("forest-5").expect("built-in").0;
-        let mut a = Assembly::new(&sc, 3);
+        let mut a = Assembly::new(&sc, UavId::new(3));
         a.informed = informed;
         a
     }
@@ -354,9 +354,13 @@ mod tests {
         assert!(a.take(Part::Goal(pose_stamped(&Header::new(0.2, "o"), 30.0, 0.0, 0.0))));
         let f = a.next_frame().expect("complete");
         assert_eq!((f.tick(), f.odom.tick, f.radio.tick), (2, 2, 2));
-        assert_eq!((f.scan.t_secs, f.odom.t_secs), (2.0 * 0.1, 2.0 * 0.1), "the hub's tick time, bit for bit");
+        assert_eq!((f.scan.t_s, f.odom.t_s), (2.0 * 0.1, 2.0 * 0.1), "the hub's tick time, bit for bit");
         assert_eq!((f.odom.x, f.odom.goal), (1.5, Some([30.0, 0.0])));
-        assert_eq!(f.radio.in_range, vec![1, 2, 4, 5], "every other UAV");
+        assert_eq!(
+            f.radio.in_range,
+            vec![UavId::new(1), UavId::new(2), UavId::new(4), UavId::new(5)],
+            "every other UAV"
+        );
         assert!(a.next_frame().is_none());
         assert!(!a.take(Part::Scan(vec![1, 2, 3])), "not a LaserScan");
     }

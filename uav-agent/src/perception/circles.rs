@@ -6,9 +6,7 @@
 
 use nalgebra::{Matrix3, Point2, Vector2, Vector3};
 use swarm_config::PerceptionParams;
-use swarm_wire::Scan;
 
-use super::scan::group_scan;
 use crate::world_model::Circle;
 
 /// Smallest accepted ratio of the smallest to the largest eigenvalue of the (centred, scaled)
@@ -99,11 +97,16 @@ pub fn fit_circle(points: &[Point2<f64>]) -> Option<Circle> {
 /// Full pipeline: group, drop groups with fewer than params.min_points points, fit, reject radii outside params.radius_range_m. Returns obstacle circles in the body frame.
 ///
 /// The radius range is inclusive at both ends. Groups whose fit fails ([`fit_circle`] returns
-/// `None`) are dropped. Circles are returned in the order of their groups (see [`group_scan`]).
+/// `None`) are dropped. Circles are returned in the order of their groups (see [`group_scan`](super::scan::group_scan)).
 /// Telling a neighbouring UAV apart from a tree (`params.neighbour_match_m`) needs the
 /// neighbours' positions and is not done here.
-pub fn extract_obstacles(scan: &Scan, params: &PerceptionParams) -> Vec<Circle> {
-    group_scan(scan, params.group_gap_m).iter().filter_map(|g| accepted_circle(g, params)).collect()
+///
+/// The agent runs [`extract`](super::extract), which makes the same circle of each group through
+/// [`accepted_circle`]; this whole-scan pipeline is the seed's, kept for the tests that hold
+/// `extract` to it.
+#[cfg(test)]
+pub fn extract_obstacles(scan: &swarm_wire::Scan, params: &PerceptionParams) -> Vec<Circle> {
+    super::scan::group_scan(scan, params.group_gap_m).iter().filter_map(|g| accepted_circle(g, params)).collect()
 }
 
 /// The circle of one group, if the pipeline of [`extract_obstacles`] accepts it as a trunk.

@@ -59,7 +59,7 @@ pub struct Extracted {
 }
 
 impl Extracted {
-    /// Every returned point, body frame, in beam order (as [`scan_points`](scan::scan_points)).
+    /// Every returned point, body frame, in beam order.
     pub fn points(&self) -> impl Iterator<Item = &Point2<f64>> {
         self.beams.iter().flatten()
     }
@@ -95,9 +95,4 @@ pub fn extract(scan: &Scan, perception: &PerceptionParams, params: &SegmentParam
     }
     out.beams = beams;
     out
-}
-
-/// The segments of [`extract`] alone.
-pub fn extract_segments(scan: &Scan, perception: &PerceptionParams, params: &SegmentParams) -> Vec<Segment> {
-    extract(scan, perception, params).segments
 }

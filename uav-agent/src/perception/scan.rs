@@ -63,11 +63,6 @@ pub(super) fn beam_points(scan: &Scan) -> Vec<Option<Point2<f64>>> {
     })
 }
 
-/// Every returned point of the scan, body frame, in beam order.
-pub fn scan_points(scan: &Scan) -> Vec<Point2<f64>> {
-    beam_points(scan).into_iter().flatten().collect()
-}
-
 /// True when `n` beams spaced by `angle_increment` cover a full turn (to within half a beam), so
 /// that the last beam and beam 0 are neighbours on the ring.
 pub(super) fn covers_full_turn(n: usize, angle_increment: f64) -> bool {
@@ -85,6 +80,10 @@ pub(super) fn covers_full_turn(n: usize, angle_increment: f64) -> bool {
 /// 2π − |angle_increment|/2`); the joined group replaces the last group and holds the last
 /// group's points followed by the first group's, so its points stay contiguous along the ring.
 /// A ring where every beam returned and every step is short is one group, never duplicated.
+///
+/// The agent groups the beam points it keeps ([`group_beams`]); this form on a whole scan is for
+/// the tests.
+#[cfg(test)]
 pub fn group_scan(scan: &Scan, gap_m: f64) -> Vec<Vec<Point2<f64>>> {
     group_beams(&beam_points(scan), f64::from(scan.angle_increment), gap_m)
 }

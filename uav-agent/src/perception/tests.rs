@@ -35,7 +35,7 @@ impl Noise {
 fn scan_from(angle_min: f64, angle_increment: f64, ranges: Vec<f32>) -> Scan {
     Scan {
         tick: 0,
-        t_secs: 0.0,
+        t_s: 0.0,
         angle_min: angle_min as f32,
         angle_increment: angle_increment as f32,
         max_range_m: 12.0,
@@ -89,10 +89,12 @@ pub(crate) fn arc(cx: f64, cy: f64, r: f64, from: f64, to: f64, n: usize) -> Vec
 }
 
 #[test]
-fn scan_points_are_the_returned_beams_in_order() {
+fn beam_points_are_the_returned_beams_in_order() {
     // Four beams from 0 by 90°: 2 m ahead, no return, 1 m behind, a negative range.
     let scan = scan_from(0.0, TAU / 4.0, vec![2.0, f32::INFINITY, 1.0, -1.0]);
-    let pts = scan_points(&scan);
+    let beams = beam_points(&scan);
+    assert_eq!(beams.iter().map(Option::is_some).collect::<Vec<_>>(), [true, false, true, false]);
+    let pts: Vec<Point2<f64>> = beams.into_iter().flatten().collect();
     assert_eq!(pts.len(), 2);
     assert!(
         (pts[0] - Point2::new(2.0, 0.0)).norm() < 1e-9 && (pts[1] - Point2::new(-1.0, 0.0)).norm() < 1e-6,
@@ -457,31 +459,6 @@ fn closest_point_and_distance_by_hand() {
 }
 
 #[test]
-fn segment_points_by_hand() {
-    let s = seg(0.0, 0.0, 1.0, 0.0);
-    let xs = |pts: Vec<Point2<f64>>| pts.iter().map(|p| p.x).collect::<Vec<_>>();
-    // ⌈1/0.3⌉ = 4 intervals of 0.25 m.
-    assert_eq!(xs(segment_points(&[s], 0.3)), vec![0.0, 0.25, 0.5, 0.75, 1.0]);
-    // ⌈1/0.5⌉ = 2 intervals.
-    assert_eq!(xs(segment_points(&[s], 0.5)), vec![0.0, 0.5, 1.0]);
-    // Spacing longer than the segment: the two ends.
-    assert_eq!(xs(segment_points(&[s], 5.0)), vec![0.0, 1.0]);
-    // Two segments: concatenated, each from a to b; the second (0,0)–(0,−2) at spacing 1.
-    let t = seg(0.0, 0.0, 0.0, -2.0);
-    let both = segment_points(&[s, t], 0.5);
-    assert_eq!(both.len(), 3 + 5);
-    assert_eq!(both[3..], [pt(0.0, 0.0), pt(0.0, -0.5), pt(0.0, -1.0), pt(0.0, -1.5), pt(0.0, -2.0)]);
-    // Degenerate inputs: zero length → one point; bad spacing → the ends; non-finite → none.
-    assert_eq!(segment_points(&[seg(2.0, 3.0, 2.0, 3.0)], 0.1), vec![pt(2.0, 3.0)]);
-    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        assert_eq!(xs(segment_points(&[s], bad)), vec![0.0, 1.0], "{bad}");
-    }
-    assert!(segment_points(&[seg(f64::NAN, 0.0, 1.0, 0.0)], 0.1).is_empty());
-    // A tiny spacing is capped at 1000 intervals.
-    assert_eq!(segment_points(&[s], 1e-12).len(), 1001);
-}
-
-#[test]
 fn fit_segment_by_hand() {
     // Six points symmetric about y = 0: Sxx = 2·(2² + 0 + 2²) = 16, Syy = 6, Sxy = 0 ⇒
     // θ = ½·atan2(0, 10) = 0, the x axis through the mean (2, 0); projections −2 … 2.
@@ -597,7 +574,6 @@ fn straight_wall_is_one_segment() {
         // Scan order is counter-clockwise from −π: a is the y = −2 end.
         assert!(near(s.a, pt(2.9, -2.0), 0.05), "seed {seed}: {s:?}");
         assert!(near(s.b, pt(2.9, 2.0), 0.05), "seed {seed}: {s:?}");
-        assert_eq!(extract_segments(&scan, &perception, &params), found.segments);
     }
 }
 
@@ -789,24 +765,6 @@ proptest::proptest! {
         for k in 0..=100 {
             let on = s.a + (s.b - s.a) * (k as f64 / 100.0);
             proptest::prop_assert!(d <= (p - on).norm() + 1e-9);
-        }
-    }
-
-    /// segment_points starts at a, ends at b, and its points are equally spaced, at most
-    /// spacing_m apart.
-    #[test]
-    fn prop_segment_points_spacing(
-        ax in -10.0..10.0f64, ay in -10.0..10.0f64, bx in -10.0..10.0f64, by in -10.0..10.0f64,
-        spacing in 0.05..5.0f64,
-    ) {
-        let s = seg(ax, ay, bx, by);
-        let pts = segment_points(&[s], spacing);
-        proptest::prop_assert_eq!(pts[0], s.a);
-        proptest::prop_assert!(near(*pts.last().unwrap(), s.b, 1e-9));
-        let step = s.length() / (pts.len() - 1) as f64;
-        proptest::prop_assert!(step <= spacing + 1e-12);
-        for w in pts.windows(2) {
-            proptest::prop_assert!(((w[1] - w[0]).norm() - step).abs() < 1e-9);
         }
     }
 }

@@ -112,38 +112,6 @@ pub fn distance(seg: &Segment, p: &Point2<f64>) -> f64 {
     (p - closest_point(seg, p)).norm()
 }
 
-/// Most points [`segment_points`] puts on one segment (bounds the output for a tiny spacing).
-pub(super) const MAX_POINTS_PER_SEGMENT: f64 = 1000.0;
-
-/// A wall as points, for controllers that take point obstacles only (K21's avoidance): each
-/// segment contributes both end points and points between them, equally spaced at most
-/// `spacing_m` apart (n = ⌈length/spacing_m⌉ intervals, at most 1000). A zero-length segment
-/// gives one point; a non-finite or non-positive `spacing_m` gives the two end points; a segment
-/// with a non-finite end is skipped. Segments in order, each from a to b.
-pub fn segment_points(segments: &[Segment], spacing_m: f64) -> Vec<Point2<f64>> {
-    let mut out = Vec::new();
-    for seg in segments {
-        let len = seg.length();
-        if !len.is_finite() {
-            continue;
-        }
-        let intervals = if len == 0.0 {
-            0
-        } else if spacing_m.is_finite() && spacing_m > 0.0 {
-            (len / spacing_m).ceil().clamp(1.0, MAX_POINTS_PER_SEGMENT) as usize
-        } else {
-            1
-        };
-        if intervals == 0 {
-            out.push(seg.a);
-            continue;
-        }
-        let step = (seg.b - seg.a) / intervals as f64;
-        out.extend((0..=intervals).map(|i| seg.a + step * i as f64));
-    }
-    out
-}
-
 /// Total least-squares line through `points` (the principal axis of their scatter), clipped to
 /// the extreme projections of the points on it; `a` is at the end of the first point. None for
 /// fewer than 2 points, non-finite input, or coincident points.

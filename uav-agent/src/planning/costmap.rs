@@ -65,8 +65,6 @@ const EPS_M: f64 = 1e-9;
 /// The inflation kernel never reaches farther than this many cells (validation keeps real
 /// parameters far below).
 const MAX_KERNEL_CELLS: i32 = 200;
-/// The goal search of [`Costmap::nearest_cell_where`] never looks farther than this many cells.
-const MAX_RING_CELLS: i32 = 2000;
 
 /// The inflation cost of a cell `distance_m` from the closest obstacle cell: costmap_2d's
 /// InflationLayer rule with seed 004's robot radius, inflation radius and cost scaling factor.
@@ -142,20 +140,6 @@ pub fn step_cost(cost: u8, params: &CostmapParams) -> Option<f64> {
     Some((c * params.cost_factor + neutral).min(lethal - 1.0))
 }
 
-/// A cost as costmap_2d publishes it in a `nav_msgs/OccupancyGrid`: 0 free, 1..=98 inflated,
-/// 99 inscribed, 100 lethal, −1 unknown. M23's goal check reads the published map (seed 004
-/// Fig. 42c), so its `COSTMAP_THRES` is on this scale.
-pub fn to_occupancy_value(cost: u8) -> i8 {
-    match cost {
-        FREE_SPACE => 0,
-        INSCRIBED_INFLATED_OBSTACLE => 99,
-        LETHAL_OBSTACLE => 100,
-        NO_INFORMATION => -1,
-        // costmap_2d Costmap2DPublisher: 1 + 97·(cost − 1)/251, integer division.
-        c => (1 + (97 * (i32::from(c) - 1)) / 251) as i8,
-    }
-}
-
 /// One neighbour's term of the social layer, with the half-widths beyond which it is below the
 /// cut-off.
 #[derive(Debug, Clone, Copy)]
@@ -196,12 +180,14 @@ impl Costmap {
         }
     }
 
-    /// The parameters.
+    /// The parameters (for the tests).
+    #[cfg(test)]
     pub fn params(&self) -> &CostmapParams {
         &self.params
     }
 
-    /// The occupancy grid underneath.
+    /// The occupancy grid underneath (for the tests).
+    #[cfg(test)]
     pub fn grid(&self) -> &OccupancyGrid {
         &self.grid
     }
@@ -241,7 +227,8 @@ impl Costmap {
     }
 
     /// The cost of the cell containing `p` (odometry frame); [`NO_INFORMATION`] if `p` is not
-    /// finite.
+    /// finite. (The agent reads it through [`CostQuery::cost_at`]; this form is the tests'.)
+    #[cfg(test)]
     pub fn cost_at(&self, p: &Point2<f64>) -> u8 {
         self.cost_of_point(p)
     }
@@ -250,7 +237,8 @@ impl Costmap {
         self.grid.cell_of(p).map_or(NO_INFORMATION, |c| self.cost(c))
     }
 
-    /// The inflation layer's cost of cell `c` (254 on an occupied cell).
+    /// The inflation layer's cost of cell `c` (254 on an occupied cell; for the tests).
+    #[cfg(test)]
     pub fn inflation_cost_of(&self, c: Cell) -> u8 {
         self.inflation.get(c)
     }
@@ -285,34 +273,6 @@ impl Costmap {
         };
         let cells = search.run()?;
         Some(Path::from_cells(cells, start, goal, |c| self.grid.center_of(c)))
-    }
-
-    /// The point nearest to `p` whose cell cost `accept`s, searched in the square of half-width
-    /// `radius_m` around `p` (the goal search of seed 004 Fig. 42b, taking the truly nearest cell
-    /// rather than the first one its loop meets). `p` itself if its own cell is accepted, else the
-    /// centre of the nearest accepted cell (ties: lowest row, then column); `None` if none is.
-    pub fn nearest_cell_where(
-        &self,
-        p: &Point2<f64>,
-        radius_m: f64,
-        accept: impl Fn(u8) -> bool,
-    ) -> Option<Point2<f64>> {
-        let center = self.grid.cell_of(p)?;
-        let ratio = radius_m / self.grid.resolution_m();
-        let k_max = if ratio.is_finite() { (ratio.floor() as i32).clamp(0, MAX_RING_CELLS) } else { 0 };
-        let mut best: Option<(f64, Cell)> = None;
-        for k in 0..=k_max {
-            if best.is_some_and(|(d2, _)| f64::from(k) * f64::from(k) > d2) {
-                break;
-            }
-            for c in ring(center, k).filter(|&c| accept(self.cost(c))) {
-                let d2 = center.dist2(c);
-                if best.is_none_or(|(b2, bc)| (d2, (c.iy, c.ix)) < (b2, (bc.iy, bc.ix))) {
-                    best = Some((d2, c));
-                }
-            }
-        }
-        best.map(|(_, c)| if c == center { *p } else { self.grid.center_of(c) })
     }
 
     fn apply(&mut self, changes: &GridChanges) {
@@ -380,14 +340,6 @@ fn inflation_kernel(params: &CostmapParams) -> Vec<(i32, i32, u8)> {
     kernel
 }
 
-/// The cells at Chebyshev distance exactly `k` from `c`.
-fn ring(c: Cell, k: i32) -> impl Iterator<Item = Cell> {
-    let edges = (-k..=k).flat_map(move |d| [c.offset(d, -k), c.offset(d, k)]);
-    let sides = (-k + 1..k).flat_map(move |d| [c.offset(-k, d), c.offset(k, d)]);
-    let all: Vec<Cell> = if k == 0 { vec![c] } else { edges.chain(sides).collect() };
-    all.into_iter()
-}
-
 /// Costs on the ROS scale (0 free … 253 inscribed, 254 lethal), as the formation layer and the
 /// tracker of M23 read them: from this costmap, or from a costmap with more on it.
 pub trait CostQuery {
@@ -449,17 +401,6 @@ mod tests {
         assert_eq!(step_cost(INSCRIBED_INFLATED_OBSTACLE, &p), None);
         assert_eq!(step_cost(LETHAL_OBSTACLE, &p), None);
         assert_eq!(step_cost(NO_INFORMATION, &p), Some(50.0)); // unknown = neutral
-    }
-
-    #[test]
-    fn published_values_follow_the_costmap_2d_translation() {
-        assert_eq!(to_occupancy_value(0), 0);
-        assert_eq!(to_occupancy_value(1), 1); // 1 + 97·0/251
-        assert_eq!(to_occupancy_value(128), 50); // 1 + 12319/251 = 1 + 49
-        assert_eq!(to_occupancy_value(252), 98); // 1 + 97·251/251
-        assert_eq!(to_occupancy_value(253), 99);
-        assert_eq!(to_occupancy_value(254), 100);
-        assert_eq!(to_occupancy_value(255), -1);
     }
 
     fn agent(x: f64, y: f64, vx: f64, vy: f64) -> SocialAgent {
@@ -696,32 +637,5 @@ mod tests {
         // The escape ends at the first enterable cell; every cell after it is enterable.
         let first = path.cells.iter().position(|x| step_cost(m.cost(*x), m.params()).is_some()).expect("escaped");
         assert!(path.cells[first..].iter().all(|x| step_cost(m.cost(*x), m.params()).is_some()));
-    }
-
-    #[test]
-    fn the_goal_search_finds_the_nearest_acceptable_cell() {
-        let mut m = Costmap::new(&params());
-        m.set_cell(c(60, 0), true);
-        let below_inscribed = |cost: u8| cost < INSCRIBED_INFLATED_OBSTACLE;
-        // Cells within 12 cells (0.6 m) are inscribed; the nearest beyond are the 16 cells at
-        // offsets (±1, ±12), (±12, ±1), (±8, ±9), (±9, ±8): 145 cells², 12.04 cells = 0.602 m,
-        // cost 252·exp(−5·0.002) = 249. Lowest row, then column: (59, −12).
-        let p = m.grid().center_of(c(60, 0));
-        let found = m.nearest_cell_where(&p, 1.0, below_inscribed).expect("found");
-        assert_eq!(found, m.grid().center_of(c(59, -12)));
-        assert_eq!(m.cost_at(&found), 249);
-        // Too small a square: half-width 0.4 m = 8 cells reaches at most 8·√2 = 11.3 cells.
-        assert_eq!(m.nearest_cell_where(&p, 0.4, below_inscribed), None);
-        // An acceptable point is returned as is.
-        let q = Point2::new(5.0, 5.0);
-        assert_eq!(m.nearest_cell_where(&q, 1.0, |cost| cost == NO_INFORMATION), Some(q));
-        // On the scale M23 compares with (published values): 1 + 97(c − 1)/251 < 50 means
-        // c ≤ 127, i.e. 252·exp(−5(d − 0.6)) < 128, d > 0.7355 m = 14.71 cells, 216.4 cells².
-        // 217 is no sum of two squares; 218 = 13² + 7²: d = 14.76 cells = 0.738 m, cost
-        // 252·exp(−5·0.1382) = 126.3 -> 126. Lowest row, then column: offset (−7, −13).
-        let published = |cost: u8| (0..50).contains(&to_occupancy_value(cost));
-        let g = m.nearest_cell_where(&p, 1.0, published).expect("found");
-        assert_eq!(g, m.grid().center_of(c(53, -13)));
-        assert_eq!(m.cost_at(&g), 126);
     }
 }

@@ -1,6 +1,8 @@
 //! The neighbour database of the `icp` localization mode (seed 000 "K21" chapter 5, Algorithms 5
 //! and 6, with the scheduling of section 6.2).
 //!
+//! Measured figures: `docs/performance.md#the-icp-neighbour-database`.
+//!
 //! # Why a database
 //!
 //! Running a full-grid ICP (seed 000 5.1: 21×21 positions × all headings) on every received
@@ -16,7 +18,7 @@
 //! comparison only. The sender id is otherwise kept for metrics ([`EntryEstimate::id`]).
 //!
 //! The ICP itself is not here: the database calls a [`Matcher`], so it is tested with scripted
-//! matchers and driven by the real ICP ([`super::alignment`]) in the `icp` mode's localizer
+//! matchers and driven by the real ICP ([`super::alignment`], [`super::grid`]) in the `icp` mode's localizer
 //! (`super::localizer`). Which entries a set is matched against first is the [`Gate`]'s choice.
 //!
 //! # One control step ([`Database::step`])
@@ -61,10 +63,9 @@
 //! unique" (5.2), and takes the full grid's lowest FRMSD as the estimate (5.1). In a crowd the
 //! LIDAR sees mostly the other UAVs' bodies (about as big as trunks, so perception cannot tell
 //! them apart), spaced about as regularly as the start disc's 1.6 m, and often no tree at all:
-//! several alignments fit about equally well, and the lowest FRMSD is often a wrong one (40 UAVs:
-//! 6 % of estimates more than 1 m off on the full stack, 18 % in the crowd lab). So an unplaced
-//! entry is placed only by an unambiguous full-grid ICP: if the best alignment that puts the
-//! neighbour elsewhere (more than [`super::alignment::DISTINCT_M`] away or turned more than
+//! several alignments fit about equally well, and the lowest FRMSD is often a wrong one. So an
+//! unplaced entry is placed only by an unambiguous full-grid ICP: if the best alignment that puts
+//! the neighbour elsewhere (more than [`super::alignment::DISTINCT_M`] away or turned more than
 //! [`super::alignment::DISTINCT_RAD`]) has an FRMSD within
 //! [`super::placement::AMBIGUITY_RATIO`] of the best (the decision is
 //! [`super::placement::judge_initial`], shared with `swarm icp-eval`), the entry is
@@ -73,33 +74,31 @@
 //! `match_frmsd`). A placement refused for its FRMSD is no estimate, like an ambiguous one.
 //!
 //! A tracked entry's lICP (seed 000's check against a short ICP locked onto a wrong place) is
-//! judged by [`super::placement::judge_long`]: a best alignment that agrees with the track (within
-//! `DISTINCT_M` and `DISTINCT_RAD`) is taken as seed 000 takes it; one that moves the neighbour
-//! elsewhere is taken only when it would place an unknown neighbour (`judge_initial`:
+//! judged by [`super::placement::judge_long`]: a best alignment that agrees with the track
+//! (within `DISTINCT_M` and `DISTINCT_RAD`) is taken as seed 000 takes it; one that moves the
+//! neighbour elsewhere is taken only when it would place an unknown neighbour (`judge_initial`:
 //! unambiguous, FRMSD ≤ 0.3 m). Otherwise the track stands: `last_long` is stamped (checked) and
 //! the step's update is the sICP from the track, as for a deferred lICP. Why: instrumenting every
 //! accepted ICP outcome of `forest-9-dense` (the TRACE events `icp_provenance`, joined with the
-//! truth offline by `tools/icp_provenance.py`) found most of its 450 false estimates (0.49 %)
-//! made by lICP jumps from a right track (22 jumps, 234 false estimates, all with FRMSD
-//! 0.4–1.0 m; the one jump that corrected a wrong track fit within 0.3 m) and by placements of
-//! FRMSD 0.3–1.0 m that `judge_initial` had refused but the database still accepted at
-//! `match_frmsd` (7 runs of false estimates, 165 estimates), none by identification (no set was
-//! ever given to an entry of another sender). With both rules: 96 of 135 868 (0.07 %). Keeping the track against every jumping lICP, confident or not, had been
-//! tried before: no gain in the crowd lab, and forest-7-failed flew closer to the trees (0.40 m
-//! against 0.77 m without it).
+//! truth offline by `tools/icp_provenance.py`) found most of its false estimates made by lICP
+//! jumps from a right track, all of them poor fits (the one jump that corrected a wrong track fit
+//! within `INITIAL_FRMSD_MAX_M`), and by placements that `judge_initial` had refused but the
+//! database still accepted at `match_frmsd`; none by identification (no set was ever given to an
+//! entry of another sender). With both rules most of those false estimates are gone. Keeping the
+//! track against every jumping lICP, confident or not, had been tried before: no gain in the
+//! crowd lab, and `forest-7-failed` flew closer to the trees.
 //!
 //! # Re-checks by need (deviation from seed 000 5.1 and Algorithm 6's 5 s clock)
 //!
 //! Seed 000 re-checks every tracked neighbour with an lICP every 5 s, because an sICP can lock
 //! onto a wrong place and "it is difficult to determine when this happens" (5.1). Outside a
 //! crowd that check almost never finds one. Of the accepted lICPs of a whole flight (the
-//! `icp_provenance` TRACE events), 1 of 376 in `forest-5` and 1 of 1 721 in `forest-9-dense`
-//! moved the estimate more than `DISTINCT_M` (the latter to a wrong place); the median
-//! correction was 3 cm, within an sICP's noise. The 160 false estimates of `forest-9-dense` came
-//! in 21 runs, 20 started by an sICP or a placement, one by an lICP jump; their fits were poor
-//! (the false sICPs' median FRMSD is 0.69 m, a right sICP's p99 0.27 m), and each run ended at
-//! the next sICP, by a suspension and a retry, or with the entry, never by an lICP. Yet the
-//! lICPs were a fifth of `forest-5`'s wall time.
+//! `icp_provenance` TRACE events of `forest-5` and `forest-9-dense`), hardly any moved the
+//! estimate more than `DISTINCT_M`, and the usual correction was within an sICP's noise. The
+//! false estimates of `forest-9-dense` came in runs started, all but one, by an sICP or a
+//! placement; their fits were poor (a false sICP's FRMSD is well above a right one's), and each
+//! run ended at the next sICP, by a suspension and a retry, or with the entry, never by an lICP.
+//! Yet the lICPs were a large part of `forest-5`'s wall time.
 //!
 //! So the clock runs at seed 000's pace only for an entry in doubt: one whose sICPs since its
 //! last full grid did not all fit within [`TIGHT_FRMSD_M`], or whose last lICP found a better
@@ -110,12 +109,10 @@
 //!
 //! # Fewer ICPs in a crowd (issue 11; seed 000 stops at 40 UAVs on the controller alone)
 //!
-//! In a crowd every neighbour costs about 100 µs of CPU per step (40 UAVs: about 4 ms per agent
-//! step, 1.2× real time on 2 cores), and two thirds of it are full-grid ICPs: each tracked
-//! neighbour's lICP every `long_every_s` and each unplaced one's retry every `suspend_s` come to
-//! 0.6–0.8 full grids of 3–4 ms per step at 30–40 neighbours; most of the rest is findBestMatch.
-//! So from [`CROWD_FROM_SETS`] usable sets in a step (never in the shipped swarms of 5 to 9 UAVs,
-//! whose steps stay seed 000's) two rules do fewer ICPs:
+//! In a crowd each neighbour adds to an agent's step, most of it in full-grid ICPs: each tracked
+//! neighbour's lICP every `long_every_s` and each unplaced one's retry every `suspend_s`; most
+//! of the rest in findBestMatch. So from [`CROWD_FROM_SETS`] usable sets in a step (never in the
+//! shipped swarms of 5 to 9 UAVs, whose steps stay seed 000's) two rules do fewer ICPs:
 //!
 //! - A set whose link has exactly one entry goes to that entry without findBestMatch
 //!   ([`StepCounts::trusted`]). The link (the sender's key) already told the gate where to look.
@@ -123,19 +120,18 @@
 //!   before); an unplaced or suspended entry's next full-grid ICP does, as it would have checked
 //!   a new entry made of the set. Scans still identify a neighbour whose link is new or holds two
 //!   entries. In a crowd findBestMatch is also where look-alike sets get confused. Issue 26 added
-//!   unplaced and suspended entries (about half a crowd's links, each costing a findBestMatch ICP
-//!   per step, and more when it failed): crowd lab 40 UAVs, 0.711 → 0.606 ms per agent step, the
-//!   same 203 913 estimates, mean error 0.023 m, no false estimate.
+//!   unplaced and suspended entries (many of a crowd's links, each costing a findBestMatch ICP
+//!   per step, and more when it failed), with the same estimates.
 //! - Re-checks (lICP) and retries share a budget of [`CROWD_FULL_GRIDS_PER_S`] full-grid ICPs per
 //!   second of sim time (saved up to [`CROWD_FULL_GRID_BURST`]), on top of seed 000 6.2's
 //!   `max_long_per_step`. They go most overdue first (a re-check by `now − last_long −
-//!   long_every_s`, a retry by `now − suspension_time − suspend_s`), so each waits its turn instead
-//!   of the oldest entries taking every slot. A new entry's iICP is outside the budget: a new
-//!   neighbour is placed as soon as seed 000 would. A deferred re-check falls back to an sICP as
-//!   in 6.2. With 39 neighbours a tracked one is then re-checked about every 40 s instead of 5 s.
-//!   In a crowd that is also more accurate: an lICP there often jumps a right estimate to a
-//!   look-alike place (crowd lab, 40 UAVs, 30 s: 4.73 % false estimates with seed 000's re-checks,
-//!   2.08 % with the budget; see [`CROWD_FULL_GRIDS_PER_S`]).
+//!   long_every_s`, a retry by `now − suspension_time − suspend_s`), so each waits its turn
+//!   instead of the oldest entries taking every slot. A new entry's iICP is outside the budget: a
+//!   new neighbour is placed as soon as seed 000 would. A deferred re-check falls back to an sICP
+//!   as in 6.2. With 39 neighbours a tracked one is then re-checked about every 40 s instead of
+//!   5 s. In a crowd that is also more accurate: an lICP there often jumps a right estimate to a
+//!   look-alike place (the crowd lab has fewer false estimates with the budget than with seed
+//!   000's re-checks; see [`CROWD_FULL_GRIDS_PER_S`]).
 //!
 //! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -144,14 +140,16 @@
 //! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
 //! suspended.
 
-use super::alignment::{AgentFromNeighbour, Match, Ranked};
+use super::alignment::{AgentFromNeighbour, Match};
 use super::gate::Gate;
+use super::grid::Ranked;
 use super::placement::{judge_initial, judge_long, Placement, Recheck, INITIAL_FRMSD_MAX_M};
 use crate::geometry::wrap_angle;
 use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
 use swarm_config::{IcpParams, Identify};
+use swarm_types::UavId;
 
 /// The ICP variants the database needs (seed 000 5.1). Implemented by the real ICP, and by
 /// scripted matchers in tests. Both return a transform mapping `source` into `reference`'s frame.
@@ -175,9 +173,9 @@ pub trait Matcher {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Received {
     /// Sender id from the key: routing and metrics, and identity only when `identify = Key`.
-    pub from: u32,
+    pub from: UavId,
     /// When the sender produced the set (sim time) [s].
-    pub t_secs: f64,
+    pub t_s: f64,
     /// The sender's obstacle centres, in its body frame [m].
     pub points: Vec<Point2<f64>>,
 }
@@ -189,20 +187,20 @@ pub struct EntryEstimate {
     /// Internal entry number (stable while the entry lives; metrics and debugging only).
     pub entry: u64,
     /// Sender id of the last set matched to the entry (metrics only). Always `Some` today.
-    pub id: Option<u32>,
+    pub id: Option<UavId>,
     /// Relative position of the neighbour, in this agent's body frame [m].
     pub pos_in_body: Vector2<f64>,
     /// Relative heading of the neighbour [rad], wrapped to [−π, π).
     pub heading: f64,
     /// `now` minus the time stamp of the set that produced the estimate [s].
-    pub age_secs: f64,
+    pub age_s: f64,
     /// FRMSD of the ICP that produced the estimate.
     pub frmsd: f64,
 }
 
 impl From<EntryEstimate> for Estimate {
     fn from(e: EntryEstimate) -> Self {
-        Estimate { id: e.id, pos_in_body: e.pos_in_body, heading: e.heading, age_secs: e.age_secs }
+        Estimate { id: e.id, pos_in_body: e.pos_in_body, heading: e.heading, age_s: e.age_s }
     }
 }
 
@@ -260,13 +258,13 @@ struct Entry {
     /// Algorithm 5 `chosen`: a received set was matched to this entry in the last step.
     chosen: bool,
     /// Sender id of the set received last (metrics; identity only for `identify = Key`).
-    sender: u32,
+    sender: UavId,
     /// FRMSD of the ICP that produced `agent_from_neighbour`.
     frmsd: f64,
     /// Time stamp of the set that produced `agent_from_neighbour`.
     estimate_t: f64,
     /// Sender id of the set before the last one (trace only: a change is a re-identification).
-    prev_sender: u32,
+    prev_sender: UavId,
     /// Worst FRMSD accepted since the last full-grid ICP (+∞: in doubt; re-checks by need).
     worst_frmsd: f64,
 }
@@ -451,7 +449,7 @@ impl Database {
                     id: Some(e.sender),
                     pos_in_body: t.translation_m,
                     heading: wrap_angle(t.rotation_rad),
-                    age_secs: (now - e.estimate_t).max(0.0),
+                    age_s: (now - e.estimate_t).max(0.0),
                     frmsd: e.frmsd,
                 })
             })
@@ -463,7 +461,8 @@ impl Database {
         self.entries.len()
     }
 
-    /// True when the database holds no entry.
+    /// True when the database holds no entry (what the tests check).
+    #[cfg(test)]
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
     }
@@ -479,7 +478,7 @@ impl Database {
         let min_points = usize::try_from(self.params.min_points).unwrap_or(usize::MAX);
         let mut fresh: Vec<&Received> = received
             .iter()
-            .filter(|r| now - r.t_secs <= self.stale_after_s + EPS && r.points.len() >= min_points)
+            .filter(|r| now - r.t_s <= self.stale_after_s + EPS && r.points.len() >= min_points)
             .collect();
         counts.ignored += u32::try_from(received.len() - fresh.len()).unwrap_or(u32::MAX);
         // Stable: a sender's sets stay in arrival order, and of equally new ones the last wins.
@@ -489,7 +488,7 @@ impl Database {
             match newest.last_mut() {
                 Some(held) if held.from == r.from => {
                     counts.ignored += 1;
-                    if held.t_secs <= r.t_secs {
+                    if held.t_s <= r.t_s {
                         *held = r;
                     }
                 }
@@ -657,7 +656,7 @@ impl Database {
             chosen: false,
             sender: set.from,
             frmsd: f64::INFINITY,
-            estimate_t: set.t_secs,
+            estimate_t: set.t_s,
             prev_sender: set.from,
             worst_frmsd: f64::INFINITY,
         });
@@ -778,7 +777,7 @@ impl Database {
                 trace_accepted(now, e, set, &found, full_grid);
                 e.agent_from_neighbour = Some(found.agent_from_neighbour);
                 e.frmsd = found.frmsd;
-                e.estimate_t = set.t_secs;
+                e.estimate_t = set.t_s;
                 e.suspended = false;
                 if full_grid {
                     e.last_long = now;
@@ -792,7 +791,7 @@ impl Database {
                     counts.suspended += 1;
                 }
                 tracing::debug!(
-                    from = set.from,
+                    from = %set.from,
                     full_grid,
                     frmsd = ?found.map(|f| f.frmsd),
                     pairs = ?found.map(|f| f.pairs),
@@ -827,8 +826,8 @@ fn trace_accepted(now: f64, e: &Entry, set: &Received, found: &Match, full_grid:
         target: "icp_provenance",
         now,
         entry = e.key,
-        from = set.from,
-        prev_sender = e.prev_sender,
+        from = %set.from,
+        prev_sender = %e.prev_sender,
         kind,
         x = t.translation_m.x,
         y = t.translation_m.y,
@@ -856,7 +855,7 @@ fn trace_full_grid(now: f64, entry: u64, set: &Received, ranked: Option<&Ranked>
     };
     let best = ranked.map(|r| (xy(&r.best), r.best.frmsd, r.best.pairs));
     let runner_up = ranked.and_then(|r| r.runner_up).map(|u| (xy(&u), u.frmsd, u.pairs));
-    tracing::trace!(target: "icp_provenance", now, entry, from = set.from, points = set.points.len(), ?best, ?runner_up, "full grid");
+    tracing::trace!(target: "icp_provenance", now, entry, from = %set.from, points = set.points.len(), ?best, ?runner_up, "full grid");
 }
 
 #[cfg(test)]
@@ -883,8 +882,8 @@ mod tests {
         set[0].x < 0.0
     }
 
-    fn recv(from: u32, k: u32, t: f64) -> Received {
-        Received { from, t_secs: t, points: set_of(k, t) }
+    fn recv(from: UavId, k: u32, t: f64) -> Received {
+        Received { from, t_s: t, points: set_of(k, t) }
     }
 
     #[derive(Debug, Clone, Copy, PartialEq)]
@@ -992,7 +991,7 @@ mod tests {
         (0..=n)
             .map(|i| {
                 let now = from + 0.1 * f64::from(i);
-                let sets: Vec<Received> = ks.iter().map(|&k| recv(k, k, now)).collect();
+                let sets: Vec<Received> = ks.iter().map(|&k| recv(UavId::new(k), k, now)).collect();
                 step(d, m, now, &sets)
             })
             .collect()
@@ -1012,25 +1011,25 @@ mod tests {
     fn first_set_creates_an_entry_placed_by_initial_icp() {
         let (mut d, mut m) = (db(), Scripted::default());
         assert!(d.is_empty());
-        let c = step(&mut d, &mut m, 0.0, &[recv(7, 1, 0.0)]);
+        let c = step(&mut d, &mut m, 0.0, &[recv(UavId::new(7), 1, 0.0)]);
         assert_eq!(d.len(), 1);
         assert_eq!((c.created, c.initial, c.long, c.short, c.matching), (1, 1, 0, 0, 0));
         let est = d.estimates(0.05);
         assert_eq!(est.len(), 1);
-        assert_eq!(est[0].id, Some(7));
+        assert_eq!(est[0].id, Some(UavId::new(7)));
         assert_eq!(est[0].pos_in_body, Vector2::new(1.0, 0.5));
         assert!((est[0].heading - 0.1).abs() < 1e-12);
-        assert!((est[0].age_secs - 0.05).abs() < 1e-12);
+        assert!((est[0].age_s - 0.05).abs() < 1e-12);
         assert_eq!(est[0].frmsd, 0.2);
     }
 
     #[test]
     fn the_same_neighbours_next_set_matches_its_entry_with_a_short_icp() {
         let (mut d, mut m) = (db(), Scripted::default());
-        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        step(&mut d, &mut m, 0.0, &[recv(UavId::new(1), 1, 0.0)]);
         m.calls.clear();
         m.shift = 0.3;
-        let c = step(&mut d, &mut m, 0.1, &[recv(1, 1, 0.1)]);
+        let c = step(&mut d, &mut m, 0.1, &[recv(UavId::new(1), 1, 0.1)]);
         assert_eq!(d.len(), 1);
         assert_eq!((c.created, c.matching, c.short, c.long, c.initial), (0, 1, 1, 0, 0));
         // findBestMatch from the identity; the sICP from the entry's transform.
@@ -1046,14 +1045,14 @@ mod tests {
         // Sender ids deliberately unrelated to the neighbours: identity comes from the scans.
         for i in 0..10 {
             let now = 0.1 * f64::from(i);
-            step(&mut d, &mut m, now, &[recv(50, 2, now), recv(40, 3, now)]);
+            step(&mut d, &mut m, now, &[recv(UavId::new(50), 2, now), recv(UavId::new(40), 3, now)]);
         }
         assert_eq!(d.len(), 2);
         let est = d.estimates(0.9);
         assert_eq!(est.len(), 2);
-        let mut pos: Vec<(Option<u32>, f64)> = est.iter().map(|e| (e.id, e.pos_in_body.x)).collect();
+        let mut pos: Vec<(Option<UavId>, f64)> = est.iter().map(|e| (e.id, e.pos_in_body.x)).collect();
         pos.sort_by(|a, b| a.1.total_cmp(&b.1));
-        assert_eq!(pos, vec![(Some(50), 2.0), (Some(40), 3.0)]);
+        assert_eq!(pos, vec![(Some(UavId::new(50)), 2.0), (Some(UavId::new(40)), 3.0)]);
         assert_eq!(m.count(Kind::Long), 2, "one iICP each, then sICPs");
     }
 
@@ -1074,10 +1073,10 @@ mod tests {
             let (mut d, mut m) = (db(), Scripted::default());
             for i in 0..4 {
                 let now = 0.1 * f64::from(i);
-                let sets: Vec<Received> = order.iter().map(|&k| recv(k, k, now)).collect();
+                let sets: Vec<Received> = order.iter().map(|&k| recv(UavId::new(k), k, now)).collect();
                 step(&mut d, &mut m, now, &sets);
             }
-            let est: Vec<(u64, Option<u32>, f64)> =
+            let est: Vec<(u64, Option<UavId>, f64)> =
                 d.estimates(0.3).iter().map(|e| (e.entry, e.id, e.pos_in_body.x)).collect();
             results.push(est);
         }
@@ -1090,12 +1089,12 @@ mod tests {
         // Two sets of neighbour 1 from two senders (e.g. a relay): the closer in time to the
         // entry's ID wins the entry; the other makes a new entry.
         let (mut d, mut m) = (db(), Scripted::default());
-        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
-        let c = step(&mut d, &mut m, 0.4, &[recv(8, 1, 0.35), recv(9, 1, 0.1)]);
+        step(&mut d, &mut m, 0.0, &[recv(UavId::new(1), 1, 0.0)]);
+        let c = step(&mut d, &mut m, 0.4, &[recv(UavId::new(8), 1, 0.35), recv(UavId::new(9), 1, 0.1)]);
         assert_eq!(c.created, 1);
         assert_eq!(d.len(), 2);
-        let ids: Vec<Option<u32>> = d.estimates(0.4).iter().map(|e| e.id).collect();
-        assert_eq!(ids, vec![Some(9), Some(8)], "old entry (key 0) took the set from 9");
+        let ids: Vec<Option<UavId>> = d.estimates(0.4).iter().map(|e| e.id).collect();
+        assert_eq!(ids, vec![Some(UavId::new(9)), Some(UavId::new(8))], "old entry (key 0) took the set from 9");
     }
 
     /// Aligns every set with identity FRMSD 0.1, but a set tagged as neighbour k reaches a
@@ -1123,11 +1122,11 @@ mod tests {
     #[test]
     fn a_set_matches_the_entry_it_reaches_by_plausible_motion_not_the_lowest_frmsd() {
         let mut d = db();
-        d.step(0.0, &own_set(), &[recv(1, 1, 0.0), recv(2, 3, 0.0)], &mut Shifted, &mut || 0.0);
+        d.step(0.0, &own_set(), &[recv(UavId::new(1), 1, 0.0), recv(UavId::new(2), 3, 0.0)], &mut Shifted, &mut || 0.0);
         assert_eq!(d.len(), 2);
         // Neighbour 3's next set aligns with neighbour 1's entry at FRMSD 0.05 but only by a 2 m
         // shift (beyond match_shift_m), and with its own at 0.1 with no shift: its own entry wins.
-        let c = d.step(0.1, &own_set(), &[recv(2, 3, 0.1)], &mut Shifted, &mut || 0.0);
+        let c = d.step(0.1, &own_set(), &[recv(UavId::new(2), 3, 0.1)], &mut Shifted, &mut || 0.0);
         assert_eq!(c.created, 0, "no new entry");
         let entries: Vec<u64> = d.estimates(0.1).iter().map(|e| e.entry).collect();
         assert_eq!(entries, vec![1], "the set went to the second entry, made from sender 2's set");
@@ -1142,15 +1141,15 @@ mod tests {
         d.crowd_from_sets = usize::MAX; // seed 000's identification, gated
         run(&mut d, &mut m, &ks, 0.0, 2.0);
         assert_eq!(d.estimates(2.0).len(), 30, "all placed");
-        let sets: Vec<Received> = ks.iter().map(|&k| recv(k, k, 2.1)).collect();
+        let sets: Vec<Received> = ks.iter().map(|&k| recv(UavId::new(k), k, 2.1)).collect();
         let c = step(&mut d, &mut m, 2.1, &sets);
         assert_eq!(c.created, 0);
-        let ids: Vec<Option<u32>> = d.estimates(2.1).iter().map(|e| e.id).collect();
-        assert_eq!(ids, ks.iter().map(|&k| Some(k)).collect::<Vec<_>>(), "every set found its entry");
+        let ids: Vec<Option<UavId>> = d.estimates(2.1).iter().map(|e| e.id).collect();
+        assert_eq!(ids, ks.iter().map(|&k| Some(UavId::new(k))).collect::<Vec<_>>(), "every set found its entry");
         // 5 candidates in the middle, 3 or 4 at the ends: 30·5 − 2·3 = 144, not 30·30 = 900.
         assert_eq!(c.matching, 144);
         // A set on a new link has no expected place: it is tried against every entry.
-        let c = step(&mut d, &mut m, 2.2, &[recv(99, 99, 2.2)]);
+        let c = step(&mut d, &mut m, 2.2, &[recv(UavId::new(99), 99, 2.2)]);
         assert_eq!((c.matching, c.created), (30, 1));
     }
 
@@ -1183,14 +1182,14 @@ mod tests {
         let mut d = db();
         let mut m = LookAlike::default();
         // Neighbours 1 (at 1.1 m) and 20 (at 22 m), each on its own link: two new entries, placed.
-        d.step(0.0, &own_set(), &[recv(1, 1, 0.0), recv(20, 20, 0.0)], &mut m, &mut || 0.0);
+        d.step(0.0, &own_set(), &[recv(UavId::new(1), 1, 0.0), recv(UavId::new(20), 20, 0.0)], &mut m, &mut || 0.0);
         assert_eq!(d.estimates(0.0).len(), 2);
         // Without the gate, 20's set would go to 1's entry (same shift, lower FRMSD) and 1's to 20's.
-        d.step(0.1, &own_set(), &[recv(1, 1, 0.1), recv(20, 20, 0.1)], &mut m, &mut || 0.0);
+        d.step(0.1, &own_set(), &[recv(UavId::new(1), 1, 0.1), recv(UavId::new(20), 20, 0.1)], &mut m, &mut || 0.0);
         assert_eq!(m.tried, vec![(1, 1), (20, 20)], "each set tried only against the entry near its sender");
-        let placed: Vec<(u64, Option<u32>, f64)> =
+        let placed: Vec<(u64, Option<UavId>, f64)> =
             d.estimates(0.1).iter().map(|e| (e.entry, e.id, e.pos_in_body.x)).collect();
-        assert_eq!(placed, vec![(0, Some(1), 1.0), (1, Some(20), 20.0)]);
+        assert_eq!(placed, vec![(0, Some(UavId::new(1)), 1.0), (1, Some(UavId::new(20)), 20.0)]);
     }
 
     /// The scripted neighbours, with a full-grid ICP that can be made ambiguous (a runner-up
@@ -1231,14 +1230,14 @@ mod tests {
         let mut d = db();
         // Best FRMSD 0.2; another place fits at 0.25 (within 1.5 times): ambiguous.
         let mut m = Crowded { runner_up: Some(0.25), ..Crowded::default() };
-        let c = d.step(0.0, &own_set(), &[recv(1, 1, 0.0)], &mut m, &mut || 0.0);
+        let c = d.step(0.0, &own_set(), &[recv(UavId::new(1), 1, 0.0)], &mut m, &mut || 0.0);
         assert_eq!((c.initial, c.ambiguous, c.suspended), (1, 1, 1));
         assert!(d.estimates(0.0).is_empty(), "no guess between two places");
         // The scene clears up (the other place now fits at 0.31 > 1.5 · 0.2): the retry places it.
         m.runner_up = Some(0.31);
         for k in 1..=50 {
             let now = f64::from(k) * 0.1;
-            d.step(now, &own_set(), &[recv(1, 1, now)], &mut m, &mut || 0.0);
+            d.step(now, &own_set(), &[recv(UavId::new(1), 1, now)], &mut m, &mut || 0.0);
         }
         assert_eq!(d.estimates(5.0).len(), 1);
         assert_eq!(d.estimates(5.0)[0].pos_in_body, Vector2::new(1.0, 0.5));
@@ -1248,11 +1247,21 @@ mod tests {
     fn an_unplaced_entry_is_tried_first_by_its_own_link_only() {
         // Three neighbours, all out of ICP range: created and suspended, never placed.
         let (mut d, mut m) = (db(), Scripted { out_of_range: vec![1, 2, 3], ..Scripted::default() });
-        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0), recv(2, 2, 0.0), recv(3, 3, 0.0)]);
-        let c = step(&mut d, &mut m, 0.1, &[recv(1, 1, 0.1), recv(2, 2, 0.1), recv(3, 3, 0.1)]);
+        step(
+            &mut d,
+            &mut m,
+            0.0,
+            &[recv(UavId::new(1), 1, 0.0), recv(UavId::new(2), 2, 0.0), recv(UavId::new(3), 3, 0.0)],
+        );
+        let c = step(
+            &mut d,
+            &mut m,
+            0.1,
+            &[recv(UavId::new(1), 1, 0.1), recv(UavId::new(2), 2, 0.1), recv(UavId::new(3), 3, 0.1)],
+        );
         assert_eq!((c.created, c.matching), (0, 3), "one findBestMatch ICP per set, not 3 · 3");
         // A set whose link entry does not match it is then tried against the other free entries.
-        let c = step(&mut d, &mut m, 0.2, &[recv(1, 1, 0.2), recv(2, 4, 0.2)]);
+        let c = step(&mut d, &mut m, 0.2, &[recv(UavId::new(1), 1, 0.2), recv(UavId::new(2), 4, 0.2)]);
         assert_eq!((c.created, c.matching), (1, 2 + 1), "sender 2's new set: its entry, then the free entry of 3");
     }
 
@@ -1263,19 +1272,20 @@ mod tests {
         let (mut d, mut m) = (db(), Scripted { out_of_range: vec![12], ..Scripted::default() });
         run(&mut d, &mut m, &ks, 0.0, 0.6);
         m.calls.clear();
-        let sets: Vec<Received> = ks.iter().map(|&k| recv(k, k, 0.7)).collect();
+        let sets: Vec<Received> = ks.iter().map(|&k| recv(UavId::new(k), k, 0.7)).collect();
         let c = step(&mut d, &mut m, 0.7, &sets);
         assert_eq!((c.trusted, c.created, c.short), (12, 0, 11), "12 links trusted, each placed one still sICP'd");
         assert!(m.neighbours(Kind::Match).is_empty(), "the unplaced entry's link is trusted too: no findBestMatch");
         assert_eq!(d.estimates(0.7).len(), 11);
         // A link with two entries (below the crowd size its sender's set was not recognised, so
         // it made a second entry) is matched by scan.
-        let few: Vec<Received> = std::iter::once(recv(1, 13, 0.8)).chain((2..=9).map(|k| recv(k, k, 0.8))).collect();
+        let few: Vec<Received> =
+            std::iter::once(recv(UavId::new(1), 13, 0.8)).chain((2..=9).map(|k| recv(UavId::new(k), k, 0.8))).collect();
         let c = step(&mut d, &mut m, 0.8, &few);
         assert_eq!((c.trusted, c.created), (0, 1), "neighbour 13's set on link 1 matches no entry: a second entry");
         m.calls.clear();
-        let mut two: Vec<Received> = ks.iter().map(|&k| recv(k, k, 0.9)).collect();
-        two[0] = recv(1, 13, 0.9);
+        let mut two: Vec<Received> = ks.iter().map(|&k| recv(UavId::new(k), k, 0.9)).collect();
+        two[0] = recv(UavId::new(1), 13, 0.9);
         let c = step(&mut d, &mut m, 0.9, &two);
         assert_eq!((c.trusted, c.created), (11, 0), "link 1 now has two entries: not trusted");
         assert!(m.neighbours(Kind::Match).contains(&13), "{:?}", m.calls);
@@ -1284,7 +1294,7 @@ mod tests {
             &mut d,
             &mut m,
             1.0,
-            &sets[..9].iter().map(|r| Received { t_secs: 1.0, ..r.clone() }).collect::<Vec<_>>(),
+            &sets[..9].iter().map(|r| Received { t_s: 1.0, ..r.clone() }).collect::<Vec<_>>(),
         );
         assert_eq!(c.trusted, 0);
         assert!(c.matching >= 9, "{c:?}");
@@ -1315,32 +1325,42 @@ mod tests {
     fn identify_key_uses_the_sender_id_without_matching() {
         let p = IcpParams { identify: Identify::Key, ..params() };
         let (mut d, mut m) = (Database::new(p, 0.5), Scripted::default());
-        step(&mut d, &mut m, 0.0, &[recv(5, 1, 0.0)]);
+        step(&mut d, &mut m, 0.0, &[recv(UavId::new(5), 1, 0.0)]);
         // Sender 5 now sends a set that would never scan-match (another neighbour's tag).
-        let c = step(&mut d, &mut m, 0.1, &[recv(5, 2, 0.1), recv(6, 3, 0.1)]);
+        let c = step(&mut d, &mut m, 0.1, &[recv(UavId::new(5), 2, 0.1), recv(UavId::new(6), 3, 0.1)]);
         assert_eq!(c.matching, 0);
         assert_eq!(m.count(Kind::Match), 0);
         assert_eq!((c.created, c.short, c.initial), (1, 1, 1));
         assert_eq!(d.len(), 2);
-        let ids: Vec<Option<u32>> = d.estimates(0.1).iter().map(|e| e.id).collect();
-        assert_eq!(ids, vec![Some(5), Some(6)]);
+        let ids: Vec<Option<UavId>> = d.estimates(0.1).iter().map(|e| e.id).collect();
+        assert_eq!(ids, vec![Some(UavId::new(5)), Some(UavId::new(6))]);
     }
 
     #[test]
     fn newest_set_per_sender_is_used_and_old_or_small_sets_are_ignored() {
         let (mut d, mut m) = (db(), Scripted::default());
-        let small = Received { from: 3, t_secs: 1.0, points: set_of(3, 1.0)[..2].to_vec() };
-        let c =
-            step(&mut d, &mut m, 1.0, &[recv(1, 1, 0.9), recv(1, 1, 0.95), recv(1, 1, 0.8), recv(2, 2, 0.4), small]);
+        let small = Received { from: UavId::new(3), t_s: 1.0, points: set_of(3, 1.0)[..2].to_vec() };
+        let c = step(
+            &mut d,
+            &mut m,
+            1.0,
+            &[
+                recv(UavId::new(1), 1, 0.9),
+                recv(UavId::new(1), 1, 0.95),
+                recv(UavId::new(1), 1, 0.8),
+                recv(UavId::new(2), 2, 0.4),
+                small,
+            ],
+        );
         assert_eq!(c.ignored, 4);
         assert_eq!(d.len(), 1);
-        assert!((d.estimates(1.0)[0].age_secs - 0.05).abs() < 1e-12, "the set of t = 0.95");
+        assert!((d.estimates(1.0)[0].age_s - 0.05).abs() < 1e-12, "the set of t = 0.95");
     }
 
     #[test]
     fn out_of_range_neighbour_is_suspended_and_retried_after_suspend_s_not_before() {
         let (mut d, mut m) = (db(), Scripted { out_of_range: vec![2], ..Scripted::default() });
-        let c = step(&mut d, &mut m, 0.0, &[recv(2, 2, 0.0)]);
+        let c = step(&mut d, &mut m, 0.0, &[recv(UavId::new(2), 2, 0.0)]);
         assert_eq!((c.initial, c.suspended), (1, 1));
         assert_eq!(d.len(), 1, "created suspended");
         assert_eq!(d.suspended_len(), 1);
@@ -1354,12 +1374,12 @@ mod tests {
         assert!(d.estimates(4.9).is_empty());
         // In range now; the retry at 5 s places it (never placed: counted as initial).
         m.out_of_range.clear();
-        let c = step(&mut d, &mut m, 5.0, &[recv(2, 2, 5.0)]);
+        let c = step(&mut d, &mut m, 5.0, &[recv(UavId::new(2), 2, 5.0)]);
         assert_eq!((c.initial, c.long, c.short), (1, 0, 0));
         assert_eq!(d.suspended_len(), 0);
         assert_eq!(d.estimates(5.0)[0].pos_in_body, Vector2::new(2.0, 1.0));
         // Placed at 5 s: next lICP at 10 s.
-        let c = step(&mut d, &mut m, 5.1, &[recv(2, 2, 5.1)]);
+        let c = step(&mut d, &mut m, 5.1, &[recv(UavId::new(2), 2, 5.1)]);
         assert_eq!((c.short, c.long), (1, 0));
     }
 
@@ -1378,7 +1398,7 @@ mod tests {
         let (mut d, mut m) = (db(), Scripted::default());
         run(&mut d, &mut m, &[1], 0.0, 1.0);
         m.frmsd_own.insert(1, 1.5); // sICP now fails the FRMSD test
-        let c = step(&mut d, &mut m, 1.1, &[recv(1, 1, 1.1)]);
+        let c = step(&mut d, &mut m, 1.1, &[recv(UavId::new(1), 1, 1.1)]);
         assert_eq!((c.short, c.suspended), (1, 1));
         assert!(d.estimates(1.1).is_empty());
         m.frmsd_own.clear();
@@ -1386,7 +1406,7 @@ mod tests {
         run(&mut d, &mut m, &[1], 1.2, 6.0);
         assert_eq!(m.count(Kind::Short), 0);
         assert_eq!(m.count(Kind::Long), 0);
-        let c = step(&mut d, &mut m, 6.1, &[recv(1, 1, 6.1)]);
+        let c = step(&mut d, &mut m, 6.1, &[recv(UavId::new(1), 1, 6.1)]);
         assert_eq!((c.long, c.initial, c.short), (1, 0, 0), "placed before: an lICP");
         assert_eq!(d.estimates(6.1).len(), 1);
     }
@@ -1405,7 +1425,7 @@ mod tests {
     #[test]
     fn entries_unused_for_stale_after_s_expire() {
         let (mut d, mut m) = (db(), Scripted::default());
-        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        step(&mut d, &mut m, 0.0, &[recv(UavId::new(1), 1, 0.0)]);
         let c = step(&mut d, &mut m, 0.3, &[]);
         assert_eq!((d.len(), c.expired), (1, 0));
         assert!(d.estimates(0.3).is_empty(), "not chosen in a step without its set");
@@ -1429,7 +1449,7 @@ mod tests {
     fn five_entries(m: &mut Scripted) -> Database {
         let mut d = db();
         let ks = [1, 2, 3, 4, 5];
-        let sets = |now: f64| -> Vec<Received> { ks.iter().map(|&k| recv(k, k, now)).collect() };
+        let sets = |now: f64| -> Vec<Received> { ks.iter().map(|&k| recv(UavId::new(k), k, now)).collect() };
         let c = step(&mut d, m, 0.0, &sets(0.0));
         assert_eq!((c.created, c.initial, c.skipped_long), (5, 2, 3));
         assert_eq!(d.estimates(0.0).len(), 2);
@@ -1450,7 +1470,7 @@ mod tests {
         m.calls.clear();
         // No step between 4.9 s and 5.2 s, so at 5.2 s all five are due at once (staleness 5.2,
         // 5.2, 5.1, 5.1, 5.0): the 5 s peak of seed 000 Figure 6.10.
-        let sets = |now: f64| -> Vec<Received> { (1..=5).map(|k| recv(k, k, now)).collect() };
+        let sets = |now: f64| -> Vec<Received> { (1..=5).map(|k| recv(UavId::new(k), k, now)).collect() };
         let c = step(&mut d, &mut m, 5.2, &sets(5.2));
         assert_eq!((c.long, c.short, c.skipped_long), (2, 3, 3));
         assert_eq!(m.neighbours(Kind::Long), vec![1, 2]);
@@ -1475,7 +1495,7 @@ mod tests {
         let mut d = five_entries(&mut m);
         run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.3, 4.9);
         m.calls.clear();
-        let sets: Vec<Received> = (1..=6).map(|k| recv(k, k, 5.2)).collect();
+        let sets: Vec<Received> = (1..=6).map(|k| recv(UavId::new(k), k, 5.2)).collect();
         let c = d.step(5.2, &own_set(), &sets, &mut m, &mut || 80.0);
         assert_eq!((c.long, c.initial, c.created), (0, 0, 1));
         assert_eq!(c.skipped_long, 6, "five lICPs and one iICP deferred");
@@ -1490,7 +1510,7 @@ mod tests {
         let mut d = five_entries(&mut m);
         run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.3, 4.9);
         m.calls.clear();
-        let sets: Vec<Received> = (1..=5).map(|k| recv(k, k, 5.2)).collect();
+        let sets: Vec<Received> = (1..=5).map(|k| recv(UavId::new(k), k, 5.2)).collect();
         // Each call reports 30 ms more: 30 (ok), 60 (> 50: stop).
         let mut spent = 0.0;
         let mut calls = 0;
@@ -1508,18 +1528,23 @@ mod tests {
     #[test]
     fn estimates_list_only_chosen_unsuspended_entries() {
         let (mut d, mut m) = (db(), Scripted { out_of_range: vec![2], ..Scripted::default() });
-        step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0), recv(2, 2, 0.0), recv(3, 3, 0.0)]);
+        step(
+            &mut d,
+            &mut m,
+            0.0,
+            &[recv(UavId::new(1), 1, 0.0), recv(UavId::new(2), 2, 0.0), recv(UavId::new(3), 3, 0.0)],
+        );
         // 0.1 s: 3 is silent (not chosen), 2 suspended, 1 chosen and placed.
-        step(&mut d, &mut m, 0.1, &[recv(1, 1, 0.05), recv(2, 2, 0.1)]);
+        step(&mut d, &mut m, 0.1, &[recv(UavId::new(1), 1, 0.05), recv(UavId::new(2), 2, 0.1)]);
         assert_eq!(d.len(), 3);
         assert_eq!(d.suspended_len(), 1);
         let est = d.estimates(0.15);
         assert_eq!(est.len(), 1);
         let e = est[0];
-        assert_eq!((e.entry, e.id), (0, Some(1)));
+        assert_eq!((e.entry, e.id), (0, Some(UavId::new(1))));
         assert_eq!(e.pos_in_body, Vector2::new(1.0, 0.5));
         assert!((e.heading - 0.1).abs() < 1e-12);
-        assert!((e.age_secs - 0.1).abs() < 1e-12);
+        assert!((e.age_s - 0.1).abs() < 1e-12);
         let as_loc: Estimate = e.into();
         assert_eq!(as_loc.pos_in_body, e.pos_in_body);
     }
@@ -1527,7 +1552,7 @@ mod tests {
     #[test]
     fn heading_is_wrapped() {
         let (mut d, mut m) = (db(), Scripted::default());
-        step(&mut d, &mut m, 0.0, &[recv(40, 40, 0.0)]); // rotation 4.0 rad
+        step(&mut d, &mut m, 0.0, &[recv(UavId::new(40), 40, 0.0)]); // rotation 4.0 rad
         let h = d.estimates(0.0)[0].heading;
         assert!((h - (4.0 - std::f64::consts::TAU)).abs() < 1e-12);
     }
@@ -1536,12 +1561,12 @@ mod tests {
     fn frmsd_above_match_frmsd_makes_a_new_entry_suspended() {
         let (mut d, mut m) = (db(), Scripted::default());
         m.frmsd_own.insert(1, 1.0 + 1e-6);
-        let c = step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        let c = step(&mut d, &mut m, 0.0, &[recv(UavId::new(1), 1, 0.0)]);
         assert_eq!((c.created, c.initial, c.suspended), (1, 1, 1));
         assert!(d.estimates(0.0).is_empty());
         m.frmsd_own.insert(1, 1.0); // exactly the threshold is accepted, but only for tracking
         run(&mut d, &mut m, &[1], 0.1, 4.9);
-        let c = step(&mut d, &mut m, 5.0, &[recv(1, 1, 5.0)]);
+        let c = step(&mut d, &mut m, 5.0, &[recv(UavId::new(1), 1, 5.0)]);
         assert_eq!(c.initial, 1, "retried at suspend_s");
         assert_eq!(d.estimates(5.0).len(), 0, "a retry at match_frmsd does not place it");
     }
@@ -1553,10 +1578,10 @@ mod tests {
     fn a_placement_above_the_first_placement_cap_is_not_made() {
         let (mut d, mut m) = (db(), Scripted::default());
         m.frmsd_own.insert(1, 0.5);
-        let c = step(&mut d, &mut m, 0.0, &[recv(1, 1, 0.0)]);
+        let c = step(&mut d, &mut m, 0.0, &[recv(UavId::new(1), 1, 0.0)]);
         assert_eq!((c.created, c.initial, c.suspended, c.ambiguous), (1, 1, 1, 0));
         run(&mut d, &mut m, &[1], 0.1, 4.9);
-        let c = step(&mut d, &mut m, 5.0, &[recv(1, 1, 5.0)]);
+        let c = step(&mut d, &mut m, 5.0, &[recv(UavId::new(1), 1, 5.0)]);
         assert_eq!(
             (c.created, c.initial, c.suspended),
             (0, 1, 0),
@@ -1565,11 +1590,11 @@ mod tests {
         assert!(d.estimates(5.0).is_empty());
         m.frmsd_own.insert(1, 0.3);
         run(&mut d, &mut m, &[1], 5.1, 9.9);
-        step(&mut d, &mut m, 10.0, &[recv(1, 1, 10.0)]);
+        step(&mut d, &mut m, 10.0, &[recv(UavId::new(1), 1, 10.0)]);
         assert_eq!(d.estimates(10.0).len(), 1, "exactly the cap places it");
         // Tracking keeps seed 000's threshold: an sICP at exactly `match_frmsd` still updates it.
         m.frmsd_own.insert(1, 1.0);
-        step(&mut d, &mut m, 10.1, &[recv(1, 1, 10.1)]);
+        step(&mut d, &mut m, 10.1, &[recv(UavId::new(1), 1, 10.1)]);
         assert_eq!(d.estimates(10.1).len(), 1);
     }
 
@@ -1583,21 +1608,21 @@ mod tests {
         // The full grid's best is 3 m away, FRMSD 0.6: no placement, so no jump.
         m.long_shift = 3.0;
         m.long_frmsd = Some(0.6);
-        let c = step(&mut d, &mut m, 5.0, &[recv(1, 1, 5.0)]);
+        let c = step(&mut d, &mut m, 5.0, &[recv(UavId::new(1), 1, 5.0)]);
         assert_eq!((c.long, c.refused_jumps, c.jumped, c.short, c.suspended), (1, 1, 0, 1, 0));
         assert_eq!(d.estimates(5.0)[0].pos_in_body, Vector2::new(1.0, 0.5));
-        let c = step(&mut d, &mut m, 5.1, &[recv(1, 1, 5.1)]);
+        let c = step(&mut d, &mut m, 5.1, &[recv(UavId::new(1), 1, 5.1)]);
         assert_eq!((c.long, c.short), (0, 1), "checked at 5 s: no lICP again before 10 s");
         // The same jump fitting within 0.3 m, with nothing else as good: the track was wrong.
         run(&mut d, &mut m, &[1], 5.2, 9.9);
         m.long_frmsd = Some(0.25);
-        let c = step(&mut d, &mut m, 10.0, &[recv(1, 1, 10.0)]);
+        let c = step(&mut d, &mut m, 10.0, &[recv(UavId::new(1), 1, 10.0)]);
         assert_eq!((c.long, c.jumped, c.refused_jumps, c.short), (1, 1, 0, 0));
         assert_eq!(d.estimates(10.0)[0].pos_in_body, Vector2::new(4.0, 0.5));
         // A refinement within DISTINCT_M is no jump: taken even at FRMSD 0.9.
         run(&mut d, &mut m, &[1], 10.1, 14.9);
         (m.long_shift, m.long_frmsd) = (0.3, Some(0.9));
-        let c = step(&mut d, &mut m, 15.0, &[recv(1, 1, 15.0)]);
+        let c = step(&mut d, &mut m, 15.0, &[recv(UavId::new(1), 1, 15.0)]);
         assert_eq!((c.long, c.jumped, c.refused_jumps), (1, 0, 0));
         assert_eq!(d.estimates(15.0)[0].pos_in_body, Vector2::new(1.3, 0.5));
     }
@@ -1633,10 +1658,10 @@ mod tests {
         let (mut d, mut m) = (by_need(), Scripted::default());
         run(&mut d, &mut m, &[1], 0.0, 5.9);
         m.frmsd_own.insert(1, 0.35);
-        let c = step(&mut d, &mut m, 6.0, &[recv(1, 1, 6.0)]);
+        let c = step(&mut d, &mut m, 6.0, &[recv(UavId::new(1), 1, 6.0)]);
         assert_eq!((c.long, c.short), (0, 1), "the loose sICP");
         m.frmsd_own.insert(1, 0.2);
-        let c = step(&mut d, &mut m, 6.1, &[recv(1, 1, 6.1)]);
+        let c = step(&mut d, &mut m, 6.1, &[recv(UavId::new(1), 1, 6.1)]);
         assert_eq!((c.long, c.short), (1, 0), "6.1 s since the placement: due in doubt");
         let after = run(&mut d, &mut m, &[1], 6.2, 36.1);
         assert_eq!(full_grid_ticks(&after), vec![299], "the next at 36.1 s, 30 s after the tight lICP");
@@ -1649,7 +1674,7 @@ mod tests {
         let (mut d, mut m) = (by_need(), Scripted::default());
         run(&mut d, &mut m, &[1], 0.0, 29.9);
         (m.long_shift, m.long_frmsd) = (3.0, Some(0.6));
-        let c = step(&mut d, &mut m, 30.0, &[recv(1, 1, 30.0)]);
+        let c = step(&mut d, &mut m, 30.0, &[recv(UavId::new(1), 1, 30.0)]);
         assert_eq!((c.long, c.refused_jumps, c.short), (1, 1, 1));
         (m.long_shift, m.long_frmsd) = (0.0, None);
         let after = run(&mut d, &mut m, &[1], 30.1, 40.0);

@@ -8,6 +8,7 @@
 //! placed, so it knows nothing of the database's entries or of the ICP.
 
 use nalgebra::Vector2;
+use swarm_types::UavId;
 
 /// Slack of the [`Gate`] beyond `match_shift_m` [m]: what the two neighbours and this agent may
 /// have moved, and the placements may be off, between the estimates the gate compares (entries in
@@ -33,7 +34,7 @@ pub(super) struct Gate {
     /// Every entry's sender (of the set it took last), sorted, and beside it the entries in the
     /// same order: a sender's entries are one run, in entry order (sorted lists, not a map of
     /// lists: the gate is rebuilt every step, and a list per sender was an allocation per entry).
-    senders: Vec<u32>,
+    senders: Vec<UavId>,
     entries: Vec<usize>,
     /// Candidates lie within this distance of an expected position [m].
     radius_m: f64,
@@ -43,7 +44,7 @@ impl Gate {
     /// The gate over the database's entries, in entry order, each given as the sender of the set
     /// it took last and its neighbour's position if placed and usable; `match_shift_m` is the
     /// database's plausible-motion bound, widened here by [`GATE_MARGIN_M`].
-    pub(super) fn new(entries: impl Iterator<Item = (u32, Option<Vector2<f64>>)>, match_shift_m: f64) -> Gate {
+    pub(super) fn new(entries: impl Iterator<Item = (UavId, Option<Vector2<f64>>)>, match_shift_m: f64) -> Gate {
         let mut located = Vec::new();
         let mut by_sender = Vec::new();
         for (idx, (sender, at)) in entries.enumerate() {
@@ -56,7 +57,7 @@ impl Gate {
     }
 
     /// The entries that took the last set of `sender`'s link, in entry order.
-    pub(super) fn on_link(&self, sender: u32) -> &[usize] {
+    pub(super) fn on_link(&self, sender: UavId) -> &[usize] {
         let from = self.senders.partition_point(|&s| s < sender);
         let to = self.senders.partition_point(|&s| s <= sender);
         &self.entries[from..to]
@@ -64,7 +65,7 @@ impl Gate {
 
     /// The entries a set from `sender` is matched against first, in entry order: the entries that
     /// took the link's last set, and the located entries near where they placed it.
-    pub(super) fn candidates(&self, sender: u32) -> Vec<usize> {
+    pub(super) fn candidates(&self, sender: UavId) -> Vec<usize> {
         let on_link = self.on_link(sender);
         let all = 0..self.located.len();
         if on_link.is_empty() {
@@ -88,10 +89,14 @@ mod tests {
     fn candidates_are_the_links_entries_and_the_located_entries_near_them() {
         let at = |x: f64| Some(Vector2::new(x, 0.0));
         // Entries 0..4: sender 1 at 0 m, sender 2 at 2.5 m, sender 3 at 10 m, sender 4 unplaced.
-        let gate = Gate::new([(1, at(0.0)), (2, at(2.5)), (3, at(10.0)), (4, None)].into_iter(), 1.0);
-        assert_eq!(gate.candidates(1), vec![0, 1], "entry 1 is 2.5 m away, entry 2 10 m");
-        assert_eq!(gate.candidates(3), vec![2]);
-        assert_eq!(gate.candidates(4), vec![3], "an unplaced entry's link: that entry first");
-        assert_eq!(gate.candidates(9), vec![0, 1, 2, 3], "a new link: every entry");
+        let gate = Gate::new(
+            [(UavId::new(1), at(0.0)), (UavId::new(2), at(2.5)), (UavId::new(3), at(10.0)), (UavId::new(4), None)]
+                .into_iter(),
+            1.0,
+        );
+        assert_eq!(gate.candidates(UavId::new(1)), vec![0, 1], "entry 1 is 2.5 m away, entry 2 10 m");
+        assert_eq!(gate.candidates(UavId::new(3)), vec![2]);
+        assert_eq!(gate.candidates(UavId::new(4)), vec![3], "an unplaced entry's link: that entry first");
+        assert_eq!(gate.candidates(UavId::new(9)), vec![0, 1, 2, 3], "a new link: every entry");
     }
 }

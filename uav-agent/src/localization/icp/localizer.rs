@@ -5,17 +5,19 @@
 //! scripted matchers; this is the thin layer that joins it to the rest of the agent: it turns
 //! received [`Share`]s into obstacle sets, our circles into the reference set, the database's
 //! entries into the localization's [`Estimate`]s and its counts into the wire's [`IcpCounts`],
-//! and it implements [`Matcher`] with the ICP of [`super::alignment`]. It also decides the one
+//! and it implements [`Matcher`] with the ICP of [`super::alignment`] and [`super::grid`]. It also decides the one
 //! thing that depends on the run's time mode: whether the wall clock may cut a step short.
 
-use super::alignment::{icp, initial_icp, initial_icp_ranked, AgentFromNeighbour, Match, Ranked};
+use super::alignment::{icp, AgentFromNeighbour, Match};
 use super::database::{Database, Matcher, Received};
+use super::grid::{initial_icp, initial_icp_ranked, Ranked};
 use crate::localization::Share;
 use crate::sensing::SensorFrame;
 use crate::world_model::{Circle, Estimate};
 use nalgebra::Point2;
 use std::time::Instant;
 use swarm_config::IcpParams;
+use swarm_types::UavId;
 use swarm_wire::{IcpCounts, ObstacleShare};
 
 /// The `icp` localizer (seed 000 3.2, chapter 5): it shares its obstacle set, keeps the newest set
@@ -23,7 +25,7 @@ use swarm_wire::{IcpCounts, ObstacleShare};
 /// [`Database`] and the real ICP.
 #[derive(Debug)]
 pub(crate) struct IcpLocalizer {
-    id: u32,
+    id: UavId,
     stale_after_s: f64,
     params: IcpParams,
     /// Whether a wall-clock step budget applies (realtime runs only, see [`Self::estimates`]).
@@ -36,7 +38,7 @@ pub(crate) struct IcpLocalizer {
 
 impl IcpLocalizer {
     /// The localizer of UAV `id`.
-    pub(crate) fn new(id: u32, params: IcpParams, stale_after_s: f64, realtime: bool) -> IcpLocalizer {
+    pub(crate) fn new(id: UavId, params: IcpParams, stale_after_s: f64, realtime: bool) -> IcpLocalizer {
         let db = Database::new(params.clone(), stale_after_s);
         IcpLocalizer { id, stale_after_s, params, realtime, db, received: Vec::new() }
     }
@@ -52,14 +54,14 @@ impl IcpLocalizer {
         // Held by sender, found by bisection: a crowd's agent takes dozens of sets a step, and
         // the held set's buffer is refilled rather than replaced.
         match self.received.binary_search_by_key(&o.from, |r| r.from) {
-            Ok(i) if o.t_secs > self.received[i].t_secs => {
+            Ok(i) if o.t_s > self.received[i].t_s => {
                 let held = &mut self.received[i];
-                held.t_secs = o.t_secs;
+                held.t_s = o.t_s;
                 held.points.clear();
                 held.points.extend(centres);
             }
             Ok(_) => {}
-            Err(i) => self.received.insert(i, Received { from: o.from, t_secs: o.t_secs, points: centres.collect() }),
+            Err(i) => self.received.insert(i, Received { from: o.from, t_s: o.t_s, points: centres.collect() }),
         }
     }
 
@@ -68,7 +70,7 @@ impl IcpLocalizer {
     pub(crate) fn estimates(&mut self, now: f64, circles: &[Circle], started: Instant) -> (Vec<Estimate>, IcpCounts) {
         let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
         let stale = self.stale_after_s;
-        self.received.retain(|r| now - r.t_secs <= stale + 1e-9);
+        self.received.retain(|r| now - r.t_s <= stale + 1e-9);
         // The step-time failsafe (seed 000 6.2) guards a realtime deadline. In lockstep the
         // hub waits for us, so there is none; and a wall-clock decision would make the run
         // depend on machine load instead of repeating exactly.
@@ -92,7 +94,7 @@ impl IcpLocalizer {
         Share::Obstacles(ObstacleShare {
             from: self.id,
             tick: frame.scan.tick,
-            t_secs: frame.scan.t_secs,
+            t_s: frame.scan.t_s,
             centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
             hops: swarm_wire::NO_PATH,
             arrival: swarm_wire::NO_PATH,

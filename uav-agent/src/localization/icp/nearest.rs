@@ -62,7 +62,7 @@ impl Candidates {
     /// An empty raster (every block searched against every point) when an input is not finite,
     /// `cell` is not positive, `span_y` is negative or the raster would be more than
     /// [`MAX_SIDE`] cells wide. Building costs about a search of every point per raster cell,
-    /// so the caller keeps `reach` / `cell` small ([`super::alignment`]'s `Layout`).
+    /// so the caller keeps `reach` / `cell` small ([`super::grid`]'s `Layout`).
     pub(super) fn new(reference: &[Point2<f64>], reach: f64, span_y: f64, cell: f64) -> Candidates {
         let everyone: Vec<[f64; 2]> = reference.iter().map(|a| [a.x, a.y]).collect();
         let usable = reach.is_finite() && span_y.is_finite() && cell.is_finite() && cell > 0.0 && span_y >= 0.0;

@@ -5,7 +5,7 @@
 //! headings, seed 000 5.1), and each score needs its start's squared nearest distances in order.
 //! A comparison sort of 20–50 values per start spends most of its time on mispredicted branches:
 //! `perf` put the sorts at a third of the agents' CPU at 1000 UAVs. A sorting network does the
-//! same comparisons whatever the data, so the eight cells of a block ([`super::alignment`]'s
+//! same comparisons whatever the data, so the eight cells of a block ([`super::grid`]'s
 //! `BLOCK`) go through it together, one lane each, as packed minimum and maximum instructions
 //! with no branch at all (a full grid of 20 points a side: 2.17 → 0.90 ms, `cargo bench -p
 //! uav-agent --bench icp`).

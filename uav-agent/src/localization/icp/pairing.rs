@@ -39,7 +39,7 @@ pub(super) struct Pair {
     pub(super) r: usize,
 }
 
-/// Source points searched together by [`pair_into`] (see `alignment`'s `BLOCK`).
+/// Source points searched together by [`pair_into`] (see `grid`'s `BLOCK`).
 const BLOCK: usize = LANES;
 
 /// Relative margin on a safe radius (module doc): far wider than the rounding of any squared

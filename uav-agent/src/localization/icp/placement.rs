@@ -1,7 +1,7 @@
 //! The placement policy: what the neighbour database makes of a full-grid ICP (issue 14 and the
 //! crowd lab; deviations from seed 000 5.1 and 5.3, which take the full grid's lowest FRMSD).
 //!
-//! Why a module of its own: the alignment ([`super::alignment`]) says how well each place fits;
+//! Why a module of its own: the full grid ([`super::grid`]) says how well each place fits;
 //! whether that is enough to place a neighbour is a decision with its own measured thresholds,
 //! taken in two places that must agree: the neighbour database ([`super::database`]) and
 //! `swarm icp-eval`, which measures it on generated pairs of views.
@@ -15,7 +15,8 @@
 //!
 //! Pure functions of the alignment's outcome, no IO and no clock.
 
-use super::alignment::{distinct, initial_icp_ranked, AgentFromNeighbour, Match, Ranked};
+use super::alignment::{distinct, AgentFromNeighbour, Match};
+use super::grid::{initial_icp_ranked, Ranked};
 use nalgebra::Point2;
 use swarm_config::IcpParams;
 

@@ -1,4 +1,5 @@
-//! The statistics of a seed sweep, pure and tested against published values: the mean of a
+//! The statistics of the studies (`swarm sweep-seeds` and every `study` of variants), pure and
+//! tested against published values, and how a table prints them: the mean of a
 //! metric over runs with its 95 % confidence interval from Student's t (runs are independent
 //! draws: each seed is its own forest, start and noise), and a success rate with its Wilson score
 //! interval (which, unlike the normal approximation, stays inside [0, 1] and is not zero-wide at
@@ -163,6 +164,24 @@ fn ln_gamma(x: f64) -> f64 {
     let t = x + 7.5;
     let s = G[0] + G.iter().enumerate().skip(1).map(|(i, g)| g / (x + i as f64)).sum::<f64>();
     0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + s.ln()
+}
+
+/// `mean ± half-width`, or the mean alone with one value, or `-`.
+pub fn mean_pm(c: &MeanCi) -> String {
+    match (c.mean.is_finite(), c.half_width.is_finite()) {
+        (true, true) => format!("{} ± {}", num(c.mean), num(c.half_width)),
+        (true, false) => num(c.mean),
+        _ => "-".into(),
+    }
+}
+
+/// Three significant-ish digits: 2 decimals, 3 below 1, `-` when not finite.
+pub fn num(v: f64) -> String {
+    match v {
+        v if !v.is_finite() => "-".into(),
+        v if v.abs() < 1.0 && v != 0.0 => format!("{v:.3}"),
+        v => format!("{v:.2}"),
+    }
 }
 
 #[cfg(test)]

@@ -1,9 +1,12 @@
 //! What every command shares, below all of them: the Zenoh endpoints and login flattened into
-//! each command that opens a session, run ids, UAV id lists (`1-4,7`), and command-line values spelled as in the scenario
-//! file. A leaf: it imports nothing of this crate, so any command can use it without a circle.
+//! each command that opens a session, the ROS 2 graph a piece joins, run ids, UAV id lists
+//! (`1-4,7`), and command-line values spelled as in the scenario file. A crate of its own, below
+//! the pieces (`swarm-node`), the recorder and the viewer, so a tool that only watches a run
+//! links none of the hub or the agent for its arguments.
 
 use anyhow::Result;
 use clap::Args;
+use swarm_types::UavId;
 
 /// Endpoints and overrides shared by every piece that opens a Zenoh session.
 #[derive(Args, Debug, Clone, Default)]
@@ -115,7 +118,7 @@ impl RosArgs {
 }
 
 /// The first line of a password file, trimmed; an empty one is an error.
-pub(crate) fn read_password(file: &std::path::Path) -> Result<String> {
+pub fn read_password(file: &std::path::Path) -> Result<String> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| anyhow::anyhow!("cannot read password file {}: {e}", file.display()))?;
     let password = text.lines().next().unwrap_or_default().trim().to_string();
@@ -124,7 +127,7 @@ pub(crate) fn read_password(file: &std::path::Path) -> Result<String> {
 }
 
 /// The `--cfg` overrides that log a client session in as `user` (Zenoh's usrpwd).
-pub(crate) fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
+pub fn usrpwd_cfg(user: &str, password: &str) -> Vec<String> {
     let quote = |s: &str| serde_json::Value::String(s.to_string()).to_string();
     vec![
         format!("transport/auth/usrpwd/user:{}", quote(user)),
@@ -152,11 +155,11 @@ pub fn scenario_value<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -
 
 /// UAV ids given as ranges and lists: `1-4,7`.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct UavIds(pub Vec<u32>);
+pub struct UavIds(pub Vec<UavId>);
 
 /// Parses `1-4,7` into `[1, 2, 3, 4, 7]`: ascending ranges, no repeats, ids from 1.
 pub fn parse_ids(text: &str) -> Result<UavIds, String> {
-    let mut ids: Vec<u32> = Vec::new();
+    let mut ids: Vec<UavId> = Vec::new();
     for part in text.split(',').map(str::trim) {
         let num = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` in `{text}` is not a UAV id"));
         let (lo, hi) = match part.split_once('-') {
@@ -166,7 +169,7 @@ pub fn parse_ids(text: &str) -> Result<UavIds, String> {
         if lo == 0 || hi < lo {
             return Err(format!("`{part}` in `{text}`: ids start at 1 and ranges go up"));
         }
-        ids.extend(lo..=hi);
+        ids.extend((lo..=hi).map(UavId::new));
     }
     let mut sorted = ids.clone();
     sorted.sort_unstable();
@@ -193,8 +196,8 @@ mod tests {
 
     #[test]
     fn ids_take_ranges_and_lists() {
-        assert_eq!(parse_ids("1-4,7"), Ok(UavIds(vec![1, 2, 3, 4, 7])));
-        assert_eq!(parse_ids("5"), Ok(UavIds(vec![5])));
+        assert_eq!(parse_ids("1-4,7"), Ok(UavIds([1, 2, 3, 4, 7].map(UavId::new).to_vec())));
+        assert_eq!(parse_ids("5"), Ok(UavIds(vec![UavId::new(5)])));
         assert!(parse_ids("0-3").is_err());
         assert!(parse_ids("4-2").is_err());
         assert!(parse_ids("1-3,2").expect_err("twice").contains("twice"));

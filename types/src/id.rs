@@ -1,0 +1,118 @@
+//! A UAV's id. Scenarios, keys (`uav/{id}/…`), messages and files number UAVs from 1; arrays of
+//! per-UAV state are indexed from 0 in id order. The one place the two meet is here.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// A UAV's id, 1-based, as scenarios, keys and messages carry it.
+/// `Default` is id 0, which is no UAV: a placeholder for tests and benches to fill in.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct UavId(u32);
+
+impl UavId {
+    /// The UAV with this id (as the scenario numbers it). Id 0 is not a UAV, but a number read
+    /// off the wire may be anything: checks against the swarm happen where the swarm is known.
+    pub const fn new(id: u32) -> UavId {
+        UavId(id)
+    }
+
+    /// The UAV at index `i` of an array in id order (index 0 is id 1).
+    pub fn from_index(i: usize) -> UavId {
+        UavId(u32::try_from(i + 1).expect("a UAV index fits u32"))
+    }
+
+    /// The id as a number.
+    pub const fn get(self) -> u32 {
+        self.0
+    }
+
+    /// This UAV's index in an array in id order, `None` for id 0.
+    pub fn try_index(self) -> Option<usize> {
+        (self.0 as usize).checked_sub(1)
+    }
+
+    /// This UAV's index in an array in id order. Panics on id 0, which no scenario has: use
+    /// [`UavId::try_index`] for an id read off the wire.
+    pub fn index(self) -> usize {
+        self.try_index().expect("UAV ids start at 1")
+    }
+
+    /// Whether this is a UAV of a swarm of `count`: 1..=count.
+    pub fn within(self, count: usize) -> bool {
+        self.0 >= 1 && self.0 as usize <= count
+    }
+
+    /// Ids 1..=n: a swarm of `n` UAVs.
+    pub fn all(n: usize) -> impl DoubleEndedIterator<Item = UavId> + ExactSizeIterator {
+        (0..n).map(UavId::from_index)
+    }
+}
+
+impl fmt::Display for UavId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl From<u32> for UavId {
+    fn from(id: u32) -> UavId {
+        UavId(id)
+    }
+}
+
+impl From<UavId> for u32 {
+    fn from(id: UavId) -> u32 {
+        id.0
+    }
+}
+
+/// A UAV id that is not a positive whole number.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParseUavIdError(String);
+
+impl fmt::Display for ParseUavIdError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:?} is not a UAV id (a whole number from 1)", self.0)
+    }
+}
+
+impl std::error::Error for ParseUavIdError {}
+
+impl FromStr for UavId {
+    type Err = ParseUavIdError;
+
+    fn from_str(s: &str) -> Result<UavId, ParseUavIdError> {
+        match s.parse::<u32>() {
+            Ok(id) if id >= 1 => Ok(UavId(id)),
+            _ => Err(ParseUavIdError(s.to_string())),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn index_and_id_meet_here_only() {
+        assert_eq!(UavId::from_index(0), UavId::new(1));
+        assert_eq!(UavId::new(7).index(), 6);
+        assert_eq!(UavId::new(0).try_index(), None);
+        assert_eq!(UavId::all(3).map(UavId::get).collect::<Vec<_>>(), vec![1, 2, 3]);
+        assert_eq!("12".parse::<UavId>(), Ok(UavId::new(12)));
+        assert!("0".parse::<UavId>().is_err());
+        assert!("x".parse::<UavId>().expect_err("an error").to_string().contains("\"x\" is not a UAV id"));
+    }
+
+    #[test]
+    fn an_id_is_its_number_on_the_wire_and_in_text() {
+        assert_eq!(
+            postcard::to_stdvec(&UavId::new(300)).expect("encodes"),
+            postcard::to_stdvec(&300u32).expect("encodes")
+        );
+        assert_eq!(serde_json::to_string(&UavId::new(3)).expect("encodes"), "3");
+        assert_eq!(UavId::new(3).to_string(), "3");
+    }
+}
