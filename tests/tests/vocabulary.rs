@@ -4,6 +4,7 @@
 //! - run keys (`swarm/{run}/...`) are made by `swarm_wire::Keys` only: no other `src/` file
 //!   formats one (benches may format layouts `Keys` does not have, to measure them; end-to-end
 //!   tests spell keys as a person types them, on purpose);
+//! - one angle wrap, `swarm_types::wrap_angle`;
 //! - the hover command is `Cmd::hover` on the wire and `Command::hover` between the controllers,
 //!   never its fields spelled out;
 //! - a mode's name comes from the mode (`name()`), never from its `Debug` text;
@@ -74,6 +75,12 @@ fn run_keys_are_made_by_wire_keys_only() {
     assert!(found.is_empty(), "run keys formatted outside swarm_wire::Keys (add a Keys method):\n{}", found.join("\n"));
     assert!(formats_a_run_key(r#"let k = format!("swarm/{run}/uav/{i}/cmd");"#), "the check sees a key");
     assert!(!formats_a_run_key(r#"ctx.channel_builder(format!("/uav/{id}/pose"))"#), "an MCAP topic is no key");
+}
+
+#[test]
+fn one_angle_wrap() {
+    let found = offending_lines(&["types/src/frame.rs"], |l| l.contains("fn wrap_angle"));
+    assert!(found.is_empty(), "a second angle wrap (use swarm_types::wrap_angle):\n{}", found.join("\n"));
 }
 
 #[test]

@@ -1,6 +1,6 @@
 //! The geometry every stage shares, kept below all of them so no stage reaches sideways into
 //! another for it: the odometry-frame pose [`Pose2`] and its frame change, the one angle-wrap
-//! convention ([`wrap_angle`], to [−π, π)), and the small 2D vector helpers
+//! convention ([`wrap_angle`], the ground floor's, to (−π, π]), and the small 2D vector helpers
 //! (what counts as zero, how non-finite values are kept out of a command, scatter sums).
 
 use nalgebra::{Point2, Vector2};
@@ -39,17 +39,9 @@ impl Pose2 {
     }
 }
 
-/// Wraps an angle to [−π, π) [rad]. The one convention of the onboard stack (the hub keeps its
-/// own (−π, π] for the true headings it integrates).
-pub fn wrap_angle(a: f64) -> f64 {
-    let w = (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    // `rem_euclid` can round up to τ itself; that is −π, not π.
-    if w >= std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
-}
+/// The one angle wrap of the whole swarm, to (−π, π] (the ground floor's: the hub wraps the true
+/// headings with the same function).
+pub use swarm_types::wrap_angle;
 
 /// Lengths below this are treated as zero (directions undefined) [m].
 pub const EPS: f64 = 1e-9;
@@ -94,10 +86,10 @@ mod tests {
     }
 
     #[test]
-    fn angles_wrap_to_minus_pi_inclusive_pi_exclusive() {
+    fn angles_wrap_to_minus_pi_exclusive_pi_inclusive() {
         use std::f64::consts::PI;
-        assert_eq!(wrap_angle(PI), -PI);
-        assert_eq!(wrap_angle(-PI), -PI);
+        assert_eq!(wrap_angle(PI), PI);
+        assert_eq!(wrap_angle(-PI), PI);
         assert!((wrap_angle(3.0 * PI / 2.0) + PI / 2.0).abs() < 1e-12);
         assert!((wrap_angle(-5.0 * PI / 2.0) + PI / 2.0).abs() < 1e-12);
         assert_eq!(wrap_angle(0.25), 0.25);

@@ -190,7 +190,7 @@ pub struct EntryEstimate {
     pub id: Option<UavId>,
     /// Relative position of the neighbour, in this agent's body frame [m].
     pub pos_in_body: Vector2<f64>,
-    /// Relative heading of the neighbour [rad], wrapped to [−π, π).
+    /// Relative heading of the neighbour [rad], wrapped to (−π, π].
     pub heading: f64,
     /// `now` minus the time stamp of the set that produced the estimate [s].
     pub age_s: f64,
