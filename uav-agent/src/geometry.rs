@@ -1,41 +1,32 @@
 //! The geometry every stage shares, kept below all of them so no stage reaches sideways into
-//! another for it: the odometry-frame pose [`Pose2`] and its frame change, the one angle-wrap
+//! another for it: the odometry-frame pose [`Pose2`] (the ground floor's `Pose<Odom>`) and its
+//! frame change in nalgebra points ([`OdomPose`]), the one angle-wrap
 //! convention ([`wrap_angle`], the ground floor's, to (−π, π]), and the small 2D vector helpers
 //! (what counts as zero, how non-finite values are kept out of a command, scatter sums).
 
 use nalgebra::{Point2, Vector2};
+use swarm_types::frame::{Body, Odom, Point, Pose};
 
-/// A pose in the odometry frame: where the LIDAR is and where it looks.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pose2 {
-    /// Position x [m], odometry frame.
-    pub x: f64,
-    /// Position y [m], odometry frame.
-    pub y: f64,
-    /// Heading [rad], odometry frame.
-    pub yaw: f64,
+/// A pose in the odometry frame: where the LIDAR is and where it looks (the ground floor's
+/// frame-tagged pose).
+pub type Pose2 = Pose<Odom>;
+
+/// The odometry-frame pose in the stages' nalgebra points.
+pub trait OdomPose {
+    /// The position as a point of the odometry frame.
+    fn point(&self) -> Point2<f64>;
+    /// A body-frame point expressed in the odometry frame: `odom_from_body · p`.
+    fn odom_from_body(&self, p: &Point2<f64>) -> Point2<f64>;
 }
 
-impl Pose2 {
-    /// The pose (x, y, yaw).
-    pub fn new(x: f64, y: f64, yaw: f64) -> Self {
-        Pose2 { x, y, yaw }
-    }
-
-    /// Whether every component is finite.
-    pub fn is_finite(&self) -> bool {
-        self.x.is_finite() && self.y.is_finite() && self.yaw.is_finite()
-    }
-
-    /// The position as a point of the odometry frame.
-    pub fn position(&self) -> Point2<f64> {
+impl OdomPose for Pose2 {
+    fn point(&self) -> Point2<f64> {
         Point2::new(self.x, self.y)
     }
 
-    /// A body-frame point expressed in the odometry frame: `odom_from_body · p`.
-    pub fn odom_from_body(&self, p: &Point2<f64>) -> Point2<f64> {
-        let (s, c) = self.yaw.sin_cos();
-        Point2::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
+    fn odom_from_body(&self, p: &Point2<f64>) -> Point2<f64> {
+        let q = self.from_body(Point::<Body>::new(p.x, p.y));
+        Point2::new(q.x, q.y)
     }
 }
 

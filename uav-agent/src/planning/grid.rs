@@ -41,7 +41,7 @@ use nalgebra::Point2;
 
 use super::astar::{CellSearch, Path};
 use super::cells::{Cell, CellBox, CellMap, TileMap, MAX_CELL, TILE};
-use crate::geometry::Pose2;
+use crate::geometry::{OdomPose, Pose2};
 
 /// The closest-obstacle search never looks farther than this many cells.
 const MAX_SEARCH_CELLS: i32 = 1024;
@@ -250,7 +250,7 @@ impl OccupancyGrid {
         if !pose.is_finite() {
             return changes;
         }
-        let Some(origin) = self.cell_of(&pose.position()) else { return changes };
+        let Some(origin) = self.cell_of(&pose.point()) else { return changes };
         self.scan = self.scan.wrapping_add(1);
         let ends: Vec<(Cell, bool)> = points_in_body.iter().filter_map(|p| self.beam_end(&pose, p)).collect();
         // Hits first, so a pass-through of another beam cannot undo them (Hector: the hit wins).
@@ -643,17 +643,17 @@ mod tests {
         let near_side = g.cell_of(&pose.odom_from_body(&Point2::new(2.7, 0.0))).expect("cell");
         assert!(g.is_occupied(near_side));
         let b = g.known_bounds().expect("bounds");
-        assert!(b.contains(g.cell_of(&pose.position()).expect("cell")));
+        assert!(b.contains(g.cell_of(&pose.point()).expect("cell")));
         assert!(b.min.ix > 99_000 && b.max.iy < -199_000, "{b:?}");
         // Only the area seen is stored: 9 m range, 16 × 0.1 m tiles -> well under 1000 tiles.
         assert!(g.tile_count() < 1000, "{}", g.tile_count());
         // Plan past the trunk to a goal 20 m beyond it, in space never seen (unknown = free).
         let goal = pose.odom_from_body(&Point2::new(23.0, 0.0));
-        let path = g.plan(pose.position(), goal, &PlanParams::default()).expect("path");
+        let path = g.plan(pose.point(), goal, &PlanParams::default()).expect("path");
         assert!(path.reached_goal);
         assert_eq!(path.points.last(), Some(&goal));
         let octile = PlanParams { heuristic: Heuristic::Octile, ..PlanParams::default() };
-        let shortest = g.plan(pose.position(), goal, &octile).expect("path");
+        let shortest = g.plan(pose.point(), goal, &octile).expect("path");
         assert!(shortest.reached_goal && path.cost >= shortest.cost - 1e-9);
         // Inflated by 0.3 m: no way point comes within 0.3 m of a hit cell (0.3 m + the trunk's
         // 0.3 m of the centre), allowing a cell diagonal of discretisation.
