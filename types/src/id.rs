@@ -6,8 +6,9 @@ use std::fmt;
 use std::str::FromStr;
 
 /// A UAV's id, 1-based, as scenarios, keys and messages carry it.
-/// `Default` is id 0, which is no UAV: a placeholder for tests and benches to fill in.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+/// `Default` is id 0, which is no UAV: a placeholder for tests and benches to fill in. `Debug`
+/// prints the number alone, as `Display` does, so a list of ids reads `[3, 7]` in a message.
+#[derive(Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(transparent)]
 pub struct UavId(u32);
 
@@ -47,6 +48,12 @@ impl UavId {
     /// Ids 1..=n: a swarm of `n` UAVs.
     pub fn all(n: usize) -> impl DoubleEndedIterator<Item = UavId> + ExactSizeIterator {
         (0..n).map(UavId::from_index)
+    }
+}
+
+impl fmt::Debug for UavId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.0.fmt(f)
     }
 }
 
@@ -114,5 +121,6 @@ mod tests {
         );
         assert_eq!(serde_json::to_string(&UavId::new(3)).expect("encodes"), "3");
         assert_eq!(UavId::new(3).to_string(), "3");
+        assert_eq!(format!("{:?}", [UavId::new(3), UavId::new(7)]), "[3, 7]", "a list reads as numbers");
     }
 }
