@@ -1,8 +1,8 @@
 //! 2D poses and points tagged with the frame they are expressed in, and the one angle wrap.
 //!
-//! The swarm moves between four frames: the world (the hub's truth, GNSS-like fixes), a UAV's
-//! body (its scan, its commands, its neighbours' estimates), its odometry frame (its start pose:
-//! odometry, the maps it builds), and a neighbour's body (what a neighbour shares of itself). A
+//! The swarm moves between three frames: the world (the hub's truth, GNSS-like fixes), a UAV's
+//! body (its scan, its commands, its neighbours' estimates) and its odometry frame (its start
+//! pose: odometry, the maps it builds). A
 //! value carries its frame as a type parameter, so a body-frame point cannot be handed where a
 //! world-frame one is wanted; the tag costs nothing on the wire (it is not serialized).
 
@@ -12,10 +12,7 @@ use std::fmt::Debug;
 use std::marker::PhantomData;
 
 /// A frame a pose or point is expressed in.
-pub trait Frame: Copy + Debug + Default + PartialEq {
-    /// Its name, for messages and the docs.
-    const NAME: &'static str;
-}
+pub trait Frame: Copy + Debug + Default + PartialEq {}
 
 /// The world frame: the hub's truth and the GNSS-like fix.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -29,22 +26,9 @@ pub struct Body;
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Odom;
 
-/// A neighbour's body frame, as the neighbour shares it.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Neighbour;
-
-impl Frame for World {
-    const NAME: &'static str = "world";
-}
-impl Frame for Body {
-    const NAME: &'static str = "body";
-}
-impl Frame for Odom {
-    const NAME: &'static str = "odom";
-}
-impl Frame for Neighbour {
-    const NAME: &'static str = "neighbour";
-}
+impl Frame for World {}
+impl Frame for Body {}
+impl Frame for Odom {}
 
 /// A position and heading in frame `F`: x, y [m], yaw [rad].
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -75,11 +59,6 @@ impl<F: Frame> Point<F> {
     pub const fn new(x: f64, y: f64) -> Self {
         Point { x, y, frame: PhantomData }
     }
-
-    /// Distance to `other` [m].
-    pub fn distance(&self, other: &Point<F>) -> f64 {
-        (self.x - other.x).hypot(self.y - other.y)
-    }
 }
 
 impl<F: Frame> Pose<F> {
@@ -102,13 +81,6 @@ impl<F: Frame> Pose<F> {
     pub fn from_body(&self, p: Point<Body>) -> Point<F> {
         let (s, c) = self.yaw.sin_cos();
         Point::new(self.x + c * p.x - s * p.y, self.y + s * p.x + c * p.y)
-    }
-
-    /// A point of `F` expressed in the body this pose places: `body_from_F · p`.
-    pub fn to_body(&self, p: Point<F>) -> Point<Body> {
-        let (s, c) = self.yaw.sin_cos();
-        let (dx, dy) = (p.x - self.x, p.y - self.y);
-        Point::new(c * dx + s * dy, -s * dx + c * dy)
     }
 }
 
@@ -137,10 +109,13 @@ mod tests {
         }
 
         #[test]
-        fn to_body_undoes_from_body(x in -50.0..50.0f64, y in -50.0..50.0f64, yaw in -4.0..4.0f64, px in -20.0..20.0f64, py in -20.0..20.0f64) {
+        fn from_body_turns_then_shifts_keeping_distances(x in -50.0..50.0f64, y in -50.0..50.0f64, yaw in -4.0..4.0f64, px in -20.0..20.0f64, py in -20.0..20.0f64) {
             let pose = Pose::<World>::new(x, y, yaw);
-            let back = pose.to_body(pose.from_body(Point::new(px, py)));
-            proptest::prop_assert!((back.x - px).abs() < 1e-9 && (back.y - py).abs() < 1e-9);
+            let q = pose.from_body(Point::new(px, py));
+            let (d_body, d_world) = (px.hypot(py), (q.x - x).hypot(q.y - y));
+            proptest::prop_assert!((d_body - d_world).abs() < 1e-9, "{d_body} vs {d_world}");
+            let ahead = pose.from_body(Point::new(1.0, 0.0));
+            proptest::prop_assert!((ahead.x - x - yaw.cos()).abs() < 1e-12 && (ahead.y - y - yaw.sin()).abs() < 1e-12);
         }
     }
 

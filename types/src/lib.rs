@@ -6,7 +6,7 @@
 //! - `time`, [`SimTime`]: a time on the simulation's clock [s], and the tick arithmetic of a
 //!   fixed rate.
 //! - [`frame`]: 2D poses and points tagged with the frame they are expressed in (world, a body,
-//!   an odometry frame, a neighbour's body), and the one angle wrap.
+//!   an odometry frame), and the one angle wrap.
 //! - [`mode`]: the localization and time modes with their names as the scenario spells them.
 //! - [`radio`]: the radio's range-with-hysteresis rule, which the hub applies to links and the
 //!   recorder to a UAV's time out of reach.

@@ -90,7 +90,7 @@ mod tests {
 
     #[test]
     fn names_are_the_scenarios_spelling() {
-        for m in LocalizationMode::ALL {
+        for m in [LocalizationMode::Broadcast, LocalizationMode::Icp, LocalizationMode::Uvdar] {
             assert_eq!(serde_json::to_string(&m).expect("encodes"), format!("\"{}\"", m.name()));
         }
         for m in [TimeMode::Lockstep, TimeMode::Realtime] {
