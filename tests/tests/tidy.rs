@@ -26,7 +26,7 @@
 
 mod common;
 
-use common::{files_with_extension, read, rel, root};
+use common::{files_with_extension, member_dirs, read, rel, root};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -38,11 +38,9 @@ struct Member {
 
 /// The members of the root `Cargo.toml`, with their package names.
 fn members() -> Vec<Member> {
-    let manifest: toml::Table = read(&root().join("Cargo.toml")).parse().expect("root Cargo.toml parses");
-    let dirs = manifest["workspace"]["members"].as_array().expect("workspace.members");
-    dirs.iter()
-        .map(|d| {
-            let dir = d.as_str().expect("member path").to_string();
+    member_dirs()
+        .into_iter()
+        .map(|dir| {
             let own: toml::Table =
                 read(&root().join(&dir).join("Cargo.toml")).parse().expect("member Cargo.toml parses");
             let package = own["package"]["name"].as_str().expect("package.name").to_string();

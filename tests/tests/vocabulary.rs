@@ -16,7 +16,7 @@
 
 mod common;
 
-use common::{files_with_extension, read, rel, root};
+use common::{files_with_extension, member_dirs, read, rel, root};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -27,9 +27,7 @@ fn rust_files(dir: &Path) -> Vec<PathBuf> {
 
 /// The `src/` folders of the workspace's members.
 fn src_dirs() -> Vec<PathBuf> {
-    let manifest: toml::Table = read(&root().join("Cargo.toml")).parse().expect("root Cargo.toml parses");
-    let dirs = manifest["workspace"]["members"].as_array().expect("workspace.members");
-    dirs.iter().map(|d| root().join(d.as_str().expect("member path")).join("src")).collect()
+    member_dirs().into_iter().map(|d| root().join(d).join("src")).collect()
 }
 
 /// The code of `text` before its first `#[cfg(test)]` (a file's tests come last), as numbered

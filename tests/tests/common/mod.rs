@@ -328,6 +328,13 @@ pub fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
 }
 
+/// The folders of the workspace's members (the root `Cargo.toml`'s `workspace.members`).
+pub fn member_dirs() -> Vec<String> {
+    let manifest: toml::Table = read(&root().join("Cargo.toml")).parse().expect("root Cargo.toml parses");
+    let dirs = manifest["workspace"]["members"].as_array().expect("workspace.members");
+    dirs.iter().map(|d| d.as_str().expect("member path").to_string()).collect()
+}
+
 /// Every file under `dir` whose name ends in `.{ext}`, recursively, sorted.
 pub fn files_with_extension(dir: &Path, ext: &str) -> Vec<PathBuf> {
     let mut out = Vec::new();
