@@ -239,7 +239,9 @@ fn rclpy_feeds_an_agent_on_ros_topics_and_gets_its_command_for_each_tick() {
     }
     assert_eq!(types(&g["agent_publishers"], "/uav3/cmd_vel"), vec!["geometry_msgs/msg/TwistStamped"], "{g}");
     report!(
-        "an agent on ROS topics: {} scans sent by rclpy, {} TwistStamped back, each with its scan's stamp; first {}, last {}; graph {}",
+        "an agent on ROS topics: {} warm-up tick(s) until discovery settled, then {} scans sent by rclpy, {} TwistStamped \
+         back, each with its scan's stamp; first {}, last {}; graph {}",
+        seen["warmup"],
         sent.len(),
         cmds.len(),
         cmds[0],

@@ -5,7 +5,7 @@ same sim time, tick after tick, and records the TwistStamped the agent sends bac
 /uav{id}/cmd_vel.
 
 Usage: rclpy_agent.py ID TICKS
-Prints one JSON line: the stamps sent, the commands received (stamp, x, y, yaw rate), the agent's
+Prints one JSON line: the warm-up ticks, the stamps sent after them, the commands received (stamp, x, y, yaw rate), the agent's
 node as rclpy's graph lists it.
 """
 import json
@@ -28,7 +28,7 @@ scan_pub = node.create_publisher(LaserScan, f"{ns}/scan", qos_profile_sensor_dat
 odom_pub = node.create_publisher(Odometry, f"{ns}/odom", qos_profile_sensor_data)
 goal_pub = node.create_publisher(PoseStamped, f"{ns}/goal", 10)
 commands = []
-node.create_subscription(
+cmd_sub = node.create_subscription(
     TwistStamped,
     f"{ns}/cmd_vel",
     lambda m: commands.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.twist.linear.x, m.twist.linear.y, m.twist.angular.z, m.header.frame_id)),
@@ -58,14 +58,20 @@ def stamp(msg, t):
     msg.header.stamp.nanosec = int(round((t - int(t)) * 1e9))
 
 
-# Wait until the agent's subscriptions are matched (DDS discovery), as a driver would.
+# Wait until the agent's subscriptions and its command publisher are matched (DDS discovery), as a
+# driver would.
 deadline = time.monotonic() + 30
-while time.monotonic() < deadline and min(scan_pub.get_subscription_count(), odom_pub.get_subscription_count()) == 0:
+while time.monotonic() < deadline and min(
+    scan_pub.get_subscription_count(),
+    odom_pub.get_subscription_count(),
+    goal_pub.get_subscription_count(),
+    cmd_sub.get_publisher_count(),
+) == 0:
     rclpy.spin_once(node, timeout_sec=0.1)
 scan_ranges = ranges()
-sent = []
-for k in range(1, ticks + 1):
-    t = round(k * 0.1, 9)
+
+
+def publish_tick(t):
     goal = PoseStamped()
     stamp(goal, t)
     goal.header.frame_id = f"uav{uav}/odom"
@@ -85,19 +91,47 @@ for k in range(1, ticks + 1):
     goal_pub.publish(goal)
     odom_pub.publish(odom)
     scan_pub.publish(scan)
+
+
+def after(t0):
+    """The commands of the ticks stamped after t0."""
+    return [c for c in commands if c[0] > t0 + 1e-6]
+
+
+def wait_for_commands(t0, n, seconds):
+    wait = time.monotonic() + seconds
+    while time.monotonic() < wait and len(after(t0)) < n:
+        rclpy.spin_once(node, timeout_sec=0.02)
+    return len(after(t0)) >= n
+
+
+# Matched on one side is not yet matched on the other: DDS discovery is asymmetric for a few
+# milliseconds, and a sample sent into that gap is lost. Warm up with ticks of their own until the
+# first command comes back; from then on every tick must get its command.
+k = 0
+while k < 100:
+    k += 1
+    publish_tick(round(k * 0.1, 9))
+    if wait_for_commands(-1.0, 1, 0.5):
+        break
+warmup = k
+warmup_t = round(warmup * 0.1, 9)
+sent = []
+for k in range(warmup + 1, warmup + ticks + 1):
+    t = round(k * 0.1, 9)
+    publish_tick(t)
     sent.append(t)
     # The agent answers each tick; wait for it (bounded) before the next, as the hub would.
-    wait = time.monotonic() + 5
-    while time.monotonic() < wait and len(commands) < k:
-        rclpy.spin_once(node, timeout_sec=0.02)
+    wait_for_commands(warmup_t, len(sent), 5)
 end = time.monotonic() + 1
 while time.monotonic() < end:
     rclpy.spin_once(node, timeout_sec=0.05)
+commands = after(warmup_t)
 graph = {
     "nodes": sorted([f"{ns_.rstrip('/')}/{n}" for n, ns_ in node.get_node_names_and_namespaces()]),
     "agent_subscriptions": {t: ty for t, ty in node.get_subscriber_names_and_types_by_node("agent", ns)},
     "agent_publishers": {t: ty for t, ty in node.get_publisher_names_and_types_by_node("agent", ns)},
 }
-print(json.dumps({"sent": sent, "commands": commands, "graph": graph}))
+print(json.dumps({"warmup": warmup, "sent": sent, "commands": commands, "graph": graph}))
 node.destroy_node()
 rclpy.shutdown()
