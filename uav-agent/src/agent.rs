@@ -244,9 +244,12 @@ struct Surroundings {
 }
 
 /// Separates the neighbours from the obstacles `seen`, once for everything downstream: a circle
-/// or point within `match_m` of a neighbour estimate is that neighbour. Also keeps the bodies of
-/// the groups that join several that come within reach of K21's barrier (neighbours or not: a
-/// body is a body, whoever it is).
+/// or point within `match_m` of a neighbour estimate is that neighbour. Also keeps the bodies
+/// within reach of K21's barrier, neighbours or not, since a body is a body whoever it is: those
+/// of the groups that join several, and the circle a neighbour was matched to when its centre is
+/// within `barrier_m`. The circle is where the LIDAR sees the body now; the estimate may lag it
+/// (a shared pose's age) or be off by up to `match_m` (ICP), and a UAV that steers by the
+/// estimate alone can touch a neighbour standing still beside it (issue 46).
 fn surroundings(
     seen: &Extracted,
     estimates: &[Estimate],
@@ -256,13 +259,25 @@ fn surroundings(
 ) -> Surroundings {
     let match_m = sc.perception.neighbour_match_m;
     let is_neighbour = |p: &Point2<f64>| estimates.iter().any(|e| (e.pos_in_body - p.coords).norm() <= match_m);
-    let trees = seen.circles.iter().filter(|c| !is_neighbour(&c.center)).copied().collect();
+    let (neighbours, trees): (Vec<Circle>, Vec<Circle>) = seen.circles.iter().partition(|c| is_neighbour(&c.center));
     let static_points =
         if with_points { seen.points().filter(|p| !is_neighbour(p)).copied().collect() } else { Vec::new() };
     let k21 = &sc.controller.k21;
-    let reach = if k21.barrier_on_bodies() { k21.barrier_m.max(k21.barrier_surface_m) } else { 0.0 };
-    let near_bodies = perception::bodies::bodies(&seen.joined, reach, &sc.perception, max_rms_m);
+    let on = k21.barrier_on_bodies();
+    let reach = if on { k21.barrier_m.max(k21.barrier_surface_m) } else { 0.0 };
+    let mut near_bodies = perception::bodies::bodies(&seen.joined, reach, &sc.perception, max_rms_m);
+    let within_barrier = |c: &&Circle| on && c.center.coords.norm() < k21.barrier_m;
+    near_bodies.extend(neighbours.iter().filter(within_barrier).map(body_of_circle));
     Surroundings { trees, static_points, near_bodies }
+}
+
+/// A circle as a body: its centre, and its point nearest the UAV (the origin of the body frame).
+fn body_of_circle(c: &Circle) -> Body {
+    let centre = c.center.coords;
+    let d = centre.norm();
+    // Inside the circle (d <= r) the nearest point is the UAV itself.
+    let nearest = if d > c.radius { centre * ((d - c.radius) / d) } else { centre * 0.0 };
+    Body { nearest, centre: Some(centre) }
 }
 
 /// The pilot's command as the wire message of `tick`.
@@ -379,6 +394,31 @@ mod tests {
         let around = surroundings(&seen, &[neighbour], &sc, 0.06, true);
         assert_eq!(around, Surroundings { trees: vec![tree], static_points: vec![tree.center], near_bodies: vec![] });
         assert!(surroundings(&seen, &[neighbour], &sc, 0.06, false).static_points.is_empty());
+    }
+
+    #[test]
+    fn a_neighbours_circle_within_the_barrier_is_a_body_where_the_lidar_sees_it() {
+        // ICP places the neighbour 0.45 m off where the LIDAR sees it, 0.8 m ahead: the circle
+        // is that neighbour (within match_m), and a body of the barrier at the LIDAR's place.
+        let neighbour = Estimate { id: None, pos_in_body: nalgebra::Vector2::new(0.8, 0.45), heading: 0.0, age_s: 0.0 };
+        let seen_at = |x: f64| {
+            let circle = Circle { center: Point2::new(x, 0.0), radius: 0.3 };
+            Extracted { circles: vec![circle], segments: Vec::new(), beams: vec![Some(circle.center)], joined: vec![] }
+        };
+        let sc = scenario();
+        let around = surroundings(&seen_at(0.8), &[neighbour], &sc, 0.06, false);
+        assert!(around.trees.is_empty(), "a neighbour, not a tree: {around:?}");
+        let b = around.near_bodies.first().copied().expect("a body");
+        assert_eq!(around.near_bodies.len(), 1);
+        assert!((b.centre.expect("centre") - nalgebra::Vector2::new(0.8, 0.0)).norm() < 1e-12, "{b:?}");
+        assert!((b.nearest - nalgebra::Vector2::new(0.5, 0.0)).norm() < 1e-12, "{b:?}");
+        // Beyond barrier_m (1 m) it is the neighbour alone, as before.
+        let far = Estimate { pos_in_body: nalgebra::Vector2::new(1.2, 0.45), ..neighbour };
+        assert!(surroundings(&seen_at(1.2), &[far], &sc, 0.06, false).near_bodies.is_empty());
+        // And nothing with the barrier off.
+        let mut off = scenario();
+        off.controller.k21.barrier_m = 0.0;
+        assert!(surroundings(&seen_at(0.8), &[neighbour], &off, 0.06, false).near_bodies.is_empty());
     }
 
     /// A noiseless 750-beam scan of discs (x, y, r), body frame.

@@ -44,8 +44,9 @@ pub struct View<'a> {
     /// The scan points that are not a localized neighbour: what goes into a map (empty unless the
     /// controller asks for them, see [`Controller::wants_scan_points`]).
     pub static_points: &'a [Point2<f64>],
-    /// The bodies near the UAV inside scan groups that join several (neighbours or not): what
-    /// K21's barrier keeps off besides the circles.
+    /// The bodies near the UAV inside scan groups that join several (neighbours or not), and the
+    /// circles of localized neighbours within K21's `barrier_m`: what K21's barrier keeps off
+    /// besides the trees.
     pub near_bodies: &'a [Body],
 }
 

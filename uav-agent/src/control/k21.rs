@@ -51,7 +51,8 @@ pub struct Input<'a> {
     /// Angle of the goal in the body frame [rad] (eq. 4.15 minus own heading); `None` for an
     /// uninformed UAV.
     pub goal_heading: Option<f64>,
-    /// The bodies inside scan groups that join several (body frame): barriers too, by the
+    /// The bodies inside scan groups that join several, and the circles of neighbours within
+    /// `barrier_m` (body frame): barriers too, by the
     /// centre when it is closer than `barrier_m`, else by the nearest point when that is closer
     /// than `barrier_surface_m` (none of them when either is 0).
     pub bodies: &'a [Body],
