@@ -15,6 +15,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("forest-9-dense", include_str!("../../scenarios/forest-9-dense.toml")),
     ("forest-9-stranded", include_str!("../../scenarios/forest-9-stranded.toml")),
     ("forest-9-cut-off", include_str!("../../scenarios/forest-9-cut-off.toml")),
+    ("forest-9-cut-off-long", include_str!("../../scenarios/forest-9-cut-off-long.toml")),
     ("forest-40", include_str!("../../scenarios/forest-40.toml")),
     ("forest-100", include_str!("../../scenarios/forest-100.toml")),
     ("forest-40-arrive", include_str!("../../scenarios/forest-40-arrive.toml")),

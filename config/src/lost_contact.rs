@@ -27,6 +27,15 @@
 //! revealed; counts of `max_hops` or more mean "no path"). An uninformed UAV that has had no path
 //! for `regroup_after_s` flies back, still flocking, to where it last had one, hovers within
 //! `hold_radius_m` of it, and flocks again as soon as a path is back.
+//!
+//! Holding can last for ever: the swarm it waits for may have gone on to the goal, beyond radio
+//! range, and nobody comes back (a UAV lost beside a frozen one, a half cut off for 60 s while
+//! the other half arrived: issue 46). So, with `search_after_s` above 0, a UAV (or group) that
+//! has held for that long searches: it flies on from where it holds, `search_distance_m` along
+//! the way it travelled while it last had a path to an informed UAV (its own odometry velocity,
+//! smoothed), alone at `speed_mps`, in a group still flocking at K21's speed, then holds there.
+//! The way the swarm was going is where the swarm went; a UAV that never had a path does not
+//! search. Off by default, so the seeds' tables and every shipped flight keep their figures.
 
 use serde::{Deserialize, Serialize};
 
@@ -66,6 +75,13 @@ pub struct LostContactParams {
     /// it must exceed the swarm's diameter in radio hops.
     #[serde(default = "d_max_hops")]
     pub max_hops: u8,
+    /// Held this long [s], a UAV or group searches: on from where it holds along the way it last
+    /// travelled with a path (see the module doc). 0 (the default) turns the search off.
+    #[serde(default)]
+    pub search_after_s: f64,
+    /// How far the search flies on before holding again [m].
+    #[serde(default = "d_search_distance")]
+    pub search_distance_m: f64,
 }
 
 impl Default for LostContactParams {
@@ -79,6 +95,8 @@ impl Default for LostContactParams {
             informed_return: false,
             regroup_after_s: d_regroup(),
             max_hops: d_max_hops(),
+            search_after_s: 0.0,
+            search_distance_m: d_search_distance(),
         }
     }
 }
@@ -100,4 +118,7 @@ fn d_speed() -> f64 {
 }
 fn d_hold() -> f64 {
     1.0
+}
+fn d_search_distance() -> f64 {
+    30.0
 }

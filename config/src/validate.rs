@@ -96,6 +96,8 @@ impl Scenario {
         positive("lost_contact.speed_mps", self.lost_contact.speed_mps)?;
         positive("lost_contact.hold_radius_m", self.lost_contact.hold_radius_m)?;
         non_negative("lost_contact.regroup_after_s", self.lost_contact.regroup_after_s)?;
+        non_negative("lost_contact.search_after_s", self.lost_contact.search_after_s)?;
+        positive("lost_contact.search_distance_m", self.lost_contact.search_distance_m)?;
         if self.lost_contact.max_hops < 2 {
             return Err(("lost_contact.max_hops".into(), "must be at least 2".into()));
         }

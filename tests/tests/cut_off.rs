@@ -9,7 +9,12 @@
 //! With the group behaviour and arrival (issue 25, which also leads the half back once it hears
 //! the swarm) both off, the half flies on with nobody steering it and ends farther from the goal
 //! than the swarm started.
-//! Lockstep, so both outcomes repeat exactly.
+//!
+//! `forest-9-cut-off-long` (issue 46): the partition lasts to 75 s, the informed half is at the
+//! goal beyond radio range by then, and the half holding where it last had a path waits for
+//! nobody. With the search (`[lost_contact] search_after_s`) it flies on the way it was going and
+//! comes in; without it, it holds for good.
+//! Lockstep, so every outcome repeats exactly.
 
 mod common;
 
@@ -18,6 +23,10 @@ use std::path::Path;
 
 /// The scenario shipped in `scenarios/`.
 const CUT_OFF: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-9-cut-off.toml"));
+
+/// Issue 46's variant, the partition healed at 75 s.
+const CUT_OFF_LONG: &str =
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-9-cut-off-long.toml"));
 
 /// The UAV that freezes (the hub's goal rule leaves it out; it cannot move).
 const FROZEN: u32 = 1;
@@ -119,4 +128,21 @@ fn a_half_cut_off_from_the_informed_comes_back_and_the_swarm_meets_its_goal() {
         "without it the half flies off: goal {}, {nearest:?}, {far:.1} m from the goal",
         s["reached_goal"]
     );
+}
+
+#[test]
+fn a_half_cut_off_until_the_others_are_out_of_range_searches_the_way_it_went_and_comes_in() {
+    let (s, nearest, far) = fly(CUT_OFF_LONG, "cutoff-long");
+    assert_eq!(s["collisions"], 0, "no contact: {:#}", s["collision_events"]);
+    assert_eq!(s["reached_goal"], true, "the goal rule is met: {} ({far:.1} m)", s["end_reason"]);
+    let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
+    assert!(apart.is_empty(), "every flying UAV ends within 10 m of another: {apart:?}");
+    let failed: Vec<_> = s["checks"].as_array().expect("checks").iter().filter(|c| c["passed"] != true).collect();
+    assert!(failed.is_empty(), "{failed:#?}");
+
+    // Without the search the half holds where it last had a path, 30 m short of the goal.
+    let off = CUT_OFF_LONG.replace("search_after_s = 30.0", "search_after_s = 0.0");
+    assert_ne!(off, CUT_OFF_LONG, "the search is turned off");
+    let (s, _, far) = fly(&off, "cutoff-long-off");
+    assert!(s["reached_goal"] == false && far > 20.0, "without it the half holds: {far:.1} m from the goal");
 }

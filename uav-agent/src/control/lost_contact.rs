@@ -36,7 +36,14 @@ pub enum Phase {
     /// controller's reach, and has been for `after_s`: fly, flocking, towards the nearest of
     /// them (odometry frame) [m].
     Follow(Vector2<f64>),
+    /// Held for `search_after_s`: fly on to `to` (odometry frame) [m], the way this UAV last
+    /// travelled with a path; `with_group` flocking at K21's speed, else alone at `speed_mps`.
+    Search { to: Vector2<f64>, with_group: bool },
 }
+
+/// The time constant of the travel direction's smoothing [s]: long against avoidance's swerves
+/// round a trunk (a few seconds), short against a flight of minutes.
+const TRAVEL_TAU_S: f64 = 10.0;
 
 /// The layer's memory between steps.
 #[derive(Debug, Default)]
@@ -57,6 +64,13 @@ pub struct LostContact {
     /// Sim time of the last step with a neighbour closer to the informed within reach, or with
     /// no path at all [s].
     led_s: Option<f64>,
+    /// Own velocity while it had a path, smoothed over [`TRAVEL_TAU_S`], odometry frame [m/s],
+    /// and when it was last updated [s].
+    travel: Option<(Vector2<f64>, f64)>,
+    /// Since when it has held (alone or with its group) [s].
+    hold_since_s: Option<f64>,
+    /// Where the search flies to, odometry frame [m], and whether it got there.
+    search: Option<(Vector2<f64>, bool)>,
 }
 
 /// The distance within which a neighbour estimate is contact: the scenario's, or the reach of
@@ -79,11 +93,21 @@ impl LostContact {
     /// decides the phase.
     /// `heard`: the counts heard in shares, by sender (each estimate's count is its sender's).
     pub fn phase(&mut self, sc: &Scenario, v: &View, hops: u8, heard: &Hops) -> Phase {
+        let phase = self.hold_or_go(sc, v, hops, heard);
+        if !matches!(phase, Phase::Hold | Phase::Search { .. }) {
+            (self.hold_since_s, self.search) = (None, None);
+        }
+        phase
+    }
+
+    /// [`Self::phase`] before the search's memory is cleared.
+    fn hold_or_go(&mut self, sc: &Scenario, v: &View, hops: u8, heard: &Hops) -> Phase {
         let p = &sc.lost_contact;
         let p0 = Vector2::new(v.odom.x, v.odom.y);
         if hops < p.max_hops {
             self.last_path_s = Some(v.t_s);
             self.path_odom = Some(p0);
+            self.note_travel(v);
         }
         if !v.neighbours.is_empty() {
             let n = v.neighbours.len() as f64;
@@ -104,7 +128,41 @@ impl LostContact {
         if !v.neighbours.is_empty() {
             return Phase::Approach(target);
         }
-        hold_at(&mut self.holding, target, p0, p.hold_radius_m, Phase::Return(target))
+        match hold_at(&mut self.holding, target, p0, p.hold_radius_m, Phase::Return(target)) {
+            Phase::Hold => self.search_phase(sc, v.t_s, p0, false),
+            going => going,
+        }
+    }
+
+    /// Smooths own odometry velocity into the travel direction (first-order, [`TRAVEL_TAU_S`]).
+    fn note_travel(&mut self, v: &View) {
+        let vel = Vector2::new(v.odom.vx, v.odom.vy);
+        self.travel = Some(match self.travel {
+            None => (vel, v.t_s),
+            Some((old, t)) => {
+                let a = ((v.t_s - t) / TRAVEL_TAU_S).clamp(0.0, 1.0);
+                (old + a * (vel - old), v.t_s)
+            }
+        });
+    }
+
+    /// Holding since `hold_since_s`: hover, or once that has lasted `search_after_s`, fly on
+    /// `search_distance_m` along the travel direction, then hover there (sticky until the
+    /// phase is neither). No search without a travel direction (no path ever, or hardly moving).
+    fn search_phase(&mut self, sc: &Scenario, now: f64, p0: Vector2<f64>, with_group: bool) -> Phase {
+        let p = &sc.lost_contact;
+        let since = *self.hold_since_s.get_or_insert(now);
+        let travel = self.travel.map(|(t, _)| t).filter(|t| t.norm() > 0.05);
+        let (Some(travel), true) = (travel, p.search_after_s > 0.0 && now - since >= p.search_after_s - 1e-9) else {
+            return Phase::Hold;
+        };
+        let (to, arrived) = self.search.get_or_insert((p0 + travel.normalize() * p.search_distance_m, false));
+        *arrived |= (*to - p0).norm() <= p.hold_radius_m;
+        if *arrived {
+            Phase::Hold
+        } else {
+            Phase::Search { to: *to, with_group }
+        }
     }
 
     /// In contact: flock, unless the group has had no path to an informed UAV for
@@ -122,7 +180,10 @@ impl LostContact {
             self.regroup_holding = false;
             return self.follow_phase(sc, v, p0, hops, heard);
         }
-        hold_at(&mut self.regroup_holding, target, p0, p.hold_radius_m, Phase::Regroup(target))
+        match hold_at(&mut self.regroup_holding, target, p0, p.hold_radius_m, Phase::Regroup(target)) {
+            Phase::Hold => self.search_phase(sc, v.t_s, p0, true),
+            going => going,
+        }
     }
 
     /// With a path: flock while a neighbour with a lower count is within reach (or none is
@@ -150,7 +211,10 @@ impl LostContact {
             Phase::Regroup(target) | Phase::Follow(target) => regroup(sc, v, target),
             Phase::Hold => Command::hover(),
             Phase::Approach(target) => fly_to(sc, v, target, sc.controller.k21.kf),
-            Phase::Return(target) => fly_to(sc, v, target, sc.lost_contact.speed_mps),
+            Phase::Return(target) | Phase::Search { to: target, with_group: false } => {
+                fly_to(sc, v, target, sc.lost_contact.speed_mps)
+            }
+            Phase::Search { to, with_group: true } => regroup(sc, v, to),
         }
     }
 }
@@ -362,6 +426,81 @@ mod tests {
             Phase::Flock,
             "never had a path: nowhere to go"
         );
+    }
+
+    /// A UAV flying +x with a path at `vx` from t = 0 to 20 s, then a group without a path.
+    fn flown_with_a_path(l: &mut LostContact, sc: &Scenario, mates: &[Estimate], vx: f64) {
+        for k in 0..=200 {
+            let t = k as f64 * 0.1;
+            let o = Odom { vx, ..odom(t * vx, 0.0, 0.0, None) };
+            l.phase(sc, &view(t, &o, mates, &[]), 2, &Hops::default());
+        }
+    }
+
+    #[test]
+    fn a_group_held_for_search_after_s_flies_on_the_way_it_travelled_then_holds() {
+        let mut sc = scenario();
+        sc.lost_contact.search_after_s = 30.0;
+        let (after, hold) = (sc.lost_contact.regroup_after_s, sc.lost_contact.search_after_s);
+        let mates = [neighbour(1.0, 3.0), neighbour(1.0, -3.0)];
+        let mut l = LostContact::new();
+        flown_with_a_path(&mut l, &sc, &mates, 0.4);
+        // Last path at (8, 0) at 20 s; back there (held) from 20 + after on.
+        let there = odom(8.0, 0.0, 0.0, None);
+        let at =
+            |l: &mut LostContact, t: f64, o: &Odom| l.phase(&sc, &view(t, o, &mates, &[]), NO_PATH, &Hops::default());
+        assert_eq!(at(&mut l, 20.0 + after, &there), Phase::Hold);
+        assert_eq!(at(&mut l, 20.0 + after + hold - 0.1, &there), Phase::Hold, "not held for long enough");
+        let to = Vector2::new(8.0 + sc.lost_contact.search_distance_m, 0.0);
+        assert_eq!(at(&mut l, 20.0 + after + hold, &there), Phase::Search { to, with_group: true });
+        let c = l.steer(&sc, &view(20.0 + after + hold, &there, &mates, &[]), NO_PATH, &Hops::default(), flock());
+        assert!(c.xy.x > sc.lost_contact.speed_mps, "on at the flock's speed, not the lone search's: {c:?}");
+        let arrived = odom(to.x - 0.5, 0.0, 0.0, None);
+        assert_eq!(at(&mut l, 100.0, &arrived), Phase::Hold, "there: hold");
+        assert_eq!(at(&mut l, 101.0, &there), Phase::Hold, "sticky");
+        assert_eq!(l.phase(&sc, &view(102.0, &there, &mates, &[]), 3, &Hops::default()), Phase::Flock, "a path again");
+        // Off by default; and no search for a UAV that hardly moved while it had a path.
+        let mut off = LostContact::new();
+        let default = scenario();
+        flown_with_a_path(&mut off, &default, &mates, 0.4);
+        let held = |l: &mut LostContact, sc: &Scenario, t: f64| {
+            l.phase(sc, &view(t, &there, &mates, &[]), NO_PATH, &Hops::default())
+        };
+        assert_eq!(held(&mut off, &default, 20.0 + after), Phase::Hold);
+        assert_eq!(held(&mut off, &default, 500.0), Phase::Hold, "search off: holds for good");
+        let mut still = LostContact::new();
+        flown_with_a_path(&mut still, &sc, &mates, 0.0);
+        let here = odom(0.0, 0.0, 0.0, None);
+        assert_eq!(still.phase(&sc, &view(20.0 + after, &here, &mates, &[]), NO_PATH, &Hops::default()), Phase::Hold);
+        assert_eq!(
+            still.phase(&sc, &view(500.0, &here, &mates, &[]), NO_PATH, &Hops::default()),
+            Phase::Hold,
+            "no way"
+        );
+    }
+
+    #[test]
+    fn a_uav_lost_alone_searches_on_its_own_at_the_slow_speed() {
+        let mut sc = scenario();
+        sc.lost_contact.search_after_s = 30.0;
+        let mut l = LostContact::new();
+        // Flew +y with a path for 20 s, neighbours about it; then alone.
+        for k in 0..=200 {
+            let t = k as f64 * 0.1;
+            let o = Odom { vy: 0.4, ..odom(0.0, t * 0.4, std::f64::consts::FRAC_PI_2, None) };
+            l.phase(&sc, &view(t, &o, &[neighbour(2.0, 0.0)], &[]), 2, &Hops::default());
+        }
+        // The last centroid: 2 m ahead of (0, 8), heading +y: (0, 10). Held there from 40 s.
+        let there = odom(0.0, 10.0, 0.0, None);
+        let alone = |l: &mut LostContact, t: f64| l.phase(&sc, &view(t, &there, &[], &[]), NO_PATH, &Hops::default());
+        assert_eq!(alone(&mut l, 40.0), Phase::Hold);
+        let to = Vector2::new(0.0, 10.0 + sc.lost_contact.search_distance_m);
+        match alone(&mut l, 70.0) {
+            Phase::Search { to: got, with_group: false } => assert!((got - to).norm() < 1e-6, "{got}"),
+            other => panic!("{other:?}"),
+        }
+        let c = l.steer(&sc, &view(70.1, &there, &[], &[]), NO_PATH, &Hops::default(), flock());
+        assert!(c.xy.norm() <= sc.lost_contact.speed_mps + 1e-9, "slowly: {c:?}");
     }
 
     #[test]
