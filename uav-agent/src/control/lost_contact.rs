@@ -6,7 +6,9 @@
 //! its body x axis for ever). This layer watches the neighbour estimates, remembers where the
 //! swarm was last estimated in the agent's odometry frame, and once the agent is lost replaces
 //! the controller's command: a slow flight back there with seed 000's obstacle avoidance on the
-//! trees and walls of the scan, then a hover until a neighbour is estimated again. The
+//! trees and walls of the scan, then a hover until a neighbour is estimated again (or, when the
+//! scenario sets `search_after_s`, once held that long, a flight on the way it last travelled
+//! with a path: the swarm may have gone on beyond radio range). The
 //! controller still runs every step, so its maps and memory stay current for when contact is
 //! back. Nothing here reads ground truth: odometry, the scan and the estimates only.
 
