@@ -259,25 +259,18 @@ fn surroundings(
 ) -> Surroundings {
     let match_m = sc.perception.neighbour_match_m;
     let is_neighbour = |p: &Point2<f64>| estimates.iter().any(|e| (e.pos_in_body - p.coords).norm() <= match_m);
-    let (neighbours, trees): (Vec<Circle>, Vec<Circle>) = seen.circles.iter().partition(|c| is_neighbour(&c.center));
+    let trees = seen.circles.iter().filter(|c| !is_neighbour(&c.center)).copied().collect();
     let static_points =
         if with_points { seen.points().filter(|p| !is_neighbour(p)).copied().collect() } else { Vec::new() };
     let k21 = &sc.controller.k21;
     let on = k21.barrier_on_bodies();
     let reach = if on { k21.barrier_m.max(k21.barrier_surface_m) } else { 0.0 };
     let mut near_bodies = perception::bodies::bodies(&seen.joined, reach, &sc.perception, max_rms_m);
-    let within_barrier = |c: &&Circle| on && c.center.coords.norm() < k21.barrier_m;
-    near_bodies.extend(neighbours.iter().filter(within_barrier).map(body_of_circle));
+    let neighbour_within_barrier =
+        |c: &&Circle| on && c.center.coords.norm() < k21.barrier_m && is_neighbour(&c.center);
+    let as_body = |c: &Circle| Body { nearest: c.nearest_point(), centre: Some(c.center.coords) };
+    near_bodies.extend(seen.circles.iter().filter(neighbour_within_barrier).map(as_body));
     Surroundings { trees, static_points, near_bodies }
-}
-
-/// A circle as a body: its centre, and its point nearest the UAV (the origin of the body frame).
-fn body_of_circle(c: &Circle) -> Body {
-    let centre = c.center.coords;
-    let d = centre.norm();
-    // Inside the circle (d <= r) the nearest point is the UAV itself.
-    let nearest = if d > c.radius { centre * ((d - c.radius) / d) } else { centre * 0.0 };
-    Body { nearest, centre: Some(centre) }
 }
 
 /// The pilot's command as the wire message of `tick`.

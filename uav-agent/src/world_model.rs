@@ -33,6 +33,18 @@ pub struct Circle {
     pub radius: f64,
 }
 
+impl Circle {
+    /// Its point nearest the UAV (the origin of the body frame); the UAV itself when inside it.
+    pub fn nearest_point(&self) -> Vector2<f64> {
+        let (centre, d) = (self.center.coords, self.center.coords.norm());
+        if d > self.radius {
+            centre * ((d - self.radius) / d)
+        } else {
+            Vector2::zeros()
+        }
+    }
+}
+
 /// A straight piece of wall: the face the scan sees, body frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {

@@ -5,8 +5,8 @@ same sim time, tick after tick, and records the TwistStamped the agent sends bac
 /uav{id}/cmd_vel.
 
 Usage: rclpy_agent.py ID TICKS
-Prints one JSON line: the warm-up ticks, the stamps sent after them, the commands received (stamp, x, y, yaw rate), the agent's
-node as rclpy's graph lists it.
+Prints one JSON line: the warm-up ticks, the stamps sent after them, the commands received
+(stamp, x, y, yaw rate), the agent's node as rclpy's graph lists it.
 """
 import json
 import math
@@ -108,13 +108,10 @@ def wait_for_commands(t0, n, seconds):
 # Matched on one side is not yet matched on the other: DDS discovery is asymmetric for a few
 # milliseconds, and a sample sent into that gap is lost. Warm up with ticks of their own until the
 # first command comes back; from then on every tick must get its command.
-k = 0
-while k < 100:
-    k += 1
-    publish_tick(round(k * 0.1, 9))
+for warmup in range(1, 101):
+    publish_tick(round(warmup * 0.1, 9))
     if wait_for_commands(-1.0, 1, 0.5):
         break
-warmup = k
 warmup_t = round(warmup * 0.1, 9)
 sent = []
 for k in range(warmup + 1, warmup + ticks + 1):

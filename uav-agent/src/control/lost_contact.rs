@@ -154,10 +154,10 @@ impl LostContact {
     fn search_phase(&mut self, sc: &Scenario, now: f64, p0: Vector2<f64>, with_group: bool) -> Phase {
         let p = &sc.lost_contact;
         let since = *self.hold_since_s.get_or_insert(now);
-        let travel = self.travel.map(|(t, _)| t).filter(|t| t.norm() > 0.05);
-        let (Some(travel), true) = (travel, p.search_after_s > 0.0 && now - since >= p.search_after_s - 1e-9) else {
+        if p.search_after_s <= 0.0 || now - since < p.search_after_s - 1e-9 {
             return Phase::Hold;
-        };
+        }
+        let Some(travel) = self.travel.map(|(t, _)| t).filter(|t| t.norm() > 0.05) else { return Phase::Hold };
         let (to, arrived) = self.search.get_or_insert((p0 + travel.normalize() * p.search_distance_m, false));
         *arrived |= (*to - p0).norm() <= p.hold_radius_m;
         if *arrived {
