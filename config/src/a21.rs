@@ -104,6 +104,37 @@ pub struct A21Params {
     /// comparison of controllers wants one top speed (`compare-4` sets 0.4).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_speed_mps: Option<f64>,
+    /// The safety layer, our extension (seed 003 has none): the velocity each command reaches
+    /// within one control period loses its approach to every neighbour and scan point it could
+    /// not stop short of at `safety_brake_mps2` (`uav-agent/src/control/barrier.rs`), as K21's
+    /// barrier holds K21's. Off by default, so the seed's tables fly the bare eq. 1; `swarm
+    /// fuzz` turns it on in its A21 cases. Without it an informed agent's navigation (kn·φ ≈
+    /// 1 m/s²) outweighs the repulsion of a neighbour in its way, which eq. 2 averages over every
+    /// agent within d_0, and from starts closer than d_c it pushes through its own flock
+    /// (`scenarios/found/found-2026-44.toml`).
+    #[serde(default)]
+    pub safety: bool,
+    /// The safety layer stops the approach to a neighbour's centre here [m], centre to centre:
+    /// 0.9 m, above the separation invariant's 0.8 m.
+    #[serde(default = "d_safety_neighbour")]
+    pub safety_neighbour_m: f64,
+    /// The safety layer stops the approach to a scan point (an obstacle's surface) here [m]:
+    /// 0.5 m, a 0.3 m body and 0.2 m to spare.
+    #[serde(default = "d_safety_surface")]
+    pub safety_surface_m: f64,
+    /// The deceleration the safety layer plans its stops with [m/s²]: 1.0, half the default
+    /// body's 2 m/s², so the stop leaves the body room for the rest of the command.
+    #[serde(default = "d_safety_brake")]
+    pub safety_brake_mps2: f64,
+}
+fn d_safety_neighbour() -> f64 {
+    0.9
+}
+fn d_safety_surface() -> f64 {
+    0.5
+}
+fn d_safety_brake() -> f64 {
+    1.0
 }
 fn d_damping() -> f64 {
     0.5
@@ -167,6 +198,10 @@ impl Default for A21Params {
             path_lookahead_m: d_lookahead(),
             damping_per_s: d_damping(),
             max_speed_mps: None,
+            safety: false,
+            safety_neighbour_m: d_safety_neighbour(),
+            safety_surface_m: d_safety_surface(),
+            safety_brake_mps2: d_safety_brake(),
         }
     }
 }
@@ -194,10 +229,13 @@ impl A21Params {
             ("inflation_m", self.inflation_m),
             ("path_lookahead_m", self.path_lookahead_m),
             ("damping_per_s", self.damping_per_s),
+            ("safety_neighbour_m", self.safety_neighbour_m),
+            ("safety_surface_m", self.safety_surface_m),
         ] {
             crate::validate::non_negative(&format!("{at}.{name}"), v)?;
         }
         crate::validate::within(&format!("{at}.phi_alone"), self.phi_alone, 0.0, 1.0)?;
+        crate::validate::positive(&format!("{at}.safety_brake_mps2"), self.safety_brake_mps2)?;
         if let Some(v) = self.max_speed_mps {
             crate::validate::positive(&format!("{at}.max_speed_mps"), v)?;
         }

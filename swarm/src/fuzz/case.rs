@@ -3,6 +3,7 @@
 //! time, the nemesis schedule) and renders into an ordinary [`Scenario`] on the controller's
 //! built-in forest scenario, whose tuned parameters it keeps.
 
+use super::envelope::Envelope;
 use netem::nemesis::{schedule, Fault, NemesisKind, ScheduleSpec};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -78,24 +79,24 @@ fn modes(kind: &ControllerKind) -> &'static [LocalizationMode] {
     }
 }
 
-/// Start positions in a disc around the origin, at least 1.5 m apart (rejection sampling).
-fn starts(rng: &mut ChaCha8Rng, n: u32) -> Vec<[f64; 2]> {
-    let radius = 1.5 * f64::from(n).sqrt() + 1.0;
+/// Start positions in a disc around the origin, at least `spacing_m` apart (rejection sampling).
+fn starts(rng: &mut ChaCha8Rng, n: u32, spacing_m: f64) -> Vec<[f64; 2]> {
+    let radius = spacing_m * f64::from(n).sqrt() + 1.0;
     let mut out: Vec<[f64; 2]> = Vec::new();
     while out.len() < n as usize {
         let (r, a) = (radius * rng.gen::<f64>().sqrt(), rng.gen_range(0.0..std::f64::consts::TAU));
         let p = [-r * a.cos(), r * a.sin()];
-        if out.iter().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= 1.5) {
+        if out.iter().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= spacing_m) {
             out.push([(p[0] * 100.0).round() / 100.0, (p[1] * 100.0).round() / 100.0]);
         }
     }
     out
 }
 
-/// A forest between the start disc and the goal: density and band width drawn, trees at least
-/// 2.5 m apart and clear of the start disc and the goal.
-fn forest(rng: &mut ChaCha8Rng, goal_x_m: f64, start_r_m: f64) -> Vec<Tree> {
-    let density = rng.gen_range(0.0..8.0) / 100.0;
+/// A forest between the start disc and the goal: density (up to `max_density_per_100m2`) and
+/// band width drawn, trees at least 2.5 m apart and clear of the start disc and the goal.
+fn forest(rng: &mut ChaCha8Rng, goal_x_m: f64, start_r_m: f64, max_density_per_100m2: f64) -> Vec<Tree> {
+    let density = rng.gen_range(0.0..max_density_per_100m2) / 100.0;
     let half_width = rng.gen_range(6.0..14.0);
     let (x0, x1) = (start_r_m + 2.0, goal_x_m - 2.0);
     let target = (density * (x1 - x0) * 2.0 * half_width).round() as usize;
@@ -122,10 +123,11 @@ impl Case {
         let m = modes(&controller);
         let localization = m[rng.gen_range(0..m.len())];
         let n = rng.gen_range(2..=space.max_uavs.max(2));
-        let starts = starts(&mut rng, n);
+        let envelope = Envelope::of(&controller);
+        let starts = starts(&mut rng, n, envelope.min_start_spacing_m);
         let start_r = starts.iter().map(|p| p[0].hypot(p[1])).fold(0.0, f64::max);
         let goal_x_m = rng.gen_range(20.0..35.0_f64).round();
-        let trees = forest(&mut rng, goal_x_m, start_r);
+        let trees = forest(&mut rng, goal_x_m, start_r, envelope.max_density_per_100m2);
         let base = swarm_config::builtin(base_name(&controller))?;
         let base_goal_m = base.swarm.goal[0].hypot(base.swarm.goal[1]).max(1.0);
         let time_limit_s = (base.end.time_limit_s * goal_x_m / base_goal_m).round();
@@ -154,6 +156,11 @@ impl Case {
     /// The number of UAVs.
     pub fn uavs(&self) -> u32 {
         self.starts.len() as u32
+    }
+
+    /// `controller/localization`, the row of the summary by controller.
+    pub fn row(&self) -> String {
+        format!("{}/{}", self.controller.name(), self.localization.name())
     }
 
     /// A short description for tables.
@@ -191,6 +198,7 @@ impl Case {
             }
         }
         sc.controller.kind = self.controller.clone();
+        sc.controller.a21.safety = Envelope::of(&self.controller).a21_safety;
         sc.localization.mode = self.localization;
         sc.end.time_limit_s = self.time_limit_s;
         sc.netem.clear();

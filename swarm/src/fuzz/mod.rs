@@ -11,6 +11,7 @@
 //! `--minutes` only decides how many cases are started.
 
 mod case;
+mod envelope;
 mod shrink;
 
 use crate::study::{run_bounded, run_variant, VariantRun};
@@ -73,8 +74,26 @@ pub struct FuzzArgs {
 struct Flown {
     case: usize,
     label: String,
+    /// `controller/localization`, the row of the summary by controller.
+    controller: String,
     failed: Vec<String>,
     end_reason: String,
+    /// Why the case is outside its controller's envelope (then it was not flown).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    outside: Option<String>,
+}
+
+impl Flown {
+    fn new(case: &Case, failed: Vec<String>, end_reason: &str) -> Flown {
+        Flown {
+            case: case.index,
+            label: case.label(),
+            controller: case.row(),
+            failed,
+            end_reason: end_reason.into(),
+            outside: None,
+        }
+    }
 }
 
 /// A failure and its shrunk scenario.
@@ -136,6 +155,11 @@ fn space(a: &FuzzArgs) -> Result<Space> {
     Ok(Space { controllers, max_uavs: a.max_uavs, nemesis, max_faults: a.max_faults, weaken: a.weaken })
 }
 
+/// Why `case` is outside its controller's envelope ([`envelope::outside`]), or `None`.
+fn outside(case: &Case) -> Result<Option<String>> {
+    Ok(envelope::outside(&case.render()?))
+}
+
 /// Flies `case` as `<out>/<tag>` and returns its summary.
 async fn fly(case: &Case, out: &Path, tag: &str) -> Result<Summary> {
     run_variant(&case.render()?, out, tag, VariantRun { per_process: None, progress: false }).await
@@ -167,6 +191,10 @@ async fn shrink(case: Case, first: Failure, out: &Path, budget: usize, pb: &Prog
         for cand in shrink::candidates(&best, &failure.check, failure.t_s) {
             if spent >= budget {
                 break 'outer;
+            }
+            // A smaller case outside the envelope (two groups once a UAV is gone) shows nothing.
+            if !matches!(outside(&cand), Ok(None)) {
+                continue;
             }
             spent += 1;
             pb.set_message(format!("shrinking case {}: {}", best.index, cand.label()));
@@ -216,30 +244,42 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
     let (mut flown, mut findings, mut next) = (Vec::new(), Vec::new(), 0usize);
     // Batches of `jobs` cases, so `--minutes` is checked between batches.
     while next < runs && deadline.is_none_or(|d| Instant::now() < d) {
-        let batch: Vec<Case> = (next..(next + a.jobs.max(1)).min(runs))
+        let drawn: Vec<Case> = (next..(next + a.jobs.max(1)).min(runs))
             .map(|i| Case::generate(&space, i, master.gen()))
             .collect::<Result<_>>()?;
-        next += batch.len();
+        next += drawn.len();
+        let mut batch = Vec::with_capacity(drawn.len());
+        for case in drawn {
+            match outside(&case)? {
+                Some(why) => {
+                    pb.inc(1);
+                    pb.suspend(|| {
+                        swarm_node::process::out(&format!(
+                            "case {}: outside the envelope, not flown: {why}",
+                            case.index
+                        ))
+                    });
+                    flown.push(Flown { outside: Some(why), ..Flown::new(&case, Vec::new(), "outside_envelope") });
+                }
+                None => batch.push(case),
+            }
+        }
         if runs == usize::MAX {
             pb.set_length(next as u64);
         }
-        for (case, r) in fly_all(batch, &out, &pb).await {
+        let flights = if batch.is_empty() { Vec::new() } else { fly_all(batch, &out, &pb).await };
+        for (case, r) in flights {
             let s = match r {
                 Ok(s) => s,
                 Err(e) => {
                     // A run that could not be flown is reported, not shrunk: the fuzz goes on.
                     tracing::warn!("case {} ({}): {e:#}", case.index, case.label());
-                    flown.push(Flown {
-                        case: case.index,
-                        label: case.label(),
-                        failed: vec!["run_error".into()],
-                        end_reason: "error".into(),
-                    });
+                    flown.push(Flown::new(&case, vec!["run_error".into()], "error"));
                     continue;
                 }
             };
             let failed: Vec<String> = s.failed_checks().map(|c| c.name.clone()).collect();
-            flown.push(Flown { case: case.index, label: case.label(), failed, end_reason: s.end_reason.clone() });
+            flown.push(Flown::new(&case, failed, &s.end_reason));
             if let Some(first) = first_failed(&s) {
                 let original = case.label();
                 let (small, failure, spent) = shrink(case, first, &out, a.shrink_runs, &pb).await;
@@ -267,11 +307,45 @@ pub async fn fuzz(a: FuzzArgs) -> Result<ExitCode> {
         }
     }
     pb.finish_and_clear();
+    flown.sort_by_key(|f| f.case);
     report(&out, a.seed, &flown, &findings)
+}
+
+/// One row of the summary by controller and localization.
+#[derive(Debug, Clone, Default, Serialize)]
+struct Row {
+    cases: usize,
+    outside: usize,
+    failed: usize,
+    /// The checks its findings were shrunk on, with counts.
+    shrunk_on: std::collections::BTreeMap<String, usize>,
+}
+
+/// The summary by `controller/localization`, in name order.
+fn by_controller(flown: &[Flown], findings: &[Finding]) -> std::collections::BTreeMap<String, Row> {
+    let mut rows: std::collections::BTreeMap<String, Row> = Default::default();
+    for f in flown {
+        let row = rows.entry(f.controller.clone()).or_default();
+        row.cases += 1;
+        row.outside += usize::from(f.outside.is_some());
+        row.failed += usize::from(!f.failed.is_empty());
+        if let Some(found) = findings.iter().find(|x| x.case == f.case) {
+            *row.shrunk_on.entry(found.check.clone()).or_default() += 1;
+        }
+    }
+    rows
 }
 
 /// Prints the tally and writes `fuzz.json`; exit status 2 when something failed.
 fn report(out: &Path, seed: u64, flown: &[Flown], findings: &[Finding]) -> Result<ExitCode> {
+    let rows = by_controller(flown, findings);
+    let mut table = format!("fuzz seed {seed}, by controller:\n| controller | cases | outside the envelope | flown | failed | shrunk on |\n|---|---|---|---|---|---|\n");
+    for (name, r) in &rows {
+        let on: Vec<String> = r.shrunk_on.iter().map(|(c, n)| format!("`{c}` {n}")).collect();
+        let flown = r.cases - r.outside;
+        table += &format!("| {name} | {} | {} | {flown} | {} | {} |\n", r.cases, r.outside, r.failed, on.join(", "));
+    }
+    swarm_node::process::out(table.trim_end());
     let mut by_check: std::collections::BTreeMap<&str, usize> = Default::default();
     for f in flown {
         for c in &f.failed {
@@ -279,9 +353,10 @@ fn report(out: &Path, seed: u64, flown: &[Flown], findings: &[Finding]) -> Resul
         }
     }
     let failed = flown.iter().filter(|f| !f.failed.is_empty()).count();
+    let outside = flown.iter().filter(|f| f.outside.is_some()).count();
     swarm_node::process::out(&format!(
-        "fuzz seed {seed}: {} cases flown, {failed} failed; failures by check: {by_check:?}",
-        flown.len()
+        "fuzz seed {seed}: {} cases flown, {failed} failed, {outside} outside the envelope (not flown); failures by check: {by_check:?}",
+        flown.len() - outside
     ));
     for f in findings {
         swarm_node::process::out(&format!(
@@ -293,7 +368,13 @@ fn report(out: &Path, seed: u64, flown: &[Flown], findings: &[Finding]) -> Resul
             f.file.display()
         ));
     }
-    let json = serde_json::json!({ "seed": seed, "flown": flown, "findings": findings, "failures_by_check": by_check });
+    let json = serde_json::json!({
+        "seed": seed,
+        "flown": flown,
+        "findings": findings,
+        "failures_by_check": by_check,
+        "by_controller": rows,
+    });
     std::fs::write(out.join("fuzz.json"), serde_json::to_string_pretty(&json)?)?;
     swarm_node::process::out(&format!("fuzz folder: {}", out.display()));
     Ok(if failed > 0 { ExitCode::from(2) } else { ExitCode::SUCCESS })

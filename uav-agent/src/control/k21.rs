@@ -75,6 +75,7 @@ pub struct Output {
     pub navigation: Vector2<f64>,
 }
 
+use super::barrier::{barrier, within};
 use crate::geometry::{is_finite, EPS};
 use crate::world_model::Body;
 
@@ -233,62 +234,6 @@ pub fn avoidance(p: &K21Params, obstacles: &[Vector2<f64>], desired: Vector2<f64
     };
     // seed 000, eq. 4.12: v_o = v/|v| · 2/|y|, 2 = avoidance_gain_m; eq. 4.13: clip to unit length.
     clip_unit(v_dir * (p.avoidance_gain_m / dist))
-}
-
-/// `v` with its component towards each of `close` (body frame) at most that point's allowance
-/// [m/s]: our extension of seed 000 section 4.4, whose avoidance (eq. 4.10–4.13) looks at the
-/// closest obstacle only and so may push a UAV squeezing between two obstacles into the farther
-/// one. Each close point is a half-plane constraint v·ŷ ≤ allowance; the constraints are applied
-/// in turn until none is violated (a few rounds: in 2D at most two are active at once). Where
-/// they leave no direction at all (hemmed in on every side with no allowance), the UAV stops.
-/// The caller picks what is close and its allowance ([`within`]).
-pub fn barrier(v: Vector2<f64>, close: impl IntoIterator<Item = (Vector2<f64>, f64)>) -> Vector2<f64> {
-    // Usually empty: no allocation unless something is this close.
-    let close: Vec<(Vector2<f64>, f64)> = close
-        .into_iter()
-        .filter(|(y, a)| is_finite(y) && a.is_finite())
-        .filter_map(|(y, a)| {
-            let d = y.norm();
-            (d > EPS).then(|| (y / d, a.max(0.0)))
-        })
-        .collect();
-    let mut v = v;
-    for _ in 0..8 {
-        let mut changed = false;
-        for (y, allowed) in &close {
-            let over = v.dot(y) - allowed;
-            if over > EPS {
-                v -= over * y;
-                changed = true;
-            }
-        }
-        if !changed {
-            return v;
-        }
-    }
-    if close.iter().any(|(y, allowed)| v.dot(y) - allowed > 1e-6) {
-        Vector2::zeros()
-    } else {
-        v
-    }
-}
-
-/// The points of `points` closer than `radius_m` (none when it is 0: that barrier is off), each
-/// with the speed [m/s] at which the UAV may still approach it: `speed` at `radius_m`, falling
-/// linearly to 0 at `radius_m − ramp_m` and 0 deeper in (a hard barrier with `ramp_m` = 0).
-pub fn within<'a>(
-    points: impl IntoIterator<Item = &'a Vector2<f64>>,
-    radius_m: f64,
-    ramp_m: f64,
-    speed: f64,
-) -> impl Iterator<Item = (Vector2<f64>, f64)> {
-    let stop = (radius_m - ramp_m).max(0.0);
-    let band = radius_m - stop;
-    points.into_iter().copied().filter_map(move |y| {
-        let d = y.norm();
-        let allowed = if band > 0.0 { speed * ((d - stop) / band).clamp(0.0, 1.0) } else { 0.0 };
-        (d < radius_m).then_some((y, allowed))
-    })
 }
 
 /// Navigation vector v_n (seed 000, section 4.5, eq. 4.16–4.17).
@@ -692,56 +637,6 @@ mod tests {
         close(avoidance(&p, &[v(3.0, -1.0), v(2.0, 1.0)], x), v(0.4, -0.8), 1e-12);
         // (−1,0) is closer but 180° behind: ignored first, so (2,1) is still avoided.
         close(avoidance(&p, &[v(-1.0, 0.0), v(2.0, 1.0)], x), v(0.4, -0.8), 1e-12);
-    }
-
-    /// The hard barrier (no ramp): nothing towards a point within reach.
-    fn hard<'a>(points: &'a [Vector2<f64>], reach: f64) -> impl Iterator<Item = (Vector2<f64>, f64)> + 'a {
-        within(points, reach, 0.0, 0.4)
-    }
-
-    #[test]
-    fn barrier_keeps_a_uav_off_both_obstacles_it_squeezes_between() {
-        // A frozen UAV 0.8 m to the left, a trunk 0.85 m to the right: it slides on between them.
-        let beside = [v(0.0, 0.8), v(0.0, -0.85)];
-        close(barrier(v(0.2, -0.3), hard(&beside, 1.0)), v(0.2, 0.0), 1e-12);
-        // The trunk a little ahead on the right: no component towards either is left.
-        let ahead = [v(0.0, 0.8), v(0.3, -0.85)];
-        let out = barrier(v(0.2, -0.3), hard(&ahead, 1.0));
-        for y in &ahead {
-            assert!(out.dot(&(y / y.norm())) <= 1e-9, "{out} moves towards {y}");
-        }
-        close(barrier(v(0.2, -0.3), hard(&ahead, 0.0)), v(0.2, -0.3), 1e-12);
-        close(barrier(v(0.4, 0.0), hard(&[v(3.0, 0.0)], 1.0)), v(0.4, 0.0), 1e-12);
-        // Hemmed in on three sides with the velocity into the corner: it stops.
-        let corner = [v(0.5, 0.0), v(-0.25, 0.45), v(-0.25, -0.45)];
-        close(barrier(v(0.3, 0.1), hard(&corner, 1.0)), Vector2::zeros(), 1e-9);
-        close(barrier(v(0.3, 0.1), within(&corner, 1.0, 0.15, 0.4)), Vector2::zeros(), 1e-9);
-    }
-
-    /// The graded barrier: within the ramp a point may be approached at the allowance (kf at the
-    /// reach, 0 at reach − ramp), deeper in not at all. In a gap between a trunk and a still UAV,
-    /// both centres 1.0 m away and 129° apart (issue 46's crash: every direction through the gap
-    /// approaches both), the hard barrier stops the UAV for good; the graded one lets it through.
-    #[test]
-    fn the_graded_barrier_lets_a_uav_through_a_gap_the_hard_one_closes() {
-        let (reach, ramp, kf) = (1.0, 0.15, 0.4);
-        let at = |deg: f64, d: f64| v(d * deg.to_radians().cos(), d * deg.to_radians().sin());
-        let (a, b) = (at(58.0, 0.97), at(-71.0, 0.98));
-        let gap = [a, b];
-        let through = v(0.4, 0.0);
-        close(barrier(through, hard(&gap, reach)), Vector2::zeros(), 1e-9);
-        let out = barrier(through, within(&gap, reach, ramp, kf));
-        assert!(out.x > 0.1, "on through the gap: {out}");
-        for (y, allowed) in within(&gap, reach, ramp, kf) {
-            let d = y.norm();
-            close(v(allowed, 0.0), v(kf * (d - 0.85) / 0.15, 0.0), 1e-12);
-            assert!(out.dot(&y.normalize()) <= allowed + 1e-9, "{out} faster than {allowed} towards {y}");
-        }
-        // Deeper than reach − ramp: hard again.
-        let deep = [at(58.0, 0.8), at(-71.0, 0.84)];
-        close(barrier(through, within(&deep, reach, ramp, kf)), Vector2::zeros(), 1e-9);
-        // At the reach itself, nothing is held back (beyond it the point is not close).
-        assert_eq!(within(&[v(1.0, 0.0)], reach, ramp, kf).count(), 0);
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //!   the built-in pilots by name, and a user's crate adds its own there. Imports run registry →
 //!   pilot → controller, never back.
 //! - `k21`: the Boids-style K21 controller of seed 000 chapter 4.
+//! - `barrier`: the velocity barrier K21 and A21's safety layer hold a command to, our extension.
 //! - `p17`: the P17 controller of seed 001 chapter 3 (β-agents for cylinders and walls).
 //! - `a21`: the A21 controller of seed 003 section III (proximal control, φ-limited navigation).
 //! - `m23`: the formation layer of seed 004 (topology goals, the leader's wait, the tracker).
@@ -24,6 +25,7 @@
 
 mod a21;
 pub(crate) mod arrival;
+mod barrier;
 pub(crate) mod controller;
 pub(crate) mod hops;
 mod k21;

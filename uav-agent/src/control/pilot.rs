@@ -96,6 +96,8 @@ pub struct A21Pilot {
     planned_at: Option<f64>,
     /// The control period [s]: how long a command lasts.
     period_s: f64,
+    /// The fastest it flies [m/s]: its own cap, else the body's.
+    top_speed_mps: f64,
 }
 
 impl A21Pilot {
@@ -109,13 +111,22 @@ impl A21Pilot {
         let period_s = 1.0 / sc.time.control_hz;
         // A swarm of one has no flock to wait for (`phi_alone`'s reason): it flies its path.
         let params = if sc.count() == 1 { swarm_config::A21Params { phi_alone: 1.0, ..a.clone() } } else { a.clone() };
-        A21Pilot { params, grid: Box::new(OccupancyGrid::new(grid)), path: Vec::new(), planned_at: None, period_s }
+        let top_speed_mps = a.max_speed_mps.unwrap_or(sc.body.max_speed_mps);
+        A21Pilot {
+            params,
+            grid: Box::new(OccupancyGrid::new(grid)),
+            path: Vec::new(),
+            planned_at: None,
+            period_s,
+            top_speed_mps,
+        }
     }
 }
 
 impl Controller for A21Pilot {
     fn step(&mut self, v: &View) -> Command {
-        let cmd = fly_a21(&self.params, v, &mut self.grid, &mut self.path, &mut self.planned_at);
+        let limits = (self.period_s, self.top_speed_mps);
+        let cmd = fly_a21(&self.params, v, &mut self.grid, &mut self.path, &mut self.planned_at, limits);
         match self.params.max_speed_mps {
             Some(cap) => capped(cmd, v.odom, cap, self.period_s),
             None => cmd,
@@ -242,6 +253,7 @@ fn fly_a21(
     grid: &mut OccupancyGrid,
     path: &mut Vec<Point2<f64>>,
     planned_at: &mut Option<f64>,
+    (period_s, top_speed_mps): (f64, f64),
 ) -> Command {
     let (p0, rot) = pose(v.odom);
     grid.update(Pose2::new(p0.x, p0.y, v.odom.yaw), v.static_points);
@@ -259,13 +271,16 @@ fn fly_a21(
     let neighbours: Vec<Vector2<f64>> = v.neighbours.iter().map(|e| e.pos_in_body).collect();
     let obstacle_points: Vec<Vector2<f64>> =
         v.static_points.iter().map(|p| p.coords).filter(|p| p.norm() <= a.dr_m).collect();
-    let out = a21::step(
-        a,
-        &a21::Input { neighbours: &neighbours, obstacle_points: &obstacle_points, path_direction: direction },
-    );
+    let input = a21::Input { neighbours: &neighbours, obstacle_points: &obstacle_points, path_direction: direction };
+    let out = a21::step(a, &input);
     // The damping the seed's trajectory tracker provides (see `A21Params::damping_per_s`).
     let vel_body = rot.inverse() * Vector2::new(v.odom.vx, v.odom.vy);
-    let acceleration = out.acceleration - a.damping_per_s * vel_body;
+    let mut acceleration = out.acceleration - a.damping_per_s * vel_body;
+    if a.safety {
+        // The safety layer holds the velocity this command reaches by the period's end.
+        let reached = vel_body + acceleration * period_s;
+        acceleration = (a21::safe_velocity(a, reached, &input, top_speed_mps) - vel_body) / period_s;
+    }
     Command {
         kind: CmdKind::Acceleration,
         xy: acceleration,

@@ -1,0 +1,122 @@
+//! Each controller's envelope: the worlds and starts its seed (and our documentation) says it
+//! flies. The generator draws inside it ([`Envelope::of`]: the start spacing, the forest's
+//! density, A21's safety layer); a case that is outside it all the same, because a draw (start
+//! positions in a disc) or a shrink (fewer UAVs) left it there, is reported with its reason
+//! ([`outside`]) and not flown, so the failure rate counts only what the controllers promise.
+//! The table is in docs/faults-and-experiments.md.
+
+use swarm_config::{ControllerKind, LocalizationMode, Scenario};
+use swarm_types::UavId;
+
+/// What a controller's cases are drawn within.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Envelope {
+    /// Start positions at least this far apart, centre to centre [m].
+    pub min_start_spacing_m: f64,
+    /// At most this many trees per 100 m² in the forest band.
+    pub max_density_per_100m2: f64,
+    /// A21's safety layer on (`[controller.a21] safety`).
+    pub a21_safety: bool,
+}
+
+impl Envelope {
+    /// The envelope of `kind`'s cases. Every controller flies starts 1.5 m apart (forest-40's
+    /// crowd is 1.6 m apart) and forests up to 8 trees per 100 m² with trunks 2.5 m apart; A21
+    /// only with its safety layer on, since seed 003's law lets an informed agent push through
+    /// a neighbour closer than d_c = 1.93 m (`scenarios/found/found-2026-44.toml`).
+    pub fn of(kind: &ControllerKind) -> Envelope {
+        let a21_safety = matches!(kind, ControllerKind::A21);
+        Envelope { min_start_spacing_m: 1.5, max_density_per_100m2: 8.0, a21_safety }
+    }
+}
+
+/// Why the rendered case `sc` is outside its controller's envelope, or `None` when inside:
+/// - its starts must be one group: every UAV reaches the others through UAVs within the radio
+///   range (`uvdar`: the sensing range) of each other, the swarm every seed starts from;
+/// - an A21 informed agent must see its flock at the start within d_max (seed 003 eq. 8:
+///   φ = 0 beyond, and it would wait for ever where it stands).
+pub fn outside(sc: &Scenario) -> Option<String> {
+    let starts = sc.swarm.start_positions.as_deref().unwrap_or_default();
+    let range_m = match sc.localization.mode {
+        LocalizationMode::Uvdar => sc.localization.uvdar.max_range_m,
+        _ => sc.radio.range_m,
+    };
+    if let Some(apart) = first_apart(starts, range_m) {
+        return Some(format!(
+            "the starts are not one group within {range_m} m: UAV {apart} starts out of reach of UAV 1"
+        ));
+    }
+    if sc.controller.kind == ControllerKind::A21 && starts.len() > 1 {
+        let dmax = sc.controller.a21.dmax_m;
+        for (i, p) in starts.iter().enumerate() {
+            let id = i as u32 + 1;
+            let informed = sc.is_informed(UavId::new(id));
+            let seen: Vec<f64> = starts
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
+                .filter(|&d| d <= range_m)
+                .collect();
+            let mean = seen.iter().sum::<f64>() / seen.len().max(1) as f64;
+            if informed && mean >= dmax {
+                return Some(format!(
+                    "informed UAV {id} starts {mean:.2} m on average from the UAVs it sees, at or beyond A21's d_max = {dmax} m (seed 003 eq. 8: it would never move)"
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// The first UAV (1-based) not connected to UAV 1 through starts within `range_m`, if any.
+fn first_apart(starts: &[[f64; 2]], range_m: f64) -> Option<usize> {
+    let mut reached = vec![false; starts.len()];
+    let mut frontier = Vec::new();
+    if !starts.is_empty() {
+        reached[0] = true;
+        frontier.push(0);
+    }
+    while let Some(i) = frontier.pop() {
+        for (j, q) in starts.iter().enumerate() {
+            if !reached[j] && (starts[i][0] - q[0]).hypot(starts[i][1] - q[1]) <= range_m {
+                reached[j] = true;
+                frontier.push(j);
+            }
+        }
+    }
+    reached.iter().position(|r| !r).map(|j| j + 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn a21(starts: Vec<[f64; 2]>) -> Scenario {
+        let mut sc = swarm_config::builtin("a21-forest-uvdar").expect("built in");
+        sc.swarm.count = starts.len() as u32;
+        sc.swarm.start_positions = Some(starts);
+        sc
+    }
+
+    #[test]
+    fn a_start_of_two_groups_is_outside_with_the_first_uav_out_of_reach() {
+        assert_eq!(first_apart(&[[0.0, 0.0], [3.0, 0.0], [30.0, 0.0]], 10.0), Some(3));
+        assert_eq!(first_apart(&[[0.0, 0.0], [9.0, 0.0], [18.0, 0.0]], 10.0), None);
+        let why = outside(&a21(vec![[0.0, 0.0], [2.0, 0.0], [40.0, 0.0]])).expect("outside");
+        assert!(why.contains("UAV 3 starts out of reach"), "{why}");
+        // UVDAR sees 8 m: 8.5 m apart is two groups there.
+        assert!(outside(&a21(vec![[0.0, 0.0], [8.5, 0.0]])).is_some_and(|w| w.contains("within 8 m")));
+    }
+
+    #[test]
+    fn an_a21_informed_uav_beyond_d_max_of_its_flock_is_outside() {
+        // Over broadcast (radio 10 m) UAV 1, the informed one, hears both, 8.51 m away on average.
+        let mut sc = a21(vec![[0.0, 0.0], [8.5, 0.5], [8.5, -0.5]]);
+        sc.localization.mode = LocalizationMode::Broadcast;
+        let why = outside(&sc);
+        let why = why.expect("outside");
+        assert!(why.contains("informed UAV 1") && why.contains("d_max = 8"), "{why}");
+        assert_eq!(outside(&a21(vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]])), None);
+    }
+}
