@@ -379,6 +379,25 @@ fn a21_found_cases_reach_the_goal() {
     }
 }
 
+/// Issue 46 item 3, A21's opt-in safety layer: `found-2026-44` (5 UAVs started 1.5-2.5 m apart,
+/// the informed one pushing through its flock, seed 003's law) brings two UAVs within 0.8 m
+/// with the bare eq. 1, and with `[controller.a21] safety = true` no two closer than 0.8 m and
+/// no contact.
+#[test]
+fn a21_safety_layer_keeps_a_tight_start_apart() {
+    let file = format!("{}/../scenarios/found/found-2026-44.toml", env!("CARGO_MANIFEST_DIR"));
+    let check = |s: &serde_json::Value, name: &str| {
+        let checks = s["checks"].as_array().expect("checks");
+        checks.iter().find(|c| c["name"] == name).map(|c| c["passed"] == true).expect("the check")
+    };
+    let (_dir, bare) = fly(&[&file], "found44bare");
+    assert!(!check(&bare, "min_separation"), "the bare law: {:#}", bare["checks"]);
+    let (_dir, safe) = fly(&[&file, "--set", "controller.a21.safety=true"], "found44safe");
+    assert!(check(&safe, "min_separation") && check(&safe, "collision"), "{:#}", safe["checks"]);
+    assert!(safe["min_agent_distance_m"].as_f64().expect("n") >= 0.8, "{safe:#}");
+    assert_eq!(safe["collisions"], 0);
+}
+
 /// Issue 5, A21 with no communication (seed 003 section V): four UAVs through forest-5's forest,
 /// only UAV 1 informed, localized by UVDAR. No message is sent between agents, no collision, and
 /// the whole group reaches the goal with the informed UAV.

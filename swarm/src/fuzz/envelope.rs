@@ -34,8 +34,14 @@ impl Envelope {
 /// - its starts must be one group: every UAV reaches the others through UAVs within the radio
 ///   range (`uvdar`: the sensing range) of each other, the swarm every seed starts from;
 /// - an A21 informed agent must see its flock at the start within d_max (seed 003 eq. 8:
-///   φ = 0 beyond, and it would wait for ever where it stands).
+///   φ = 0 beyond, and it would wait for ever where it stands);
+/// - some UAV that knows the goal must stay live: when every informed UAV is frozen (or failed
+///   from the start), no UAV left flying knows where the goal is, and no controller can meet a
+///   goal rule the checks judge on the live UAVs.
 pub fn outside(sc: &Scenario) -> Option<String> {
+    if let Some(why) = no_informed_left(sc) {
+        return Some(why);
+    }
     let starts = sc.swarm.start_positions.as_deref().unwrap_or_default();
     let range_m = match sc.localization.mode {
         LocalizationMode::Uvdar => sc.localization.uvdar.max_range_m,
@@ -67,6 +73,20 @@ pub fn outside(sc: &Scenario) -> Option<String> {
         }
     }
     None
+}
+
+/// Why no UAV that knows the goal stays live, or `None` when one does (or nobody ever knew it).
+fn no_informed_left(sc: &Scenario) -> Option<String> {
+    let informed: Vec<UavId> = (1..=sc.swarm.count).map(UavId::new).filter(|&id| sc.is_informed(id)).collect();
+    let frozen = |id: UavId| {
+        sc.swarm.failed.contains(&id)
+            || sc.failures.iter().any(|f| f.uav == id && f.kind == swarm_config::FailureKind::Freeze)
+    };
+    let all_frozen = !informed.is_empty() && informed.iter().all(|&id| frozen(id));
+    all_frozen.then(|| {
+        let ids: Vec<String> = informed.iter().map(|id| id.to_string()).collect();
+        format!("every informed UAV ({}) freezes: no live UAV knows the goal", ids.join(", "))
+    })
 }
 
 /// The first UAV (1-based) not connected to UAV 1 through starts within `range_m`, if any.
@@ -118,5 +138,20 @@ mod tests {
         let why = why.expect("outside");
         assert!(why.contains("informed UAV 1") && why.contains("d_max = 8"), "{why}");
         assert_eq!(outside(&a21(vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]])), None);
+    }
+
+    #[test]
+    fn a_freeze_of_every_informed_uav_is_outside_and_of_another_is_not() {
+        let freeze = |uav: u32| swarm_config::Failure {
+            at_s: 30.0,
+            uav: UavId::new(uav),
+            kind: swarm_config::FailureKind::Freeze,
+        };
+        let mut sc = a21(vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]]);
+        sc.failures = vec![freeze(2)];
+        assert_eq!(outside(&sc), None, "UAV 1, the informed one, still flies");
+        sc.failures.push(freeze(1));
+        let why = outside(&sc).expect("outside");
+        assert!(why.contains("every informed UAV (1) freezes"), "{why}");
     }
 }

@@ -9,6 +9,9 @@
 //! Deterministic for a seed: case `i` is drawn from its own seed (the `i`-th draw of the master
 //! stream), lockstep runs repeat, and shrinking tries candidates in a fixed order, one at a time.
 //! `--minutes` only decides how many cases are started.
+//!
+//! Each case is drawn inside its controller's envelope ([`envelope`]); one outside it all the
+//! same is printed with its reason and not flown, and the report has a table by controller.
 
 mod case;
 mod envelope;
