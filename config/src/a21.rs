@@ -111,7 +111,9 @@ pub struct A21Params {
     /// fuzz` turns it on in its A21 cases. Without it an informed agent's navigation (kn·φ ≈
     /// 1 m/s²) outweighs the repulsion of a neighbour in its way, which eq. 2 averages over every
     /// agent within d_0, and from starts closer than d_c it pushes through its own flock
-    /// (`scenarios/found/found-2026-44.toml`).
+    /// (`scenarios/found/found-2026-44.toml`). It sees the scan points the collision vector
+    /// takes (within `dr_m`), enough while a stop at the top speed needs less than that
+    /// (`safety_surface_m` + v²/2b = 1 m at 1 m/s).
     #[serde(default)]
     pub safety: bool,
     /// The safety layer stops the approach to a neighbour's centre here [m], centre to centre:

@@ -54,18 +54,11 @@ pub fn outside(sc: &Scenario) -> Option<String> {
     }
     if sc.controller.kind == ControllerKind::A21 && starts.len() > 1 {
         let dmax = sc.controller.a21.dmax_m;
-        for (i, p) in starts.iter().enumerate() {
-            let id = i as u32 + 1;
-            let informed = sc.is_informed(UavId::new(id));
-            let seen: Vec<f64> = starts
-                .iter()
-                .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
-                .filter(|&d| d <= range_m)
-                .collect();
+        for (id, p) in (1..).zip(starts).filter(|&(id, _)| sc.is_informed(UavId::new(id))) {
+            let seen: Vec<f64> =
+                starts.iter().map(|q| (p[0] - q[0]).hypot(p[1] - q[1])).filter(|&d| d > 0.0 && d <= range_m).collect();
             let mean = seen.iter().sum::<f64>() / seen.len().max(1) as f64;
-            if informed && mean >= dmax {
+            if mean >= dmax {
                 return Some(format!(
                     "informed UAV {id} starts {mean:.2} m on average from the UAVs it sees, at or beyond A21's d_max = {dmax} m (seed 003 eq. 8: it would never move)"
                 ));
