@@ -162,6 +162,10 @@ pub struct SessionTrafficSummary {
     pub remote_shares_per_tick: f64,
     /// Their payload bytes per tick.
     pub remote_share_bytes_per_tick: f64,
+    /// Shares of those senders that never came between two that did, while subscribed, over the
+    /// whole run (lost on the way or never sent; see the wire's `Traffic::remote_share_gaps`).
+    #[serde(default)]
+    pub remote_share_gaps: u64,
     /// Share subscriptions it held, mean over its agents' states (the union of their radio sets).
     pub subscriptions_mean: f64,
 }

@@ -482,6 +482,10 @@ pub struct Traffic {
     pub remote_shares: u64,
     /// Their payload bytes.
     pub remote_share_bytes: u64,
+    /// Shares of those senders that never came between two that did, while subscribed: the
+    /// ticks one sender's received shares skip (lost on the way, or never sent: a tick the
+    /// sender did not step, a share its netem dropped).
+    pub remote_share_gaps: u64,
     /// Shares that reached this agent: every one its session received from a UAV it listened to
     /// (counted or not by its windows).
     pub agent_shares: u64,
@@ -709,6 +713,7 @@ pub(crate) mod tests {
                 subscriptions: 6,
                 remote_shares: 7,
                 remote_share_bytes: 8,
+                remote_share_gaps: 11,
                 agent_shares: 9,
                 agent_bytes: 10,
             },

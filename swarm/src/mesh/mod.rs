@@ -16,10 +16,20 @@
 //! logs in as `observer`; agents reach the hub only through their site's router. Every address lives in the namespaces this command makes, and
 //! they are removed at the end, also on failure.
 //!
+//! Each host's row also says how many border shares never came (the ticks one sender's received
+//! shares skip), so the delivery is a count, not an estimate; and the study says how much CPU
+//! each kind of piece used and how busy the machine was ([`cpu`]). `--sizes 100,200,400,1000`
+//! flies the scenario at each size (its start disc scaled to keep the density) and adds a table
+//! and a plot of delivery, late commands and CPU against the size ([`chart`]).
+//!
 //! - [`net`]: the namespaces, their links and the kernel's byte counters.
+//! - [`cpu`]: the pieces' CPU from `/proc`.
 //! - [`report`]: the pure part: hosts by start position, radio neighbours across hosts from the
-//!   truth track, the table.
+//!   truth track, the tables.
+//! - [`chart`]: the sizes' plot.
 
+pub mod chart;
+pub mod cpu;
 pub mod net;
 pub mod report;
 
@@ -62,6 +72,11 @@ pub struct MeshArgs {
     /// Also record `run.mcap` (off by default: large at 1000 UAVs).
     #[arg(long)]
     pub mcap: bool,
+    /// Fly the scenario at each of these sizes (e.g. `100,200,400,1000`), its start disc scaled
+    /// to keep the density, one study each under the folder, and add `sizes.md`, `sizes.json`
+    /// and `sizes.png` / `sizes.svg`: delivery, late commands and CPU against the size.
+    #[arg(long, value_delimiter = ',')]
+    pub sizes: Vec<u32>,
 }
 
 /// The port every piece listens on, each at its own machine's address.
@@ -76,15 +91,49 @@ struct Piece {
 /// Runs `swarm mesh`.
 pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
     let sc = scenario(&a)?;
-    let starts = physics_hub::start_positions(&sc);
-    let by_position = report::strips(&starts, sc.swarm.goal, a.hosts as usize);
-    let (sc, groups) = report::renumbered(&sc, &starts, &by_position).map_err(anyhow::Error::msg)?;
-    let hosts: Vec<String> = (1..=groups.len()).map(|h| format!("h{h}")).collect();
-    let machines: Vec<String> = std::iter::once("hub".to_string()).chain(hosts.iter().cloned()).collect();
-    let net = Net::build(&format!("mesh{}", std::process::id()), &machines)?;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(format!("mesh-{}", unix_secs())));
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let out = out.canonicalize()?;
+    if a.sizes.is_empty() {
+        let report = mesh_one(&sc, a.hosts, &out, a.mcap).await?;
+        if a.json {
+            swarm_node::process::out(&serde_json::to_string_pretty(&report)?);
+        } else {
+            print!("{}", report::table(&report));
+        }
+        eprintln!("study folder: {} (mesh.md, mesh.json, run/, logs)", out.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let mut reports = Vec::new();
+    for &n in &a.sizes {
+        let resized = crate::scale::resized(&sc, n).with_context(|| format!("--sizes {n} of {}", sc.name))?;
+        let report = mesh_one(&resized, a.hosts, &out.join(format!("n{n}")), a.mcap).await?;
+        eprint!("{}", report::size_line(&report));
+        reports.push(report);
+    }
+    let table = report::sizes_table(&reports);
+    std::fs::write(out.join("sizes.md"), &table)?;
+    std::fs::write(out.join("sizes.json"), serde_json::to_string_pretty(&reports)?)?;
+    chart::write(&reports, &out.join("sizes.svg"), &out.join("sizes.png"))?;
+    if a.json {
+        swarm_node::process::out(&serde_json::to_string_pretty(&reports)?);
+    } else {
+        print!("{table}");
+    }
+    eprintln!("study folder: {} (sizes.md, sizes.json, sizes.png, a study per size)", out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Flies `sc` over `hosts` agent hosts, its study in `out`, and reports it (also written to
+/// `out`'s `mesh.md` and `mesh.json`).
+async fn mesh_one(sc: &Scenario, hosts: u32, out: &Path, mcap: bool) -> Result<MeshReport> {
+    let starts = physics_hub::start_positions(sc);
+    let by_position = report::strips(&starts, sc.swarm.goal, hosts as usize);
+    let (sc, groups) = report::renumbered(sc, &starts, &by_position).map_err(anyhow::Error::msg)?;
+    let hosts: Vec<String> = (1..=groups.len()).map(|h| format!("h{h}")).collect();
+    let machines: Vec<String> = std::iter::once("hub".to_string()).chain(hosts.iter().cloned()).collect();
+    let net = Net::build(&format!("mesh{}", std::process::id()), &machines)?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     eprintln!(
         "mesh: {} UAVs of {} on {} agent hosts ({}), hub and recorder on their own machine",
         sc.count(),
@@ -96,22 +145,15 @@ pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
     let mut term =
         tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).context("cannot watch SIGTERM")?;
     let flown = tokio::select! {
-        f = fly(&net, &sc, &out, &hosts, &groups, a.mcap) => f?,
+        f = fly(&net, &sc, out, &hosts, &groups, mcap) => f?,
         _ = tokio::signal::ctrl_c() => bail!("interrupted; the network and its pieces are removed"),
         _ = term.recv() => bail!("terminated; the network and its pieces are removed"),
     };
     drop(net);
-    let report = build_report(&sc, &out, &hosts, &groups, &flown)?;
-    let table = report::table(&report);
-    std::fs::write(out.join("mesh.md"), &table)?;
+    let report = build_report(&sc, out, &hosts, &groups, &flown)?;
+    std::fs::write(out.join("mesh.md"), report::table(&report))?;
     std::fs::write(out.join("mesh.json"), serde_json::to_string_pretty(&report)?)?;
-    if a.json {
-        swarm_node::process::out(&serde_json::to_string_pretty(&report)?);
-    } else {
-        print!("{table}");
-    }
-    eprintln!("study folder: {} (mesh.md, mesh.json, run/, logs)", out.display());
-    Ok(ExitCode::SUCCESS)
+    Ok(report)
 }
 
 /// The scenario with the command line's overrides.
@@ -131,10 +173,12 @@ fn sizes(groups: &[Vec<UavId>]) -> String {
     groups.iter().map(|g| g.len().to_string()).collect::<Vec<_>>().join(" + ")
 }
 
-/// What the flight left besides its run folder: each machine's link bytes over the flight.
+/// What the flight left besides its run folder: each machine's link bytes over the flight, and
+/// the CPU its pieces used.
 struct Flown {
     /// (received, sent) per machine, hub first.
     link_bytes: Vec<(u64, u64)>,
+    cpu: cpu::CpuUse,
 }
 
 /// Starts the pieces in their namespaces, flies the run to its end, and reads the link counters.
@@ -198,6 +242,7 @@ async fn fly(
     );
 
     let mut pieces = Vec::new();
+    let mut pids = vec![("hub".to_string(), pid(&hub)?), ("recorder".to_string(), pid(&rec)?)];
     for (host, ids) in hosts.iter().zip(groups) {
         let ep = format!("tcp/{}:{PORT}", net.addr(host));
         let user = host_user(ids);
@@ -207,6 +252,7 @@ async fn fly(
         r_args.extend(creds.client_args(&user));
         let mut router = start(host, r_args, &format!("router-{host}.log"))?;
         wait_line(&mut router, swarm_node::router::ROUTER_LISTENING_PREFIX, &format!("the router of {host}")).await?;
+        pids.push(("routers".to_string(), pid(&router)?));
         pieces.push(router);
     }
     let before = counters(net)?;
@@ -215,18 +261,27 @@ async fn fly(
         let mut a_args =
             strings(&["agent", "--run", &run, "--ids", &ids_text(ids), "--connect", &ep, "--exit-with-stdin"]);
         a_args.extend(creds.client_args(&host_user(ids)));
-        pieces.push(spawn(net, host, &exe, a_args, &out.join(format!("agents-{host}.log")), Stdio::null())?);
+        let agents = spawn(net, host, &exe, a_args, &out.join(format!("agents-{host}.log")), Stdio::null())?;
+        pids.push(("agents".to_string(), pid(&agents)?));
+        pieces.push(agents);
     }
+    let watch = cpu::Watch::start(pids);
     let mut clock = strings(&["tap", &keys.clock(), "--connect", &hub_ep]);
     clock.extend(observer.iter().cloned());
     let progress = spawn(net, "hub", &exe, clock, &out.join("tap-clock.log"), Stdio::piped())?;
     follow(sc, &mut rec, &mut hub, progress).await?;
+    let cpu = watch.stop().await;
     let after = counters(net)?;
     drop(pieces);
     drop(hub);
     let delta = |b: &(u64, u64), a: &(u64, u64)| Some((a.0.checked_sub(b.0)?, a.1.checked_sub(b.1)?));
     let link_bytes = before.iter().zip(&after).map(|(b, a)| delta(b, a)).collect::<Option<Vec<_>>>();
-    Ok(Flown { link_bytes: link_bytes.context("a link's byte counters went back during the flight")? })
+    Ok(Flown { link_bytes: link_bytes.context("a link's byte counters went back during the flight")?, cpu })
+}
+
+/// A running piece's pid (`ip netns exec` execs the program, so it is the piece's own).
+fn pid(p: &Piece) -> Result<u32> {
+    p.child.id().context("a piece exited as it started (see its log in the study folder)")
 }
 
 fn strings(args: &[&str]) -> Vec<String> {
@@ -342,6 +397,7 @@ fn build_report(
                 link_tx_kb_per_tick: kb(tx),
                 remote_shares_per_tick: session.map_or(0.0, |s| s.remote_shares_per_tick),
                 remote_share_kb_per_tick: session.map_or(0.0, |s| s.remote_share_bytes_per_tick / 1000.0),
+                remote_share_gaps_per_tick: session.map_or(0.0, |s| s.remote_share_gaps as f64 / s.ticks.max(1) as f64),
                 outside_heard_per_tick: heard[h],
                 outside_heard_wide_per_tick: heard_wide[h],
                 outside_uavs: sc.count() - ids.len(),
@@ -362,5 +418,6 @@ fn build_report(
         hosts: rows,
         hub_rx_kb_per_tick: kb(hub_rx),
         hub_tx_kb_per_tick: kb(hub_tx),
+        cpu: flown.cpu.clone(),
     })
 }

@@ -151,6 +151,9 @@ pub struct HostRow {
     pub remote_shares_per_tick: f64,
     /// Their payload bytes per tick.
     pub remote_share_kb_per_tick: f64,
+    /// Shares of those senders that never came between two that did (lost, or never sent), per
+    /// tick.
+    pub remote_share_gaps_per_tick: f64,
     /// UAVs of other hosts within radio range of one of its UAVs, per tick (truth): what the
     /// remote shares should follow.
     pub outside_heard_per_tick: f64,
@@ -188,12 +191,37 @@ pub struct MeshReport {
     pub hub_rx_kb_per_tick: f64,
     /// See `hub_rx_kb_per_tick`.
     pub hub_tx_kb_per_tick: f64,
+    /// The CPU its pieces used, and how busy the machine was.
+    pub cpu: super::cpu::CpuUse,
+}
+
+impl MeshReport {
+    /// Of the border shares each host's subscriptions should have brought, the share that came:
+    /// received / (received + gaps), over all hosts (1 when none was due).
+    pub fn delivered(&self) -> f64 {
+        let got: f64 = self.hosts.iter().map(|h| h.remote_shares_per_tick).sum();
+        let missed: f64 = self.hosts.iter().map(|h| h.remote_share_gaps_per_tick).sum();
+        if got + missed > 0.0 {
+            got / (got + missed)
+        } else {
+            1.0
+        }
+    }
+
+    /// Late commands as a share of all commands.
+    pub fn late_share(&self) -> f64 {
+        if self.commands > 0 {
+            self.late_commands as f64 / self.commands as f64
+        } else {
+            0.0
+        }
+    }
 }
 
 /// The report as a Markdown table with its headline.
 pub fn table(r: &MeshReport) -> String {
     let mut t = String::new();
-    let late = if r.commands > 0 { 100.0 * r.late_commands as f64 / r.commands as f64 } else { 0.0 };
+    let late = 100.0 * r.late_share();
     let _ = writeln!(
         t,
         "# swarm mesh: {} ({} UAVs, {}) over {} agent hosts\n\n{:.2}x real time, {} ticks, late commands {} of {} ({late:.2} %), collisions {}, goal {}; hub link {:.1} kB in / {:.1} kB out per tick\n",
@@ -210,24 +238,109 @@ pub fn table(r: &MeshReport) -> String {
         r.hub_rx_kb_per_tick,
         r.hub_tx_kb_per_tick
     );
-    let _ = writeln!(t, "| host | UAVs | link in kB/tick | link out kB/tick | shares in from other hosts /tick | their kB/tick | other hosts' UAVs in radio range /tick (+ hysteresis) | other hosts' UAVs |");
-    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(t, "Border shares delivered: {:.2} %. {}\n", 100.0 * r.delivered(), cpu_line(&r.cpu));
+    let _ = writeln!(t, "| host | UAVs | link in kB/tick | link out kB/tick | shares in from other hosts /tick | their kB/tick | of them never came /tick | other hosts' UAVs in radio range /tick (+ hysteresis) | other hosts' UAVs |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|");
     for h in &r.hosts {
         let _ = writeln!(
             t,
-            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} ({:.1}) | {} |",
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.2} | {:.2} | {:.1} ({:.1}) | {} |",
             h.host,
             h.uavs,
             h.link_rx_kb_per_tick,
             h.link_tx_kb_per_tick,
             h.remote_shares_per_tick,
             h.remote_share_kb_per_tick,
+            h.remote_share_gaps_per_tick,
             h.outside_heard_per_tick,
             h.outside_heard_wide_per_tick,
             h.outside_uavs
         );
     }
     t
+}
+
+/// The CPU of a flight in a sentence.
+fn cpu_line(c: &super::cpu::CpuUse) -> String {
+    let roles: Vec<String> = c.by_role.iter().map(|r| format!("{} {:.2}", r.role, r.cores)).collect();
+    format!(
+        "CPU over {:.0} s: the machine's {} cores {:.0} % busy; cores kept busy by {}",
+        c.wall_s,
+        c.cores,
+        100.0 * c.machine_busy,
+        roles.join(", ")
+    )
+}
+
+/// One size's result in a line, as the sizes study goes.
+pub fn size_line(r: &MeshReport) -> String {
+    format!(
+        "{} UAVs: {:.2}x real time, delivered {:.2} %, late commands {:.2} %, machine {:.0} % busy\n",
+        r.uavs,
+        r.x_real_time,
+        100.0 * r.delivered(),
+        100.0 * r.late_share(),
+        100.0 * r.cpu.machine_busy
+    )
+}
+
+/// The sizes study as a Markdown table: a row per size.
+pub fn sizes_table(rs: &[MeshReport]) -> String {
+    let mut t = String::new();
+    let first = rs.first();
+    let _ = writeln!(
+        t,
+        "# swarm mesh by size: {} over {} agent hosts, {}\n",
+        first.map_or("", |r| r.scenario.as_str()),
+        first.map_or(0, |r| r.hosts.len()),
+        first.map_or("", |r| r.time_mode.as_str())
+    );
+    let _ = writeln!(t, "| UAVs | x real time | border shares in /tick | never came /tick | delivered | late commands | machine busy | hub cores | recorder cores | routers cores | agent hosts cores | collisions |");
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for r in rs {
+        let got: f64 = r.hosts.iter().map(|h| h.remote_shares_per_tick).sum();
+        let missed: f64 = r.hosts.iter().map(|h| h.remote_share_gaps_per_tick).sum();
+        let _ = writeln!(
+            t,
+            "| {} | {:.2} | {:.1} | {:.2} | {:.2} % | {} of {} ({:.2} %) | {:.0} % of {} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
+            r.uavs,
+            r.x_real_time,
+            got,
+            missed,
+            100.0 * r.delivered(),
+            r.late_commands,
+            r.commands,
+            100.0 * r.late_share(),
+            100.0 * r.cpu.machine_busy,
+            r.cpu.cores,
+            r.cpu.cores_of("hub"),
+            r.cpu.cores_of("recorder"),
+            r.cpu.cores_of("routers"),
+            r.cpu.cores_of("agents"),
+            r.collisions
+        );
+    }
+    t
+}
+
+/// A report with no hosts, for the tests of the tables and the chart.
+#[cfg(test)]
+pub(crate) fn example(uavs: usize) -> MeshReport {
+    MeshReport {
+        scenario: "s".into(),
+        time_mode: "realtime".into(),
+        uavs,
+        ticks: 1,
+        x_real_time: 1.0,
+        late_commands: 0,
+        commands: 0,
+        collisions: 0,
+        reached_goal: false,
+        hosts: vec![],
+        hub_rx_kb_per_tick: 0.0,
+        hub_tx_kb_per_tick: 0.0,
+        cpu: Default::default(),
+    }
 }
 
 #[cfg(test)]
@@ -297,6 +410,7 @@ mod tests {
             link_tx_kb_per_tick: 60.0,
             remote_shares_per_tick: 20.0,
             remote_share_kb_per_tick: 1.25,
+            remote_share_gaps_per_tick: 0.5,
             outside_heard_per_tick: 21.0,
             outside_heard_wide_per_tick: 22.5,
             outside_uavs: 750,
@@ -314,9 +428,36 @@ mod tests {
             hosts: vec![host("h1"), host("h2")],
             hub_rx_kb_per_tick: 200.0,
             hub_tx_kb_per_tick: 1700.0,
+            cpu: super::super::cpu::CpuUse {
+                wall_s: 40.0,
+                cores: 2,
+                machine_busy: 0.5,
+                by_role: vec![super::super::cpu::RoleCpu {
+                    role: "hub".into(),
+                    processes: 1,
+                    cpu_s: 10.0,
+                    cores: 0.25,
+                }],
+            },
         };
         let t = table(&r);
-        assert!(t.contains("| h1 | 250 | 812.5 | 60.0 | 20.0 | 1.25 | 21.0 (22.5) | 750 |"), "{t}");
+        assert!(t.contains("| h1 | 250 | 812.5 | 60.0 | 20.0 | 1.25 | 0.50 | 21.0 (22.5) | 750 |"), "{t}");
         assert!(t.contains("1.50x real time"), "{t}");
+        assert!(t.contains("delivered: 97.56 %"), "20 of 20.5: {t}");
+        assert!(t.contains("2 cores 50 % busy; cores kept busy by hub 0.25"), "{t}");
+        let mut small = r.clone();
+        small.uavs = 100;
+        small.late_commands = 600;
+        let st = sizes_table(&[small, r]);
+        let rows: Vec<&str> = st.lines().filter(|l| l.starts_with("| 1")).collect();
+        assert_eq!(rows.len(), 2, "{st}");
+        assert_eq!(rows[0], "| 100 | 1.50 | 40.0 | 1.00 | 97.56 % | 600 of 600000 (0.10 %) | 50 % of 2 | 0.25 | 0.00 | 0.00 | 0.00 | 0 |");
+        assert!(size_line(&example(1000)).starts_with("1000 UAVs"));
+    }
+
+    #[test]
+    fn nothing_due_is_all_delivered() {
+        let r = example(5);
+        assert_eq!((r.delivered(), r.late_share()), (1.0, 0.0));
     }
 }

@@ -98,6 +98,7 @@ pub(crate) struct SessionCounts {
     subscriptions: AtomicU32,
     remote_shares: AtomicU64,
     remote_share_bytes: AtomicU64,
+    remote_share_gaps: AtomicU64,
 }
 
 impl SessionCounts {
@@ -115,6 +116,13 @@ impl SessionCounts {
             self.remote_share_bytes.fetch_add(len as u64, Ordering::Relaxed);
         }
         self.count(len);
+    }
+
+    /// Counts `n` shares of a remote sender that never came between two that did.
+    fn count_gaps(&self, n: u64) {
+        if n > 0 {
+            self.remote_share_gaps.fetch_add(n, Ordering::Relaxed);
+        }
     }
 
     /// An agent started (`true`) or stopped flying on the session.
@@ -140,6 +148,7 @@ impl SessionCounts {
             subscriptions: self.subscriptions.load(Ordering::Relaxed),
             remote_shares: self.remote_shares.load(Ordering::Relaxed),
             remote_share_bytes: self.remote_share_bytes.load(Ordering::Relaxed),
+            remote_share_gaps: self.remote_share_gaps.load(Ordering::Relaxed),
         }
     }
 }
@@ -163,12 +172,34 @@ impl Listeners {
     }
 
     /// Hands sender `from`'s share to every agent listening to it, decoded once (not at all when
-    /// no one listens).
-    fn deliver(&self, from: UavId, bytes: &[u8]) {
-        let Some(listening) = self.by_sender.get(&from) else { return };
+    /// no one listens); returns the tick it was sent at, when it decoded.
+    fn deliver(&self, from: UavId, bytes: &[u8]) -> Option<u64> {
+        let listening = self.by_sender.get(&from)?;
         let arrived = Arrived::decode(from, bytes);
+        let tick = arrived.share.as_ref().map(|s| s.tick());
         for (_, mailbox) in listening {
             mailbox.post(arrived.clone());
+        }
+        tick
+    }
+}
+
+/// The ticks of one sender's shares as one subscription receives them: how many never came
+/// between two that did. A flying sender shares once per tick, so a gap is a share the network
+/// (a writer's congestion policy, a mailbox, a relay) or the sender (a tick it did not step, a
+/// share its netem dropped) lost. Out of order, a late share fills no gap and opens none.
+#[derive(Debug, Default)]
+struct Sequence {
+    /// One past the latest tick received; 0 before the first.
+    next: AtomicU64,
+}
+
+impl Sequence {
+    /// The shares skipped before this one, sent at `tick`.
+    fn gaps(&self, tick: u64) -> u64 {
+        match self.next.fetch_max(tick + 1, Ordering::Relaxed) {
+            0 => 0,
+            next => tick.saturating_sub(next),
         }
     }
 }
@@ -281,11 +312,15 @@ impl ShareFeed {
             return Ok(Some(Listening { feed: self.clone(), from, me }));
         }
         let (l, traffic, remote) = (inner.listeners.clone(), inner.traffic.clone(), !inner.local.contains(&from));
+        let sequence = Sequence::default();
         let declared = inner.session.declare_subscriber(key).callback(move |sample| {
             // Borrowed when the payload is contiguous (one share is): no copy.
             let bytes = sample.payload().to_bytes();
             traffic.count_share(bytes.len(), remote);
-            l.lock().unwrap_or_else(PoisonError::into_inner).deliver(from, &bytes);
+            let tick = l.lock().unwrap_or_else(PoisonError::into_inner).deliver(from, &bytes);
+            if let Some(tick) = tick.filter(|_| remote) {
+                traffic.count_gaps(sequence.gaps(tick));
+            }
         });
         match declared.wait() {
             Ok(sub) => {
@@ -399,6 +434,20 @@ mod tests {
         assert_eq!((s.shares, s.share_bytes, s.bytes, s.agents, s.session.as_str()), (2, 70, 170, 1, "ab"));
         assert_eq!((s.remote_shares, s.remote_share_bytes), (1, 40), "the local share crossed no network");
         assert_eq!((s.agent_shares, s.agent_bytes), (4, 500), "the agent's own counts, as given");
+        t.count_gaps(0);
+        t.count_gaps(3);
+        assert_eq!(t.snapshot("ab", (0, 0)).remote_share_gaps, 3);
+    }
+
+    #[test]
+    fn a_sequence_counts_the_shares_between_two_that_came() {
+        let s = Sequence::default();
+        assert_eq!(s.gaps(10), 0, "the first share opens the sequence");
+        assert_eq!(s.gaps(11), 0, "the next tick");
+        assert_eq!(s.gaps(14), 2, "12 and 13 never came");
+        assert_eq!(s.gaps(12), 0, "a late one fills nothing");
+        assert_eq!(s.gaps(15), 0, "and opens nothing");
+        assert_eq!(s.gaps(15), 0, "a duplicate neither");
     }
 
     /// A Zenoh router in this process and a client session of it, as an agent host has.

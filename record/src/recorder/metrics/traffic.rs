@@ -50,6 +50,7 @@ impl SessionAcc {
         l.bytes = l.bytes.max(t.bytes);
         l.remote_shares = l.remote_shares.max(t.remote_shares);
         l.remote_share_bytes = l.remote_share_bytes.max(t.remote_share_bytes);
+        l.remote_share_gaps = l.remote_share_gaps.max(t.remote_share_gaps);
         let a = self.agents.entry(st.id).or_default();
         a.ticks = widen(a.ticks, st.tick);
         a.counted = a.counted.max(st.link.recv_msgs);
@@ -75,6 +76,7 @@ impl SessionAcc {
             bytes_per_tick: per_tick(self.last.bytes),
             remote_shares_per_tick: per_tick(self.last.remote_shares),
             remote_share_bytes_per_tick: per_tick(self.last.remote_share_bytes),
+            remote_share_gaps: self.last.remote_share_gaps,
             subscriptions_mean: self.subscriptions.0 as f64 / self.subscriptions.1.max(1) as f64,
         }
     }
@@ -146,6 +148,7 @@ mod tests {
                     subscriptions: 4,
                     remote_shares: shares / 2,
                     remote_share_bytes: shares * 5,
+                    remote_share_gaps: shares / 20,
                     agent_shares: mine.0,
                     agent_bytes: mine.1,
                 },
@@ -172,6 +175,7 @@ mod tests {
         assert_eq!((h.shares_arrived_per_tick, h.shares_counted_per_tick, h.bytes_per_tick), (20.0, 8.0, 500.0));
         assert_eq!(h.subscriptions_mean, 4.0);
         assert_eq!((h.remote_shares_per_tick, h.remote_share_bytes_per_tick), (10.0, 100.0));
+        assert_eq!(h.remote_share_gaps, 10, "the latest count: 200 / 20");
         // Agents 1 and 2 reported ticks 0 to 9, agent 3 ticks 5 to 9: 25 agent-ticks.
         assert_eq!(t.shares_arrived_per_agent_tick, (35.0 + 55.0 + 25.0) / 25.0);
         assert_eq!(t.shares_counted_per_agent_tick, (30.0 + 50.0 + 20.0) / 25.0);
