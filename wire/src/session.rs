@@ -12,6 +12,14 @@
 //! one queue for all (QoS off): Zenoh 1.10 then never clears a congested link's flag for data
 //! that may be dropped, and a realtime run's sensors stop reaching a link for good after its
 //! first congestion (1000 UAVs in realtime: 5 280 commands of 150 000 arrived).
+//!
+//! Each link's data queue holds [`DATA_QUEUE_BATCHES`] batches, not Zenoh's 2, and a put that
+//! may be dropped waits up to [`WAIT_BEFORE_DROP_US`] for room, not 1 ms. The hub puts every
+//! UAV's sensor frame at once each tick: 25 agents' frames are about 85 kB for a host's link,
+//! more than two 64 kB batches, and with Zenoh's defaults a realtime host lost the frames of its
+//! last few agents on about one tick in 20 with its machine 12 % busy (those agents then did not
+//! step, and their neighbours missed their shares: issue 46, `swarm mesh --sizes`). Batches are
+//! allocated when needed (Zenoh's lazy allocation), so an idle link costs nothing more.
 
 use crate::WireError;
 use zenoh::bytes::Encoding;
@@ -25,6 +33,15 @@ pub enum Role {
     /// Agents, recorder, tools: Zenoh clients of the hub.
     Client,
 }
+
+/// Batches in each link's data queue (Zenoh's maximum; its default is 2): room for a tick's
+/// burst of sensor frames to a host of hundreds of agents.
+pub const DATA_QUEUE_BATCHES: usize = 16;
+
+/// How long a put that may be dropped (`CongestionControl::Drop`, realtime) waits for room in a
+/// full queue before it is dropped [µs]: a fifth of a 10 Hz tick, long enough for a link to drain
+/// a burst, short enough that the frame is still worth having (Zenoh's default: 1 ms).
+pub const WAIT_BEFORE_DROP_US: u64 = 20_000;
 
 /// Builds the Zenoh config of a process. `extra` are `KEY:JSON5` overrides (`--cfg`), applied last.
 pub fn config(role: Role, listen: &[String], connect: &[String], extra: &[String]) -> Result<zenoh::Config, WireError> {
@@ -40,6 +57,8 @@ pub fn config(role: Role, listen: &[String], connect: &[String], extra: &[String
     set(&mut c, "scouting/multicast/enabled", "false")?;
     set(&mut c, "scouting/gossip/enabled", "false")?;
     set(&mut c, "scouting/delay", "0")?;
+    set(&mut c, "transport/link/tx/queue/size/data", &DATA_QUEUE_BATCHES.to_string())?;
+    set(&mut c, "transport/link/tx/queue/congestion_control/drop/wait_before_drop", &WAIT_BEFORE_DROP_US.to_string())?;
     let json = |v: &[String]| serde_json::to_string(v).map_err(|e| WireError::zenoh(e.to_string()));
     set(&mut c, "listen/endpoints", &json(listen)?)?;
     set(&mut c, "connect/endpoints", &json(connect)?)?;
@@ -159,5 +178,26 @@ impl Writer {
     pub fn put_now(&self, bytes: Vec<u8>) -> Result<(), WireError> {
         use zenoh::Wait;
         self.builder(bytes).wait().map_err(WireError::zenoh)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_link_has_room_for_a_ticks_burst_of_frames() {
+        for role in [Role::Router, Role::Client] {
+            let c = config(role, &[], &[], &[]).expect("config");
+            let get = |k: &str| c.get_json(k).expect(k);
+            assert_eq!(get("transport/link/tx/queue/size/data"), DATA_QUEUE_BATCHES.to_string());
+            assert_eq!(
+                get("transport/link/tx/queue/congestion_control/drop/wait_before_drop"),
+                WAIT_BEFORE_DROP_US.to_string()
+            );
+            assert_eq!(get("transport/link/tx/queue/allocation/mode"), "\"lazy\"", "batches only when needed");
+        }
+        let c = config(Role::Client, &[], &[], &["transport/link/tx/queue/size/data:4".into()]).expect("config");
+        assert_eq!(c.get_json("transport/link/tx/queue/size/data").expect("set"), "4", "--cfg still overrides");
     }
 }

@@ -111,7 +111,7 @@ pub async fn mesh(a: MeshArgs) -> Result<ExitCode> {
         eprint!("{}", report::size_line(&report));
         reports.push(report);
     }
-    let table = report::sizes_table(&reports);
+    let table = report::sizes_table(&sc.name, &reports);
     std::fs::write(out.join("sizes.md"), &table)?;
     std::fs::write(out.join("sizes.json"), serde_json::to_string_pretty(&reports)?)?;
     chart::write(&reports, &out.join("sizes.svg"), &out.join("sizes.png"))?;

@@ -284,14 +284,13 @@ pub fn size_line(r: &MeshReport) -> String {
     )
 }
 
-/// The sizes study as a Markdown table: a row per size.
-pub fn sizes_table(rs: &[MeshReport]) -> String {
+/// The sizes study of scenario `name` as a Markdown table: a row per size.
+pub fn sizes_table(name: &str, rs: &[MeshReport]) -> String {
     let mut t = String::new();
     let first = rs.first();
     let _ = writeln!(
         t,
-        "# swarm mesh by size: {} over {} agent hosts, {}\n",
-        first.map_or("", |r| r.scenario.as_str()),
+        "# swarm mesh by size: {name} over {} agent hosts, {}\n",
         first.map_or(0, |r| r.hosts.len()),
         first.map_or("", |r| r.time_mode.as_str())
     );
@@ -448,7 +447,8 @@ mod tests {
         let mut small = r.clone();
         small.uavs = 100;
         small.late_commands = 600;
-        let st = sizes_table(&[small, r]);
+        let st = sizes_table("open-1000", &[small, r]);
+        assert!(st.starts_with("# swarm mesh by size: open-1000 over 2 agent hosts, lockstep"), "{st}");
         let rows: Vec<&str> = st.lines().filter(|l| l.starts_with("| 1")).collect();
         assert_eq!(rows.len(), 2, "{st}");
         assert_eq!(rows[0], "| 100 | 1.50 | 40.0 | 1.00 | 97.56 % | 600 of 600000 (0.10 %) | 50 % of 2 | 0.25 | 0.00 | 0.00 | 0.00 | 0 |");
