@@ -234,7 +234,9 @@ impl Checker {
             if d.tick.is_none() {
                 d.tick = Some(st.tick);
             }
-            if d.tick == Some(st.tick) {
+            // A frozen agent is a failed individual: the swarm's components are judged without it,
+            // as in the recorder's estimate graph.
+            if d.tick == Some(st.tick) && !self.timeline.frozen_at(st.id, st.t_s) {
                 d.graph.insert(st.id, ids.clone());
             }
         }

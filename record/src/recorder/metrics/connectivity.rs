@@ -1,5 +1,7 @@
-//! Connectivity of the estimate graph ("agent i holds an estimate of j"): its weakly connected
-//! components at each tick (`connectivity.csv`), the reconnection after each heal, and the
+//! Connectivity of the estimate graph ("agent i holds an estimate of j") over the agents that
+//! report and are not frozen (a frozen UAV is a failed individual that can share nothing, so the
+//! swarm's connectivity and its reconnection after a heal are judged without it, as the goal rule
+//! judges the flying UAVs): its weakly connected components at each tick (`connectivity.csv`), the reconnection after each heal, and the
 //! estimates held across a link blocked longer than the staleness allows. Why its own part: the
 //! graph of a tick is the largest thing the recorder holds (110-150 kB a tick at open-1000), so
 //! it is settled into its row once no state for that tick can still count, and the graph held
@@ -159,8 +161,11 @@ impl EstimateGraph {
     }
 
     /// Folds one agent state: the ids it has an estimate of, at its tick (or, for a tick already
-    /// settled, a count of it).
+    /// settled, a count of it); a frozen agent's is left out.
     pub(super) fn on_state(&mut self, st: &AgentState) {
+        if self.settle_by.as_ref().is_some_and(|(timeline, _)| timeline.frozen_at(st.id, st.t_s)) {
+            return;
+        }
         if self.settled.last().is_some_and(|s| st.tick <= s.row.tick) {
             self.settled_late += 1;
             if self.settled_late == 1 {
@@ -252,6 +257,32 @@ mod tests {
         assert_eq!(components(&pairs), 1500);
         // Ids far apart (the index's binary search) and the largest id.
         assert_eq!(g(&[(2, &[4_000_000_000]), (4_000_000_000, &[]), (9, &[u32::MAX]), (u32::MAX, &[])]), 2, "sparse");
+    }
+
+    /// Two UAVs, the second frozen at 1 s: from then on it holds no estimate and the first drops
+    /// it. The graph is judged without the frozen agent: one component throughout, where counting
+    /// it as a node would split the swarm in two.
+    #[test]
+    fn a_frozen_agent_is_left_out_of_the_graph() {
+        let mut sc = swarm_config::builtin("open-field-5").expect("builtin");
+        sc.failures.push(serde_json::from_str(r#"{"at_s": 1.0, "uav": 2, "kind": "freeze"}"#).expect("a freeze"));
+        let mut g = EstimateGraph::settling(&sc);
+        for tick in 1..=20u64 {
+            let t_s = 0.1 * tick as f64;
+            for (me, other) in [(1u32, 2u32), (2, 1)] {
+                let holds = t_s < 1.0;
+                let neighbours = if holds {
+                    vec![NeighbourEstimate { id: Some(UavId::new(other)), x: 1.0, y: 0.0, heading: 0.0, age_s: 0.1 }]
+                } else {
+                    vec![]
+                };
+                g.on_state(&AgentState { tick, t_s, neighbours, ..blank_state(me) });
+            }
+        }
+        let rows = g.series();
+        assert_eq!(rows.len(), 20);
+        assert!(rows.iter().all(|r| r.components == 1), "{rows:?}");
+        assert_eq!((rows[8].reporting, rows[12].reporting), (2, 1), "the frozen agent's states left out from 1 s");
     }
 
     /// Checks [`IdIndex`] against the places of `ids` (ascending, distinct) in an ordered map,
