@@ -37,9 +37,14 @@ impl Envelope {
 ///   φ = 0 beyond, and it would wait for ever where it stands);
 /// - some UAV that knows the goal must stay live: when every informed UAV is frozen (or failed
 ///   from the start), no UAV left flying knows where the goal is, and no controller can meet a
-///   goal rule the checks judge on the live UAVs.
+///   goal rule the checks judge on the live UAVs;
+/// - A21 over UVDAR flies with no UAV frozen or failed: UVDAR senses bodies, not whether their
+///   agents live, so a frozen UAV stays a still flockmate to the others, and seed 003's law has
+///   no failed flockmate: its cohesion and φ (eq. 8) hold the flock to the body for good. Over
+///   broadcast the frozen UAV falls silent and is dropped (the fuzz of seed 20261203: all six
+///   A21/UVDAR cases that froze a UAV fail `goal` and pass with broadcast).
 pub fn outside(sc: &Scenario) -> Option<String> {
-    if let Some(why) = no_informed_left(sc) {
+    if let Some(why) = no_informed_left(sc).or_else(|| frozen_flockmate(sc)) {
         return Some(why);
     }
     let starts = sc.swarm.start_positions.as_deref().unwrap_or_default();
@@ -80,6 +85,18 @@ fn no_informed_left(sc: &Scenario) -> Option<String> {
         let ids: Vec<String> = informed.iter().map(|id| id.to_string()).collect();
         format!("every informed UAV ({}) freezes: no live UAV knows the goal", ids.join(", "))
     })
+}
+
+/// Why an A21 flock over UVDAR has a frozen or failed UAV among the bodies it senses, or `None`.
+fn frozen_flockmate(sc: &Scenario) -> Option<String> {
+    if sc.controller.kind != ControllerKind::A21 || sc.localization.mode != LocalizationMode::Uvdar {
+        return None;
+    }
+    let frozen = sc.failures.iter().find(|f| f.kind == swarm_config::FailureKind::Freeze).map(|f| (f.uav, f.at_s));
+    let (uav, at_s) = sc.swarm.failed.first().map(|&id| (id, 0.0)).or(frozen)?;
+    Some(format!(
+        "A21 over UVDAR with UAV {uav} frozen at {at_s:.1} s: UVDAR senses its body as a live flockmate, and seed 003's cohesion holds the flock to it"
+    ))
 }
 
 /// The first UAV (1-based) not connected to UAV 1 through starts within `range_m`, if any.
@@ -141,10 +158,26 @@ mod tests {
             kind: swarm_config::FailureKind::Freeze,
         };
         let mut sc = a21(vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]]);
+        sc.localization.mode = LocalizationMode::Broadcast;
         sc.failures = vec![freeze(2)];
         assert_eq!(outside(&sc), None, "UAV 1, the informed one, still flies");
         sc.failures.push(freeze(1));
         let why = outside(&sc).expect("outside");
         assert!(why.contains("every informed UAV (1) freezes"), "{why}");
+    }
+
+    #[test]
+    fn a21_over_uvdar_with_a_frozen_or_failed_uav_is_outside() {
+        let mut sc = a21(vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]]);
+        assert_eq!(outside(&sc), None, "no fault");
+        sc.failures =
+            vec![swarm_config::Failure { at_s: 8.6, uav: UavId::new(3), kind: swarm_config::FailureKind::Freeze }];
+        let why = outside(&sc).expect("outside");
+        assert!(why.contains("UAV 3 frozen at 8.6 s") && why.contains("UVDAR"), "{why}");
+        sc.failures.clear();
+        sc.swarm.failed = vec![UavId::new(2)];
+        assert!(outside(&sc).is_some_and(|w| w.contains("UAV 2 frozen at 0.0 s")));
+        sc.controller.kind = ControllerKind::K21;
+        assert_eq!(outside(&sc), None, "another controller");
     }
 }
