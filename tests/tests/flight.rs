@@ -398,6 +398,25 @@ fn a21_safety_layer_keeps_a_tight_start_apart() {
     assert_eq!(safe["collisions"], 0);
 }
 
+/// Issue 46 item 3, `swarm fuzz --seed 20261203` case 12 (`found-20261203-12`): two K21 UAVs,
+/// UAV 1 frozen at 12.6 s, loss on every link from 28.6 s to the heal at 40 s. UAV 2 flies on to
+/// the goal, as it should; `reconnect` used to fail because the frozen UAV counted as a component
+/// of its own. A frozen agent is left out of the estimate graph now, and every check passes.
+#[test]
+fn k21_found_20261203_12_reconnects_without_its_frozen_uav() {
+    let file = format!("{}/../scenarios/found/found-20261203-12.toml", env!("CARGO_MANIFEST_DIR"));
+    let (_dir, s) = fly(&[&file, "--check"], "found12");
+    let checks = s["checks"].as_array().expect("checks");
+    assert!(checks.iter().any(|c| c["name"] == "reconnect"), "{checks:#?}");
+    assert!(checks.iter().all(|c| c["passed"] == true), "{checks:#?}");
+    let changes = s["connectivity"]["components_changes"].as_array().expect("changes");
+    let last = changes.last().expect("a change");
+    assert!(
+        last["components"] == 1 && last["t_s"].as_f64().expect("t") < 1.0,
+        "one component from the first shares on: {changes:?}"
+    );
+}
+
 /// Issue 5, A21 with no communication (seed 003 section V): four UAVs through forest-5's forest,
 /// only UAV 1 informed, localized by UVDAR. No message is sent between agents, no collision, and
 /// the whole group reaches the goal with the informed UAV.
