@@ -482,16 +482,17 @@ pub struct Traffic {
     pub remote_shares: u64,
     /// Their payload bytes.
     pub remote_share_bytes: u64,
-    /// Shares of those senders that never came between two that did, while subscribed: the
-    /// ticks one sender's received shares skip (lost on the way, or never sent: a tick the
-    /// sender did not step, a share its netem dropped).
-    pub remote_share_gaps: u64,
     /// Shares that reached this agent: every one its session received from a UAV it listened to
     /// (counted or not by its windows).
     pub agent_shares: u64,
     /// Payload bytes this agent received: its own sensor, radio and rules samples and those
     /// shares.
     pub agent_bytes: u64,
+    /// Of the senders of `remote_shares`, the shares that never came between two that did, while
+    /// subscribed: the ticks one sender's received shares skip (lost on the way, or never sent:
+    /// a tick the sender did not step, a share its netem dropped). Last, so the layout before it
+    /// is unchanged.
+    pub remote_share_gaps: u64,
 }
 
 /// The static world, published once by the hub for the recorder.
@@ -713,9 +714,9 @@ pub(crate) mod tests {
                 subscriptions: 6,
                 remote_shares: 7,
                 remote_share_bytes: 8,
-                remote_share_gaps: 11,
                 agent_shares: 9,
                 agent_bytes: 10,
+                remote_share_gaps: 11,
             },
         };
         let body = |id: u32, colliding: bool| TruthBody {
@@ -768,7 +769,7 @@ pub(crate) mod tests {
                 Msg::Pose(PoseShare { from: UavId::new(3), tick: 5, t_s: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125, hops: 0, arrival: 7 }),
                 "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf0007",
             ),
-            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a"),
+            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a0b"),
             (
                 Msg::TruthWorld(TruthWorld {
                     trees: vec![[1.0, 2.0, 0.25]],
