@@ -7,7 +7,7 @@ use anyhow::Result;
 use std::path::Path;
 use swarm_plot::plotters::coord::Shift;
 use swarm_plot::plotters::prelude::*;
-use swarm_plot::{color, write_pair, DrawResult, Figure, FAMILY};
+use swarm_plot::{write_pair, DrawResult, Figure, FAMILY};
 
 /// Picture size [px].
 const SIZE: (u32, u32) = (1200, 520);
@@ -48,42 +48,16 @@ impl Figure for SizesChart<'_> {
     }
 }
 
+/// A panel of named lines, as `swarm scale` draws them.
 fn panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     lines: &[Line],
     caption: &str,
     y_label: &str,
-    y_hi: f64,
+    y_top: f64,
 ) -> DrawResult<DB> {
-    let xs = lines.iter().flat_map(|(_, p)| p.iter().map(|q| q.0));
-    let (x_lo, x_hi) = xs.fold((f64::INFINITY, 0.0_f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
-    let (x_lo, x_hi) = if x_lo.is_finite() { (x_lo / 1.5, x_hi * 1.5) } else { (1.0, 10.0) };
-    let y_hi = lines.iter().flat_map(|(_, p)| p.iter().map(|q| q.1)).fold(y_hi, f64::max);
-    // Labels at the sizes flown only: a log axis's own key points crowd each other near 1000.
-    let sizes: Vec<f64> = lines.iter().flat_map(|(_, p)| p.iter().map(|q| q.0)).collect();
-    let label = move |v: &f64| {
-        if sizes.iter().any(|s| (s - v).abs() < 1e-6 * s.max(1.0)) {
-            format!("{v:.0}")
-        } else {
-            String::new()
-        }
-    };
-    let mut chart = ChartBuilder::on(area)
-        .caption(caption, (FAMILY, 18))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d((x_lo..x_hi).log_scale(), 0.0..y_hi)?;
-    chart.configure_mesh().x_desc("UAVs").y_desc(y_label).x_label_formatter(&label).label_style((FAMILY, 13)).draw()?;
-    for (i, (name, pts)) in lines.iter().enumerate() {
-        let c = color(i);
-        chart
-            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
-            .label(name.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
-        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
-    }
-    chart.configure_series_labels().label_font((FAMILY, 13)).background_style(WHITE.mix(0.8)).border_style(BLACK).draw()
+    let named: Vec<(&str, &[(f64, f64)])> = lines.iter().map(|(name, pts)| (name.as_str(), pts.as_slice())).collect();
+    crate::scale::chart::by_uavs(area, &named, caption, y_label, y_top)
 }
 
 #[cfg(test)]

@@ -51,28 +51,44 @@ fn panel<DB: DrawingBackend>(
     value: fn(&ScaleRow) -> f64,
 ) -> DrawResult<DB> {
     let lines = series(rows, value);
-    let xs = rows.iter().map(|r| r.uavs as f64);
-    let (x_lo, x_hi) = xs.fold((f64::INFINITY, 0.0_f64), |(lo, hi), x| (lo.min(x), hi.max(x)));
+    let named: Vec<(&str, &[(f64, f64)])> = lines.iter().map(|(mode, pts)| (*mode, pts.as_slice())).collect();
+    by_uavs(area, &named, caption, y_label, 1e-3)
+}
+
+/// One panel: each named line's points `(UAVs, value)` against the UAV count on a log axis, the
+/// value axis from 0 to 15 % above the largest value and at least to `y_top`. The UAV axis is
+/// labelled only at the sizes drawn: a log axis's own key points crowd each other near 1000.
+/// `swarm mesh --sizes` draws its panels with it too.
+pub(crate) fn by_uavs<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    lines: &[(&str, &[(f64, f64)])],
+    caption: &str,
+    y_label: &str,
+    y_top: f64,
+) -> DrawResult<DB> {
+    let sizes: Vec<f64> = lines.iter().flat_map(|(_, p)| p.iter().map(|q| q.0)).collect();
+    let (x_lo, x_hi) = sizes.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), &x| (lo.min(x), hi.max(x)));
     let (x_lo, x_hi) = if x_lo.is_finite() { (x_lo / 1.5, x_hi * 1.5) } else { (1.0, 10.0) };
-    let y_hi = lines.values().flatten().map(|p| p.1).fold(0.0_f64, f64::max).max(1e-3) * 1.15;
+    let y_hi = (lines.iter().flat_map(|(_, p)| p.iter().map(|q| q.1)).fold(0.0_f64, f64::max) * 1.15).max(y_top);
+    let label = |v: &f64| {
+        if sizes.iter().any(|s| (s - v).abs() < 1e-6 * s.max(1.0)) {
+            format!("{v:.0}")
+        } else {
+            String::new()
+        }
+    };
     let mut chart = ChartBuilder::on(area)
         .caption(caption, (FAMILY, 18))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
         .build_cartesian_2d((x_lo..x_hi).log_scale(), 0.0..y_hi)?;
-    chart
-        .configure_mesh()
-        .x_desc("UAVs")
-        .y_desc(y_label)
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .label_style((FAMILY, 13))
-        .draw()?;
-    for (i, (mode, pts)) in lines.iter().enumerate() {
+    chart.configure_mesh().x_desc("UAVs").y_desc(y_label).x_label_formatter(&label).label_style((FAMILY, 13)).draw()?;
+    for (i, (name, pts)) in lines.iter().enumerate() {
         let c = color(i);
         chart
             .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?
-            .label(*mode)
+            .label(*name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
         chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
     }

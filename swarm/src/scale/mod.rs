@@ -38,7 +38,7 @@ use swarm_args::{scenario_value, unix_secs};
 use swarm_config::Scenario;
 use swarm_record::summary::Summary;
 
-mod chart;
+pub(crate) mod chart;
 pub mod peer;
 
 /// The default series: seed 000's 5, its section 6.4's 40 (controller alone and full ICP stack),
