@@ -1,8 +1,9 @@
 //! Connectivity of the estimate graph ("agent i holds an estimate of j") over the agents that
 //! report and are not frozen (a frozen UAV is a failed individual that can share nothing, so the
 //! swarm's connectivity and its reconnection after a heal are judged without it, as the goal rule
-//! judges the flying UAVs): its weakly connected components at each tick (`connectivity.csv`), the reconnection after each heal, and the
-//! estimates held across a link blocked longer than the staleness allows. Why its own part: the
+//! judges the flying UAVs): its weakly connected components at each tick (`connectivity.csv`),
+//! the reconnection after each heal, and the estimates held across a link blocked longer than
+//! the staleness allows. Why its own part: the
 //! graph of a tick is the largest thing the recorder holds (110-150 kB a tick at open-1000), so
 //! it is settled into its row once no state for that tick can still count, and the graph held
 //! does not grow with the run.
