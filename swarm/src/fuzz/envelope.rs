@@ -76,15 +76,18 @@ pub fn outside(sc: &Scenario) -> Option<String> {
 /// Why no UAV that knows the goal stays live, or `None` when one does (or nobody ever knew it).
 fn no_informed_left(sc: &Scenario) -> Option<String> {
     let informed: Vec<UavId> = (1..=sc.swarm.count).map(UavId::new).filter(|&id| sc.is_informed(id)).collect();
-    let frozen = |id: UavId| {
-        sc.swarm.failed.contains(&id)
-            || sc.failures.iter().any(|f| f.uav == id && f.kind == swarm_config::FailureKind::Freeze)
-    };
-    let all_frozen = !informed.is_empty() && informed.iter().all(|&id| frozen(id));
+    let all_frozen = !informed.is_empty() && informed.iter().all(|&id| frozen(sc).any(|(f, _)| f == id));
     all_frozen.then(|| {
         let ids: Vec<String> = informed.iter().map(|id| id.to_string()).collect();
         format!("every informed UAV ({}) freezes: no live UAV knows the goal", ids.join(", "))
     })
+}
+
+/// Every UAV that stops for good, its body left where it stood, and when: those failed from the
+/// start (at 0 s), then the timeline's freezes.
+fn frozen(sc: &Scenario) -> impl Iterator<Item = (UavId, f64)> + '_ {
+    let freezes = sc.failures.iter().filter(|f| f.kind == swarm_config::FailureKind::Freeze);
+    sc.swarm.failed.iter().map(|&id| (id, 0.0)).chain(freezes.map(|f| (f.uav, f.at_s)))
 }
 
 /// Why an A21 flock over UVDAR has a frozen or failed UAV among the bodies it senses, or `None`.
@@ -92,8 +95,7 @@ fn frozen_flockmate(sc: &Scenario) -> Option<String> {
     if sc.controller.kind != ControllerKind::A21 || sc.localization.mode != LocalizationMode::Uvdar {
         return None;
     }
-    let frozen = sc.failures.iter().find(|f| f.kind == swarm_config::FailureKind::Freeze).map(|f| (f.uav, f.at_s));
-    let (uav, at_s) = sc.swarm.failed.first().map(|&id| (id, 0.0)).or(frozen)?;
+    let (uav, at_s) = frozen(sc).next()?;
     Some(format!(
         "A21 over UVDAR with UAV {uav} frozen at {at_s:.1} s: UVDAR senses its body as a live flockmate, and seed 003's cohesion holds the flock to it"
     ))
