@@ -199,13 +199,18 @@ impl MeshReport {
     /// Of the border shares each host's subscriptions should have brought, the share that came:
     /// received / (received + gaps), over all hosts (1 when none was due).
     pub fn delivered(&self) -> f64 {
-        let got: f64 = self.hosts.iter().map(|h| h.remote_shares_per_tick).sum();
-        let missed: f64 = self.hosts.iter().map(|h| h.remote_share_gaps_per_tick).sum();
+        let (got, missed) = self.border_shares();
         if got + missed > 0.0 {
             got / (got + missed)
         } else {
             1.0
         }
+    }
+
+    /// Border shares per tick over all hosts: (received, never came).
+    pub fn border_shares(&self) -> (f64, f64) {
+        let sum = |f: fn(&HostRow) -> f64| self.hosts.iter().map(f).sum();
+        (sum(|h| h.remote_shares_per_tick), sum(|h| h.remote_share_gaps_per_tick))
     }
 
     /// Late commands as a share of all commands.
@@ -297,8 +302,7 @@ pub fn sizes_table(name: &str, rs: &[MeshReport]) -> String {
     let _ = writeln!(t, "| UAVs | x real time | border shares in /tick | never came /tick | delivered | late commands | machine busy | hub cores | recorder cores | routers cores | agent hosts cores | collisions |");
     let _ = writeln!(t, "|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in rs {
-        let got: f64 = r.hosts.iter().map(|h| h.remote_shares_per_tick).sum();
-        let missed: f64 = r.hosts.iter().map(|h| h.remote_share_gaps_per_tick).sum();
+        let (got, missed) = r.border_shares();
         let _ = writeln!(
             t,
             "| {} | {:.2} | {:.1} | {:.2} | {:.2} % | {} of {} ({:.2} %) | {:.0} % of {} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
