@@ -4,9 +4,10 @@
 //! shares and the late commands come from the design or from a saturated machine can only be
 //! told beside how busy its cores were (issue 46, item 4).
 //!
-//! The parsing is pure (tested on text); [`Watch`] is the one part that reads the files. A piece
+//! The parsing is `swarm scale`'s ([`crate::scale::proc_fs`]); [`Watch`] reads the files. A piece
 //! that exits between two samples loses at most its last [`SAMPLE`] of CPU time.
 
+use crate::scale::proc_fs::{machine_ticks, process_ticks};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,24 +20,6 @@ const SAMPLE: Duration = Duration::from_millis(200);
 /// Clock ticks per second of `/proc`'s times: Linux's `USER_HZ`, 100 on every architecture
 /// it exports to user space.
 const USER_HZ: f64 = 100.0;
-
-/// User + system time [clock ticks] in the text of `/proc/<pid>/stat`: fields 14 and 15, counted
-/// from the pid, after the command name in parentheses (the last `)` ends it).
-pub fn process_ticks(stat: &str) -> Option<u64> {
-    let rest = stat[stat.rfind(')')? + 1..].split_whitespace().collect::<Vec<_>>();
-    // `rest[0]` is field 3 (the state), so field k is `rest[k - 3]`.
-    Some(rest.get(11)?.parse::<u64>().ok()? + rest.get(12)?.parse::<u64>().ok()?)
-}
-
-/// (busy, total) clock ticks of all cores in the text of `/proc/stat` (its `cpu` line): busy is
-/// everything but idle and iowait.
-pub fn machine_ticks(stat: &str) -> Option<(u64, u64)> {
-    let line = stat.lines().find(|l| l.starts_with("cpu "))?;
-    let v: Vec<u64> = line.split_whitespace().skip(1).map(|f| f.parse().ok()).collect::<Option<_>>()?;
-    let total: u64 = v.iter().take(8).sum();
-    let idle = v.get(3)? + v.get(4).copied().unwrap_or(0);
-    Some((total - idle, total))
-}
 
 /// What one kind of piece used over the flight.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -56,7 +39,7 @@ pub struct RoleCpu {
 pub struct CpuUse {
     /// Wall seconds watched (from the agents' start to the recorder's end).
     pub wall_s: f64,
-    /// The machine's cores.
+    /// The machine's cores (as `/proc/stat` counts them, the same cores `machine_busy` is of).
     pub cores: usize,
     /// Share of all cores' time busy over that window, whatever ran (0 to 1).
     pub machine_busy: f64,
@@ -71,11 +54,13 @@ impl CpuUse {
     }
 }
 
-/// The samples so far: each watched pid's first and latest ticks, and the machine's.
+/// The samples so far: each watched pid's first and latest ticks, the machine's (busy, total)
+/// first and latest, and its cores.
 #[derive(Debug, Default)]
 struct Samples {
     pids: BTreeMap<u32, (u64, u64)>,
     machine: Option<((u64, u64), (u64, u64))>,
+    cores: usize,
 }
 
 impl Samples {
@@ -87,8 +72,12 @@ impl Samples {
                 self.pids.entry(*pid).and_modify(|e| e.1 = t).or_insert((t, t));
             }
         }
-        if let Some(m) = std::fs::read_to_string("/proc/stat").ok().as_deref().and_then(machine_ticks) {
+        if let Some((busy, total, cores)) =
+            std::fs::read_to_string("/proc/stat").ok().as_deref().and_then(machine_ticks)
+        {
+            let m = (busy, total);
             self.machine = Some(self.machine.map_or((m, m), |(first, _)| (first, m)));
+            self.cores = cores;
         }
     }
 
@@ -117,8 +106,7 @@ impl Samples {
                 RoleCpu { role: role.to_string(), processes, cpu_s, cores: cpu_s / wall_s.max(1e-9) }
             })
             .collect();
-        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        CpuUse { wall_s, cores, machine_busy, by_role }
+        CpuUse { wall_s, cores: self.cores, machine_busy, by_role }
     }
 }
 
@@ -158,29 +146,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_process_time_is_user_plus_system() {
-        let stat = "4242 (swarm (agent)) S 1 4242 1 0 -1 4194560 120 0 0 0 250 37 0 0 20 0 9 0 100 0 0";
-        assert_eq!(process_ticks(stat), Some(287), "utime 250 + stime 37, the name's `)` skipped");
-        assert_eq!(process_ticks("1 (x) S 1"), None);
-    }
-
-    #[test]
-    fn the_machine_is_busy_but_for_idle_and_iowait() {
-        let stat = "cpu  100 5 45 800 50 0 0 0 0 0\ncpu0 50 2 20 400 25 0 0 0 0 0\n";
-        assert_eq!(machine_ticks(stat), Some((150, 1000)));
-        assert_eq!(machine_ticks("intr 1 2\n"), None);
-    }
-
-    #[test]
     fn samples_sum_by_role_over_the_window() {
         let mut s = Samples::default();
         s.pids.insert(1, (100, 300));
         s.pids.insert(2, (0, 100));
         s.pids.insert(3, (50, 50));
         s.machine = Some(((1000, 4000), (1400, 4800)));
+        s.cores = 2;
         let pids = vec![("hub".to_string(), 1), ("agents".to_string(), 2), ("agents".to_string(), 3)];
         let u = s.result(&pids, 4.0);
-        assert_eq!(u.machine_busy, 0.5);
+        assert_eq!((u.machine_busy, u.cores), (0.5, 2));
         assert_eq!(u.by_role[0], RoleCpu { role: "agents".into(), processes: 2, cpu_s: 1.0, cores: 0.25 });
         assert_eq!(u.cores_of("hub"), 0.5);
         assert_eq!(u.cores_of("routers"), 0.0);
@@ -202,5 +177,6 @@ mod tests {
         let _ = child.wait();
         assert!(u.cores_of("agents") > 0.1, "a shell loop keeps a core busy: {u:?}");
         assert!(u.machine_busy > 0.0 && u.machine_busy <= 1.0, "{u:?}");
+        assert!(u.cores >= 1, "{u:?}");
     }
 }

@@ -389,17 +389,42 @@ impl MemorySampler {
     }
 }
 
-/// Reading `/proc`: who descends from whom, and how much each holds resident. The parsing is
-/// pure (tested on text); [`descendants_rss_kib`] is the one function that reads the files.
+/// Reading `/proc`: who descends from whom, how much each holds resident, and the CPU time a
+/// process and the machine used (`swarm mesh`'s CPU columns). The parsing is pure (tested on
+/// text); [`descendants_rss_kib`] is the one function here that reads the files.
 pub mod proc_fs {
     use super::BTreeMap;
 
-    /// The parent pid in the text of `/proc/<pid>/stat`: the field after the state, which
-    /// follows the command name in parentheses (a name may itself hold spaces and parentheses,
-    /// so the last `)` ends it).
+    /// The fields of `/proc/<pid>/stat` after the command name in parentheses (a name may itself
+    /// hold spaces and parentheses, so the last `)` ends it), the state (field 3) first.
+    fn after_name(stat: &str) -> Option<Vec<&str>> {
+        Some(stat[stat.rfind(')')? + 1..].split_whitespace().collect())
+    }
+
+    /// The parent pid in the text of `/proc/<pid>/stat`: the field after the state.
     pub fn parent_of(stat: &str) -> Option<u32> {
-        let rest = &stat[stat.rfind(')')? + 1..];
-        rest.split_whitespace().nth(1)?.parse().ok()
+        after_name(stat)?.get(1)?.parse().ok()
+    }
+
+    /// User + system time [clock ticks] in the text of `/proc/<pid>/stat`: fields 14 and 15.
+    pub fn process_ticks(stat: &str) -> Option<u64> {
+        let f = after_name(stat)?;
+        // `f[0]` is field 3, so field k is `f[k - 3]`.
+        Some(f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?)
+    }
+
+    /// (busy, total) clock ticks of all cores in the text of `/proc/stat` (its `cpu` line), busy
+    /// being everything but idle and iowait, and the cores it counts (its `cpuN` lines).
+    pub fn machine_ticks(stat: &str) -> Option<(u64, u64, usize)> {
+        let line = stat.lines().find(|l| l.starts_with("cpu "))?;
+        let v: Vec<u64> = line.split_whitespace().skip(1).map(|f| f.parse().ok()).collect::<Option<_>>()?;
+        let total: u64 = v.iter().take(8).sum();
+        let idle = v.get(3)? + v.get(4).copied().unwrap_or(0);
+        let cores = stat
+            .lines()
+            .filter(|l| l.starts_with("cpu") && l.as_bytes().get(3).is_some_and(u8::is_ascii_digit))
+            .count();
+        Some((total - idle, total, cores))
     }
 
     /// `VmRSS` in the text of `/proc/<pid>/status` [KiB] (absent for a zombie).
@@ -544,6 +569,13 @@ mod tests {
         assert_eq!(parent_of("4242 (swarm agent) S 17 4242 17 0 -1 4194560 0"), Some(17));
         assert_eq!(parent_of("7 (a) b) (c) R 3 7 7"), Some(3), "the last `)` ends the name");
         assert_eq!(parent_of("garbage"), None);
+        let stat = "4242 (swarm (agent)) S 1 4242 1 0 -1 4194560 120 0 0 0 250 37 0 0 20 0 9 0 100 0 0";
+        assert_eq!(process_ticks(stat), Some(287), "utime 250 + stime 37, the name's `)` skipped");
+        assert_eq!(process_ticks("1 (x) S 1"), None);
+        let stat =
+            "cpu  100 5 45 800 50 0 0 0 0 0\ncpu0 50 2 20 400 25 0 0 0 0 0\ncpu1 50 3 25 400 25 0 0 0 0 0\nintr 9\n";
+        assert_eq!(machine_ticks(stat), Some((150, 1000, 2)), "busy but for idle and iowait, two cores");
+        assert_eq!(machine_ticks("intr 1 2\n"), None);
         assert_eq!(vm_rss_kib("Name:\tswarm\nVmPeak:\t  9000 kB\nVmRSS:\t   15123 kB\n"), Some(15123));
         assert_eq!(vm_rss_kib("Name:\tzombie\n"), None);
     }
