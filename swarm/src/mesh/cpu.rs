@@ -4,13 +4,13 @@
 //! shares and the late commands come from the design or from a saturated machine can only be
 //! told beside how busy its cores were (issue 46, item 4).
 //!
-//! The parsing is `swarm scale`'s ([`crate::scale::proc_fs`]); [`Watch`] reads the files. A piece
-//! that exits between two samples loses at most its last [`SAMPLE`] of CPU time.
+//! The parsing and the sampling thread are `swarm scale`'s ([`crate::scale::proc_fs`]: its
+//! memory peak is read the same way); [`Watch`] names what to read. A piece that exits between
+//! two samples loses at most its last [`SAMPLE`] of CPU time.
 
-use crate::scale::proc_fs::{machine_ticks, process_ticks};
+use crate::scale::proc_fs::{machine_ticks, process_ticks, Sampler};
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -112,32 +112,24 @@ impl Samples {
 
 /// Samples the CPU of `(role, pid)` pieces until stopped.
 pub struct Watch {
-    stop: Arc<AtomicBool>,
-    task: tokio::task::JoinHandle<CpuUse>,
+    sampler: Sampler<Samples>,
+    pids: Arc<Vec<(String, u32)>>,
+    started: Instant,
 }
 
 impl Watch {
     /// Starts sampling now.
     pub fn start(pids: Vec<(String, u32)>) -> Watch {
-        let stop = Arc::new(AtomicBool::new(false));
-        let flag = stop.clone();
-        let task = tokio::spawn(async move {
-            let started = Instant::now();
-            let mut s = Samples::default();
-            s.take(&pids);
-            while !flag.load(Ordering::Relaxed) {
-                tokio::time::sleep(SAMPLE).await;
-                s.take(&pids);
-            }
-            s.result(&pids, started.elapsed().as_secs_f64())
-        });
-        Watch { stop, task }
+        let pids = Arc::new(pids);
+        let watched = pids.clone();
+        let sampler = Sampler::start(SAMPLE, Samples::default(), move |s: &mut Samples| s.take(&watched));
+        Watch { sampler, pids, started: Instant::now() }
     }
 
     /// Stops sampling and says what was used.
     pub async fn stop(self) -> CpuUse {
-        self.stop.store(true, Ordering::Relaxed);
-        self.task.await.unwrap_or_default()
+        let wall_s = self.started.elapsed().as_secs_f64();
+        self.sampler.stop().await.result(&self.pids, wall_s)
     }
 }
 

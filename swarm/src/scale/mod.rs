@@ -31,8 +31,6 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::Duration;
 use swarm_args::{scenario_value, unix_secs};
 use swarm_config::Scenario;
@@ -186,7 +184,11 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
             sc.count(),
             sc.end.time_limit_s
         );
-        let sampler = MemorySampler::start();
+        let me = std::process::id();
+        let sampler = proc_fs::Sampler::start(RSS_SAMPLE, MemoryPeak::default(), move |peak: &mut MemoryPeak| {
+            let (kib, n) = proc_fs::descendants_rss_kib(me);
+            *peak = peak.fold(kib, n);
+        });
         let how = VariantRun { per_process: a.agents_per_process, progress: true };
         let tag = format!("{:02}-{}", i + 1, sc.name);
         let summary = run_variant(sc, &out, &tag, how).await;
@@ -359,41 +361,43 @@ impl MemoryPeak {
     }
 }
 
-/// Samples the resident memory of this process's descendants on a blocking thread until
-/// stopped.
-struct MemorySampler {
-    stop: Arc<AtomicBool>,
-    task: tokio::task::JoinHandle<MemoryPeak>,
-}
-
-impl MemorySampler {
-    fn start() -> MemorySampler {
-        let stop = Arc::new(AtomicBool::new(false));
-        let flag = stop.clone();
-        let task = tokio::task::spawn_blocking(move || {
-            let me = std::process::id();
-            let mut peak = MemoryPeak::default();
-            while !flag.load(Ordering::Relaxed) {
-                let (kib, n) = proc_fs::descendants_rss_kib(me);
-                peak = peak.fold(kib, n);
-                std::thread::sleep(RSS_SAMPLE);
-            }
-            peak
-        });
-        MemorySampler { stop, task }
-    }
-
-    async fn stop(self) -> MemoryPeak {
-        self.stop.store(true, Ordering::Relaxed);
-        self.task.await.unwrap_or_default()
-    }
-}
-
 /// Reading `/proc`: who descends from whom, how much each holds resident, and the CPU time a
 /// process and the machine used (`swarm mesh`'s CPU columns). The parsing is pure (tested on
 /// text); [`descendants_rss_kib`] is the one function here that reads the files.
 pub mod proc_fs {
     use super::BTreeMap;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    use std::time::Duration;
+
+    /// Samples `/proc` into a state `T` on a blocking thread (the reads are file I/O) at once and
+    /// then every `every`, until stopped: `swarm scale`'s memory peak, `swarm mesh`'s CPU times.
+    pub struct Sampler<T> {
+        stop: Arc<AtomicBool>,
+        task: tokio::task::JoinHandle<T>,
+    }
+
+    impl<T: Default + Send + 'static> Sampler<T> {
+        /// Starts sampling with `take` into `state`.
+        pub fn start(every: Duration, mut state: T, mut take: impl FnMut(&mut T) + Send + 'static) -> Sampler<T> {
+            let stop = Arc::new(AtomicBool::new(false));
+            let flag = stop.clone();
+            let task = tokio::task::spawn_blocking(move || loop {
+                take(&mut state);
+                if flag.load(Ordering::Relaxed) {
+                    return state;
+                }
+                std::thread::sleep(every);
+            });
+            Sampler { stop, task }
+        }
+
+        /// Stops after one last sample and gives the state (its default if the thread died).
+        pub async fn stop(self) -> T {
+            self.stop.store(true, Ordering::Relaxed);
+            self.task.await.unwrap_or_default()
+        }
+    }
 
     /// The fields of `/proc/<pid>/stat` after the command name in parentheses (a name may itself
     /// hold spaces and parentheses, so the last `)` ends it), the state (field 3) first.
