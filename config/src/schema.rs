@@ -769,6 +769,18 @@ pub struct K21Params {
     /// `end.goal_radius_m`; 0 turns it off (the swarm orbits its goal, as before issue 25).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub arrival_radius_m: Option<f64>,
+    /// The detour, our extension (opt-in; 0, the default, turns it off): a UAV whose K21
+    /// velocity the barrier has held under a tenth of kf for this long [s], while K21 wanted at
+    /// least half of kf, is at the mouth of a gap the barrier shuts (a frozen UAV on one side, a
+    /// trunk on the other), and every direction K21 wants points into it (issue 46: it waited
+    /// there for good). It then flies, for `detour_s`, the direction closest to K21's that the
+    /// barrier lets through, turning always to the side it first found free, so that repeated
+    /// detours walk it round the blockage (`uav-agent/src/control/detour.rs`).
+    #[serde(default)]
+    pub detour_after_s: f64,
+    /// How long one detour lasts [s] (`detour_after_s`).
+    #[serde(default = "d_detour")]
+    pub detour_s: f64,
 }
 
 /// How K21's separation terms combine (seed 000 eq. 4.9).
@@ -803,6 +815,9 @@ fn d_barrier_ramp() -> f64 {
 }
 fn d_kf() -> f64 {
     0.4
+}
+fn d_detour() -> f64 {
+    10.0
 }
 fn d_coh() -> f64 {
     2.5
@@ -849,6 +864,8 @@ impl Default for K21Params {
             barrier_surface_m: d_barrier_surface(),
             barrier_ramp_m: d_barrier_ramp(),
             arrival_radius_m: None,
+            detour_after_s: 0.0,
+            detour_s: d_detour(),
         }
     }
 }

@@ -345,6 +345,8 @@ impl K21Params {
         non_negative(&format!("{at}.barrier_m"), self.barrier_m)?;
         non_negative(&format!("{at}.barrier_surface_m"), self.barrier_surface_m)?;
         non_negative(&format!("{at}.barrier_ramp_m"), self.barrier_ramp_m)?;
+        non_negative(&format!("{at}.detour_after_s"), self.detour_after_s)?;
+        positive(&format!("{at}.detour_s"), self.detour_s)?;
         if let Some(r) = self.arrival_radius_m {
             non_negative(&format!("{at}.arrival_radius_m"), r)?;
         }

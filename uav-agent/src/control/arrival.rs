@@ -18,6 +18,7 @@
 //! counts heard.
 
 use super::controller::{Command, View};
+use super::detour::Detour;
 use super::hops::Hops;
 use super::pilot::{bearing_in_body, k21_command};
 use nalgebra::Vector2;
@@ -29,6 +30,8 @@ use swarm_wire::NO_PATH;
 #[derive(Debug, Default)]
 pub struct Arrival {
     heard: Hops,
+    /// Its flights' way out of a shut gap (K21's opt-in detour).
+    detour: Detour,
 }
 
 /// The arrival radius the scenario gives K21 [m]; 0 (off) for the other controllers.
@@ -57,7 +60,7 @@ impl Arrival {
     /// arrived one; then K21 with its heading turned to what is closer to the arrival (the goal,
     /// or the nearest neighbour with a lower count) and its navigation faded as it closes on it
     /// (see the module doc).
-    pub fn steer(&self, sc: &Scenario, v: &View, own: u8, flock: Command) -> Command {
+    pub fn steer(&mut self, sc: &Scenario, v: &View, own: u8, flock: Command) -> Command {
         let r = radius_m(sc);
         if r <= 0.0 || own == NO_PATH {
             return flock;
@@ -86,7 +89,7 @@ impl Arrival {
         let all_around =
             if own == 0 { p.separation_radius_m.max(p.separation_all_around_m) } else { p.separation_all_around_m };
         let faded = K21Params { kn: p.kn * fade.clamp(0.0, 1.0), separation_all_around_m: all_around, ..p.clone() };
-        let mut c = k21_command(&faded, v, v.neighbours, None, &[]);
+        let mut c = k21_command(&faded, v, v.neighbours, None, &[], &mut self.detour);
         // seed 000 eq. 4.14 with the target as the only heading.
         c.yaw_rate = p.heading_gain * heading;
         c

@@ -73,6 +73,8 @@ pub struct Output {
     pub avoidance: Vector2<f64>,
     /// Navigation vector v_n (eq. 4.17, second evaluation), unweighted.
     pub navigation: Vector2<f64>,
+    /// The velocity before the barrier [m/s], body frame: eq. 4.2's v_f as the seed has it.
+    pub wanted: Vector2<f64>,
 }
 
 use super::barrier::{barrier, within};
@@ -95,7 +97,7 @@ fn nearest(vs: impl Iterator<Item = Vector2<f64>>) -> Option<Vector2<f64>> {
 }
 
 /// Unit vector along `v`, or the body x axis when `v` is zero or not finite.
-fn direction_or_x(v: Vector2<f64>) -> Vector2<f64> {
+pub(super) fn direction_or_x(v: Vector2<f64>) -> Vector2<f64> {
     let n = v.norm();
     if is_finite(&v) && n > EPS {
         v / n
@@ -332,17 +334,8 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
     // seed 000, eq. 4.1: v = kc·v_c + ks·v_s + ko·v_o + kn·v_n.
     let v = p.kc * vc + p.ks * vs + p.ko * vo + p.kn * vn;
     // seed 000, eq. 4.2: v_f = v/|v|·kf if |v| > 1, else v·kf.
-    // Our extension: every obstacle, neighbour and body centre closer than barrier_m is a
-    // barrier, and so is the nearest point closer than barrier_surface_m of a body whose centre
-    // is not (none fits, or one fits so far behind its points that it would miss them).
-    let bodies = if p.barrier_on_bodies() { input.bodies } else { &[] };
-    let centred = |b: &&Body| b.centre.is_some_and(|c| c.norm() < p.barrier_m);
-    let body_centres = bodies.iter().filter(centred).filter_map(|b| b.centre.as_ref());
-    let centres = input.obstacles.iter().chain(input.neighbours.iter().map(|n| &n.pos)).chain(body_centres);
-    let nearest = bodies.iter().filter(|b| !centred(b)).map(|b| &b.nearest);
-    let ramp = p.barrier_ramp_m;
-    let close = within(centres, p.barrier_m, ramp, p.kf).chain(within(nearest, p.barrier_surface_m, ramp, p.kf));
-    let mut velocity = barrier(clip_unit(v) * p.kf, close);
+    let wanted = clip_unit(v) * p.kf;
+    let mut velocity = barrier(wanted, barrier_points(p, input));
     if !is_finite(&velocity) {
         velocity = Vector2::zeros();
     }
@@ -353,7 +346,21 @@ pub fn step(p: &K21Params, input: &Input) -> Output {
         yaw_rate = 0.0;
     }
 
-    Output { velocity, yaw_rate, cohesion: vc, separation: vs, avoidance: vo, navigation: vn }
+    Output { velocity, yaw_rate, cohesion: vc, separation: vs, avoidance: vo, navigation: vn, wanted }
+}
+
+/// The points the barrier holds the final velocity off, each with its allowance [m/s] (our
+/// extension, [`step`]): every obstacle, neighbour and body centre closer than barrier_m, and
+/// the nearest point closer than barrier_surface_m of a body whose centre is not (none fits,
+/// or one fits so far behind its points that it would miss them).
+pub fn barrier_points(p: &K21Params, input: &Input) -> Vec<(Vector2<f64>, f64)> {
+    let bodies = if p.barrier_on_bodies() { input.bodies } else { &[] };
+    let centred = |b: &&Body| b.centre.is_some_and(|c| c.norm() < p.barrier_m);
+    let body_centres = bodies.iter().filter(centred).filter_map(|b| b.centre.as_ref());
+    let centres = input.obstacles.iter().chain(input.neighbours.iter().map(|n| &n.pos)).chain(body_centres);
+    let nearest = bodies.iter().filter(|b| !centred(b)).map(|b| &b.nearest);
+    let ramp = p.barrier_ramp_m;
+    within(centres, p.barrier_m, ramp, p.kf).chain(within(nearest, p.barrier_surface_m, ramp, p.kf)).collect()
 }
 
 #[cfg(test)]

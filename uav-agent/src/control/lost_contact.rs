@@ -13,6 +13,7 @@
 //! back. Nothing here reads ground truth: odometry, the scan and the estimates only.
 
 use super::controller::{Command, View};
+use super::detour::Detour;
 use super::hops::Hops;
 use super::pilot::{bearing_in_body, k21_command};
 use nalgebra::{Rotation2, Vector2};
@@ -73,6 +74,8 @@ pub struct LostContact {
     hold_since_s: Option<f64>,
     /// Where the search flies to, odometry frame [m], and whether it got there.
     search: Option<(Vector2<f64>, bool)>,
+    /// The flights' way out of a shut gap (K21's opt-in detour).
+    detour: Detour,
 }
 
 /// The distance within which a neighbour estimate is contact: the scenario's, or the reach of
@@ -208,15 +211,17 @@ impl LostContact {
     /// The command of this step: the controller's (`flock`) unless the agent, or its group,
     /// is lost; `hops` is this step's hop count to the nearest informed UAV.
     pub fn steer(&mut self, sc: &Scenario, v: &View, hops: u8, heard: &Hops, flock: Command) -> Command {
-        match self.phase(sc, v, hops, heard) {
+        let phase = self.phase(sc, v, hops, heard);
+        let detour = &mut self.detour;
+        match phase {
             Phase::Flock => flock,
-            Phase::Regroup(target) | Phase::Follow(target) => regroup(sc, v, target),
+            Phase::Regroup(target) | Phase::Follow(target) => regroup(sc, v, target, detour),
             Phase::Hold => Command::hover(),
-            Phase::Approach(target) => fly_to(sc, v, target, sc.controller.k21.kf),
+            Phase::Approach(target) => fly_to(sc, v, target, sc.controller.k21.kf, detour),
             Phase::Return(target) | Phase::Search { to: target, with_group: false } => {
-                fly_to(sc, v, target, sc.lost_contact.speed_mps)
+                fly_to(sc, v, target, sc.lost_contact.speed_mps, detour)
             }
-            Phase::Search { to, with_group: true } => regroup(sc, v, to),
+            Phase::Search { to, with_group: true } => regroup(sc, v, to, detour),
         }
     }
 }
@@ -235,9 +240,9 @@ fn hold_at(holding: &mut bool, target: Vector2<f64>, p0: Vector2<f64>, radius_m:
 /// The flight to the swarm: K21 with no neighbour and the place as its goal (seed 000 eq.
 /// 4.14–4.17 turn the UAV towards it and avoid the closest obstacle, eq. 4.10–4.13), scaled from
 /// K21's speed `kf` to `speed_mps`. Wall faces count as obstacles at their point nearest the UAV.
-fn fly_to(sc: &Scenario, v: &View, target_odom: Vector2<f64>, speed_mps: f64) -> Command {
+fn fly_to(sc: &Scenario, v: &View, target_odom: Vector2<f64>, speed_mps: f64, detour: &mut Detour) -> Command {
     let heading = bearing_in_body(v.odom, [target_odom.x, target_odom.y]);
-    let mut c = k21_command(&sc.controller.k21, v, &[], Some(heading), &wall_points(v));
+    let mut c = k21_command(&sc.controller.k21, v, &[], Some(heading), &wall_points(v), detour);
     let scale = speed_mps / sc.controller.k21.kf;
     c.xy *= scale;
     c.vectors.output = c.xy.norm() as f32;
@@ -246,9 +251,9 @@ fn fly_to(sc: &Scenario, v: &View, target_odom: Vector2<f64>, speed_mps: f64) ->
 
 /// The group's flight back: K21 with the neighbours and the place as its goal, as an informed
 /// UAV of seed 000 flies to its goal (eq. 4.1–4.17), at K21's speed.
-fn regroup(sc: &Scenario, v: &View, target_odom: Vector2<f64>) -> Command {
+fn regroup(sc: &Scenario, v: &View, target_odom: Vector2<f64>, detour: &mut Detour) -> Command {
     let heading = bearing_in_body(v.odom, [target_odom.x, target_odom.y]);
-    k21_command(&sc.controller.k21, v, v.neighbours, Some(heading), &wall_points(v))
+    k21_command(&sc.controller.k21, v, v.neighbours, Some(heading), &wall_points(v), detour)
 }
 
 /// The point of each wall face nearest the UAV, body frame [m].
@@ -542,9 +547,9 @@ mod tests {
     fn the_flight_back_avoids_a_tree_in_the_way() {
         let sc = scenario();
         let o = odom(0.0, 0.0, 0.0, None);
-        let open = fly_to(&sc, &view(10.0, &o, &[], &[]), Vector2::new(10.0, 0.0), 0.25);
+        let open = fly_to(&sc, &view(10.0, &o, &[], &[]), Vector2::new(10.0, 0.0), 0.25, &mut Detour::new());
         let tree = [Circle { center: Point2::new(1.5, 0.1), radius: 0.2 }];
-        let blocked = fly_to(&sc, &view(10.0, &o, &[], &tree), Vector2::new(10.0, 0.0), 0.25);
+        let blocked = fly_to(&sc, &view(10.0, &o, &[], &tree), Vector2::new(10.0, 0.0), 0.25, &mut Detour::new());
         assert!(open.xy.y.abs() < 1e-9 && open.xy.x > 0.0, "{open:?}");
         assert!(blocked.xy.y < -1e-3, "steers away from a tree just left of the line: {blocked:?}");
     }

@@ -9,6 +9,7 @@
 //!   pilot → controller, never back.
 //! - `k21`: the Boids-style K21 controller of seed 000 chapter 4.
 //! - `barrier`: the velocity barrier K21 and A21's safety layer hold a command to, our extension.
+//! - `detour`: how a K21 UAV the barrier holds at the mouth of a shut gap gets out (opt-in).
 //! - `p17`: the P17 controller of seed 001 chapter 3 (β-agents for cylinders and walls).
 //! - `a21`: the A21 controller of seed 003 section III (proximal control, φ-limited navigation).
 //! - `m23`: the formation layer of seed 004 (topology goals, the leader's wait, the tracker).
@@ -27,6 +28,7 @@ mod a21;
 pub(crate) mod arrival;
 mod barrier;
 pub(crate) mod controller;
+mod detour;
 pub(crate) mod hops;
 mod k21;
 pub(crate) mod lost_contact;

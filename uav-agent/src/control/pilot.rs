@@ -27,6 +27,7 @@
 //!   is a bare double integrator).
 
 use super::controller::{Command, Controller, View};
+use super::detour::Detour;
 use super::m23::{self, FollowerInput, LeaderWait, UavState};
 use super::neighbour_velocity::VelocityTracker;
 use super::{a21, k21, p17};
@@ -40,21 +41,23 @@ use std::sync::Arc;
 use swarm_config::Scenario;
 use swarm_wire::{CmdKind, Odom, VectorMagnitudes};
 
-/// K21 (seed 000 chapter 4): keeps nothing between steps.
+/// K21 (seed 000 chapter 4): the seed's controller keeps nothing between steps; our opt-in
+/// detour remembers how long the barrier has held the UAV.
 #[derive(Debug)]
 pub struct K21Pilot {
     params: swarm_config::K21Params,
+    detour: Detour,
 }
 
 impl K21Pilot {
     pub(super) fn new(sc: &Scenario) -> K21Pilot {
-        K21Pilot { params: sc.controller.k21.clone() }
+        K21Pilot { params: sc.controller.k21.clone(), detour: Detour::new() }
     }
 }
 
 impl Controller for K21Pilot {
     fn step(&mut self, v: &View) -> Command {
-        k21_command(&self.params, v, v.neighbours, goal_heading(v.odom), &[])
+        k21_command(&self.params, v, v.neighbours, goal_heading(v.odom), &[], &mut self.detour)
     }
 }
 
@@ -149,20 +152,25 @@ pub(super) fn bearing_in_body(odom: &Odom, target: [f64; 2]) -> f64 {
 }
 
 /// One K21 step on `neighbours`, the view's trees plus `more_obstacles` (body frame), towards
-/// `goal_heading` (body frame): the flock's step, and the lost-contact layer's flight back.
+/// `goal_heading` (body frame), out of a shut gap by `detour` (when the scenario turns it on):
+/// the flock's step, and the lost-contact and arrival layers' flights.
 pub(super) fn k21_command(
     p: &swarm_config::K21Params,
     v: &View,
     neighbours: &[Estimate],
     goal_heading: Option<f64>,
     more_obstacles: &[Vector2<f64>],
+    detour: &mut Detour,
 ) -> Command {
     let neighbours: Vec<k21::Neighbour> =
         neighbours.iter().map(|e| k21::Neighbour { pos: e.pos_in_body, heading: e.heading }).collect();
     let obstacles: Vec<Vector2<f64>> =
         v.trees.iter().map(|c| c.center.coords).chain(more_obstacles.iter().copied()).collect();
     let input = k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading, bodies: v.near_bodies };
-    let out = k21::step(p, &input);
+    let mut out = k21::step(p, &input);
+    if p.detour_after_s > 0.0 {
+        out.velocity = detour.steer(p, v.t_s, v.odom.yaw, &out, &k21::barrier_points(p, &input));
+    }
     Command {
         kind: CmdKind::Velocity,
         xy: out.velocity,
