@@ -136,6 +136,7 @@ pub fn free_direction(
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::control::barrier::within;
