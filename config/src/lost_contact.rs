@@ -82,6 +82,13 @@ pub struct LostContactParams {
     /// How far the search flies on before holding again [m].
     #[serde(default = "d_search_distance")]
     pub search_distance_m: f64,
+    /// A path leads only through a neighbour it localizes: a UAV whose lower hop count is heard
+    /// only from UAVs it has no estimate of (ICP among few shared trees) for `after_s` flies
+    /// back, flocking, to where it was last led, then holds (and searches) as a group with no
+    /// path does. Off (the default): a path heard is a path, and the group flocks on, led by
+    /// nobody it can see (issue 46's forest-9-cut-off over ICP flew out of the trees so).
+    #[serde(default)]
+    pub lead_in_sight: bool,
 }
 
 impl Default for LostContactParams {
@@ -97,6 +104,7 @@ impl Default for LostContactParams {
             max_hops: d_max_hops(),
             search_after_s: 0.0,
             search_distance_m: d_search_distance(),
+            lead_in_sight: false,
         }
     }
 }

@@ -14,6 +14,11 @@
 //! goal beyond radio range by then, and the half holding where it last had a path waits for
 //! nobody. With the search (`[lost_contact] search_after_s`) it flies on the way it was going and
 //! comes in; without it, it holds for good.
+//!
+//! `forest-9-cut-off-icp` and `forest-9-cut-off-dense` (issue 46): over ICP, and with 15 trees
+//! per 100 m². In both a UAV stops for good at the mouth of the gap between the frozen UAV and a
+//! trunk unless K21's detour takes it round; over ICP the half also flies off led by nobody it
+//! localizes unless a path leads only through a neighbour in sight (`lead_in_sight`).
 //! Lockstep, so every outcome repeats exactly.
 
 mod common;
@@ -27,6 +32,13 @@ const CUT_OFF: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scen
 /// Issue 46's variant, the partition healed at 75 s.
 const CUT_OFF_LONG: &str =
     include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-9-cut-off-long.toml"));
+
+/// Issue 46's variant over ICP.
+const CUT_OFF_ICP: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-9-cut-off-icp.toml"));
+
+/// Issue 46's variant with 15 trees per 100 m².
+const CUT_OFF_DENSE: &str =
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-9-cut-off-dense.toml"));
 
 /// The UAV that freezes (the hub's goal rule leaves it out; it cannot move).
 const FROZEN: u32 = 1;
@@ -145,4 +157,47 @@ fn a_half_cut_off_until_the_others_are_out_of_range_searches_the_way_it_went_and
     assert_ne!(off, CUT_OFF_LONG, "the search is turned off");
     let (s, _, far) = fly(&off, "cutoff-long-off");
     assert!(s["reached_goal"] == false && far > 20.0, "without it the half holds: {far:.1} m from the goal");
+}
+
+/// Asserts the whole of issue 46's rule for a variant: no contact, the goal met, every flying UAV
+/// within 10 m of another at the end, and every check passed.
+#[track_caller]
+fn meets_everything(tag: &str, s: &serde_json::Value, nearest: &[(u32, f64)], far: f64) {
+    assert_eq!(s["collisions"], 0, "{tag}: no contact: {:#}", s["collision_events"]);
+    assert_eq!(s["reached_goal"], true, "{tag}: the goal rule is met: {} ({far:.1} m)", s["end_reason"]);
+    let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
+    assert!(apart.is_empty(), "{tag}: every flying UAV ends within 10 m of another: {apart:?}");
+    let failed: Vec<_> = s["checks"].as_array().expect("checks").iter().filter(|c| c["passed"] != true).collect();
+    assert!(failed.is_empty(), "{tag}: {failed:#?}");
+}
+
+#[test]
+fn over_icp_the_detour_and_a_lead_in_sight_bring_every_uav_to_the_goal() {
+    let (s, nearest, far) = fly(CUT_OFF_ICP, "cutoff-icp");
+    meets_everything("icp", &s, &nearest, far);
+    assert_eq!(s["localization"]["mode"], "icp");
+
+    // Without the lead in sight the half flies off led by nobody it localizes, out of the trees
+    // where ICP has nothing to match, and holds there (UAVs 6-9 west of the forest, 16.6 m and
+    // more from the informed at the goal).
+    let off = CUT_OFF_ICP.replace("lead_in_sight = true", "lead_in_sight = false");
+    assert_ne!(off, CUT_OFF_ICP, "the lead in sight is turned off");
+    let (s, _, far) = fly(&off, "cutoff-icp-nolead");
+    assert!(s["reached_goal"] == false && far > 20.0, "without it the half is lost: {far:.1} m from the goal");
+}
+
+#[test]
+fn with_fifteen_trees_per_100_m2_the_detour_frees_the_informed_uav_and_it_leads_the_swarm_in() {
+    let (s, nearest, far) = fly(CUT_OFF_DENSE, "cutoff-dense");
+    meets_everything("dense", &s, &nearest, far);
+
+    // Without the detour informed UAV 2 waits for good beside the frozen UAV 1 and a trunk, and
+    // the others, led by nobody, circle trunks near the start (31.2 m from the goal).
+    let off = CUT_OFF_DENSE.replace("detour_after_s = 5.0", "detour_after_s = 0.0");
+    assert_ne!(off, CUT_OFF_DENSE, "the detour is turned off");
+    let (s, _, far) = fly(&off, "cutoff-dense-nodetour");
+    assert!(
+        s["reached_goal"] == false && far > 20.0,
+        "without it the swarm stays near the start: {far:.1} m from the goal"
+    );
 }

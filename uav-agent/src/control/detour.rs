@@ -41,10 +41,11 @@ pub struct Detour {
     until_s: Option<f64>,
     /// The side it turns to, +1 left or −1 right, chosen at its first detour.
     side: Option<f64>,
-    /// What K21 wanted when the current detour began, odometry frame (unit): the direction the
-    /// search turns from, kept for the detour so that K21's swerves at the mouth (its avoidance
-    /// flips from one side of the closest obstacle to the other) do not turn it back and forth.
-    from: Vector2<f64>,
+    /// The direction the detour flies, odometry frame (unit): at its start what K21 wanted,
+    /// then each step the first free one from it round to the side. Kept while it stays free, so
+    /// that neither K21's swerves at the mouth (its avoidance flips from one side of the closest
+    /// obstacle to the other) nor a direction freed behind it turn the UAV back and forth.
+    going: Vector2<f64>,
     /// Detours begun.
     count: u32,
 }
@@ -82,18 +83,19 @@ impl Detour {
             if !self.held(p, t_s, out) {
                 return out.velocity;
             }
-            self.from = Rotation2::new(yaw) * direction_or_x(out.wanted);
+            self.going = Rotation2::new(yaw) * direction_or_x(out.wanted);
         }
-        let from = Rotation2::new(-yaw) * self.from;
-        let Some((velocity, side)) = free_direction(p, from, close, self.side) else {
+        let going = Rotation2::new(-yaw) * self.going;
+        let Some((velocity, side)) = free_direction(p, going, close, self.side) else {
             return out.velocity;
         };
+        self.going = Rotation2::new(yaw) * direction_or_x(velocity);
         if !on {
             (self.until_s, self.held_since_s) = (Some(t_s + p.detour_s), None);
             self.count += 1;
             tracing::debug!(t_s, detour = self.count, side, "held at a shut gap: a detour");
         }
-        self.side = Some(side);
+        self.side = side.or(self.side);
         velocity
     }
 
@@ -110,28 +112,29 @@ impl Detour {
     }
 }
 
-/// The direction nearest `wanted` (body x when it is zero) that the barrier of `close` lets
-/// through at [`FREE`]·kf or more, turning to `side` (+1 left, −1 right), or to whichever side
-/// frees one first (left on a tie) when `side` is `None`: the velocity the barrier leaves along
-/// it, and the side. `None` when no direction within half a turn is free.
+/// The direction nearest `wanted` (body x when it is zero; `wanted` itself first) that the
+/// barrier of `close` lets through at [`FREE`]·kf or more, turning to `side` (+1 left, −1
+/// right), or to whichever side frees one first (left on a tie) when `side` is `None`: the
+/// velocity the barrier leaves along it, and the side it turned to (`side` when it did not
+/// turn). `None` when no direction within half a turn is free.
 pub fn free_direction(
     p: &K21Params,
     wanted: Vector2<f64>,
     close: &[(Vector2<f64>, f64)],
     side: Option<f64>,
-) -> Option<(Vector2<f64>, f64)> {
+) -> Option<(Vector2<f64>, Option<f64>)> {
     let w = direction_or_x(wanted);
     let sides: &[f64] = match side {
         Some(s) if s < 0.0 => &[-1.0],
         Some(_) => &[1.0],
         None => &[1.0, -1.0],
     };
+    let free = |d: Vector2<f64>| Some(barrier(d * p.kf, close.iter().copied())).filter(|v| v.dot(&d) >= FREE * p.kf);
+    if let Some(v) = free(w) {
+        return Some((v, side));
+    }
     (1..=18).find_map(|k| {
-        sides.iter().find_map(|&s| {
-            let d = Rotation2::new(s * k as f64 * TURN_STEP) * w;
-            let v = barrier(d * p.kf, close.iter().copied());
-            (v.dot(&d) >= FREE * p.kf).then_some((v, s))
-        })
+        sides.iter().find_map(|&s| free(Rotation2::new(s * k as f64 * TURN_STEP) * w).map(|v| (v, Some(s))))
     })
 }
 
@@ -167,7 +170,7 @@ mod tests {
         // the allowance is kf·(0.9 − 0.85)/0.15 = 0.133 m/s along each, at 62° from ahead.
         assert!(barrier(ahead, close.iter().copied()).norm() < HELD * p.kf * 2.0);
         let (v, side) = free_direction(&p, ahead, &close, None).unwrap();
-        assert_eq!(side, 1.0, "a tie goes left");
+        assert_eq!(side, Some(1.0), "a tie goes left");
         assert!(v.norm() >= FREE * p.kf, "{v:?}");
         // Free means away from both: the velocity approaches neither faster than its allowance.
         for (y, allowed) in &close {
@@ -175,7 +178,7 @@ mod tests {
         }
         // A side once chosen is kept: to the right it finds the mirror image.
         let (r, s) = free_direction(&p, ahead, &close, Some(-1.0)).unwrap();
-        assert_eq!(s, -1.0);
+        assert_eq!(s, Some(-1.0));
         assert!((r.y + v.y).abs() < 1e-9 && (r.x - v.x).abs() < 1e-9, "{r:?} vs {v:?}");
     }
 

@@ -67,6 +67,8 @@ pub struct LostContact {
     /// Sim time of the last step with a neighbour closer to the informed within reach, or with
     /// no path at all [s].
     led_s: Option<f64>,
+    /// Where this UAV was then, odometry frame [m].
+    led_odom: Option<Vector2<f64>>,
     /// Own velocity while it had a path, smoothed over [`TRAVEL_TAU_S`], odometry frame [m/s],
     /// and when it was last updated [s].
     travel: Option<(Vector2<f64>, f64)>,
@@ -76,6 +78,8 @@ pub struct LostContact {
     search: Option<(Vector2<f64>, bool)>,
     /// The flights' way out of a shut gap (K21's opt-in detour).
     detour: Detour,
+    /// The kind of the last phase, to log its changes.
+    last_kind: Option<std::mem::Discriminant<Phase>>,
 }
 
 /// The distance within which a neighbour estimate is contact: the scenario's, or the reach of
@@ -194,15 +198,24 @@ impl LostContact {
     /// With a path: flock while a neighbour with a lower count is within reach (or none is
     /// localized, or not for `after_s` yet); else towards the nearest one beyond reach.
     fn follow_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, heard: &Hops) -> Phase {
+        let p = &sc.lost_contact;
         let reach = contact_radius_m(sc);
         let nearest = heard.nearest_lower(v.neighbours, hops);
-        let led = hops >= sc.lost_contact.max_hops || nearest.is_none_or(|n| n.norm() <= reach);
+        let unseen = p.lead_in_sight && hops < p.max_hops;
+        let led = hops >= p.max_hops || nearest.map_or(!unseen, |n| n.norm() <= reach);
         if led || self.led_s.is_none() {
-            self.led_s = Some(v.t_s);
+            (self.led_s, self.led_odom) = (Some(v.t_s), Some(p0));
         }
-        match nearest {
-            Some(n) if !led && v.t_s - self.led_s.unwrap_or(v.t_s) >= sc.lost_contact.after_s - 1e-9 => {
-                Phase::Follow(p0 + Rotation2::new(v.odom.yaw) * n)
+        let long = v.t_s - self.led_s.unwrap_or(v.t_s) >= p.after_s - 1e-9;
+        match (nearest, self.led_odom) {
+            (Some(n), _) if !led && long => Phase::Follow(p0 + Rotation2::new(v.odom.yaw) * n),
+            // The path runs through UAVs it hears but does not localize (ICP among few shared
+            // trees): nobody to follow, so back to where it was last led, as a group with no path.
+            (None, Some(target)) if !led && long => {
+                match hold_at(&mut self.regroup_holding, target, p0, p.hold_radius_m, Phase::Regroup(target)) {
+                    Phase::Hold => self.search_phase(sc, v.t_s, p0, true),
+                    going => going,
+                }
             }
             _ => Phase::Flock,
         }
@@ -212,6 +225,11 @@ impl LostContact {
     /// is lost; `hops` is this step's hop count to the nearest informed UAV.
     pub fn steer(&mut self, sc: &Scenario, v: &View, hops: u8, heard: &Hops, flock: Command) -> Command {
         let phase = self.phase(sc, v, hops, heard);
+        let kind = Some(std::mem::discriminant(&phase));
+        if kind != self.last_kind {
+            self.last_kind = kind;
+            tracing::debug!(t_s = v.t_s, ?phase, hops, "lost contact: a new phase");
+        }
         let detour = &mut self.detour;
         match phase {
             Phase::Flock => flock,
