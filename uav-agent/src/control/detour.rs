@@ -12,9 +12,11 @@
 //! So, once the barrier has held the velocity under a tenth of kf for `detour_after_s` while
 //! K21 wanted at least half of kf, the UAV flies for `detour_s` the direction nearest K21's that
 //! the barrier lets through at three quarters of kf or more, looking always to the same side
-//! (the side where a free direction came first, chosen once): each step turns from what K21
-//! wants by as little as frees it, so the detour follows the blockage round, and repeated
-//! detours keep going the same way. The barrier still holds every step of it. Opt-in
+//! (the side where a free direction came first, chosen once). Each later step goes on the way
+//! it flew the step before while that stays free, else turns from it to that side by as little
+//! as frees one: the barrier bends each step along what holds the UAV, so the detour slides
+//! round the blockage, and repeated detours keep going the same way. The barrier still holds
+//! every step of it. Opt-in
 //! (`[controller.k21] detour_after_s`, off by default), like the rest of our extensions that
 //! change a flight.
 
@@ -42,9 +44,11 @@ pub struct Detour {
     /// The side it turns to, +1 left or −1 right, chosen at its first detour.
     side: Option<f64>,
     /// The direction the detour flies, odometry frame (unit): at its start what K21 wanted,
-    /// then each step the first free one from it round to the side. Kept while it stays free, so
-    /// that neither K21's swerves at the mouth (its avoidance flips from one side of the closest
-    /// obstacle to the other) nor a direction freed behind it turn the UAV back and forth.
+    /// then each step the direction of the velocity it flew, which the barrier bent along what
+    /// holds it (so the detour slides round the blockage), or when that is no longer free the
+    /// first free one from it round to the side. Kept so, neither K21's swerves at the mouth (its
+    /// avoidance flips from one side of the closest obstacle to the other) nor a direction freed
+    /// behind it turn the UAV back and forth (both did: it shook in place).
     going: Vector2<f64>,
     /// Detours begun.
     count: u32,
@@ -86,7 +90,7 @@ impl Detour {
             self.going = Rotation2::new(yaw) * direction_or_x(out.wanted);
         }
         let going = Rotation2::new(-yaw) * self.going;
-        let Some((velocity, side)) = free_direction(p, going, close, self.side) else {
+        let Some(Free { velocity, side }) = free_direction(p, going, close, self.side) else {
             return out.velocity;
         };
         self.going = Rotation2::new(yaw) * direction_or_x(velocity);
@@ -112,29 +116,37 @@ impl Detour {
     }
 }
 
+/// A free direction found by [`free_direction`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Free {
+    /// The velocity the barrier leaves along it [m/s], body frame.
+    pub velocity: Vector2<f64>,
+    /// The side it turned to (+1 left, −1 right), or the side asked for when it did not turn.
+    pub side: Option<f64>,
+}
+
 /// The direction nearest `wanted` (body x when it is zero; `wanted` itself first) that the
 /// barrier of `close` lets through at [`FREE`]·kf or more, turning to `side` (+1 left, −1
-/// right), or to whichever side frees one first (left on a tie) when `side` is `None`: the
-/// velocity the barrier leaves along it, and the side it turned to (`side` when it did not
-/// turn). `None` when no direction within half a turn is free.
+/// right), or to whichever side frees one first (left on a tie) when `side` is `None`. `None`
+/// when no direction within half a turn is free.
 pub fn free_direction(
     p: &K21Params,
     wanted: Vector2<f64>,
     close: &[(Vector2<f64>, f64)],
     side: Option<f64>,
-) -> Option<(Vector2<f64>, Option<f64>)> {
+) -> Option<Free> {
     let w = direction_or_x(wanted);
     let sides: &[f64] = match side {
         Some(s) if s < 0.0 => &[-1.0],
         Some(_) => &[1.0],
         None => &[1.0, -1.0],
     };
-    let free = |d: Vector2<f64>| Some(barrier(d * p.kf, close.iter().copied())).filter(|v| v.dot(&d) >= FREE * p.kf);
-    if let Some(v) = free(w) {
-        return Some((v, side));
-    }
-    (1..=18).find_map(|k| {
-        sides.iter().find_map(|&s| free(Rotation2::new(s * k as f64 * TURN_STEP) * w).map(|v| (v, Some(s))))
+    let free = |direction: Vector2<f64>, side: Option<f64>| {
+        let velocity = barrier(direction * p.kf, close.iter().copied());
+        (velocity.dot(&direction) >= FREE * p.kf).then_some(Free { velocity, side })
+    };
+    free(w, side).or_else(|| {
+        (1..=18).find_map(|k| sides.iter().find_map(|&s| free(Rotation2::new(s * k as f64 * TURN_STEP) * w, Some(s))))
     })
 }
 
@@ -169,7 +181,7 @@ mod tests {
         // Straight on the barrier leaves (almost) nothing: both points are 0.9 m away, where
         // the allowance is kf·(0.9 − 0.85)/0.15 = 0.133 m/s along each, at 62° from ahead.
         assert!(barrier(ahead, close.iter().copied()).norm() < HELD * p.kf * 2.0);
-        let (v, side) = free_direction(&p, ahead, &close, None).unwrap();
+        let Free { velocity: v, side, .. } = free_direction(&p, ahead, &close, None).unwrap();
         assert_eq!(side, Some(1.0), "a tie goes left");
         assert!(v.norm() >= FREE * p.kf, "{v:?}");
         // Free means away from both: the velocity approaches neither faster than its allowance.
@@ -177,7 +189,7 @@ mod tests {
             assert!(v.dot(&y.normalize()) <= allowed + 1e-9, "{v:?} towards {y:?}");
         }
         // A side once chosen is kept: to the right it finds the mirror image.
-        let (r, s) = free_direction(&p, ahead, &close, Some(-1.0)).unwrap();
+        let Free { velocity: r, side: s, .. } = free_direction(&p, ahead, &close, Some(-1.0)).unwrap();
         assert_eq!(s, Some(-1.0));
         assert!((r.y + v.y).abs() < 1e-9 && (r.x - v.x).abs() < 1e-9, "{r:?} vs {v:?}");
     }
@@ -201,6 +213,32 @@ mod tests {
         // Then K21 flies again.
         assert_eq!(d.steer(&p, 7.0, 0.0, &free, &[]), free.velocity);
         assert_eq!(d.count(), 1);
+    }
+
+    #[test]
+    fn on_a_detour_it_keeps_its_direction_while_it_stays_free_whatever_k21_swerves_to() {
+        let p = params();
+        let close = gap();
+        let mut d = Detour::new();
+        let held = output(Vector2::new(p.kf, 0.0), Vector2::zeros());
+        for i in 0..=20 {
+            d.steer(&p, i as f64 * 0.1, 0.0, &held, &close);
+        }
+        let first = d.steer(&p, 2.1, 0.0, &held, &close);
+        // K21 swerves the other way (its avoidance flipped sides); the detour keeps going.
+        let swerved = output(Vector2::new(0.0, -p.kf), Vector2::zeros());
+        let v = d.steer(&p, 2.2, 0.0, &swerved, &close);
+        assert!(v.dot(&first) > 0.9 * first.norm_squared(), "{v:?} vs {first:?}");
+        // What it keeps is the direction it flew (the barrier's bend included).
+        assert!((d.going - v.normalize()).norm() < 1e-9);
+        // Out of the mouth (nothing close): on along that direction, at kf.
+        let out = d.steer(&p, 2.3, 0.0, &swerved, &[]);
+        assert!((out - v.normalize() * p.kf).norm() < 1e-9, "{out:?} vs {v:?}");
+        // The direction is kept in the odometry frame: the UAV turned left by 90°, so in the body
+        // frame the same direction is turned right by 90°.
+        let v = d.steer(&p, 2.4, std::f64::consts::FRAC_PI_2, &swerved, &[]);
+        let expected = Rotation2::new(-std::f64::consts::FRAC_PI_2) * out;
+        assert!((v - expected).norm() < 1e-9, "{v:?} vs {expected:?}");
     }
 
     #[test]

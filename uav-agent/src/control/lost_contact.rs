@@ -400,6 +400,42 @@ mod tests {
     }
 
     #[test]
+    fn with_the_lead_in_sight_a_path_through_nobody_localized_turns_it_back_to_where_it_was_led() {
+        let mut sc = scenario();
+        sc.lost_contact.lead_in_sight = true;
+        let after = sc.lost_contact.after_s;
+        // UAV 3 within reach has our count 2; UAV 2 has count 1: localized at first, then only heard.
+        let mate = Estimate { id: Some(UavId::new(3)), ..neighbour(2.0, 0.0) };
+        let lead = Estimate { id: Some(UavId::new(2)), ..neighbour(3.0, 1.0) };
+        let mut heard = Hops::default();
+        heard.hear(UavId::new(3), 2, 0.0);
+        heard.hear(UavId::new(2), 1, 0.0);
+        let at = |x: f64| odom(x, 0.0, 0.0, None);
+        let mut l = LostContact::new();
+        let (o0, o4) = (at(0.0), at(4.0));
+        assert_eq!(l.phase(&sc, &view(0.0, &o0, &[mate, lead], &[]), 2, &heard), Phase::Flock, "led");
+        let off = LostContact::new();
+        for (t, expected) in
+            [(0.1, Phase::Flock), (after - 0.1, Phase::Flock), (after, Phase::Regroup(Vector2::zeros()))]
+        {
+            heard.hear(UavId::new(2), 1, t);
+            heard.hear(UavId::new(3), 2, t);
+            assert_eq!(l.phase(&sc, &view(t, &o4, &[mate], &[]), 2, &heard), expected, "at {t} s");
+        }
+        // Back where it was led: it holds there, as a group with no path does.
+        let o_back = at(0.5);
+        assert_eq!(l.phase(&sc, &view(after + 5.0, &o_back, &[mate], &[]), 2, &heard), Phase::Hold);
+        // Its leader in sight again: it flocks.
+        assert_eq!(l.phase(&sc, &view(after + 5.1, &o_back, &[mate, lead], &[]), 2, &heard), Phase::Flock);
+
+        // Off (the default): a path heard is a path, and it flocks on.
+        let (sc, mut l) = (scenario(), off);
+        assert!(!sc.lost_contact.lead_in_sight);
+        assert_eq!(l.phase(&sc, &view(0.0, &o0, &[mate, lead], &[]), 2, &heard), Phase::Flock);
+        assert_eq!(l.phase(&sc, &view(after + 1.0, &o4, &[mate], &[]), 2, &heard), Phase::Flock);
+    }
+
+    #[test]
     fn a_group_without_a_path_to_the_informed_flies_back_flocking_and_holds() {
         let sc = scenario();
         let after = sc.lost_contact.regroup_after_s;
