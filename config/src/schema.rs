@@ -1050,6 +1050,17 @@ pub struct IcpParams {
     /// How neighbours are told apart.
     #[serde(default = "d_identify")]
     pub identify: Identify,
+    /// The localization budget (issue 48), our extension of seed 000 6.2's cap on full-grid
+    /// ICPs to every ICP that updates an estimate: at most this many per control step (the
+    /// full-grid ones, still at most `max_long_per_step`, first), the short ones to the
+    /// neighbours whose new set fits worst where their estimate predicts it, then the longest
+    /// unchecked. A neighbour left over whose set still fits its prediction within the noise
+    /// (FRMSD ≤ 0.3 m with no iteration) keeps its estimate, confirmed by the set; one that does
+    /// not keeps its estimate unconfirmed, ageing, until its turn. 0 (the default): no budget,
+    /// every neighbour's short ICP in every step, as seed 000 schedules them. For large swarms
+    /// (`forest-1000-icp`).
+    #[serde(default)]
+    pub budget_per_step: u32,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1112,6 +1123,7 @@ impl Default for IcpParams {
             step_budget_ms: d_budget(),
             min_points: d_min_points_icp(),
             identify: d_identify(),
+            budget_per_step: 0,
         }
     }
 }

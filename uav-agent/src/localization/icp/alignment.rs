@@ -426,6 +426,32 @@ pub fn icp(
     Workspace::reused(source.len(), p.lambda, k_min, |ws| icp_core(reference, source, initial, p, ws).map(|run| run.m))
 }
 
+/// How well `source` fits `reference` at `t` as it stands, with no iteration: the FRMSD of one
+/// pairing after rejection (seed 000, eq. 3.16, Algorithm 3), the error an ICP from `t` starts
+/// at. What the localization budget asks of a tracked neighbour's new set: does it still fit
+/// where the estimate predicts it? About one ICP iteration's work.
+///
+/// Errors as [`icp`]'s for its inputs; [`NoEstimate::TooFewPoints`] when no prefix qualifies.
+pub fn fit(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    t: AgentFromNeighbour,
+    p: &IcpParams,
+) -> Result<f64, NoEstimate> {
+    let k_min = validate(reference, source, p)?;
+    if !t.rotation_rad.is_finite() || !t.translation_m.iter().all(|x| x.is_finite()) {
+        return Err(NoEstimate::NonFinite);
+    }
+    Workspace::reused(source.len(), p.lambda, k_min, |ws| {
+        let e = evaluate(reference, source, &t, &mut ws.moved, &mut ws.pairing, &[], &mut ws.cur, &ws.weights, k_min);
+        if e.kept == 0 {
+            Err(NoEstimate::TooFewPoints)
+        } else {
+            Ok(e.frmsd)
+        }
+    })
+}
+
 /// Two alignments farther apart than this place the neighbour in different places [m].
 pub const DISTINCT_M: f64 = 0.5;
 
@@ -603,6 +629,34 @@ pub(super) mod tests {
             assert_eq!(m.pairs, 20);
             assert!(m.frmsd < 1e-9);
         }
+    }
+
+    #[test]
+    fn the_fit_is_zero_at_the_truth_grows_off_it_and_is_where_the_icp_starts() {
+        let p = IcpParams::default();
+        let mut rng = Rng(7);
+        for _ in 0..50 {
+            let reference = scatter(&mut rng, 20, Vector2::zeros(), 10.0, 1.5, &[]);
+            let truth = random_transform(&mut rng, 5.0);
+            let source = to_source(&truth, &reference);
+            assert!(fit(&reference, &source, truth, &p).expect("fit") < 1e-9);
+            // 0.3 m off (points 1.5 m apart or more, so each still pairs with its own): the
+            // FRMSD of the shifted pairing, which λ and the rejection keep at or above 0.3 m.
+            let off = AgentFromNeighbour { translation_m: truth.translation_m + Vector2::new(0.3, 0.0), ..truth };
+            let f = fit(&reference, &source, off, &p).expect("fit");
+            assert!(f >= 0.3 - 1e-9, "{f}");
+            // The ICP from there converges: the fit was its starting error, not its result.
+            assert!(icp(&reference, &source, off, &p).expect("estimate").frmsd < f);
+        }
+        assert_eq!(
+            fit(
+                &[Point2::origin(); 2],
+                &square_ish(),
+                AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::zeros() },
+                &p
+            ),
+            Err(NoEstimate::TooFewPoints)
+        );
     }
 
     #[test]

@@ -135,6 +135,21 @@
 //!
 //! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
+//! # The localization budget (issue 48; `budget_per_step`, off by default)
+//!
+//! Past the crowd rules what is left in a large swarm's step is one sICP per tracked neighbour
+//! and step (forest-1000-icp: 3.36 CPU-s per sim second with no re-check or retry at all).
+//! Seed 000 6.2 already spreads the costly ICPs by a priority on staleness; the budget extends
+//! that list to the short ones: at most `budget_per_step` ICPs a step, the full-grid ones first
+//! (still at most `max_long_per_step`), then the sICPs to the entries whose new set fits worst
+//! where their estimate predicts it (the FRMSD of one pairing at the entry's transform, no
+//! iteration: [`Matcher::fit`], about an ICP iteration's work; worse than [`TIGHT_FRMSD_M`], or
+//! unknown, is a misfit), then to the longest since their last ICP. An entry left over keeps its
+//! estimate; if its set fit the prediction, the estimate is confirmed by it (its time becomes the
+//! set's, its fit counts in `worst_frmsd`), else it ages until its turn
+//! ([`StepCounts::waited`], [`StepCounts::confirmed`]). Identification (findBestMatch) is not
+//! counted: in a crowd the crowd rules already skip it for a link with one entry.
+//!
 //! Contract with the caller: pass, every step, the newest set held from each neighbour (a set
 //! may be passed again in later steps; it is ignored once older than `stale_after_s`).
 //! [`Database::estimates`] lists the entries chosen in the last step that are placed and not
@@ -166,6 +181,11 @@ pub trait Matcher {
     /// [`Matcher::long`] with the runner-up alignment, where the matcher knows it.
     fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
         self.long(reference, source).map(|best| Ranked { best, runner_up: None })
+    }
+    /// The FRMSD of `source` at `t` with no iteration (the localization budget's prediction
+    /// check; [`super::alignment::fit`]); `None` when it cannot say, which counts as a misfit.
+    fn fit(&mut self, _reference: &[Point2<f64>], _source: &[Point2<f64>], _t: AgentFromNeighbour) -> Option<f64> {
+        None
     }
 }
 
@@ -236,6 +256,10 @@ pub struct StepCounts {
     pub refused_jumps: u32,
     /// Crowd rules: sets handed to their link's entry without a findBestMatch ICP.
     pub trusted: u32,
+    /// Localization budget: short ICPs it left for a later step (the estimate kept).
+    pub waited: u32,
+    /// Of those, the ones whose set fit the estimate's prediction (the estimate confirmed).
+    pub confirmed: u32,
 }
 
 /// One neighbour: seed 000 Algorithm 5, plus what the scheduling and metrics need.
@@ -267,6 +291,8 @@ struct Entry {
     prev_sender: UavId,
     /// Worst FRMSD accepted since the last full-grid ICP (+∞: in doubt; re-checks by need).
     worst_frmsd: f64,
+    /// When an ICP last updated it [s] (the localization budget's staleness); −∞ if never.
+    last_icp_s: f64,
 }
 
 impl Entry {
@@ -391,10 +417,13 @@ impl Database {
 
         // Algorithm 6 body: suspension check, then lICP or sICP.
         let mut longs: Vec<(f64, usize, &Received)> = Vec::new();
+        let budget = self.params.budget_per_step;
+        let mut shorts: Vec<(usize, &Received)> = Vec::new();
         for &(idx, set) in &work {
             match self.plan(now, idx, crowd) {
                 Want::Nothing => {}
-                Want::Short => self.run_short(now, own, idx, set, m, &mut counts),
+                Want::Short if budget == 0 => self.run_short(now, own, idx, set, m, &mut counts),
+                Want::Short => shorts.push((idx, set)),
                 Want::Long(priority) => longs.push((priority, idx, set)),
             }
         }
@@ -423,9 +452,17 @@ impl Database {
                 counts.skipped_long += 1;
                 let e = &self.entries[idx];
                 if e.agent_from_neighbour.is_some() && !e.suspended {
-                    self.run_short(now, own, idx, set, m, &mut counts);
+                    if budget == 0 {
+                        self.run_short(now, own, idx, set, m, &mut counts);
+                    } else {
+                        shorts.push((idx, set));
+                    }
                 }
             }
+        }
+        if budget > 0 {
+            let room = budget.saturating_sub(ran) as usize;
+            self.run_shorts_in_budget(now, own, shorts, room, m, &mut counts);
         }
 
         // End of seed 000 5.3: entries not used for `stale_after_s` are discarded.
@@ -659,9 +696,56 @@ impl Database {
             estimate_t: set.t_s,
             prev_sender: set.from,
             worst_frmsd: f64::INFINITY,
+            last_icp_s: f64::NEG_INFINITY,
         });
         self.next_key += 1;
         self.entries.len() - 1
+    }
+
+    /// The localization budget (issue 48; `budget_per_step`, module doc): of the tracked
+    /// entries that want a short ICP, `room` get one, worst predicted fit first (a set that does
+    /// not fit within [`TIGHT_FRMSD_M`] where the estimate puts it, or cannot say), then the
+    /// longest since their last ICP (ties: oldest entry). The rest wait, their estimates kept;
+    /// one whose set fits is confirmed by it (its time is the set's). Sim-time decisions only.
+    fn run_shorts_in_budget(
+        &mut self,
+        now: f64,
+        own: &[Point2<f64>],
+        shorts: Vec<(usize, &Received)>,
+        room: usize,
+        m: &mut impl Matcher,
+        counts: &mut StepCounts,
+    ) {
+        if shorts.len() <= room {
+            for (idx, set) in shorts {
+                self.run_short(now, own, idx, set, m, counts);
+            }
+            return;
+        }
+        // (misfit, fit, staleness, entry key, index, set)
+        let mut ranked: Vec<(bool, Option<f64>, f64, u64, usize, &Received)> = shorts
+            .into_iter()
+            .map(|(idx, set)| {
+                let e = &self.entries[idx];
+                let fit = e.agent_from_neighbour.and_then(|t| m.fit(own, &set.points, t));
+                let misfit = fit.is_none_or(|f| f > TIGHT_FRMSD_M);
+                (misfit, fit, now - e.last_icp_s, e.key, idx, set)
+            })
+            .collect();
+        ranked.sort_by(|a, b| b.0.cmp(&a.0).then(b.2.total_cmp(&a.2)).then(a.3.cmp(&b.3)));
+        for (k, (misfit, fit, _, _, idx, set)) in ranked.into_iter().enumerate() {
+            if k < room {
+                self.run_short(now, own, idx, set, m, counts);
+                continue;
+            }
+            counts.waited += 1;
+            if let (false, Some(f)) = (misfit, fit) {
+                counts.confirmed += 1;
+                let e = &mut self.entries[idx];
+                e.estimate_t = set.t_s;
+                e.worst_frmsd = e.worst_frmsd.max(f);
+            }
+        }
     }
 
     /// The body of Algorithm 6 for one matched entry: what it wants this step.
@@ -704,6 +788,7 @@ impl Database {
     ) {
         let initial = self.entries[idx].agent_from_neighbour.unwrap_or(IDENTITY);
         counts.short += 1;
+        self.entries[idx].last_icp_s = now;
         let found = m.short(own, &set.points, initial);
         self.apply(now, idx, set, found, false, counts);
     }
@@ -724,6 +809,7 @@ impl Database {
             counts.initial += 1;
         }
         let ranked = m.long_ranked(own, &set.points);
+        self.entries[idx].last_icp_s = now;
         trace_full_grid(now, self.entries[idx].key, set, ranked.as_ref());
         let e = &self.entries[idx];
         let found = match e.agent_from_neighbour.filter(|_| !e.suspended) {
@@ -917,6 +1003,9 @@ mod tests {
         long_shift: f64,
         /// ... and answer this FRMSD instead.
         long_frmsd: Option<f64>,
+        /// The localization budget's prediction check: neighbour k's set fits its estimate with
+        /// this FRMSD (none: cannot say).
+        fits: BTreeMap<u32, f64>,
     }
 
     impl Scripted {
@@ -968,6 +1057,11 @@ mod tests {
             found.agent_from_neighbour.translation_m.x += self.long_shift;
             found.frmsd = self.long_frmsd.unwrap_or(found.frmsd);
             Some(found)
+        }
+
+        fn fit(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], _: AgentFromNeighbour) -> Option<f64> {
+            assert!(is_own(reference), "the prediction is checked against own");
+            self.fits.get(&tag(source).0).copied()
         }
     }
 
@@ -1460,6 +1554,60 @@ mod tests {
         assert_eq!(m.neighbours(Kind::Long), vec![1, 2, 3, 4, 5]);
         assert_eq!(d.len(), 5);
         d
+    }
+
+    /// Five neighbours placed at 0 s (every full grid allowed), then the budget set to `budget`.
+    fn five_placed(m: &mut Scripted, budget: u32) -> Database {
+        let mut d = Database::new(IcpParams { max_long_per_step: 5, ..params() }, 0.5);
+        let sets: Vec<Received> = (1..=5).map(|k| recv(UavId::new(k), k, 0.0)).collect();
+        let c = step(&mut d, m, 0.0, &sets);
+        assert_eq!((c.created, c.initial), (5, 5));
+        d.params.budget_per_step = budget;
+        m.calls.clear();
+        d
+    }
+
+    #[test]
+    fn the_budget_runs_the_misfits_first_then_the_longest_unchecked_and_confirms_the_rest() {
+        let mut m = Scripted::default();
+        // Neighbour 4's new set does not fit where its estimate puts it; the others' do.
+        m.fits = BTreeMap::from([(1, 0.1), (2, 0.1), (3, 0.1), (4, 0.6), (5, 0.1)]);
+        let mut d = five_placed(&mut m, 2);
+        let counts = run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.1, 0.5);
+        for c in &counts {
+            // Two ICPs a step; of the three left, the two that fit are confirmed.
+            assert_eq!((c.short, c.long + c.initial, c.waited, c.confirmed), (2, 0, 3, 3), "{c:?}");
+        }
+        // 4 every step; the others in turn, the longest since its last ICP first (ties: oldest).
+        assert_eq!(m.neighbours(Kind::Short), vec![4, 1, 4, 2, 4, 3, 4, 5, 4, 1]);
+        // A confirmed estimate is as fresh as the set that confirmed it; all five are listed.
+        let est = d.estimates(0.5);
+        assert_eq!(est.len(), 5);
+        assert!(est.iter().all(|e| e.age_s < 1e-9), "{est:?}");
+    }
+
+    #[test]
+    fn a_misfit_left_over_keeps_its_estimate_unconfirmed_and_ages() {
+        let mut m = Scripted::default();
+        // Nobody's fit is known: every set is a misfit, so the budget goes by staleness alone.
+        let mut d = five_placed(&mut m, 1);
+        let c = run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.1, 0.4);
+        assert!(c.iter().all(|c| (c.short, c.waited, c.confirmed) == (1, 4, 0)), "{c:?}");
+        assert_eq!(m.neighbours(Kind::Short), vec![1, 2, 3, 4]);
+        // Neighbour 5 has had no ICP since its placement at 0 s: listed, 0.4 s old.
+        let est = d.estimates(0.4);
+        let five = est.iter().find(|e| e.id == Some(UavId::new(5))).expect("listed");
+        assert!((five.age_s - 0.4).abs() < 1e-9, "{five:?}");
+    }
+
+    #[test]
+    fn no_budget_is_every_short_icp_every_step_and_a_roomy_one_the_same() {
+        for budget in [0, 5] {
+            let mut m = Scripted::default();
+            let mut d = five_placed(&mut m, budget);
+            let c = run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.1, 0.3);
+            assert!(c.iter().all(|c| (c.short, c.waited) == (5, 0)), "budget {budget}: {c:?}");
+        }
     }
 
     #[test]

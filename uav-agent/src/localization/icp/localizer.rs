@@ -8,7 +8,7 @@
 //! and it implements [`Matcher`] with the ICP of [`super::alignment`] and [`super::grid`]. It also decides the one
 //! thing that depends on the run's time mode: whether the wall clock may cut a step short.
 
-use super::alignment::{icp, AgentFromNeighbour, Match};
+use super::alignment::{fit, icp, AgentFromNeighbour, Match};
 use super::database::{Database, Matcher, Received};
 use super::grid::{initial_icp, initial_icp_ranked, Ranked};
 use crate::localization::Share;
@@ -119,5 +119,8 @@ impl Matcher for IcpMatcher<'_> {
     }
     fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
         initial_icp_ranked(reference, source, self.0).ok()
+    }
+    fn fit(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], t: AgentFromNeighbour) -> Option<f64> {
+        fit(reference, source, t, self.0).ok()
     }
 }
