@@ -722,18 +722,29 @@ impl Database {
             }
             return;
         }
-        // (misfit, fit, staleness, entry key, index, set)
-        let mut ranked: Vec<(bool, Option<f64>, f64, u64, usize, &Received)> = shorts
+        /// One entry that wants a short ICP, with what ranks it.
+        struct Candidate<'a> {
+            /// Its set does not fit the prediction (or the fit is unknown).
+            misfit: bool,
+            fit: Option<f64>,
+            /// Since its last ICP [s].
+            staleness: f64,
+            key: u64,
+            idx: usize,
+            set: &'a Received,
+        }
+        let mut ranked: Vec<Candidate> = shorts
             .into_iter()
             .map(|(idx, set)| {
                 let e = &self.entries[idx];
                 let fit = e.agent_from_neighbour.and_then(|t| m.fit(own, &set.points, t));
                 let misfit = fit.is_none_or(|f| f > TIGHT_FRMSD_M);
-                (misfit, fit, now - e.last_icp_s, e.key, idx, set)
+                Candidate { misfit, fit, staleness: now - e.last_icp_s, key: e.key, idx, set }
             })
             .collect();
-        ranked.sort_by(|a, b| b.0.cmp(&a.0).then(b.2.total_cmp(&a.2)).then(a.3.cmp(&b.3)));
-        for (k, (misfit, fit, _, _, idx, set)) in ranked.into_iter().enumerate() {
+        ranked
+            .sort_by(|a, b| b.misfit.cmp(&a.misfit).then(b.staleness.total_cmp(&a.staleness)).then(a.key.cmp(&b.key)));
+        for (k, Candidate { misfit, fit, idx, set, .. }) in ranked.into_iter().enumerate() {
             if k < room {
                 self.run_short(now, own, idx, set, m, counts);
                 continue;
@@ -1569,9 +1580,9 @@ mod tests {
 
     #[test]
     fn the_budget_runs_the_misfits_first_then_the_longest_unchecked_and_confirms_the_rest() {
-        let mut m = Scripted::default();
         // Neighbour 4's new set does not fit where its estimate puts it; the others' do.
-        m.fits = BTreeMap::from([(1, 0.1), (2, 0.1), (3, 0.1), (4, 0.6), (5, 0.1)]);
+        let fits = BTreeMap::from([(1, 0.1), (2, 0.1), (3, 0.1), (4, 0.6), (5, 0.1)]);
+        let mut m = Scripted { fits, ..Scripted::default() };
         let mut d = five_placed(&mut m, 2);
         let counts = run(&mut d, &mut m, &[1, 2, 3, 4, 5], 0.1, 0.5);
         for c in &counts {
