@@ -1053,10 +1053,10 @@ pub struct IcpParams {
     /// The localization budget (issue 48), our extension of seed 000 6.2's cap on full-grid
     /// ICPs to every ICP that updates an estimate: at most this many per control step (the
     /// full-grid ones, still at most `max_long_per_step`, first), the short ones to the
-    /// neighbours whose new set fits worst where their estimate predicts it, then the longest
-    /// unchecked. A neighbour left over whose set still fits its prediction within the noise
-    /// (FRMSD ≤ 0.3 m with no iteration) keeps its estimate, confirmed by the set; one that does
-    /// not keeps its estimate unconfirmed, ageing, until its turn. 0 (the default): no budget,
+    /// neighbours whose new set does not fit where their track (odometry frame, constant
+    /// velocity) predicts it, then the longest unchecked. A neighbour left over is listed at its
+    /// prediction, confirmed by its set if that fit within the noise, else ageing until its turn
+    /// (`uav-agent/src/localization/icp/database.rs`). 0 (the default): no budget,
     /// every neighbour's short ICP in every step, as seed 000 schedules them. For large swarms
     /// (`forest-1000-icp`).
     #[serde(default)]

@@ -151,7 +151,7 @@ impl Localizer {
         match self {
             Localizer::Broadcast(b) => Localized { estimates: b.estimates(frame), icp: IcpCounts::default() },
             Localizer::Icp(i) => {
-                let (estimates, icp) = i.estimates(frame.scan.t_s, circles, started);
+                let (estimates, icp) = i.estimates(frame, circles, started);
                 Localized { estimates, icp }
             }
             Localizer::Uvdar => Localized { estimates: uvdar::estimates(frame), icp: IcpCounts::default() },

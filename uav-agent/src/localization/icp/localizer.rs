@@ -65,9 +65,17 @@ impl IcpLocalizer {
         }
     }
 
-    /// The neighbours placed by matching their sets to our `circles` at sim time `now`, and the
-    /// ICP work it took; `started` is when the step began (wall clock).
-    pub(crate) fn estimates(&mut self, now: f64, circles: &[Circle], started: Instant) -> (Vec<Estimate>, IcpCounts) {
+    /// The neighbours placed by matching their sets to our `circles` at the frame's sim time (its
+    /// odometry pose for the localization budget's tracks), and the ICP work it took; `started` is
+    /// when the step began (wall clock).
+    pub(crate) fn estimates(
+        &mut self,
+        frame: &SensorFrame,
+        circles: &[Circle],
+        started: Instant,
+    ) -> (Vec<Estimate>, IcpCounts) {
+        let now = frame.scan.t_s;
+        self.db.set_pose(nalgebra::Vector2::new(frame.odom.x, frame.odom.y), frame.odom.yaw);
         let own: Vec<Point2<f64>> = circles.iter().map(|c| c.center).collect();
         let stale = self.stale_after_s;
         self.received.retain(|r| now - r.t_s <= stale + 1e-9);
