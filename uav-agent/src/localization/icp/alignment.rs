@@ -419,11 +419,22 @@ pub fn icp(
     initial: AgentFromNeighbour,
     p: &IcpParams,
 ) -> Result<Match, NoEstimate> {
+    let k_min = validate_from(reference, source, &initial, p)?;
+    Workspace::reused(source.len(), p.lambda, k_min, |ws| icp_core(reference, source, initial, p, ws).map(|run| run.m))
+}
+
+/// [`validate`], and a finite transform `t` to start from.
+fn validate_from(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    t: &AgentFromNeighbour,
+    p: &IcpParams,
+) -> Result<usize, NoEstimate> {
     let k_min = validate(reference, source, p)?;
-    if !initial.rotation_rad.is_finite() || !initial.translation_m.iter().all(|x| x.is_finite()) {
+    if !t.rotation_rad.is_finite() || !t.translation_m.iter().all(|x| x.is_finite()) {
         return Err(NoEstimate::NonFinite);
     }
-    Workspace::reused(source.len(), p.lambda, k_min, |ws| icp_core(reference, source, initial, p, ws).map(|run| run.m))
+    Ok(k_min)
 }
 
 /// How well `source` fits `reference` at `t` as it stands, with no iteration: the FRMSD of one
@@ -438,10 +449,7 @@ pub fn fit(
     t: AgentFromNeighbour,
     p: &IcpParams,
 ) -> Result<f64, NoEstimate> {
-    let k_min = validate(reference, source, p)?;
-    if !t.rotation_rad.is_finite() || !t.translation_m.iter().all(|x| x.is_finite()) {
-        return Err(NoEstimate::NonFinite);
-    }
+    let k_min = validate_from(reference, source, &t, p)?;
     Workspace::reused(source.len(), p.lambda, k_min, |ws| {
         let e = evaluate(reference, source, &t, &mut ws.moved, &mut ws.pairing, &[], &mut ws.cur, &ws.weights, k_min);
         if e.kept == 0 {
