@@ -196,7 +196,9 @@ impl LostContact {
     }
 
     /// With a path: flock while a neighbour with a lower count is within reach (or none is
-    /// localized, or not for `after_s` yet); else towards the nearest one beyond reach.
+    /// localized, or not for `after_s` yet); else towards the nearest one beyond reach. With
+    /// `lead_in_sight`, none localized for `after_s` is not led either: back to where it last
+    /// was, hovering there (and searching, as a group with no path).
     fn follow_phase(&mut self, sc: &Scenario, v: &View, p0: Vector2<f64>, hops: u8, heard: &Hops) -> Phase {
         let p = &sc.lost_contact;
         let reach = contact_radius_m(sc);
