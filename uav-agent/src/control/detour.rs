@@ -68,15 +68,17 @@ impl Detour {
 
     /// The velocity of this step [m/s], body frame: `out.velocity` unless the UAV is on a
     /// detour (or starts one now), then the free direction nearest K21's `out.wanted` on the
-    /// detour's side, held by the barrier's `close` points ([`super::k21::barrier_points`]).
-    /// `t_s`: sim time [s]; `yaw`: own heading in the odometry frame [rad]. Off (`out.velocity` always) when `p.detour_after_s` is 0.
+    /// detour's side, held by the barrier's points that `close` gives
+    /// ([`super::k21::barrier_points`]; asked for only on a detour or once held, so the step does
+    /// not compute them twice). `t_s`: sim time [s]; `yaw`: own heading in the odometry frame
+    /// [rad]. Off (`out.velocity` always) when `p.detour_after_s` is 0.
     pub fn steer(
         &mut self,
         p: &K21Params,
         t_s: f64,
         yaw: f64,
         out: &Output,
-        close: &[(Vector2<f64>, f64)],
+        close: impl FnOnce() -> Vec<(Vector2<f64>, f64)>,
     ) -> Vector2<f64> {
         if p.detour_after_s <= 0.0 {
             return out.velocity;
@@ -90,7 +92,7 @@ impl Detour {
             self.going = Rotation2::new(yaw) * direction_or_x(out.wanted);
         }
         let going = Rotation2::new(-yaw) * self.going;
-        let Some(Free { velocity, side }) = free_direction(p, going, close, self.side) else {
+        let Some(Free { velocity, side }) = free_direction(p, going, &close(), self.side) else {
             return out.velocity;
         };
         self.going = Rotation2::new(yaw) * direction_or_x(velocity);
@@ -202,16 +204,16 @@ mod tests {
         let held = output(Vector2::new(p.kf, 0.0), Vector2::zeros());
         // Held, but not for 2 s yet: K21's velocity (zero) stands.
         for i in 0..20 {
-            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &held, &close), Vector2::zeros());
+            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &held, || close.clone()), Vector2::zeros());
         }
         // At 2 s held: the detour begins.
-        let v = d.steer(&p, 2.0, 0.0, &held, &close);
+        let v = d.steer(&p, 2.0, 0.0, &held, || close.clone());
         assert!(v.norm() >= FREE * p.kf && d.count() == 1, "{v:?}");
         // It lasts 5 s, whatever K21 says meanwhile (here: free to fly on).
         let free = output(Vector2::new(p.kf, 0.0), Vector2::new(p.kf, 0.0));
-        assert_ne!(d.steer(&p, 6.9, 0.0, &free, &close), free.velocity);
+        assert_ne!(d.steer(&p, 6.9, 0.0, &free, || close.clone()), free.velocity);
         // Then K21 flies again.
-        assert_eq!(d.steer(&p, 7.0, 0.0, &free, &[]), free.velocity);
+        assert_eq!(d.steer(&p, 7.0, 0.0, &free, Vec::new), free.velocity);
         assert_eq!(d.count(), 1);
     }
 
@@ -222,21 +224,21 @@ mod tests {
         let mut d = Detour::new();
         let held = output(Vector2::new(p.kf, 0.0), Vector2::zeros());
         for i in 0..=20 {
-            d.steer(&p, i as f64 * 0.1, 0.0, &held, &close);
+            d.steer(&p, i as f64 * 0.1, 0.0, &held, || close.clone());
         }
-        let first = d.steer(&p, 2.1, 0.0, &held, &close);
+        let first = d.steer(&p, 2.1, 0.0, &held, || close.clone());
         // K21 swerves the other way (its avoidance flipped sides); the detour keeps going.
         let swerved = output(Vector2::new(0.0, -p.kf), Vector2::zeros());
-        let v = d.steer(&p, 2.2, 0.0, &swerved, &close);
+        let v = d.steer(&p, 2.2, 0.0, &swerved, || close.clone());
         assert!(v.dot(&first) > 0.9 * first.norm_squared(), "{v:?} vs {first:?}");
         // What it keeps is the direction it flew (the barrier's bend included).
         assert!((d.going - v.normalize()).norm() < 1e-9);
         // Out of the mouth (nothing close): on along that direction, at kf.
-        let out = d.steer(&p, 2.3, 0.0, &swerved, &[]);
+        let out = d.steer(&p, 2.3, 0.0, &swerved, Vec::new);
         assert!((out - v.normalize() * p.kf).norm() < 1e-9, "{out:?} vs {v:?}");
         // The direction is kept in the odometry frame: the UAV turned left by 90°, so in the body
         // frame the same direction is turned right by 90°.
-        let v = d.steer(&p, 2.4, std::f64::consts::FRAC_PI_2, &swerved, &[]);
+        let v = d.steer(&p, 2.4, std::f64::consts::FRAC_PI_2, &swerved, Vec::new);
         let expected = Rotation2::new(-std::f64::consts::FRAC_PI_2) * out;
         assert!((v - expected).norm() < 1e-9, "{v:?} vs {expected:?}");
     }
@@ -251,7 +253,7 @@ mod tests {
         let slowed = output(Vector2::new(p.kf, 0.0), Vector2::new(0.05, 0.0));
         for i in 0..100 {
             let o = if i % 2 == 0 { quiet } else { slowed };
-            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &o, &gap()), o.velocity);
+            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &o, gap), o.velocity);
         }
         assert_eq!(d.count(), 0);
     }
@@ -262,7 +264,7 @@ mod tests {
         let mut d = Detour::new();
         let held = output(Vector2::new(p.kf, 0.0), Vector2::zeros());
         for i in 0..1000 {
-            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &held, &gap()), Vector2::zeros());
+            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &held, gap), Vector2::zeros());
         }
     }
 
@@ -276,7 +278,7 @@ mod tests {
         let mut d = Detour::new();
         let held = output(Vector2::new(p.kf, 0.0), Vector2::zeros());
         for i in 0..50 {
-            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &held, &close), Vector2::zeros());
+            assert_eq!(d.steer(&p, i as f64 * 0.1, 0.0, &held, || close.clone()), Vector2::zeros());
         }
     }
 }

@@ -169,7 +169,7 @@ pub(super) fn k21_command(
     let input = k21::Input { neighbours: &neighbours, obstacles: &obstacles, goal_heading, bodies: v.near_bodies };
     let mut out = k21::step(p, &input);
     if p.detour_after_s > 0.0 {
-        out.velocity = detour.steer(p, v.t_s, v.odom.yaw, &out, &k21::barrier_points(p, &input));
+        out.velocity = detour.steer(p, v.t_s, v.odom.yaw, &out, || k21::barrier_points(p, &input));
     }
     Command {
         kind: CmdKind::Velocity,
