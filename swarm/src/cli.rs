@@ -65,6 +65,9 @@ pub enum Cmd {
     Mesh(crate::mesh::MeshArgs),
     /// Fly swarms of growing size and print (and plot) speed, tick and step times and memory.
     Scale(crate::scale::ScaleArgs),
+    /// Fly scenarios with the whole swarm in this process, on one thread, with no messages: the
+    /// computation a tick cannot do without, the floor under a distributed run's wall time.
+    Floor(crate::floor::FloorArgs),
     /// Draw a run folder's figures (map, distances, K21 vectors, localization, connectivity) as
     /// SVG and PNG.
     Plot(swarm_plot::PlotArgs),
@@ -125,6 +128,7 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::IcpEval(a) => crate::icp_eval::icp_eval(a).await,
         Cmd::Scale(a) => crate::scale::scale(a).await,
+        Cmd::Floor(a) => crate::floor::floor(&a, &controllers),
         Cmd::Mesh(a) => crate::mesh::mesh(a).await,
         Cmd::Plot(a) => swarm_plot::plot(a),
         Cmd::Fuzz(a) => crate::fuzz::fuzz(a).await,

@@ -6,7 +6,7 @@
 //!
 //! - [`cli`]: argument parsing and dispatch, nothing else (`swarm run | hub | agent | record |
 //!   router | view | replay | tap | put | keys | netem | ros2 | compare | formations | sweep-error |
-//!   sweep-seeds | icp-eval | scale | mesh | plot | credentials | fuzz | scenarios | check`);
+//!   sweep-seeds | icp-eval | scale | floor | mesh | plot | credentials | fuzz | scenarios | check`);
 //!   `hub`, `agent`, `router` and `credentials` are `swarm-node`'s commands, flattened in.
 //! - [`launch`]: `swarm run`: starts the hub, the agents (one process per UAV, or agent hosts for large
 //!   swarms) and a recording, applies
@@ -35,6 +35,9 @@
 //!   wrong-but-accepted rates by shared trees, ms per case.
 //! - [`scale`]: `swarm scale`: a series of growing swarms (5 to 1000 UAVs) flown in turn, with
 //!   x real time, hub tick and agent step percentiles and resident memory in a table and a plot.
+//! - [`floor`]: `swarm floor`: the whole swarm flown in this process on one thread with no
+//!   messages (`physics-hub`'s simulation, `uav-agent`'s `Onboard`), the same flight as in
+//!   lockstep, for the computation per tick under a distributed run's wall time.
 //! - [`mesh`]: `swarm mesh`: a run spread over machines made of network namespaces, the hub on
 //!   one and agent hosts behind their own routers on others; each host's link bytes as the
 //!   kernel counts them, and the shares that crossed into it beside its radio neighbours across.
@@ -50,10 +53,12 @@
 //! Dependencies run one way: `cli` → the commands → what they share (`proxy`, and the crates
 //! below); no command imports `cli`.
 //!
-//! Architecture invariant: the launcher only starts processes and watches them; all simulation
+//! Architecture invariant: the launcher only starts processes and watches them (the floor steps the same pieces in
+//! process); all simulation
 //! lives in `physics-hub`, all onboard logic in `uav-agent`.
 
 pub mod cli;
+mod floor;
 mod fuzz;
 mod gym;
 mod icp_eval;

@@ -23,13 +23,15 @@
 //! - `agent`: [`Agent::step`], the pipeline of one tick with no IO.
 //! - `admission`: which received shares count and when each is delivered: the neighbour windows,
 //!   early shares, the netem link seam and its inbox, with no IO.
+//! - `onboard`: [`Onboard`], an agent and its admission stepped by hand, with no IO: what the
+//!   node decides per hub message, for a whole swarm in one process (`swarm floor`).
 //! - `net`: everything that touches Zenoh, and only it: one agent's node (sensor and radio
 //!   subscriptions, listening to the shares of its radio set, liveliness; entry point [`run`]),
 //!   the agent host ([`run_host`]), and the session's share feed (one subscription per sender
 //!   its agents listen to).
 //!
 //! Dependencies run one way: net → admission → agent → control → planning → geometry, agent →
-//! localization → sensing, agent → perception; the stages reach one another's types only below
+//! localization → sensing, agent → perception, onboard → admission; the stages reach one another's types only below
 //! themselves, in `world_model` and `geometry`, which import nothing of the crate, never sideways;
 //! nothing below points back up to the agent or the node. Architecture invariant: an
 //! agent sees the world only through its own sensor frames and its neighbours' shares; it never
@@ -43,6 +45,7 @@ mod control;
 mod geometry;
 mod localization;
 mod net;
+mod onboard;
 mod perception;
 mod planning;
 mod sensing;
@@ -53,5 +56,6 @@ pub use control::{Command, Controller, Controllers, MakeController, UnknownContr
 pub use localization::icp;
 pub use localization::Share;
 pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions, Sensors};
+pub use onboard::{Onboard, OnboardError, Outgoing};
 pub use sensing::{MalformedFrame, Needs, SensorFrame};
 pub use world_model::{Body, Circle, Estimate, Segment};

@@ -550,6 +550,18 @@ pub enum EndReason {
     Stopped,
 }
 
+impl EndReason {
+    /// Its name in `summary.json`'s `end_reason`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            EndReason::Goal => "goal",
+            EndReason::TimeLimit => "time_limit",
+            EndReason::NoAgents => "no_agents",
+            EndReason::Stopped => "stopped",
+        }
+    }
+}
+
 /// A collision that started this tick.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CollisionEvent {

@@ -60,9 +60,17 @@ impl Sim {
     /// the order given. Large swarms are spread over the cores (see [`Sim::sensors_each`]); each
     /// UAV draws only from its own streams, so the result does not depend on the split.
     pub fn sensors_all(&mut self, ids: &[UavId]) -> Vec<SenseFrame> {
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+        self.sensors_all_on(ids, workers)
+    }
+
+    /// [`Sim::sensors_all`] on `workers` threads at most (below 2: all on the calling thread, as
+    /// `swarm floor` computes them, to measure a tick's work on one core).
+    pub fn sensors_all_on(&mut self, ids: &[UavId], workers: usize) -> Vec<SenseFrame> {
         let mut out = Vec::with_capacity(ids.len());
-        let done: Result<(), std::convert::Infallible> = self.sensors_each(
+        let done: Result<(), std::convert::Infallible> = self.sensors_each_on(
             ids,
+            workers,
             |_, s| s,
             |_, s| {
                 out.push(s);

@@ -29,7 +29,7 @@ impl Files {
     pub fn create(dir: &Path) -> Result<Files> {
         let open = |name: &str| create(dir, name);
         let mut traj = open("trajectories.csv")?;
-        writeln!(traj, "tick,t_s,id,x_m,y_m,yaw_rad,vx_mps,vy_mps,obstacle_distance_m,agent_distance_m,colliding,alive,cmd_on_time")?;
+        writeln!(traj, "{TRAJECTORY_HEADER}")?;
         let mut states = open("agent_states.csv")?;
         writeln!(states, "tick,t_s,id,step_time_us,obstacles,neighbours,in_radio_range,cohesion,separation,avoidance,navigation,output_mps,msgs_tx,bytes_tx,msgs_rx,bytes_rx,icp_short,icp_long,icp_initial,icp_deferred,db_entries,db_suspended")?;
         let mut loc = open("localization.csv")?;
@@ -102,6 +102,10 @@ impl Files {
         Ok(())
     }
 }
+
+/// The header line of `trajectories.csv`, the columns [`write_trajectory_rows`] writes.
+pub const TRAJECTORY_HEADER: &str =
+    "tick,t_s,id,x_m,y_m,yaw_rad,vx_mps,vy_mps,obstacle_distance_m,agent_distance_m,colliding,alive,cmd_on_time";
 
 /// Writes one step's `trajectories.csv` rows (one per body) to `out`.
 pub fn write_trajectory_rows(out: &mut impl Write, s: &TruthStep) -> std::io::Result<()> {

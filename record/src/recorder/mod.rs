@@ -33,7 +33,7 @@ mod recover;
 pub mod solitude;
 mod tally;
 
-pub use files::write_trajectory_rows;
+pub use files::{write_trajectory_rows, TRAJECTORY_HEADER};
 pub use recording::{replay, Recording};
 pub use recover::{cut_short, recover, RecoverArgs};
 

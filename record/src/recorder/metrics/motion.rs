@@ -207,13 +207,7 @@ impl Motion {
     pub(super) fn summary(&self, agents: &[AgentSummary]) -> RunMotion {
         let last = self.last_step.as_ref();
         let (sim_time_s, wall_time_s) = last.map_or((0.0, 0.0), |s| (s.t_s, s.wall_s));
-        let end_reason = match self.ended() {
-            Some(EndReason::Goal) => "goal",
-            Some(EndReason::TimeLimit) => "time_limit",
-            Some(EndReason::NoAgents) => "no_agents",
-            Some(EndReason::Stopped) => "stopped",
-            None => "incomplete",
-        };
+        let end_reason = self.ended().map_or("incomplete", EndReason::name);
         let min = |f: fn(&AgentSummary) -> f64| agents.iter().map(f).fold(f64::INFINITY, f64::min);
         let (lattice_spacing_m, lattice_spacing_std_m) = self.lattice_spacing();
         RunMotion {
