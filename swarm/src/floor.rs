@@ -16,15 +16,14 @@
 
 use anyhow::{ensure, Context, Result};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use physics_hub::sim::Sim;
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 use swarm_config::{FailureKind, Scenario};
+use swarm_record::recorder::Offline;
 use swarm_types::UavId;
 use swarm_wire::{Cmd, HubTiming};
 use uav_agent::{Controllers, Onboard, Outgoing};
@@ -41,8 +40,8 @@ pub struct FloorArgs {
     /// Cap every flight's sim time [s] (default: each scenario's own `end.time_limit_s`).
     #[arg(long)]
     pub time_limit: Option<f64>,
-    /// Write each flight's `trajectories.csv` (the recorder's format) under this folder, as
-    /// `<scenario>/trajectories.csv`.
+    /// Record each flight into a run folder under this one, `<scenario>/` (what `swarm run`
+    /// writes, but `run.mcap`): its time per tick then includes none of the recording.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Print the rows as JSON on stdout instead of the table.
@@ -85,8 +84,8 @@ pub fn floor(a: &FloorArgs, controllers: &Controllers) -> Result<ExitCode> {
         if let Some(t) = a.time_limit {
             sc.end.time_limit_s = t;
         }
-        let trajectories = a.out.as_ref().map(|dir| dir.join(&sc.name).join("trajectories.csv"));
-        rows.push(fly(&sc, controllers, trajectories.as_deref())?);
+        let folder = a.out.as_ref().map(|dir| dir.join(&sc.name));
+        rows.push(fly(&sc, controllers, folder.as_deref())?);
     }
     if a.json {
         swarm_node::process::out(&serde_json::to_string_pretty(&rows)?);
@@ -96,16 +95,15 @@ pub fn floor(a: &FloorArgs, controllers: &Controllers) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Flies `sc` in this process (see the module doc), writing its trajectories to `trajectories`
-/// when given, under a progress bar on stderr.
-pub fn fly(sc: &Scenario, controllers: &Controllers, trajectories: Option<&std::path::Path>) -> Result<FloorRow> {
+/// Flies `sc` in this process (see the module doc); with `out`, records it into that run
+/// folder as `swarm run` would (no `run.mcap`).
+pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Result<FloorRow> {
     ensure!(sc.controller.external.is_empty(), "{}: the floor flies no external controller", sc.name);
     ensure!(
         sc.failures.iter().all(|f| f.kind == FailureKind::Freeze),
         "{}: the floor flies freezes only (it has no agent processes or links to fail)",
         sc.name
     );
-    let mut csv = trajectories.map(open_trajectories).transpose()?;
     let ids: Vec<UavId> = sc.uav_ids().collect();
     let mut agents = ids
         .iter()
@@ -113,17 +111,24 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, trajectories: Option<&std::
         .collect::<Result<Vec<_>, _>>()
         .context(sc.name.clone())?;
     let mut sim = Sim::new(sc);
+    let pb = swarm_record::recorder::progress_bar(sc, false);
+    pb.set_prefix(format!("floor {}", sc.name));
+    let mut rec = out.map(|dir| Offline::new(dir, sc, &pb, &format!("floor-{}", sc.name))).transpose()?;
+    if let Some(rec) = rec.as_mut() {
+        rec.world(sim.truth_world())?;
+    }
     let alive = vec![true; ids.len()];
     // Each UAV's share of the last tick, and whom each agent listened to at it.
     let mut shares: Vec<Option<Outgoing>> = vec![None; ids.len()];
     let mut listening: Vec<Vec<UavId>> = vec![Vec::new(); ids.len()];
-    let (mut hub_s, mut agents_s, mut collisions) = (0.0, 0.0, 0usize);
-    let pb = progress(sc);
+    let mut cost = Cost::default();
+    let mut collisions = 0usize;
     let (ended, goal_s) = loop {
         let started = thread_cpu_s();
         let frames = sim.sensors_all_on(&ids, 1);
         let sensed = thread_cpu_s();
         let mut cmds: Vec<Option<Cmd>> = vec![None; ids.len()];
+        let mut reports = Vec::with_capacity(ids.len());
         let mut next: Vec<Option<Outgoing>> = vec![None; ids.len()];
         for (i, frame) in frames.into_iter().enumerate() {
             for &from in &listening[i] {
@@ -134,65 +139,74 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, trajectories: Option<&std::
             listening[i].clone_from(&frame.radio.in_range);
             let (out, outgoing) = agents[i].on_sense(frame).with_context(|| format!("{}: UAV {}", sc.name, ids[i]))?;
             cmds[i] = Some(out.cmd);
+            reports.push(out.report);
             next[i] = outgoing;
         }
         shares = next;
         let stepped = thread_cpu_s();
         let step = sim.step(&cmds, &alive, 0.0);
-        let integrated = thread_cpu_s();
-        hub_s += (sensed - started) + (integrated - stepped);
-        agents_s += stepped - sensed;
+        cost.add(sensed - started, stepped - sensed, thread_cpu_s() - stepped);
         collisions += step.collisions.len();
-        pb.set_position(step.tick);
         let (ended, goal_s) = (step.ended, step.goal_reached_at);
-        if let Some(csv) = csv.as_mut() {
-            swarm_record::recorder::write_trajectory_rows(csv, &step.with_timing(HubTiming::default()))?;
+        match rec.as_mut() {
+            Some(rec) => {
+                for (agent, report) in agents.iter_mut().zip(reports) {
+                    rec.state(agent.state(report))?;
+                }
+                rec.step(step.with_timing(HubTiming::default()))?;
+            }
+            None => pb.set_position(step.tick),
         }
         if let Some(end) = ended {
             break (end, goal_s);
         }
     };
     pb.finish_and_clear();
-    if let Some(mut csv) = csv {
-        csv.flush()?;
+    if let Some(rec) = rec {
+        rec.finish()?;
     }
-    let ticks = sim.tick().max(1);
-    let floor_s = hub_s + agents_s;
-    Ok(FloorRow {
-        scenario: sc.name.clone(),
-        uavs: ids.len(),
-        ticks,
-        sim_time_s: sim.t_s(),
-        end_reason: ended.name().to_string(),
-        goal_s,
-        collisions,
-        hub_ms_per_tick: 1e3 * hub_s / ticks as f64,
-        agents_ms_per_tick: 1e3 * agents_s / ticks as f64,
-        floor_ms_per_tick: 1e3 * floor_s / ticks as f64,
-        cpu_s_per_sim_s: floor_s / sim.t_s().max(f64::MIN_POSITIVE),
-    })
+    Ok(cost.row(sc, sim.tick(), sim.t_s(), (ended.name(), goal_s, collisions)))
 }
 
-/// `trajectories.csv` at `path`, its folder made, its header written.
-fn open_trajectories(path: &std::path::Path) -> Result<std::io::BufWriter<std::fs::File>> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
-    let file = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    let mut out = std::io::BufWriter::new(file);
-    writeln!(out, "{}", swarm_record::recorder::TRAJECTORY_HEADER)?;
-    Ok(out)
+/// The thread's CPU time spent so far on each part of a tick [s].
+#[derive(Debug, Default)]
+struct Cost {
+    /// The simulation: sensors and integration.
+    hub_s: f64,
+    /// Every agent's step.
+    agents_s: f64,
 }
 
-/// A bar over the flight's ticks.
-fn progress(sc: &Scenario) -> ProgressBar {
-    let pb = ProgressBar::new((sc.end.time_limit_s / sc.dt_s()).round() as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:30}] tick {pos}/{len} ({elapsed}, eta {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    pb.set_prefix(format!("floor {}", sc.name));
-    pb
+impl Cost {
+    fn add(&mut self, sensors_s: f64, agents_s: f64, integrate_s: f64) {
+        self.hub_s += sensors_s + integrate_s;
+        self.agents_s += agents_s;
+    }
+
+    /// The row of a flight of `ticks` ticks to `t_s`, that ended so.
+    fn row(
+        &self,
+        sc: &Scenario,
+        ticks: u64,
+        t_s: f64,
+        (end, goal_s, collisions): (&str, Option<f64>, usize),
+    ) -> FloorRow {
+        let per_tick = |s: f64| 1e3 * s / ticks.max(1) as f64;
+        let floor_s = self.hub_s + self.agents_s;
+        FloorRow {
+            scenario: sc.name.clone(),
+            uavs: sc.count(),
+            ticks,
+            sim_time_s: t_s,
+            end_reason: end.to_string(),
+            goal_s,
+            collisions,
+            hub_ms_per_tick: per_tick(self.hub_s),
+            agents_ms_per_tick: per_tick(self.agents_s),
+            floor_ms_per_tick: per_tick(floor_s),
+            cpu_s_per_sim_s: floor_s / t_s.max(f64::MIN_POSITIVE),
+        }
+    }
 }
 
 /// CPU time of this thread so far [s] (`/proc/thread-self/schedstat`, nanoseconds on CPU; NaN

@@ -11,14 +11,14 @@
 //! what it decides is decided here and in [`Admission`], both pure.
 
 use crate::admission::{Admission, Arrived};
-use crate::agent::{Agent, StepOutput};
+use crate::agent::{Agent, StepOutput, StepReport};
 use crate::control::{Controllers, UnknownController};
 use crate::localization::Share;
 use crate::sensing::{MalformedFrame, Needs, SensorFrame};
 use std::sync::Arc;
 use swarm_config::Scenario;
 use swarm_types::UavId;
-use swarm_wire::{SenseFrame, WireError};
+use swarm_wire::{AgentState, SenseFrame, WireError};
 
 /// Why [`Onboard::on_sense`] did not step.
 #[derive(Debug, thiserror::Error)]
@@ -95,5 +95,11 @@ impl Onboard {
             None => None,
         };
         Ok((out, outgoing))
+    }
+
+    /// The state message of a step's `report`, with what the link counted so far (and no
+    /// traffic: nothing crossed a session).
+    pub fn state(&mut self, report: StepReport) -> AgentState {
+        report.into_state(self.admission.report())
     }
 }

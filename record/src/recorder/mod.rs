@@ -33,8 +33,8 @@ mod recover;
 pub mod solitude;
 mod tally;
 
-pub use files::{write_trajectory_rows, TRAJECTORY_HEADER};
-pub use recording::{replay, Recording};
+pub use files::write_trajectory_rows;
+pub use recording::{replay, Offline, Recording};
 pub use recover::{cut_short, recover, RecoverArgs};
 
 use crate::scene::Detail;

@@ -358,6 +358,46 @@ impl Recording {
     }
 }
 
+/// A recording fed by hand instead of by a session: what `swarm floor`, which flies the whole
+/// swarm in its own process, hands it is what a run's recorder would have received (the world,
+/// then each tick's agent states before the truth step that follows them), and it writes the
+/// same run folder (no `run.mcap`, no journal).
+pub struct Offline<'a> {
+    sink: Sink<'a>,
+    run_id: String,
+    out: std::path::PathBuf,
+}
+
+impl<'a> Offline<'a> {
+    /// A recording of run `run_id` of `sc` into the run folder `out` (made if missing), its
+    /// progress on `pb`.
+    pub fn new(out: &Path, sc: &'a Scenario, pb: &'a ProgressBar, run_id: &str) -> Result<Offline<'a>> {
+        std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+        let sink = Sink::new(out, sc, pb, None, None)?;
+        Ok(Offline { sink, run_id: run_id.to_string(), out: out.to_path_buf() })
+    }
+
+    /// The hub's world.
+    pub fn world(&mut self, w: swarm_wire::TruthWorld) -> Result<()> {
+        self.sink.truth(&Msg::TruthWorld(w).encode()?).map(|_| ())
+    }
+
+    /// An agent's state.
+    pub fn state(&mut self, st: swarm_wire::AgentState) -> Result<()> {
+        self.sink.state(&Msg::State(Box::new(st)).encode()?)
+    }
+
+    /// A truth step; true on the run's last.
+    pub fn step(&mut self, s: swarm_wire::TruthStep) -> Result<bool> {
+        self.sink.truth(&Msg::TruthStep(s).encode()?)
+    }
+
+    /// Writes the summary, `world.json`, `connectivity.csv` and the figures.
+    pub fn finish(self) -> Result<Summary> {
+        self.sink.finish(&self.run_id, &self.out, false)
+    }
+}
+
 /// The `end_reason` of a run recovered from its journal that did not reach its last step.
 pub const CUT_SHORT: &str = "cut_short";
 
