@@ -70,6 +70,13 @@ pub struct AgentArgs {
     /// The ROS 2 graph of `--sensors ros2`.
     #[command(flatten)]
     pub ros: RosArgs,
+    /// With `--sensors ros2`: ask for the scan and odometry reliably. Such a subscription
+    /// matches only a reliable writer, as `swarm ros2`'s are in a lockstep run, where a frame
+    /// lost on DDS would leave the hub waiting for its command until the tick timeout and the
+    /// run differing from the one before (`swarm run --ros2-agents` sets it in lockstep). The
+    /// default, best effort (ROS's sensor-data QoS), matches every writer, a vehicle's drivers too.
+    #[arg(long, requires = "sensors")]
+    pub reliable_sensors: bool,
 }
 
 /// Where an agent's sensors come from.
@@ -90,6 +97,7 @@ impl AgentArgs {
                 dds: self.ros.dds,
                 localhost_only: self.ros.localhost_only(),
                 domain: self.ros.domain,
+                reliable: self.reliable_sensors,
             },
         }
     }

@@ -46,6 +46,16 @@ impl Qos {
     pub const CLOCK: Qos = Qos { reliable: true, transient_local: false, depth: 1 };
     /// `/tf`: reliable, keep last 100 (tf2's listener's).
     pub const TF: Qos = Qos { reliable: true, transient_local: false, depth: 100 };
+
+    /// A simulated UAV's scan and odometry: [`Qos::SENSOR`], but reliable in a lockstep run.
+    /// There the hub waits for the command that answers every frame, so a frame lost on DDS
+    /// (best effort drops a sample whenever a loaded machine's socket buffer overflows) left the
+    /// hub to time out and the run to differ from the one before. A reliable writer still serves
+    /// a best-effort reader (`qos_profile_sensor_data`), and a vehicle's own drivers (realtime)
+    /// stay best effort, which a best-effort reader matches.
+    pub const fn sensor(lockstep: bool) -> Qos {
+        Qos { reliable: lockstep, ..Qos::SENSOR }
+    }
 }
 
 /// Errors of the ROS 2 side.

@@ -124,13 +124,14 @@ pub struct RunArgs {
 
 impl RunArgs {
     /// The ROS 2 side these arguments ask for, if any.
-    fn ros2_side(&self) -> Option<Ros2Side> {
+    fn ros2_side(&self, sc: &Scenario) -> Option<Ros2Side> {
         let agents = self.ros2_agents.as_ref().map(|a| a.0.clone()).unwrap_or_default();
         if self.ros2.is_none() && !self.dds && agents.is_empty() {
             return None;
         }
         let ros = RosArgs { domain: self.ros2.unwrap_or(0), dds: self.dds, localhost: self.ros2_localhost };
-        Some(Ros2Side { localhost_only: ros.localhost_only(), ros, truth: self.ros2_truth, agents })
+        let reliable_sensors = sc.time.mode == swarm_config::TimeMode::Lockstep;
+        Some(Ros2Side { localhost_only: ros.localhost_only(), ros, truth: self.ros2_truth, agents, reliable_sensors })
     }
 }
 
@@ -146,6 +147,9 @@ pub struct Ros2Side {
     pub truth: bool,
     /// The UAVs whose agents read their sensors from ROS topics.
     pub agents: Vec<UavId>,
+    /// Those agents ask for their scan and odometry reliably (`swarm agent --reliable-sensors`):
+    /// in a lockstep run, whose bridge publishes them reliably (`swarm_ros2::Qos::sensor`).
+    pub reliable_sensors: bool,
 }
 
 /// Up to this many UAVs, `swarm run` starts one process per UAV by default.
@@ -181,7 +185,7 @@ pub async fn run(a: RunArgs, controllers: &Controllers) -> Result<ExitCode> {
         mcap: a.mcap.detail(sc.count()),
         journal: !a.mcap.no_journal,
         view: a.view,
-        ros2: a.ros2_side(),
+        ros2: a.ros2_side(&sc),
         gym: a.gym,
     };
     let how = How { zenoh_cfg: &a.cfg, show, per_process, insecure: a.insecure };
@@ -616,6 +620,7 @@ impl Launcher {
                 if side.agents.contains(&id) {
                     c.args(["--sensors", "ros2", "--ros-domain", &side.ros.domain.to_string()]);
                     c.args(side.ros.dds.then_some("--dds")).args(side.localhost_only.then_some("--localhost"));
+                    c.args(side.reliable_sensors.then_some("--reliable-sensors"));
                 }
             }
             if let Some(creds) = &self.creds {

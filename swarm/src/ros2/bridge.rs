@@ -187,7 +187,8 @@ impl Bridge {
         let mut tokens = Vec::new();
         for id in sc.uav_ids() {
             let node = graph.node(&format!("/uav{id}"), "swarm").await?;
-            uavs.insert(id, uav_topics(&mut graph, node, id, sc.is_informed(id)).await?);
+            let lockstep = sc.time.mode == swarm_config::TimeMode::Lockstep;
+            uavs.insert(id, uav_topics(&mut graph, node, (id, lockstep), sc.is_informed(id)).await?);
             let external = sc.controller.external.contains(&id);
             if external || vehicles.contains(&id) {
                 ros_subs.extend(command_subscriptions(&mut graph, node, id, vehicles.contains(&id), &tx).await?);
@@ -438,15 +439,21 @@ async fn fetch_world(s: &zenoh::Session, keys: &Keys) -> Result<Box<TruthWorld>>
 }
 
 /// UAV `id`'s publishers on its node.
-async fn uav_topics(graph: &mut Graph, node: NodeRef, id: UavId, informed: bool) -> Result<UavTopics> {
+/// Its scan and odometry are reliable in a lockstep run (`lockstep`; see [`Qos::sensor`]).
+async fn uav_topics(
+    graph: &mut Graph,
+    node: NodeRef,
+    (id, lockstep): (UavId, bool),
+    informed: bool,
+) -> Result<UavTopics> {
     let ns = format!("/uav{id}");
     let goal = match informed {
         true => Some(graph.publisher(node, &format!("{ns}/goal"), POSE_STAMPED, Qos::DEFAULT).await?),
         false => None,
     };
     Ok(UavTopics {
-        scan: graph.publisher(node, &format!("{ns}/scan"), LASER_SCAN, Qos::SENSOR).await?,
-        odom: graph.publisher(node, &format!("{ns}/odom"), ODOMETRY, Qos::SENSOR).await?,
+        scan: graph.publisher(node, &format!("{ns}/scan"), LASER_SCAN, Qos::sensor(lockstep)).await?,
+        odom: graph.publisher(node, &format!("{ns}/odom"), ODOMETRY, Qos::sensor(lockstep)).await?,
         goal,
         neighbours: graph.publisher(node, &format!("{ns}/neighbours"), POSE_ARRAY, Qos::DEFAULT).await?,
     })

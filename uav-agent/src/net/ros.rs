@@ -57,6 +57,10 @@ pub enum Sensors {
         localhost_only: bool,
         /// ROS domain id.
         domain: u32,
+        /// Scan and odometry asked for reliably ([`swarm_ros2::Qos::sensor`]): matches only a
+        /// reliable writer, as the bridge's is in a lockstep run (else best effort, which every
+        /// writer matches).
+        reliable: bool,
     },
 }
 
@@ -122,7 +126,7 @@ impl RosLink {
         sensors: &Sensors,
         tx: mpsc::UnboundedSender<Option<Msg>>,
     ) -> Result<RosLink, AgentError> {
-        let Sensors::Ros { dds, localhost_only, domain } = *sensors else {
+        let Sensors::Ros { dds, localhost_only, domain, reliable } = *sensors else {
             unreachable!("a ROS link for an agent on the hub's sensors")
         };
         let middleware = if dds { Middleware::Dds { localhost_only } } else { Middleware::Zenoh(s.clone()) };
@@ -132,9 +136,10 @@ impl RosLink {
         let node = graph.node(&ns, "agent").await?;
         let (ptx, prx) = mpsc::unbounded_channel::<Part>();
         let mut subs = Vec::new();
+        let sensor = Qos::sensor(reliable);
         for (topic, t, qos, part) in [
-            ("scan", LASER_SCAN, Qos::SENSOR, Part::Scan as fn(Vec<u8>) -> Part),
-            ("odom", ODOMETRY, Qos::SENSOR, Part::Odom),
+            ("scan", LASER_SCAN, sensor, Part::Scan as fn(Vec<u8>) -> Part),
+            ("odom", ODOMETRY, sensor, Part::Odom),
             ("goal", POSE_STAMPED, Qos::DEFAULT, Part::Goal),
         ] {
             subs.push(graph.subscribe(node, &format!("{ns}/{topic}"), t, qos, ptx.clone(), part).await?);
