@@ -127,7 +127,7 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::SweepSeeds(a) => crate::sweep_seeds::sweep_seeds(a).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::IcpEval(a) => crate::icp_eval::icp_eval(a).await,
-        Cmd::Scale(a) => crate::scale::scale(a).await,
+        Cmd::Scale(a) => crate::scale::scale(a, &controllers).await,
         Cmd::Floor(a) => crate::floor::floor(&a, &controllers),
         Cmd::Mesh(a) => crate::mesh::mesh(a).await,
         Cmd::Plot(a) => swarm_plot::plot(a),

@@ -9,6 +9,7 @@
 //! two samples loses at most its last [`SAMPLE`] of CPU time.
 
 use crate::scale::proc_fs::{machine_ticks, process_ticks, Sampler};
+use crate::scale::USER_HZ;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -16,10 +17,6 @@ use std::time::{Duration, Instant};
 
 /// How often the processes' CPU times are read.
 const SAMPLE: Duration = Duration::from_millis(200);
-
-/// Clock ticks per second of `/proc`'s times: Linux's `USER_HZ`, 100 on every architecture
-/// it exports to user space.
-const USER_HZ: f64 = 100.0;
 
 /// What one kind of piece used over the flight.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -84,6 +84,11 @@ pub struct ScaleArgs {
     /// overruns this is reported as out of the peer's reach.
     #[arg(long, default_value_t = 120.0)]
     pub peer_budget_s: f64,
+    /// After each run, fly it again as `swarm floor` does (the whole swarm in this process, on
+    /// one thread, no messages: the same flight in lockstep) and quote the run's wall time per
+    /// tick as a multiple of that floor.
+    #[arg(long)]
+    pub floor: bool,
 }
 
 /// One row of the table: one run.
@@ -131,15 +136,27 @@ pub struct ScaleRow {
     /// Payload kB an agent received per tick (its sensors, radio sets, rules and shares).
     #[serde(default)]
     pub kb_received_per_tick: f64,
+    /// CPU seconds per sim second, user + system, by role: `hub`, `agents` (every agent process
+    /// or host), `launcher` (this process: the recorder and the launcher).
+    #[serde(default)]
+    pub cpu_s_per_sim_s: BTreeMap<String, f64>,
+    /// The run's wall time per tick [ms].
+    #[serde(default)]
+    pub wall_ms_per_tick: f64,
+    /// The floor of the same flight (`--floor`): its CPU time per tick on one thread [ms].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub floor_ms_per_tick: Option<f64>,
     /// The peer flown at this row's size right after it (`--peer`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub peer: Option<peer::PeerRow>,
 }
 
 impl ScaleRow {
-    /// The row of a finished run from its summary and the memory measured around it.
-    pub fn new(s: &Summary, localization: &str, mem: MemoryPeak) -> ScaleRow {
+    /// The row of a finished run from its summary and the memory and CPU measured around it.
+    pub fn new(s: &Summary, localization: &str, watched: &Watched) -> ScaleRow {
+        let mem = watched.mem;
         let rss_total_mib = mem.rss_kib as f64 / 1024.0;
+        let sim_s = s.sim_time_s.max(f64::MIN_POSITIVE);
         let t = &s.timing;
         ScaleRow {
             scenario: s.scenario.clone(),
@@ -161,13 +178,16 @@ impl ScaleRow {
             shares_arrived_per_tick: s.traffic.shares_arrived_per_agent_tick,
             shares_counted_per_tick: s.traffic.shares_counted_per_agent_tick,
             kb_received_per_tick: s.traffic.bytes_per_agent_tick / 1000.0,
+            cpu_s_per_sim_s: watched.cpu_s_by_role().into_iter().map(|(role, cpu)| (role, cpu / sim_s)).collect(),
+            wall_ms_per_tick: 1e3 * s.wall_time_s / s.ticks.max(1) as f64,
+            floor_ms_per_tick: None,
             peer: None,
         }
     }
 }
 
 /// Runs `swarm scale`.
-pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
+pub async fn scale(a: ScaleArgs, controllers: &uav_agent::Controllers) -> Result<ExitCode> {
     let plan = plan(&a)?;
     let peer_cmd = a.peer.and(a.peer_cmd.as_deref()).map(peer::PeerCmd::parse).transpose()?;
     anyhow::ensure!(a.peer_budget_s > 0.0, "--peer-budget-s must be positive");
@@ -185,15 +205,20 @@ pub async fn scale(a: ScaleArgs) -> Result<ExitCode> {
             sc.end.time_limit_s
         );
         let me = std::process::id();
-        let sampler = proc_fs::Sampler::start(RSS_SAMPLE, MemoryPeak::default(), move |peak: &mut MemoryPeak| {
-            let (kib, n) = proc_fs::descendants_rss_kib(me);
-            *peak = peak.fold(kib, n);
+        let own_before = proc_fs::own_ticks();
+        let sampler = proc_fs::Sampler::start(RSS_SAMPLE, Watched::default(), move |w: &mut Watched| {
+            w.take(&proc_fs::descendants_now(me));
         });
         let how = VariantRun { per_process: a.agents_per_process, progress: true };
         let tag = format!("{:02}-{}", i + 1, sc.name);
         let summary = run_variant(sc, &out, &tag, how).await;
-        let mem = sampler.stop().await;
-        let mut row = ScaleRow::new(&summary?, mode, mem);
+        let mut watched = sampler.stop().await;
+        watched.launcher_ticks = proc_fs::own_ticks().saturating_sub(own_before);
+        let mut row = ScaleRow::new(&summary?, mode, &watched);
+        if a.floor {
+            let floor = tokio::task::block_in_place(|| crate::floor::fly(sc, controllers, None))?;
+            row.floor_ms_per_tick = Some(floor.floor_ms_per_tick);
+        }
         if let Some(cmd) = &peer_cmd {
             let size = peer::PeerSize {
                 agents: sc.count(),
@@ -315,12 +340,43 @@ pub fn table(rows: &[ScaleRow]) -> String {
             r.goal_s.map_or_else(|| format!("no ({:.0} s flown)", r.sim_time_s), |g| format!("{g:.1}")),
         );
     }
+    cpu_table(&mut t, rows);
     peer_table(&mut t, rows);
     let _ = writeln!(
         t,
         "\nPeers: gym-pybullet-drones reports 10 drones at about 2x real time; MRS's lightweight simulator claims hundreds of UAVs in real time with no localization; Crazyswarm2's simulator runs 5 drones at 0.15x (its issue #890)."
     );
     t
+}
+
+/// Where each run's CPU went, by role, and its wall time per tick beside the floor's (`--floor`).
+fn cpu_table(t: &mut String, rows: &[ScaleRow]) {
+    let _ = writeln!(
+        t,
+        "\n| scenario | UAVs | CPU s per sim s: hub / agents / launcher | all | wall ms per tick | floor ms per tick | wall ÷ floor |"
+    );
+    let _ = writeln!(t, "|---|---|---|---|---|---|---|");
+    for r in rows {
+        let cpu = |role: &str| r.cpu_s_per_sim_s.get(role).copied().unwrap_or(0.0);
+        let floor = r.floor_ms_per_tick.filter(|f| *f > 0.0);
+        let _ = writeln!(
+            t,
+            "| {} | {} | {:.3} / {:.3} / {:.3} | {:.3} | {} | {} | {} |",
+            r.scenario,
+            r.uavs,
+            cpu("hub"),
+            cpu("agents"),
+            cpu("launcher"),
+            r.cpu_s_per_sim_s.values().sum::<f64>(),
+            ms(r.wall_ms_per_tick),
+            floor.map_or_else(|| "-".into(), ms),
+            floor.map_or_else(|| "-".into(), |f| format!("{:.2}", r.wall_ms_per_tick / f)),
+        );
+    }
+    let _ = writeln!(
+        t,
+        "\nThe floor is the same flight with the whole swarm in one process, on one thread, with no messages (`swarm floor`); on c cores a perfectly spread run could at best take floor / c per tick."
+    );
 }
 
 /// The side-by-side table of the rows flown with `--peer`: each peer run came right after ours.
@@ -345,6 +401,42 @@ fn peer_table(t: &mut String, rows: &[ScaleRow]) {
     }
 }
 
+/// Clock ticks per second of `/proc`'s times: Linux's `USER_HZ`, 100 on every architecture it
+/// exports to user space.
+pub(crate) const USER_HZ: f64 = 100.0;
+
+/// What the sampler saw of a run's processes: the peak of their memory, and each one's CPU time
+/// at its last sample (a process that ends loses at most its last [`RSS_SAMPLE`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Watched {
+    /// Peak resident memory.
+    pub mem: MemoryPeak,
+    /// Role and user + system clock ticks of every process seen, by pid.
+    pub cpu: BTreeMap<u32, (String, u64)>,
+    /// This process's own clock ticks over the run (the launcher and recorder).
+    pub launcher_ticks: u64,
+}
+
+impl Watched {
+    /// Folds one sample of the run's processes in.
+    fn take(&mut self, now: &[proc_fs::Proc]) {
+        self.mem = self.mem.fold(now.iter().map(|p| p.rss_kib).sum(), now.iter().filter(|p| p.rss_kib > 0).count());
+        for p in now {
+            self.cpu.insert(p.pid, (p.role.to_string(), p.ticks));
+        }
+    }
+
+    /// CPU seconds by role (`hub`, `agents`, `routers`, `launcher`).
+    pub fn cpu_s_by_role(&self) -> BTreeMap<String, f64> {
+        let mut by: BTreeMap<String, f64> = BTreeMap::new();
+        for (role, ticks) in self.cpu.values() {
+            *by.entry(role.clone()).or_default() += *ticks as f64 / USER_HZ;
+        }
+        by.insert("launcher".into(), self.launcher_ticks as f64 / USER_HZ);
+        by
+    }
+}
+
 /// The peak resident memory of a run's processes.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct MemoryPeak {
@@ -363,7 +455,7 @@ impl MemoryPeak {
 
 /// Reading `/proc`: who descends from whom, how much each holds resident, and the CPU time a
 /// process and the machine used (`swarm mesh`'s CPU columns). The parsing is pure (tested on
-/// text); [`descendants_rss_kib`] is the one function here that reads the files.
+/// text); [`descendants_now`] and [`own_ticks`] are the functions here that read the files.
 pub mod proc_fs {
     use super::BTreeMap;
     use std::sync::atomic::{AtomicBool, Ordering};
@@ -454,21 +546,55 @@ pub mod proc_fs {
         found
     }
 
-    /// The summed `VmRSS` [KiB] of `root`'s descendants now, and how many hold memory.
-    pub fn descendants_rss_kib(root: u32) -> (u64, usize) {
-        let Ok(dir) = std::fs::read_dir("/proc") else { return (0, 0) };
-        let parents: Vec<(u32, u32)> = dir
+    /// What a role a process of a run plays, from its command line (`/proc/<pid>/cmdline`, the
+    /// arguments NUL-separated): the subcommand after the program, `hub`, `agent` or `router`,
+    /// as `agents`, `hub`, `routers`; anything else is `other`.
+    pub fn role_of(cmdline: &[u8]) -> &'static str {
+        match cmdline.split(|&b| b == 0).nth(1) {
+            Some(b"hub") => "hub",
+            Some(b"agent") => "agents",
+            Some(b"router") => "routers",
+            _ => "other",
+        }
+    }
+
+    /// One process under a run, as sampled.
+    #[derive(Debug, Clone, PartialEq, Eq)]
+    pub struct Proc {
+        /// Its pid.
+        pub pid: u32,
+        /// Its role ([`role_of`]).
+        pub role: &'static str,
+        /// Resident memory [KiB] (0 for a zombie).
+        pub rss_kib: u64,
+        /// User + system time so far [clock ticks].
+        pub ticks: u64,
+    }
+
+    /// Every process descending from `root` now.
+    pub fn descendants_now(root: u32) -> Vec<Proc> {
+        let Ok(dir) = std::fs::read_dir("/proc") else { return Vec::new() };
+        let stats: BTreeMap<u32, String> = dir
             .filter_map(|e| {
                 let pid: u32 = e.ok()?.file_name().to_str()?.parse().ok()?;
-                let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-                Some((pid, parent_of(&stat)?))
+                Some((pid, std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?))
             })
             .collect();
-        let rss: Vec<u64> = descendants(root, &parents)
+        let parents: Vec<(u32, u32)> = stats.iter().filter_map(|(&pid, st)| Some((pid, parent_of(st)?))).collect();
+        descendants(root, &parents)
             .into_iter()
-            .filter_map(|pid| vm_rss_kib(&std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?))
-            .collect();
-        (rss.iter().sum(), rss.len())
+            .filter_map(|pid| {
+                let ticks = process_ticks(stats.get(&pid)?)?;
+                let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+                let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+                Some(Proc { pid, role: role_of(&cmdline), rss_kib: vm_rss_kib(&status).unwrap_or(0), ticks })
+            })
+            .collect()
+    }
+
+    /// This process's user + system time so far [clock ticks] (0 off Linux).
+    pub fn own_ticks() -> u64 {
+        std::fs::read_to_string("/proc/self/stat").ok().as_deref().and_then(process_ticks).unwrap_or(0)
     }
 }
 
@@ -495,6 +621,10 @@ pub(crate) fn test_row(uavs: usize, mode: &str) -> ScaleRow {
         shares_arrived_per_tick: 3.0,
         shares_counted_per_tick: 2.5,
         kb_received_per_tick: 3.25,
+        cpu_s_per_sim_s: [("hub".to_string(), 0.125), ("agents".to_string(), 0.5), ("launcher".to_string(), 0.25)]
+            .into(),
+        wall_ms_per_tick: 8.0,
+        floor_ms_per_tick: (uavs == 5).then_some(2.0),
         peer: None,
     }
 }
@@ -509,12 +639,15 @@ mod tests {
     #[test]
     fn the_table_has_a_line_per_row_with_its_numbers() {
         let t = table(&[row(5, "broadcast"), row(40, "icp")]);
-        let lines: Vec<&str> = t.lines().filter(|l| l.starts_with("| s") && !l.starts_with("| scenario")).collect();
+        let main = t.split("\n\n").nth(1).expect("the main table");
+        let lines: Vec<&str> = main.lines().filter(|l| l.starts_with("| s") && !l.starts_with("| scenario")).collect();
         assert_eq!(lines.len(), 2, "{t}");
         assert_eq!(lines[0], "| s5 | 5 | broadcast | lockstep | 3 | 12.50 | 0.250 / 1.50 | 0.500 / - | 200 | 40.0 | 3.0 / 2.5 | 3.25 | 0 | 41.2 |");
         assert!(lines[1].ends_with("| 0 | no (60 s flown) |"), "{}", lines[1]);
         let header_cells = t.lines().find(|l| l.starts_with("| scenario")).map(|l| l.matches('|').count());
         assert_eq!(header_cells, Some(lines[0].matches('|').count()), "header and rows have as many cells");
+        assert!(t.contains("| s5 | 5 | 0.125 / 0.500 / 0.250 | 0.875 | 8.00 | 2.00 | 4.00 |"), "{t}");
+        assert!(t.contains("| s40 | 40 | 0.125 / 0.500 / 0.250 | 0.875 | 8.00 | - | - |"), "{t}");
     }
 
     #[test]
@@ -549,10 +682,20 @@ mod tests {
         let mut s = swarm_record::recorder::metrics::Metrics::default().summary("r", &sc);
         (s.sim_speed, s.time_to_goal_s) = (10.0, Some(40.0));
         (s.timing.agent_step_p99_ms, s.timing.late_share) = (0.4, 0.1);
-        let r = ScaleRow::new(&s, "broadcast", MemoryPeak { rss_kib: 10 * 1024, processes: 6 });
+        (s.sim_time_s, s.wall_time_s, s.ticks) = (40.0, 4.0, 400);
+        let mut w =
+            Watched { mem: MemoryPeak { rss_kib: 10 * 1024, processes: 6 }, launcher_ticks: 200, ..Default::default() };
+        let ps = |pid, role, ticks| proc_fs::Proc { pid, role, rss_kib: 1, ticks };
+        w.take(&[ps(10, "hub", 100), ps(11, "agents", 300), ps(12, "agents", 500)]);
+        w.take(&[ps(10, "hub", 400), ps(11, "agents", 900)]);
+        let r = ScaleRow::new(&s, "broadcast", &w);
         assert_eq!((r.uavs, r.processes, r.collisions, r.goal_s), (5, 6, 0, Some(40.0)));
         assert_eq!((r.rss_total_mib, r.rss_per_uav_mib), (10.0, 2.0));
         assert_eq!((r.x_real_time, r.agent_step_p99_ms, r.late_share), (10.0, 0.4, 0.1));
+        let cpu: Vec<(&str, f64)> = r.cpu_s_per_sim_s.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        // Each process at its last sample (agent 12 ended after 5 s), over 40 sim s.
+        assert_eq!(cpu, vec![("agents", 0.35), ("hub", 0.1), ("launcher", 0.05)]);
+        assert_eq!(r.wall_ms_per_tick, 10.0);
     }
 
     #[test]
@@ -582,6 +725,11 @@ mod tests {
         assert_eq!(machine_ticks("intr 1 2\n"), None);
         assert_eq!(vm_rss_kib("Name:\tswarm\nVmPeak:\t  9000 kB\nVmRSS:\t   15123 kB\n"), Some(15123));
         assert_eq!(vm_rss_kib("Name:\tzombie\n"), None);
+        assert_eq!(role_of(b"/usr/bin/swarm\0hub\0scenario.toml\0"), "hub");
+        assert_eq!(role_of(b"swarm-e2e\0agent\0--run\0r\0"), "agents");
+        assert_eq!(role_of(b"swarm\0router\0"), "routers");
+        assert_eq!(role_of(b"sleep\0x\0"), "other");
+        assert_eq!(role_of(b""), "other");
     }
 
     #[test]
@@ -600,10 +748,11 @@ mod tests {
             return;
         }
         let mut child = std::process::Command::new("sleep").arg("5").spawn().expect("sleep starts");
-        let (kib, n) = descendants_rss_kib(std::process::id());
+        let now = descendants_now(std::process::id());
         let _ = child.kill();
         let _ = child.wait();
-        assert!(n >= 1, "the child is a descendant");
-        assert!(kib > 0, "and holds memory");
+        let found = now.iter().find(|p| p.pid == child.id()).expect("the child is a descendant");
+        assert!(found.rss_kib > 0, "and holds memory");
+        assert_eq!(found.role, "other");
     }
 }
