@@ -19,12 +19,16 @@
 //! per 100 m². In both a UAV stops for good at the mouth of the gap between the frozen UAV and a
 //! trunk unless K21's detour takes it round; over ICP the half also flies off led by nobody it
 //! localizes unless a path leads only through a neighbour in sight (`lead_in_sight`).
-//! Lockstep, so every outcome repeats exactly.
+//! Lockstep, so every outcome repeats exactly. The flights with what each case needs go over real
+//! Zenoh and real processes; the controls without it, which show that it is what makes the
+//! difference, fly in one process (`swarm floor`, the same flight byte for byte: `floor.rs`), at a
+//! fraction of the cost.
 
 mod common;
 
-use common::{run_id, summary, swarm_run};
+use common::{output_within, run_id, summary, swarm_run, RUN_LIMIT, SWARM};
 use std::path::Path;
+use std::process::Command;
 
 /// The scenario shipped in `scenarios/`.
 const CUT_OFF: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/forest-9-cut-off.toml"));
@@ -60,6 +64,22 @@ fn fly(toml: &str, tag: &str) -> (serde_json::Value, Vec<(u32, f64)>, f64) {
         "--no-mcap",
     ]);
     assert!(out.status.success(), "{tag}: {}", String::from_utf8_lossy(&out.stderr));
+    (summary(&out_dir), nearest_at_end(&out_dir), farthest_from_goal(&out_dir))
+}
+
+/// As [`fly`], in one process: `swarm floor` records the lockstep flight into a run folder
+/// without a message (for the controls; see the module doc).
+fn fly_in_process(toml: &str, tag: &str) -> (serde_json::Value, Vec<(u32, f64)>, f64) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("scenario.toml");
+    std::fs::write(&path, toml).expect("write scenario");
+    let floor = dir.path().join("floor");
+    let mut cmd = Command::new(SWARM);
+    cmd.args(["floor", "--scenarios", path.to_str().expect("utf8"), "--out", floor.to_str().expect("utf8")]);
+    let out = output_within(&mut cmd, RUN_LIMIT);
+    assert!(out.status.success(), "{tag}: {}", String::from_utf8_lossy(&out.stderr));
+    let mut folders = std::fs::read_dir(&floor).expect("the floor's folder").map(|e| e.expect("entry").path());
+    let out_dir = folders.next().expect("one run folder");
     (summary(&out_dir), nearest_at_end(&out_dir), farthest_from_goal(&out_dir))
 }
 
@@ -113,7 +133,7 @@ fn a_half_cut_off_from_the_informed_comes_back_and_the_swarm_meets_its_goal() {
     // barrier's ends orbiting, all within 18.7 m).
     let group_only = CUT_OFF.replace("[localization]", "[controller.k21]\narrival_radius_m = 0.0\n\n[localization]");
     assert_ne!(group_only, CUT_OFF, "arrival is turned off");
-    let (s, nearest, far) = fly(&group_only, "cutoff-group");
+    let (s, nearest, far) = fly_in_process(&group_only, "cutoff-group");
     let apart: Vec<_> = nearest.iter().filter(|(_, d)| *d > 10.0).collect();
     assert!(apart.is_empty() && far < GOAL.0, "the group behaviour alone: {nearest:?}, {far:.1} m from the goal");
     assert_eq!(s["collisions"], 0, "{:#}", s["collision_events"]);
@@ -134,7 +154,7 @@ fn a_half_cut_off_from_the_informed_comes_back_and_the_swarm_meets_its_goal() {
     // The half flies off with nobody steering it, farther from the goal than the swarm started;
     // whether it leaves the rest behind (the hard barrier's flight: UAV 7 17.5 m from the
     // others) or takes informed UAV 2 with it (the graded barrier's: all together, 91.8 m away).
-    let (s, nearest, far) = fly(&off, "cutoff-off");
+    let (s, nearest, far) = fly_in_process(&off, "cutoff-off");
     assert!(
         s["reached_goal"] == false && far > GOAL.0,
         "without it the half flies off: goal {}, {nearest:?}, {far:.1} m from the goal",
@@ -150,7 +170,7 @@ fn a_half_cut_off_until_the_others_are_out_of_range_searches_the_way_it_went_and
     // Without the search the half holds where it last had a path, 30 m short of the goal.
     let off = CUT_OFF_LONG.replace("search_after_s = 30.0", "search_after_s = 0.0");
     assert_ne!(off, CUT_OFF_LONG, "the search is turned off");
-    let (s, _, far) = fly(&off, "cutoff-long-off");
+    let (s, _, far) = fly_in_process(&off, "cutoff-long-off");
     assert!(s["reached_goal"] == false && far > 20.0, "without it the half holds: {far:.1} m from the goal");
 }
 
@@ -177,7 +197,7 @@ fn over_icp_the_detour_and_a_lead_in_sight_bring_every_uav_to_the_goal() {
     // more from the informed at the goal).
     let off = CUT_OFF_ICP.replace("lead_in_sight = true", "lead_in_sight = false");
     assert_ne!(off, CUT_OFF_ICP, "the lead in sight is turned off");
-    let (s, _, far) = fly(&off, "cutoff-icp-nolead");
+    let (s, _, far) = fly_in_process(&off, "cutoff-icp-nolead");
     assert!(s["reached_goal"] == false && far > 20.0, "without it the half is lost: {far:.1} m from the goal");
 }
 
@@ -190,7 +210,7 @@ fn with_fifteen_trees_per_100_m2_the_detour_frees_the_informed_uav_and_it_leads_
     // the others, led by nobody, circle trunks near the start (31.2 m from the goal).
     let off = CUT_OFF_DENSE.replace("detour_after_s = 5.0", "detour_after_s = 0.0");
     assert_ne!(off, CUT_OFF_DENSE, "the detour is turned off");
-    let (s, _, far) = fly(&off, "cutoff-dense-nodetour");
+    let (s, _, far) = fly_in_process(&off, "cutoff-dense-nodetour");
     assert!(
         s["reached_goal"] == false && far > 20.0,
         "without it the swarm stays near the start: {far:.1} m from the goal"

@@ -422,7 +422,13 @@ impl Watched {
     fn take(&mut self, now: &[proc_fs::Proc]) {
         self.mem = self.mem.fold(now.iter().map(|p| p.rss_kib).sum(), now.iter().filter(|p| p.rss_kib > 0).count());
         for p in now {
-            self.cpu.insert(p.pid, (p.role.to_string(), p.ticks));
+            // A process that has exited and not yet been reaped has no command line any more:
+            // it keeps the role it was seen with.
+            let e = self.cpu.entry(p.pid).or_insert_with(|| (p.role.to_string(), 0));
+            if p.role != "other" {
+                e.0 = p.role.to_string();
+            }
+            e.1 = p.ticks;
         }
     }
 
@@ -687,13 +693,14 @@ mod tests {
             Watched { mem: MemoryPeak { rss_kib: 10 * 1024, processes: 6 }, launcher_ticks: 200, ..Default::default() };
         let ps = |pid, role, ticks| proc_fs::Proc { pid, role, rss_kib: 1, ticks };
         w.take(&[ps(10, "hub", 100), ps(11, "agents", 300), ps(12, "agents", 500)]);
-        w.take(&[ps(10, "hub", 400), ps(11, "agents", 900)]);
+        w.take(&[ps(10, "other", 400), ps(11, "agents", 900)]);
         let r = ScaleRow::new(&s, "broadcast", &w);
         assert_eq!((r.uavs, r.processes, r.collisions, r.goal_s), (5, 6, 0, Some(40.0)));
         assert_eq!((r.rss_total_mib, r.rss_per_uav_mib), (10.0, 2.0));
         assert_eq!((r.x_real_time, r.agent_step_p99_ms, r.late_share), (10.0, 0.4, 0.1));
         let cpu: Vec<(&str, f64)> = r.cpu_s_per_sim_s.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        // Each process at its last sample (agent 12 ended after 5 s), over 40 sim s.
+        // Each process at its last sample (agent 12 ended after 5 s; the hub was last seen as a
+        // zombie, with no command line), over 40 sim s.
         assert_eq!(cpu, vec![("agents", 0.35), ("hub", 0.1), ("launcher", 0.05)]);
         assert_eq!(r.wall_ms_per_tick, 10.0);
     }
