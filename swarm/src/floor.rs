@@ -25,8 +25,8 @@ use std::sync::Arc;
 use swarm_config::{FailureKind, Scenario};
 use swarm_record::recorder::Offline;
 use swarm_types::UavId;
-use swarm_wire::{Cmd, HubTiming};
-use uav_agent::{Controllers, Onboard, Outgoing};
+use swarm_wire::{Cmd, HubTiming, SenseFrame};
+use uav_agent::{Controllers, Onboard, Outgoing, StepReport};
 
 /// The five scenarios issue 48 quotes the floor for.
 pub const DEFAULT_SCENARIOS: &str = "forest-5,forest-40-icp,forest-100-icp,open-1000,forest-1000-icp";
@@ -105,11 +105,7 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Resu
         sc.name
     );
     let ids: Vec<UavId> = sc.uav_ids().collect();
-    let mut agents = ids
-        .iter()
-        .map(|&id| Onboard::new(id, sc, controllers))
-        .collect::<Result<Vec<_>, _>>()
-        .context(sc.name.clone())?;
+    let mut agents = Agents::new(sc, controllers)?;
     let mut sim = Sim::new(sc);
     let pb = swarm_record::recorder::progress_bar(sc, false);
     pb.set_prefix(format!("floor {}", sc.name));
@@ -118,31 +114,13 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Resu
         rec.world(sim.truth_world())?;
     }
     let alive = vec![true; ids.len()];
-    // Each UAV's share of the last tick, and whom each agent listened to at it.
-    let mut shares: Vec<Option<Outgoing>> = vec![None; ids.len()];
-    let mut listening: Vec<Vec<UavId>> = vec![Vec::new(); ids.len()];
     let mut cost = Cost::default();
     let mut collisions = 0usize;
     let (ended, goal_s) = loop {
         let started = thread_cpu_s();
         let frames = sim.sensors_all_on(&ids, 1);
         let sensed = thread_cpu_s();
-        let mut cmds: Vec<Option<Cmd>> = vec![None; ids.len()];
-        let mut reports = Vec::with_capacity(ids.len());
-        let mut next: Vec<Option<Outgoing>> = vec![None; ids.len()];
-        for (i, frame) in frames.into_iter().enumerate() {
-            for &from in &listening[i] {
-                if let Some(o) = &shares[from.index()] {
-                    agents[i].on_share(from, Arc::clone(&o.share), o.len);
-                }
-            }
-            listening[i].clone_from(&frame.radio.in_range);
-            let (out, outgoing) = agents[i].on_sense(frame).with_context(|| format!("{}: UAV {}", sc.name, ids[i]))?;
-            cmds[i] = Some(out.cmd);
-            reports.push(out.report);
-            next[i] = outgoing;
-        }
-        shares = next;
+        let (cmds, reports) = agents.step(frames).with_context(|| sc.name.clone())?;
         let stepped = thread_cpu_s();
         let step = sim.step(&cmds, &alive, 0.0);
         cost.add(sensed - started, stepped - sensed, thread_cpu_s() - stepped);
@@ -150,7 +128,7 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Resu
         let (ended, goal_s) = (step.ended, step.goal_reached_at);
         match rec.as_mut() {
             Some(rec) => {
-                for (agent, report) in agents.iter_mut().zip(reports) {
+                for (agent, report) in agents.onboard.iter_mut().zip(reports) {
                     rec.state(agent.state(report))?;
                 }
                 rec.step(step.with_timing(HubTiming::default()))?;
@@ -166,6 +144,52 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Resu
         rec.finish()?;
     }
     Ok(cost.row(sc, sim.tick(), sim.t_s(), (ended.name(), goal_s, collisions)))
+}
+
+/// Every UAV's onboard stack, and the shares between them.
+struct Agents {
+    onboard: Vec<Onboard>,
+    /// Each UAV's share of the last tick, by index.
+    shares: Vec<Option<Outgoing>>,
+    /// Whom each agent listened to at the last tick: its radio set.
+    listening: Vec<Vec<UavId>>,
+}
+
+impl Agents {
+    fn new(sc: &Scenario, controllers: &Controllers) -> Result<Agents> {
+        let onboard = sc
+            .uav_ids()
+            .map(|id| Onboard::new(id, sc, controllers))
+            .collect::<Result<Vec<_>, _>>()
+            .context(sc.name.clone())?;
+        let n = onboard.len();
+        Ok(Agents { onboard, shares: vec![None; n], listening: vec![Vec::new(); n] })
+    }
+
+    /// Steps every agent on its frame of this tick (in id order, as `frames` come), after
+    /// handing it the last tick's shares of the UAVs it listened to then; returns the commands
+    /// and the reports.
+    fn step(&mut self, frames: Vec<SenseFrame>) -> Result<(Vec<Option<Cmd>>, Vec<StepReport>)> {
+        let mut cmds = Vec::with_capacity(frames.len());
+        let mut reports = Vec::with_capacity(frames.len());
+        let mut next = Vec::with_capacity(frames.len());
+        for (i, frame) in frames.into_iter().enumerate() {
+            let agent = &mut self.onboard[i];
+            for &from in &self.listening[i] {
+                if let Some(o) = &self.shares[from.index()] {
+                    agent.on_share(from, Arc::clone(&o.share), o.len);
+                }
+            }
+            self.listening[i].clone_from(&frame.radio.in_range);
+            let id = frame.radio.id;
+            let (out, outgoing) = agent.on_sense(frame).with_context(|| format!("UAV {id}"))?;
+            cmds.push(Some(out.cmd));
+            reports.push(out.report);
+            next.push(outgoing);
+        }
+        self.shares = next;
+        Ok((cmds, reports))
+    }
 }
 
 /// The thread's CPU time spent so far on each part of a tick [s].

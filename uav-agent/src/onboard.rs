@@ -103,3 +103,62 @@ impl Onboard {
         report.into_state(self.admission.report())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensing::tests::broadcast_wire;
+    use swarm_config::LocalizationMode;
+    use swarm_wire::PoseShare;
+
+    fn broadcast() -> Onboard {
+        let mut sc = swarm_config::builtin("forest-5").expect("built in");
+        sc.localization.mode = LocalizationMode::Broadcast;
+        Onboard::new(UavId::new(1), &sc, &Controllers::builtin()).expect("a built-in controller")
+    }
+
+    fn pose_of_2(tick: u64) -> Arc<Share> {
+        let p = PoseShare {
+            from: UavId::new(2),
+            tick,
+            t_s: tick as f64 * 0.1,
+            x: 3.0,
+            y: 2.0,
+            yaw: 0.0,
+            vx: 0.0,
+            vy: 0.0,
+            hops: swarm_wire::NO_PATH,
+            arrival: swarm_wire::NO_PATH,
+        };
+        Arc::new(Share::Pose(p))
+    }
+
+    /// The admission's window, through the hand-stepped seam: UAV 2 is in range from tick 0, so
+    /// its shares count from tick 2 on, each due at the tick after it was sent.
+    #[test]
+    fn a_neighbours_share_counts_from_the_second_tick_after_it_came_into_range() {
+        let mut me = broadcast();
+        let mut seen = Vec::new();
+        for tick in 0..5 {
+            if tick > 0 {
+                me.on_share(UavId::new(2), pose_of_2(tick - 1), 60);
+            }
+            let (out, share) = me.on_sense(broadcast_wire(tick)).expect("steps");
+            assert_eq!(out.cmd.tick, tick);
+            assert!(share.is_some_and(|o| o.len > 0 && o.share.from() == UavId::new(1)), "its own share goes out");
+            seen.push(out.report.neighbours.len());
+        }
+        assert_eq!(seen, vec![0, 0, 0, 1, 1]);
+    }
+
+    /// A frame it cannot step on is refused and counted, and the ticks may not go back.
+    #[test]
+    fn a_bad_frame_is_counted_and_the_ticks_may_not_go_back() {
+        let mut me = broadcast();
+        let no_gnss = SenseFrame { gnss: None, ..broadcast_wire(0) };
+        assert!(matches!(me.on_sense(no_gnss), Err(OnboardError::Malformed(MalformedFrame::NoGnss))));
+        let (out, _) = me.on_sense(broadcast_wire(1)).expect("steps");
+        assert_eq!(me.state(out.report).link.malformed, 1);
+        assert!(matches!(me.on_sense(broadcast_wire(1)), Err(OnboardError::TickWentBack { last: 1, tick: 1 })));
+    }
+}

@@ -105,6 +105,12 @@ pub(crate) mod tests {
         SenseFrame { radio: radio(tick), odom: odom(tick), gnss: None, uvdar: None, scan: scan(tick) }
     }
 
+    /// UAV 1's sensor message of `tick`, with UAVs 2 and 3 in radio range and a GNSS fix at
+    /// (1, 2): what a broadcast agent steps on.
+    pub(crate) fn broadcast_wire(tick: u64) -> SenseFrame {
+        SenseFrame { gnss: Some(gnss(tick)), ..wire(tick) }
+    }
+
     #[test]
     fn a_frame_splits_into_its_radio_set_and_the_step_frame() {
         assert_eq!(SensorFrame::from_wire(wire(2), Needs::default()), Ok((radio(2), frame_at(2))));
