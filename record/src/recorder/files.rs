@@ -104,7 +104,7 @@ impl Files {
 }
 
 /// The header line of `trajectories.csv`, the columns [`write_trajectory_rows`] writes.
-pub const TRAJECTORY_HEADER: &str =
+const TRAJECTORY_HEADER: &str =
     "tick,t_s,id,x_m,y_m,yaw_rad,vx_mps,vy_mps,obstacle_distance_m,agent_distance_m,colliding,alive,cmd_on_time";
 
 /// Writes one step's `trajectories.csv` rows (one per body) to `out`.

@@ -185,9 +185,9 @@ impl Bridge {
         let mut uavs = BTreeMap::new();
         let mut ros_subs = Vec::new();
         let mut tokens = Vec::new();
+        let lockstep = sc.time.mode == swarm_config::TimeMode::Lockstep;
         for id in sc.uav_ids() {
             let node = graph.node(&format!("/uav{id}"), "swarm").await?;
-            let lockstep = sc.time.mode == swarm_config::TimeMode::Lockstep;
             uavs.insert(id, uav_topics(&mut graph, node, (id, lockstep), sc.is_informed(id)).await?);
             let external = sc.controller.external.contains(&id);
             if external || vehicles.contains(&id) {
