@@ -1061,6 +1061,14 @@ pub struct IcpParams {
     /// (`forest-1000-icp`).
     #[serde(default)]
     pub budget_per_step: u32,
+    /// In a crowd (10 or more usable sets in a step), the re-checks (lICP) and retries of
+    /// unplaced entries share this many full-grid ICPs per second of sim time [1/s], saved up to
+    /// four (`uav-agent/src/localization/icp/database.rs`, "Fewer ICPs in a crowd"). 1 (the
+    /// default) is what the crowd lab chose at 40 UAVs; a new neighbour's placement is outside
+    /// it. Lower spends less on large swarms, whose agents have many more neighbours wanting a
+    /// check than any rate serves (`forest-1000-icp`). 0: none in a crowd.
+    #[serde(default = "one_f")]
+    pub crowd_full_grids_per_s: f64,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1124,6 +1132,7 @@ impl Default for IcpParams {
             min_points: d_min_points_icp(),
             identify: d_identify(),
             budget_per_step: 0,
+            crowd_full_grids_per_s: 1.0,
         }
     }
 }

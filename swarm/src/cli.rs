@@ -124,7 +124,7 @@ async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode
         Cmd::Ros2(a) => crate::ros2::ros2(a).await,
         Cmd::Compare(a) => crate::study::compare(a).await,
         Cmd::SweepError(a) => crate::study::sweep_error(a).await,
-        Cmd::SweepSeeds(a) => crate::sweep_seeds::sweep_seeds(a).await,
+        Cmd::SweepSeeds(a) => crate::sweep_seeds::sweep_seeds(a, &controllers).await,
         Cmd::Formations(a) => crate::study::formations(a).await,
         Cmd::IcpEval(a) => crate::icp_eval::icp_eval(a).await,
         Cmd::Scale(a) => crate::scale::scale(a, &controllers).await,

@@ -85,7 +85,7 @@ pub fn floor(a: &FloorArgs, controllers: &Controllers) -> Result<ExitCode> {
             sc.end.time_limit_s = t;
         }
         let folder = a.out.as_ref().map(|dir| dir.join(&sc.name));
-        rows.push(fly(&sc, controllers, folder.as_deref())?);
+        rows.push(fly(&sc, controllers, folder.as_deref(), false)?);
     }
     if a.json {
         swarm_node::process::out(&serde_json::to_string_pretty(&rows)?);
@@ -96,8 +96,9 @@ pub fn floor(a: &FloorArgs, controllers: &Controllers) -> Result<ExitCode> {
 }
 
 /// Flies `sc` in this process (see the module doc); with `out`, records it into that run
-/// folder as `swarm run` would (no `run.mcap`).
-pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Result<FloorRow> {
+/// folder as `swarm run` would (no `run.mcap`). `quiet`: no progress bar of its own (a study
+/// shows its own).
+pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>, quiet: bool) -> Result<FloorRow> {
     ensure!(sc.controller.external.is_empty(), "{}: the floor flies no external controller", sc.name);
     ensure!(
         sc.failures.iter().all(|f| f.kind == FailureKind::Freeze),
@@ -107,8 +108,15 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Resu
     let ids: Vec<UavId> = sc.uav_ids().collect();
     let mut agents = Agents::new(sc, controllers)?;
     let mut sim = Sim::new(sc);
-    let pb = swarm_record::recorder::progress_bar(sc, false);
+    let pb = swarm_record::recorder::progress_bar(sc, quiet);
     pb.set_prefix(format!("floor {}", sc.name));
+    if let Some(dir) = out {
+        // The scenario flown, as `swarm run` leaves it beside its recording.
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let text = toml::to_string(sc).context("cannot serialize the scenario")?;
+        let path = dir.join("scenario.toml");
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
     let mut rec = out.map(|dir| Offline::new(dir, sc, &pb, &format!("floor-{}", sc.name))).transpose()?;
     if let Some(rec) = rec.as_mut() {
         rec.world(sim.truth_world())?;
@@ -116,13 +124,15 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>) -> Resu
     let alive = vec![true; ids.len()];
     let mut cost = Cost::default();
     let mut collisions = 0usize;
+    // The flight's own wall clock, for the recording's x real time (nothing flown depends on it).
+    let began = std::time::Instant::now();
     let (ended, goal_s) = loop {
         let started = thread_cpu_s();
         let frames = sim.sensors_all_on(&ids, 1);
         let sensed = thread_cpu_s();
         let (cmds, reports) = agents.step(frames).with_context(|| sc.name.clone())?;
         let stepped = thread_cpu_s();
-        let step = sim.step(&cmds, &alive, 0.0);
+        let step = sim.step(&cmds, &alive, began.elapsed().as_secs_f64());
         cost.add(sensed - started, stepped - sensed, thread_cpu_s() - stepped);
         collisions += step.collisions.len();
         let (ended, goal_s) = (step.ended, step.goal_reached_at);

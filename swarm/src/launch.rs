@@ -253,13 +253,20 @@ fn resolve(a: &RunArgs) -> Result<(Scenario, String)> {
     {
         // The hub serves this text to the agents, so overrides must be in it; and the whole must
         // still be valid (link faults need realtime mode, say).
-        let mut value = toml::Value::try_from(&sc).context("cannot re-serialize the scenario")?;
-        for kv in &a.set {
-            set_field(&mut value, kv)?;
-        }
-        text = toml::to_string(&value).context("cannot re-serialize the scenario")?;
-        sc = Scenario::from_toml_str(&text, &format!("{name} (with the command line's overrides)"))?;
+        (sc, text) = with_sets(&sc, &a.set, name)?;
     }
+    Ok((sc, text))
+}
+
+/// `sc` with each `--set SECTION.FIELD=VALUE` of `sets` applied, validated as a whole like a
+/// file, and its TOML text (`name`: where `sc` came from, for the errors).
+pub(crate) fn with_sets(sc: &Scenario, sets: &[String], name: &str) -> Result<(Scenario, String)> {
+    let mut value = toml::Value::try_from(sc).context("cannot re-serialize the scenario")?;
+    for kv in sets {
+        set_field(&mut value, kv)?;
+    }
+    let text = toml::to_string(&value).context("cannot re-serialize the scenario")?;
+    let sc = Scenario::from_toml_str(&text, &format!("{name} (with the command line's overrides)"))?;
     Ok((sc, text))
 }
 

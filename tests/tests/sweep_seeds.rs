@@ -1,6 +1,8 @@
 //! End to end: `swarm sweep-seeds` flies a tiny sweep with real processes (3 seeds, 3 s each,
 //! two at once), writes its table, JSON and pictures, and a second call with one more seed
 //! flies only that one (resume); resuming into it with another localization mode is refused.
+//! With `--floor` (each seed flown in the one process) the same seeds give the same outcomes,
+//! and `--set` changes every run's scenario.
 
 mod common;
 
@@ -8,6 +10,10 @@ use common::{output_within, RUN_LIMIT, SWARM};
 use std::process::Command;
 
 fn sweep(out: &std::path::Path, seeds: &str) -> (String, String) {
+    sweep_with(out, seeds, &[])
+}
+
+fn sweep_with(out: &std::path::Path, seeds: &str, extra: &[&str]) -> (String, String) {
     let o = output_within(
         Command::new(SWARM)
             .args([
@@ -21,8 +27,9 @@ fn sweep(out: &std::path::Path, seeds: &str) -> (String, String) {
                 "3",
                 "--localization",
                 "broadcast",
-                "--out",
             ])
+            .args(extra)
+            .arg("--out")
             .arg(out),
         RUN_LIMIT,
     );
@@ -79,4 +86,43 @@ fn sweep_seeds_flies_each_seed_once_and_resumes() {
     assert!(!o.status.success(), "{said}");
     assert!(said.contains("seed-001 was flown as forest-5 (broadcast), not forest-5 (icp)"), "{said}");
     assert_eq!(std::fs::read(out.join("seed-001/summary.json")).expect("summary"), first, "nothing flown over it");
+}
+
+/// Every metric of a sweep but the wall-clock one, per seed: what two ways of flying the same
+/// seeds must agree on.
+fn outcomes(out: &std::path::Path) -> Vec<(u64, Vec<String>)> {
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("sweep.json")).expect("sweep.json")).expect("JSON");
+    let keys: Vec<&str> =
+        report["metrics"].as_array().expect("metrics").iter().filter_map(|m| m["key"].as_str()).collect();
+    let runs = report["runs"].as_array().expect("runs");
+    runs.iter()
+        .map(|r| {
+            let values = r["values"].as_array().expect("values");
+            let kept = keys.iter().zip(values).filter(|(k, _)| **k != "x_real_time").map(|(_, v)| v.to_string());
+            (r["seed"].as_u64().expect("seed"), kept.collect())
+        })
+        .collect()
+}
+
+#[test]
+fn sweep_seeds_in_one_process_flies_the_same_outcomes_and_takes_settings() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (processes, floor) = (dir.path().join("processes"), dir.path().join("floor"));
+    sweep(&processes, "1..2");
+    let (table, _) = sweep_with(&floor, "1..2", &["--floor"]);
+    assert!(table.contains("| collisions | 2 |"), "{table}");
+    let want = outcomes(&processes);
+    assert_eq!(want.len(), 2);
+    assert_eq!(outcomes(&floor), want, "the floor flies each seed's lockstep flight");
+
+    // A setting reaches every run's scenario (a shorter radio: other outcomes).
+    let set = dir.path().join("set");
+    sweep_with(&set, "1..2", &["--floor", "--set", "radio.range_m=3"]);
+    for seed in 1..=2 {
+        let text = std::fs::read_to_string(set.join(format!("seed-{seed:03}/scenario.toml"))).expect("scenario");
+        let sc: toml::Value = toml::from_str(&text).expect("TOML");
+        assert_eq!(sc["radio"]["range_m"].as_float(), Some(3.0), "{text}");
+    }
+    assert_ne!(outcomes(&set), want, "a 3 m radio flies otherwise");
 }

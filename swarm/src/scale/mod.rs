@@ -216,7 +216,7 @@ pub async fn scale(a: ScaleArgs, controllers: &uav_agent::Controllers) -> Result
         watched.launcher_ticks = proc_fs::own_ticks().saturating_sub(own_before);
         let mut row = ScaleRow::new(&summary?, mode, &watched);
         if a.floor {
-            let floor = tokio::task::block_in_place(|| crate::floor::fly(sc, controllers, None))?;
+            let floor = tokio::task::block_in_place(|| crate::floor::fly(sc, controllers, None, false))?;
             row.floor_ms_per_tick = Some(floor.floor_ms_per_tick);
         }
         if let Some(cmd) = &peer_cmd {

@@ -30,6 +30,7 @@ use std::process::ExitCode;
 use swarm_args::scenario_value;
 use swarm_config::{LocalizationMode, Scenario};
 use swarm_record::summary::Summary;
+use uav_agent::Controllers;
 
 mod chart;
 
@@ -53,8 +54,17 @@ pub struct SweepSeedsArgs {
     /// Cap every run's sim time [s] (default: the scenario's `end.time_limit_s`).
     #[arg(long)]
     pub time_limit: Option<f64>,
-    /// Study folder (default: runs/sweep-seeds/<scenario>-<localization>); seeds whose
-    /// `seed-NNN/summary.json` is already in it are read back, not flown again.
+    /// Set a scenario field for every run, `SECTION.FIELD=VALUE` as `swarm run --set` takes it
+    /// (repeatable); the default study folder then names the settings.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Fly each seed in this process as `swarm floor` does (one thread per run, no message,
+    /// no process): the same flight as a lockstep run, at a fraction of its CPU. Refuses what the
+    /// floor refuses (failures other than freezes, external controllers).
+    #[arg(long)]
+    pub floor: bool,
+    /// Study folder (default: runs/sweep-seeds/<scenario>-<localization>[-<settings>]); seeds
+    /// whose `seed-NNN/summary.json` is already in it are read back, not flown again.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -236,8 +246,20 @@ fn flown(out: &Path, seed: u64) -> Option<Summary> {
     crate::study::finished(&out.join(tag(seed)))
 }
 
+/// The default study folder's name: the scenario, its localization mode, and the `--set`
+/// settings (each `SECTION.FIELD=VALUE` with what a file name should not hold turned to `_`),
+/// so runs of two settings never share a folder.
+fn folder_name(scenario: &str, mode: &str, sets: &[String]) -> String {
+    let mut name = format!("{scenario}-{mode}");
+    for kv in sets {
+        name.push('-');
+        name.extend(kv.chars().map(|c| if c.is_ascii_alphanumeric() || "._=-".contains(c) { c } else { '_' }));
+    }
+    name
+}
+
 /// Runs `swarm sweep-seeds`.
-pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
+pub async fn sweep_seeds(a: SweepSeedsArgs, controllers: &Controllers) -> Result<ExitCode> {
     let seeds = parse_seeds(&a.seeds)?;
     let (mut base, _) = Scenario::from_arg(&a.scenario)?;
     if let Some(m) = a.localization.as_deref() {
@@ -246,11 +268,14 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
     if let Some(t) = a.time_limit {
         base.end.time_limit_s = t;
     }
+    if !a.set.is_empty() {
+        (base, _) = crate::launch::with_sets(&base, &a.set, &a.scenario)?;
+    }
     let mode = base.localization.mode.name();
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join("sweep-seeds").join(format!("{}-{mode}", base.name)));
+        .unwrap_or_else(|| PathBuf::from("runs").join("sweep-seeds").join(folder_name(&base.name, mode, &a.set)));
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let jobs = a.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), |j| j as usize);
 
@@ -273,7 +298,12 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
         // Not `pb.println`: a hidden bar (stderr not a terminal) prints nothing.
         pb.suspend(|| eprintln!("{} seeds already flown in {}: read back", runs.len(), out.display()));
     }
-    let failed = fly(&base, &out, todo.into_iter().map(|(s, _)| s).collect(), jobs, &pb, &mut runs).await;
+    let todo = todo.into_iter().map(|(s, _)| s).collect();
+    let failed = if a.floor {
+        fly_floor(&base, &out, todo, jobs, controllers, &pb, &mut runs)
+    } else {
+        fly(&base, &out, todo, jobs, &pb, &mut runs).await
+    };
     pb.finish_and_clear();
     runs.sort_by_key(|(seed, _)| *seed);
 
@@ -298,6 +328,56 @@ pub async fn sweep_seeds(a: SweepSeedsArgs) -> Result<ExitCode> {
     }
 }
 
+/// The scenario of one seed's run.
+fn seeded(base: &Scenario, seed: u64) -> Scenario {
+    let mut sc = base.clone();
+    sc.seed = seed;
+    sc
+}
+
+/// [`fly`] in this process: `jobs` threads take the seeds in turn, each flying one as `swarm
+/// floor` does ([`crate::floor::fly`]) into its run folder, whose summary is read back.
+fn fly_floor(
+    base: &Scenario,
+    out: &Path,
+    todo: Vec<u64>,
+    jobs: usize,
+    controllers: &Controllers,
+    pb: &ProgressBar,
+    runs: &mut Vec<(u64, Summary)>,
+) -> Vec<(u64, anyhow::Error)> {
+    let queue = std::sync::Mutex::new(todo.into_iter());
+    let done = std::sync::Mutex::new((Vec::new(), Vec::new()));
+    let one = |seed: u64| -> Result<Summary> {
+        let dir = out.join(tag(seed));
+        crate::floor::fly(&seeded(base, seed), controllers, Some(&dir), true)?;
+        crate::study::finished(&dir).with_context(|| format!("{}: no summary.json after the flight", dir.display()))
+    };
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let Some(seed) = queue.lock().unwrap_or_else(|e| e.into_inner()).next() else { break };
+                let result = one(seed);
+                let mut done = done.lock().unwrap_or_else(|e| e.into_inner());
+                match result {
+                    Ok(s) => {
+                        pb.set_message(format!(
+                            "seed {seed}: {}",
+                            if succeeded(&s) { "success" } else { "no success" }
+                        ));
+                        done.0.push((seed, s));
+                    }
+                    Err(e) => done.1.push((seed, e)),
+                }
+                pb.inc(1);
+            });
+        }
+    });
+    let (flown, failed) = done.into_inner().unwrap_or_else(|e| e.into_inner());
+    runs.extend(flown);
+    failed
+}
+
 /// Flies `todo` at most `jobs` at a time, pushing each finished run onto `runs`; returns the
 /// seeds whose run failed.
 async fn fly(
@@ -310,8 +390,7 @@ async fn fly(
 ) -> Vec<(u64, anyhow::Error)> {
     let mut failed = Vec::new();
     let start = |seed: u64| {
-        let mut sc = base.clone();
-        sc.seed = seed;
+        let sc = seeded(base, seed);
         async move { (seed, run_variant(&sc, out, &tag(seed), VariantRun::default()).await) }
     };
     run_bounded(todo, jobs, start, |(seed, result)| {
@@ -331,6 +410,16 @@ async fn fly(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_setting_names_its_own_folder() {
+        assert_eq!(folder_name("forest-5", "icp", &[]), "forest-5-icp");
+        let sets = ["localization.icp.budget_per_step=8".to_string(), "end.goal_rule=\"any\" /x".to_string()];
+        assert_eq!(
+            folder_name("forest-5", "icp", &sets),
+            "forest-5-icp-localization.icp.budget_per_step=8-end.goal_rule=_any___x"
+        );
+    }
 
     #[test]
     fn seeds_parse_as_ranges_and_lists() {

@@ -122,7 +122,7 @@
 //!   entries. In a crowd findBestMatch is also where look-alike sets get confused. Issue 26 added
 //!   unplaced and suspended entries (many of a crowd's links, each costing a findBestMatch ICP
 //!   per step, and more when it failed), with the same estimates.
-//! - Re-checks (lICP) and retries share a budget of [`CROWD_FULL_GRIDS_PER_S`] full-grid ICPs per
+//! - Re-checks (lICP) and retries share a budget of `crowd_full_grids_per_s` full-grid ICPs per
 //!   second of sim time (saved up to [`CROWD_FULL_GRID_BURST`]), on top of seed 000 6.2's
 //!   `max_long_per_step`. They go most overdue first (a re-check by `now − last_long −
 //!   long_every_s`, a retry by `now − suspension_time − suspend_s`), so each waits its turn
@@ -131,7 +131,7 @@
 //!   as in 6.2. With 39 neighbours a tracked one is then re-checked about every 40 s instead of
 //!   5 s. In a crowd that is also more accurate: an lICP there often jumps a right estimate to a
 //!   look-alike place (the crowd lab has fewer false estimates with the budget than with seed
-//!   000's re-checks; see [`CROWD_FULL_GRIDS_PER_S`]).
+//!   000's re-checks; see [`CROWD_FULL_GRID_BURST`]).
 //!
 //! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -401,14 +401,12 @@ pub struct Database {
 /// this many usable sets. Below it (every shipped swarm of 5 to 9 UAVs) the step is seed 000's.
 const CROWD_FROM_SETS: usize = 10;
 
-/// Crowd rules: re-checks (lICP) and retries of unplaced entries share this many full-grid ICPs
-/// per second on average [1/s] (at 3–4 ms each, about 0.35 ms of CPU per 10 Hz step). Crowd lab
-/// (40 UAVs, 30 s): 2/s gave 2.43 % false estimates at 1.50 ms per agent step, 1/s 2.08 % at
-/// 1.07 ms, 0.5/s 1.84 % at 0.89 ms; 1/s keeps lost neighbours' retries coming (20 s apart with
-/// 20 waiting) ...
-const CROWD_FULL_GRIDS_PER_S: f64 = 1.0;
-
-/// ... saved up to this many (so a few due together still go at seed 000 6.2's two per step).
+/// Crowd rules: re-checks (lICP) and retries of unplaced entries share
+/// `crowd_full_grids_per_s` full-grid ICPs per second on average (at 3–4 ms each, about 0.35 ms
+/// of CPU per 10 Hz step at the default 1/s). Crowd lab (40 UAVs, 30 s): 2/s gave 2.43 % false
+/// estimates at 1.50 ms per agent step, 1/s 2.08 % at 1.07 ms, 0.5/s 1.84 % at 0.89 ms; 1/s keeps
+/// lost neighbours' retries coming (20 s apart with 20 waiting). The full grids are then saved
+/// up to this many (so a few due together still go at seed 000 6.2's two per step).
 const CROWD_FULL_GRID_BURST: f64 = 4.0;
 
 /// Re-checks by need (module doc): a track whose sICPs all fit within this is tight, and waits
@@ -431,13 +429,15 @@ const IDENTITY: AgentFromNeighbour = AgentFromNeighbour { rotation_rad: 0.0, tra
 impl Database {
     /// An empty database. `stale_after_s` is `Localization::stale_after_s` (seed 000 5.3: 0.5 s).
     pub fn new(params: IcpParams, stale_after_s: f64) -> Self {
+        // Rate 0: none at all in a crowd, not even the first burst.
+        let full_grid_tokens = if params.crowd_full_grids_per_s > 0.0 { CROWD_FULL_GRID_BURST } else { 0.0 };
         Database {
             params,
             stale_after_s,
             entries: Vec::new(),
             next_key: 0,
             crowd_from_sets: CROWD_FROM_SETS,
-            full_grid_tokens: CROWD_FULL_GRID_BURST,
+            full_grid_tokens,
             last_step_s: None,
             pose: (Vector2::zeros(), 0.0),
         }
@@ -739,12 +739,13 @@ impl Database {
         }
     }
 
-    /// Crowd rules: the full-grid budget refills at [`CROWD_FULL_GRIDS_PER_S`] of sim time, up to
+    /// Crowd rules: the full-grid budget refills at `crowd_full_grids_per_s` of sim time, up to
     /// [`CROWD_FULL_GRID_BURST`].
     fn refill_full_grids(&mut self, now: f64) {
         let dt_s = self.last_step_s.map_or(0.0, |t| (now - t).max(0.0));
         self.last_step_s = Some(now);
-        self.full_grid_tokens = (self.full_grid_tokens + CROWD_FULL_GRIDS_PER_S * dt_s).min(CROWD_FULL_GRID_BURST);
+        self.full_grid_tokens =
+            (self.full_grid_tokens + self.params.crowd_full_grids_per_s * dt_s).min(CROWD_FULL_GRID_BURST);
     }
 
     /// Crowd rules: whether the budget allows entry `idx` a full-grid ICP now (taking it if so).
@@ -1516,6 +1517,24 @@ mod tests {
             ks.iter().map(|&k| per_entry(k)).collect::<Vec<_>>()
         );
         assert_eq!(d.estimates(20.5).len(), 12, "deferred re-checks fall back to sICP");
+    }
+
+    #[test]
+    fn the_crowds_full_grid_rate_is_a_setting_and_zero_leaves_only_placements() {
+        let ks: Vec<u32> = (1..=12).collect();
+        let full_grids = |rate: f64| {
+            let p = IcpParams { crowd_full_grids_per_s: rate, ..params() };
+            let (mut d, mut m) = (Database::new(p, 0.5), Scripted::default());
+            let placed: u32 = run(&mut d, &mut m, &ks, 0.0, 0.5).iter().map(|c| c.initial).sum();
+            let long: u32 = run(&mut d, &mut m, &ks, 0.6, 20.5).iter().map(|c| c.long).sum();
+            (placed, long, d.estimates(20.5).len())
+        };
+        // Every new neighbour is placed whatever the rate; the re-checks are the rate's: at most
+        // the 4 saved and 0.25 per s over 20 s, and none at all at 0.
+        let (placed, long, tracked) = full_grids(0.25);
+        assert_eq!((placed, tracked), (12, 12));
+        assert!((4..=4 + 5).contains(&long), "{long} lICPs in 20 s at 0.25 per s");
+        assert_eq!(full_grids(0.0), (12, 0, 12), "rate 0: placements only, tracked by sICP");
     }
 
     #[test]
