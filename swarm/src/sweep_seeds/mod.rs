@@ -300,7 +300,8 @@ pub async fn sweep_seeds(a: SweepSeedsArgs, controllers: &Controllers) -> Result
     }
     let todo = todo.into_iter().map(|(s, _)| s).collect();
     let failed = if a.floor {
-        fly_floor(&base, &out, todo, jobs, controllers, &pb, &mut runs)
+        // Worker threads of its own, so this task's runtime thread is handed over meanwhile.
+        tokio::task::block_in_place(|| fly_floor(&base, &out, todo, jobs, controllers, &pb, &mut runs))
     } else {
         fly(&base, &out, todo, jobs, &pb, &mut runs).await
     };
