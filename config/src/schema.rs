@@ -1066,7 +1066,9 @@ pub struct IcpParams {
     /// four (`uav-agent/src/localization/icp/database.rs`, "Fewer ICPs in a crowd"). 1 (the
     /// default) is what the crowd lab chose at 40 UAVs; a new neighbour's placement is outside
     /// it. Lower spends less on large swarms, whose agents have many more neighbours wanting a
-    /// check than any rate serves (`forest-1000-icp`). 0: none in a crowd.
+    /// check than any rate serves, but re-places lost neighbours more slowly: `forest-1000-icp`
+    /// at 0.1 halved its agents' step and lost most of its neighbours in the forest
+    /// (docs/performance.md, "The crowd's full-grid rate"). 0: none in a crowd.
     #[serde(default = "one_f")]
     pub crowd_full_grids_per_s: f64,
 }
