@@ -405,8 +405,10 @@ const CROWD_FROM_SETS: usize = 10;
 /// `crowd_full_grids_per_s` full-grid ICPs per second on average (at 3–4 ms each, about 0.35 ms
 /// of CPU per 10 Hz step at the default 1/s). Crowd lab (40 UAVs, 30 s): 2/s gave 2.43 % false
 /// estimates at 1.50 ms per agent step, 1/s 2.08 % at 1.07 ms, 0.5/s 1.84 % at 0.89 ms; 1/s keeps
-/// lost neighbours' retries coming (20 s apart with 20 waiting). The full grids are then saved
-/// up to this many (so a few due together still go at seed 000 6.2's two per step).
+/// lost neighbours' retries coming (20 s apart with 20 waiting). Issue 48 measured 0.1/s on
+/// forest-1000-icp: half the agents' step, and a whole flight whose tracks were lost among the
+/// trees (mean error 2.9 m by 550 s), so 1/s stays the default everywhere. The full grids are
+/// then saved up to this many (so a few due together still go at seed 000 6.2's two per step).
 const CROWD_FULL_GRID_BURST: f64 = 4.0;
 
 /// Re-checks by need (module doc): a track whose sICPs all fit within this is tight, and waits
