@@ -110,14 +110,14 @@ pub fn fly(sc: &Scenario, controllers: &Controllers, out: Option<&Path>, quiet: 
     let mut sim = Sim::new(sc);
     let pb = swarm_record::recorder::progress_bar(sc, quiet);
     pb.set_prefix(format!("floor {}", sc.name));
-    if let Some(dir) = out {
-        // The scenario flown, as `swarm run` leaves it beside its recording.
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let text = toml::to_string(sc).context("cannot serialize the scenario")?;
-        let path = dir.join("scenario.toml");
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
-    }
     let mut rec = out.map(|dir| Offline::new(dir, sc, &pb, &format!("floor-{}", sc.name))).transpose()?;
+    if let Some(dir) = out {
+        // The scenario flown, beside its recording as `swarm run` leaves it (the folder is the
+        // recording's).
+        let path = dir.join("scenario.toml");
+        std::fs::write(&path, toml::to_string(sc).context("cannot serialize the scenario")?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
     if let Some(rec) = rec.as_mut() {
         rec.world(sim.truth_world())?;
     }

@@ -299,12 +299,8 @@ pub async fn sweep_seeds(a: SweepSeedsArgs, controllers: &Controllers) -> Result
         pb.suspend(|| eprintln!("{} seeds already flown in {}: read back", runs.len(), out.display()));
     }
     let todo = todo.into_iter().map(|(s, _)| s).collect();
-    let failed = if a.floor {
-        // Worker threads of its own, so this task's runtime thread is handed over meanwhile.
-        tokio::task::block_in_place(|| fly_floor(&base, &out, todo, jobs, controllers, &pb, &mut runs))
-    } else {
-        fly(&base, &out, todo, jobs, &pb, &mut runs).await
-    };
+    let floor = a.floor.then_some(controllers);
+    let failed = fly(&base, &out, todo, jobs, floor, &pb, &mut runs).await;
     pb.finish_and_clear();
     runs.sort_by_key(|(seed, _)| *seed);
 
@@ -336,63 +332,40 @@ fn seeded(base: &Scenario, seed: u64) -> Scenario {
     sc
 }
 
-/// [`fly`] in this process: `jobs` threads take the seeds in turn, each flying one as `swarm
-/// floor` does ([`crate::floor::fly`]) into its run folder, whose summary is read back.
-fn fly_floor(
-    base: &Scenario,
-    out: &Path,
-    todo: Vec<u64>,
-    jobs: usize,
-    controllers: &Controllers,
-    pb: &ProgressBar,
-    runs: &mut Vec<(u64, Summary)>,
-) -> Vec<(u64, anyhow::Error)> {
-    let queue = std::sync::Mutex::new(todo.into_iter());
-    let done = std::sync::Mutex::new((Vec::new(), Vec::new()));
-    let one = |seed: u64| -> Result<Summary> {
-        let dir = out.join(tag(seed));
-        crate::floor::fly(&seeded(base, seed), controllers, Some(&dir), true)?;
-        crate::study::finished(&dir).with_context(|| format!("{}: no summary.json after the flight", dir.display()))
-    };
-    std::thread::scope(|scope| {
-        for _ in 0..jobs {
-            scope.spawn(|| loop {
-                let Some(seed) = queue.lock().unwrap_or_else(|e| e.into_inner()).next() else { break };
-                let result = one(seed);
-                let mut done = done.lock().unwrap_or_else(|e| e.into_inner());
-                match result {
-                    Ok(s) => {
-                        pb.set_message(format!(
-                            "seed {seed}: {}",
-                            if succeeded(&s) { "success" } else { "no success" }
-                        ));
-                        done.0.push((seed, s));
-                    }
-                    Err(e) => done.1.push((seed, e)),
-                }
-                pb.inc(1);
-            });
-        }
-    });
-    let (flown, failed) = done.into_inner().unwrap_or_else(|e| e.into_inner());
-    runs.extend(flown);
-    failed
-}
-
 /// Flies `todo` at most `jobs` at a time, pushing each finished run onto `runs`; returns the
-/// seeds whose run failed.
+/// seeds whose run failed. With `floor` (the controllers it flies), each seed is flown in this
+/// process as `swarm floor` does ([`crate::floor::fly`], on a blocking thread) into its run
+/// folder, whose summary is read back; otherwise as a `swarm run`.
 async fn fly(
     base: &Scenario,
     out: &Path,
     todo: Vec<u64>,
     jobs: usize,
+    floor: Option<&Controllers>,
     pb: &ProgressBar,
     runs: &mut Vec<(u64, Summary)>,
 ) -> Vec<(u64, anyhow::Error)> {
     let mut failed = Vec::new();
     let start = |seed: u64| {
         let sc = seeded(base, seed);
-        async move { (seed, run_variant(&sc, out, &tag(seed), VariantRun::default()).await) }
+        let floor = floor.cloned();
+        async move {
+            let result = match floor {
+                Some(controllers) => {
+                    let dir = out.join(tag(seed));
+                    tokio::task::spawn_blocking(move || {
+                        crate::floor::fly(&sc, &controllers, Some(&dir), true)?;
+                        crate::study::finished(&dir)
+                            .with_context(|| format!("{}: no summary.json after the flight", dir.display()))
+                    })
+                    .await
+                    .context("the flight's thread panicked")
+                    .and_then(|r| r)
+                }
+                None => run_variant(&sc, out, &tag(seed), VariantRun::default()).await,
+            };
+            (seed, result)
+        }
     };
     run_bounded(todo, jobs, start, |(seed, result)| {
         match result {
