@@ -1071,6 +1071,15 @@ pub struct IcpParams {
     /// (docs/performance.md, "The crowd's full-grid rate"). 0: none in a crowd.
     #[serde(default = "one_f")]
     pub crowd_full_grids_per_s: f64,
+    /// In a crowd, the retries of neighbours not placed (new ones whose first placement failed,
+    /// lost ones) take the full-grid ICPs of `crowd_full_grids_per_s` before the re-checks (lICP)
+    /// of tracked ones, which get what the retries leave. false (the default): all wait their
+    /// turn, most overdue first. A large swarm's unplaced neighbours are where the full grids
+    /// count: each one that comes within the grid's reach is a neighbour more in the
+    /// controller's view, while a crowd's re-check seldom changes a track
+    /// (`docs/performance.md`, "Retries first").
+    #[serde(default)]
+    pub crowd_retries_first: bool,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1135,6 +1144,7 @@ impl Default for IcpParams {
             identify: d_identify(),
             budget_per_step: 0,
             crowd_full_grids_per_s: 1.0,
+            crowd_retries_first: false,
         }
     }
 }

@@ -132,6 +132,12 @@
 //!   5 s. In a crowd that is also more accurate: an lICP there often jumps a right estimate to a
 //!   look-alike place (the crowd lab has fewer false estimates with the budget than with seed
 //!   000's re-checks; see [`CROWD_FULL_GRID_BURST`]).
+//! - With `crowd_retries_first` the retries take the budget before the re-checks, which get
+//!   what is left (issue 48). A large swarm's agent has far more unplaced neighbours than
+//!   tracked ones (forest-1000-icp: 45 of 70, most of them first heard beyond the grid's
+//!   reach), and a retry that places one that has come closer adds a neighbour to the
+//!   controller's view; at a scarce rate, most overdue first left those waiting behind re-checks
+//!   that seldom moved a track, and the view thinned out as the swarm went into the forest.
 //!
 //! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -410,6 +416,10 @@ const CROWD_FROM_SETS: usize = 10;
 /// trees (mean error 2.9 m by 550 s), so 1/s stays the default everywhere. The full grids are
 /// then saved up to this many (so a few due together still go at seed 000 6.2's two per step).
 const CROWD_FULL_GRID_BURST: f64 = 4.0;
+
+/// Crowd rules with `crowd_retries_first`: taken from a re-check's overdue seconds, so every
+/// retry sorts before it (no overdue comes near this) and the re-checks keep their own order.
+const RETRIES_FIRST: f64 = 1.0e9;
 
 /// Re-checks by need (module doc): a track whose sICPs all fit within this is tight, and waits
 /// `tight_long_every_s` for its lICP. The fit a first placement needs: a right sICP's FRMSD is
@@ -727,7 +737,8 @@ impl Database {
     /// Crowd rules: full-grid ICPs go most overdue first, a new entry (never tried) before all,
     /// where overdue is `now − last_long − long_every_s` for a re-check and `now −
     /// suspension_time − suspend_s` for a retry; so neither kind starves the other under the
-    /// budget. Rewrites each want's priority; the caller sorts.
+    /// budget. With `crowd_retries_first` every retry goes before every re-check. Rewrites each
+    /// want's priority; the caller sorts.
     fn order_crowd_longs(&self, now: f64, longs: &mut [(f64, usize, &Received)]) {
         for (priority, idx, _) in longs.iter_mut() {
             let e = &self.entries[*idx];
@@ -736,7 +747,12 @@ impl Database {
             } else if e.agent_from_neighbour.is_none() {
                 f64::INFINITY
             } else {
-                now - e.last_long - self.recheck_every(e, true)
+                let overdue = now - e.last_long - self.recheck_every(e, true);
+                if self.params.crowd_retries_first {
+                    overdue - RETRIES_FIRST
+                } else {
+                    overdue
+                }
             };
         }
     }
@@ -1537,6 +1553,33 @@ mod tests {
         assert_eq!((placed, tracked), (12, 12));
         assert!((4..=4 + 5).contains(&long), "{long} lICPs in 20 s at 0.25 per s");
         assert_eq!(full_grids(0.0), (12, 0, 12), "rate 0: placements only, tracked by sICP");
+    }
+
+    #[test]
+    fn in_a_crowd_retries_first_places_a_neighbour_that_comes_in_reach_at_its_next_retry() {
+        // 12 neighbours at a scarce 0.25 full grids per s: 11 tracked, their re-checks overdue,
+        // and neighbour 12 out of the grid's reach until 20.5 s. When is it placed?
+        let placed_at = |retries_first: bool| {
+            let p = IcpParams { crowd_full_grids_per_s: 0.25, crowd_retries_first: retries_first, ..params() };
+            let mut d = Database::new(p, 0.5);
+            let mut m = Scripted { out_of_range: vec![12], ..Scripted::default() };
+            let ks: Vec<u32> = (1..=12).collect();
+            run(&mut d, &mut m, &ks, 0.0, 20.5);
+            m.out_of_range.clear();
+            let at = (206..=600).map(|i| f64::from(i) / 10.0).find(|&now| {
+                let sets: Vec<Received> = ks.iter().map(|&k| recv(UavId::new(k), k, now)).collect();
+                step(&mut d, &mut m, now, &sets);
+                d.estimates(now).iter().any(|e| e.id == Some(UavId::new(12)))
+            });
+            (at, m.neighbours(Kind::Long).iter().filter(|&&k| k != 12).count())
+        };
+        let (first, rechecks) = placed_at(true);
+        let first = first.expect("placed");
+        // Its retry comes 5 s after the last failed one and takes the next token (4 s at most).
+        assert!(first <= 20.5 + 5.0 + 4.0, "placed at {first} s");
+        assert!(rechecks > 0, "the re-checks get what the retries leave");
+        let (queued, _) = placed_at(false);
+        assert!(queued.is_none_or(|t| t > first), "most overdue first: placed at {queued:?} s, not before {first} s");
     }
 
     #[test]
