@@ -1080,15 +1080,6 @@ pub struct IcpParams {
     /// (`docs/performance.md`, "Retries first").
     #[serde(default)]
     pub crowd_retries_first: bool,
-    /// In a crowd, a sender whose full-grid placement failed within this many seconds [s] gets
-    /// a new entry that starts suspended from that failure: its retry waits its turn in
-    /// `crowd_full_grids_per_s` instead of a placement outside it. 0 (the default): every new
-    /// entry is placed at once, as seed 000 does. A large swarm's new entries are mostly
-    /// neighbours coming back across the radio range's edge, out of the grid's reach, whose
-    /// placements all fail: forest-1000-icp spends half its full grids on them
-    /// (`docs/performance.md`, "Returning neighbours").
-    #[serde(default)]
-    pub crowd_recall_failed_s: f64,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1154,7 +1145,6 @@ impl Default for IcpParams {
             budget_per_step: 0,
             crowd_full_grids_per_s: 1.0,
             crowd_retries_first: false,
-            crowd_recall_failed_s: 0.0,
         }
     }
 }

@@ -142,7 +142,6 @@ fn semantic_errors_name_field() {
         (format!("{MINIMAL}\n[localization.icp]\ngrid_headings = 0\n"), "localization.icp.grid_headings"),
         (format!("{MINIMAL}\n[localization.icp]\ntight_long_every_s = 4.0\n"), "localization.icp.tight_long_every_s"),
         (format!("{MINIMAL}\n[localization.icp]\ncrowd_full_grids_per_s = -1.0\n"), "localization.icp.crowd_full_grids_per_s"),
-        (format!("{MINIMAL}\n[localization.icp]\ncrowd_recall_failed_s = -1.0\n"), "localization.icp.crowd_recall_failed_s"),
         (
             format!("{MINIMAL}\n[world.forest]\nregion = {{ x_min = 5.0, x_max = 1.0, y_min = 0.0, y_max = 1.0 }}\ndensity_per_100m2 = 1.0\n"),
             "world.forest.region",

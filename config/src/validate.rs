@@ -388,7 +388,6 @@ impl IcpParams {
             positive(&format!("{at}.{name}"), v)?;
         }
         non_negative(&format!("{at}.crowd_full_grids_per_s"), self.crowd_full_grids_per_s)?;
-        non_negative(&format!("{at}.crowd_recall_failed_s"), self.crowd_recall_failed_s)?;
         if self.tight_long_every_s < self.long_every_s {
             return Err((
                 format!("{at}.tight_long_every_s"),

@@ -138,13 +138,8 @@
 //!   reach), and a retry that places one that has come closer adds a neighbour to the
 //!   controller's view; at a scarce rate, most overdue first left those waiting behind re-checks
 //!   that seldom moved a track, and the view thinned out as the swarm went into the forest.
-//! - With `crowd_recall_failed_s` a sender whose placement failed that recently gets a new
-//!   entry suspended from that failure (issue 48): its retry waits its turn in the rate. Seed
-//!   000 5.3 drops an entry unused for `stale_after_s`, so a neighbour crossing back over the
-//!   radio range's edge is new again and its placement outside the rate comes at once; in
-//!   forest-1000-icp those are half the full grids, and 3 of 8 000 placed one (sim s 15-49).
 //!
-//! All are sim-time decisions, so lockstep runs still repeat byte for byte.
+//! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
 //! # The localization budget (issue 48; `budget_per_step`, off by default)
 //!
@@ -180,7 +175,6 @@ use crate::geometry::wrap_angle;
 use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
-use std::collections::BTreeMap;
 use swarm_config::{IcpParams, Identify};
 use swarm_types::UavId;
 
@@ -407,9 +401,6 @@ pub struct Database {
     /// Our odometry pose this step (position [m], heading [rad]): the localization budget
     /// tracks its neighbours in the odometry frame ([`Database::set_pose`]).
     pose: (Vector2<f64>, f64),
-    /// Crowd rules with `crowd_recall_failed_s`: when each sender's last full-grid placement
-    /// failed [s], kept that long after (module doc, "Fewer ICPs in a crowd").
-    failed_at: BTreeMap<UavId, f64>,
 }
 
 /// Crowd rules (issue 11, module doc "Fewer ICPs in a crowd"): they apply in a step with at least
@@ -461,7 +452,6 @@ impl Database {
             full_grid_tokens,
             last_step_s: None,
             pose: (Vector2::zeros(), 0.0),
-            failed_at: BTreeMap::new(),
         }
     }
 
@@ -494,8 +484,6 @@ impl Database {
         let sets = self.usable_sets(now, received, &mut counts);
         let crowd = sets.len() >= self.crowd_from_sets;
         self.refill_full_grids(now);
-        let recall_s = self.params.crowd_recall_failed_s;
-        self.failed_at.retain(|_, t| now - *t <= recall_s + EPS);
 
         // Algorithm 6 findBestMatch / addNewEntry: which entry each set belongs to.
         let assigned = match self.params.identify {
@@ -509,11 +497,7 @@ impl Database {
                 Some(idx) => idx,
                 None => {
                     counts.created += 1;
-                    let idx = self.push_new_entry(now, set);
-                    if crowd {
-                        self.recall_failure(idx);
-                    }
-                    idx
+                    self.push_new_entry(now, set)
                 }
             };
             let e = &mut self.entries[idx];
@@ -947,7 +931,6 @@ impl Database {
         self.entries[idx].last_icp_s = now;
         trace_full_grid(now, self.entries[idx].key, set, ranked.as_ref());
         let e = &self.entries[idx];
-        let placing = e.agent_from_neighbour.is_none() || e.suspended;
         let found = match e.agent_from_neighbour.filter(|_| !e.suspended) {
             // A tracked neighbour: the lICP may move it only as confidently as a first placement.
             Some(tracked) => match judge_long(&tracked, ranked, self.params.match_frmsd) {
@@ -979,25 +962,6 @@ impl Database {
             },
         };
         self.apply(now, idx, set, found, true, counts);
-        if placing && self.params.crowd_recall_failed_s > 0.0 {
-            let e = &self.entries[idx];
-            if e.suspended {
-                self.failed_at.insert(e.sender, now);
-            } else {
-                self.failed_at.remove(&e.sender);
-            }
-        }
-    }
-
-    /// Crowd rules with `crowd_recall_failed_s`: a new entry whose sender's last placement
-    /// failed within that time starts suspended from the failure, so its retry waits its turn
-    /// in the crowd's rate instead of a placement outside it.
-    fn recall_failure(&mut self, idx: usize) {
-        let e = &mut self.entries[idx];
-        if let Some(&t) = self.failed_at.get(&e.sender) {
-            e.suspended = true;
-            e.suspension_time = t;
-        }
     }
 
     /// Stores an ICP outcome: accepted when FRMSD ≤ `match_frmsd` (seed 000 5.3, "acquired
@@ -1616,40 +1580,6 @@ mod tests {
         assert!(rechecks > 0, "the re-checks get what the retries leave");
         let (queued, _) = placed_at(false);
         assert!(queued.is_none_or(|t| t > first), "most overdue first: placed at {queued:?} s, not before {first} s");
-    }
-
-    #[test]
-    fn in_a_crowd_a_sender_whose_placement_failed_comes_back_to_wait_for_its_retry() {
-        // 12 neighbours in a crowd, neighbour 12 out of the grid's reach: its placement fails.
-        // It drops out of radio range (its entry expires) and comes back in reach at 3.1 s. Is
-        // it placed outside the rate at once, or at its retry?
-        let flight = |recall_s: f64| {
-            let p = IcpParams {
-                crowd_full_grids_per_s: 0.25,
-                crowd_retries_first: true,
-                crowd_recall_failed_s: recall_s,
-                long_every_s: 60.0,
-                ..params()
-            };
-            let mut d = Database::new(p, 0.5);
-            let mut m = Scripted { out_of_range: vec![12], ..Scripted::default() };
-            let all: Vec<u32> = (1..=12).collect();
-            run(&mut d, &mut m, &all, 0.0, 2.0);
-            let failed = m.calls.iter().rposition(|c| c.neighbour == 12 && c.kind == Kind::Long);
-            run(&mut d, &mut m, &all[..11], 2.1, 3.0);
-            m.out_of_range.clear();
-            let placed = (31..=300).map(|i| f64::from(i) / 10.0).find(|&now| {
-                let sets: Vec<Received> = all.iter().map(|&k| recv(UavId::new(k), k, now)).collect();
-                step(&mut d, &mut m, now, &sets);
-                d.estimates(now).iter().any(|e| e.id == Some(UavId::new(12)))
-            });
-            (failed.is_some(), placed.expect("placed"))
-        };
-        assert_eq!(flight(0.0), (true, 3.1), "without recall: a new entry, placed outside the rate at once");
-        let (failed, recalled) = flight(10.0);
-        assert!(failed, "its first placement was tried");
-        // Its first placement failed in the first half second: the retry is due 5 s later.
-        assert!((5.0..=5.6).contains(&recalled), "with recall: placed at its retry, at {recalled} s");
     }
 
     #[test]
