@@ -157,27 +157,10 @@ pub fn scenario_value<T: serde::de::DeserializeOwned>(flag: &str, value: &str) -
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct UavIds(pub Vec<UavId>);
 
-/// Parses `1-4,7` into `[1, 2, 3, 4, 7]`: ascending ranges, no repeats, ids from 1.
+/// Parses `1-4,7` into `[1, 2, 3, 4, 7]`: ascending ranges, no repeats, ids from 1
+/// ([`swarm_types::parse_ids`], as a clap value).
 pub fn parse_ids(text: &str) -> Result<UavIds, String> {
-    let mut ids: Vec<UavId> = Vec::new();
-    for part in text.split(',').map(str::trim) {
-        let num = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` in `{text}` is not a UAV id"));
-        let (lo, hi) = match part.split_once('-') {
-            Some((a, b)) => (num(a)?, num(b)?),
-            None => (num(part)?, num(part)?),
-        };
-        if lo == 0 || hi < lo {
-            return Err(format!("`{part}` in `{text}`: ids start at 1 and ranges go up"));
-        }
-        ids.extend((lo..=hi).map(UavId::new));
-    }
-    let mut sorted = ids.clone();
-    sorted.sort_unstable();
-    sorted.dedup();
-    if sorted.len() != ids.len() {
-        return Err(format!("`{text}` names a UAV twice"));
-    }
-    Ok(UavIds(ids))
+    swarm_types::parse_ids(text).map(UavIds)
 }
 
 #[cfg(test)]

@@ -11,7 +11,9 @@
 //!   user) it may also read its own ROS topics `*/uav{id}/{scan,odom,goal}` and put its own
 //!   `*/uav{id}/{cmd_vel,cmd_accel}`, as an agent on ROS topics over rmw_zenoh does.
 //! - `uavs{ids}` (`uavs1-20`, `uavs1-4,7`, the `--ids` syntax): an agent host, one session for
-//!   several UAVs, allowed exactly what each of those UAVs is. The same user serves a second
+//!   several UAVs, allowed exactly what each of those UAVs is, and the host's own keys of
+//!   exactly those UAVs: its sensor frames in one message, `host/{ids}/sense`, and its token
+//!   `alive/host/{ids}`. The same user serves a second
 //!   router that relays a group of agents to the hub.
 //! - `ext{id}`: UAV `id`'s external controller (docs/own-controller.md). It may
 //!   subscribe to `uav/{id}/ext/view`, put only `uav/{id}/ext/cmd`, hold only `alive/ext/{id}`,
@@ -59,6 +61,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use swarm_args::parse_ids;
+pub use swarm_types::ids_text;
 use swarm_types::UavId;
 use swarm_wire::Keys;
 
@@ -142,21 +145,6 @@ pub fn bridge_user(ids: &[UavId]) -> String {
 /// The user name of an agent host serving `ids` (ascending): `uavs1-4,7`.
 pub fn host_user(ids: &[UavId]) -> String {
     format!("uavs{}", ids_text(ids))
-}
-
-/// `ids` (ascending) in the `--ids` syntax, runs as ranges: `1-4,7`.
-pub fn ids_text(ids: &[UavId]) -> String {
-    let mut parts: Vec<String> = Vec::new();
-    let mut i = 0;
-    while i < ids.len() {
-        let mut j = i;
-        while j + 1 < ids.len() && ids[j + 1].get() == ids[j].get() + 1 {
-            j += 1;
-        }
-        parts.push(if i == j { ids[i].to_string() } else { format!("{}-{}", ids[i], ids[j]) });
-        i = j + 1;
-    }
-    parts.join(",")
 }
 
 /// A folder of fresh credentials: the hub's dictionary and one password file per user, all
@@ -296,7 +284,7 @@ fn access_control(run: &str, users: &[String], external: &[UavId]) -> Result<Val
         rule("agent-sub", "ingress", &["declare_subscriber"], agent_common_keys(&k)),
         rule("agent-data", "egress", &["put"], agent_common_keys(&k)),
         // Bounded by each agent's own ingress list, as the sensors (see the module doc).
-        rule("agent-sensors-out", "egress", &["put"], vec![k.sense_any(), k.ext_cmd_any()]),
+        rule("agent-sensors-out", "egress", &["put"], vec![k.sense_any(), k.host_sense_any(), k.ext_cmd_any()]),
         rule("agent-ext-token", "egress", &["liveliness_token"], vec![k.alive_ext_any()]),
         rule("agent-ask", "ingress", &["query"], vec![k.scenario()]),
         rule("agent-answer", "egress", &["reply"], vec![k.scenario()]),
@@ -487,12 +475,18 @@ fn agent_common_keys(k: &Keys) -> Vec<String> {
 }
 
 /// The rules of the agents of `ids` (under subject id `subject`): subscribing to their own
-/// sensor frames, their own command, shares and state out, their own liveliness tokens.
+/// sensor frames (each UAV's, and the host's of exactly `ids`), their own command, shares and
+/// state out, their own liveliness tokens (and the host's).
 fn own_rules(k: &Keys, subject: &str, ids: &[UavId]) -> Vec<Value> {
     let keys = |f: &dyn Fn(UavId) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
-    let sensors = keys(&|i| vec![k.sense(i), k.ext_cmd(i)]);
+    let mut ascending = ids.to_vec();
+    ascending.sort_unstable();
+    // An agent host's frames come in one message on the key of exactly its UAVs.
+    let mut sensors = keys(&|i| vec![k.sense(i), k.ext_cmd(i)]);
+    sensors.push(k.host_sense(&ascending));
     let out = keys(&|i| vec![k.cmd(i), k.shares_of(i), k.state(i), k.ext_view(i)]);
-    let tokens = keys(&|i| vec![k.alive_uav(i)]);
+    let mut tokens = keys(&|i| vec![k.alive_uav(i)]);
+    tokens.push(k.alive_host(&ascending));
     let ext_tokens = keys(&|i| vec![k.alive_ext(i)]);
     vec![
         rule(&format!("{subject}-own-sub"), "ingress", &["declare_subscriber"], sensors),

@@ -15,6 +15,8 @@
 //! - [`sim`]: the pure simulation state and step: commands in, collisions, freezes and the end
 //!   condition, ground truth out; its `sensors` submodule puts each UAV's sensors (radio,
 //!   odometry, GNSS, UVDAR, scan) out, a large swarm's computed on worker threads in chunks.
+//! - [`batch`]: which of a tick's sensor frames go to an agent host in one message, and when
+//!   that message is complete.
 //! - [`lateness`]: which commands arrived after their tick had closed, and how late (the
 //!   realtime health of a run), carried to the recorder on `truth/step`.
 //! - [`node`]: the Zenoh side: router session, lockstep/realtime loop, agents' liveliness, the
@@ -30,6 +32,7 @@
 //! hands each agent only that agent's own sensor data, and publishes truth on `truth/**` for the
 //! recorder alone.
 
+mod batch;
 mod body;
 mod forest;
 mod grid;

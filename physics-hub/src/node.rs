@@ -18,6 +18,7 @@
 //! the whole key space every time (agents write without declaring publishers; see
 //! `swarm_wire::session::Writer`).
 
+use crate::batch::{Batches, Route};
 use crate::lateness::Lateness;
 use crate::sim::{Sim, Stepped};
 use std::collections::{BTreeMap, BTreeSet};
@@ -102,6 +103,12 @@ struct Net {
     truth_step: Writer,
     /// Each UAV's `uav/{id}/sense` writer, in id order.
     sense: Vec<Writer>,
+    /// The agent hosts holding `alive/host/{ids}` now, each its UAVs (see [`crate::batch`]).
+    hosts: Arc<Mutex<BTreeSet<Vec<UavId>>>>,
+    /// Each host's `host/{ids}/sense` writer, made when it first gets frames.
+    host_writers: BTreeMap<Vec<UavId>, Writer>,
+    /// The scenario's time mode (the sensor writers' congestion control).
+    time_mode: TimeMode,
     alive: Arc<Mutex<BTreeSet<UavId>>>,
     /// Bumped (under the `alive` lock) on every change of `alive`: the barrier re-reads the set
     /// only when this moved, so its cost per command does not grow with the agents.
@@ -181,6 +188,7 @@ async fn declare_world_queryable(
 struct Subs {
     _cmd: Subscription,
     _alive: Subscription,
+    _hosts: Subscription,
     _netem: Subscription,
     /// See [`declare_agent_keys`].
     _agent_keys: Vec<zenoh::key_expr::KeyExpr<'static>>,
@@ -298,6 +306,34 @@ async fn watch_agents(
     .await
 }
 
+/// Keeps `hosts` equal to the agent hosts holding an `alive/host/{ids}` token, each its UAVs of
+/// the scenario (ids outside it are left out; a token naming none of them is ignored).
+async fn watch_hosts(
+    s: &zenoh::Session,
+    keys: &Keys,
+    count: usize,
+    hosts: Arc<Mutex<BTreeSet<Vec<UavId>>>>,
+) -> Result<Subscription, WireError> {
+    let k = keys.clone();
+    plumbing::on_tokens(s, keys.alive_host_any(), move |key, up| {
+        let Some(ids) = k.host_ids_of(key) else {
+            warn!(key = %key, "a host token that names no UAVs ignored");
+            return;
+        };
+        let ids: Vec<UavId> = ids.into_iter().filter(|id| id.within(count)).collect();
+        if ids.is_empty() {
+            return;
+        }
+        let mut set = hosts.lock().unwrap_or_else(|p| p.into_inner());
+        info!(uavs = ids.len(), up, "agent host");
+        match up {
+            true => set.insert(ids),
+            false => set.remove(&ids),
+        };
+    })
+    .await
+}
+
 impl Net {
     async fn declare(s: zenoh::Session, keys: Keys, sc: &Scenario) -> Result<(Net, Subs), WireError> {
         let sense = sense_writers(&s, &keys, sc).await?;
@@ -310,6 +346,8 @@ impl Net {
         let alive_gen = Arc::new(AtomicU64::new(0));
         let alive_sub =
             watch_agents(&s, &keys, sc.count(), alive.clone(), alive_gen.clone(), alive_changed.clone()).await?;
+        let hosts = Arc::new(Mutex::new(BTreeSet::new()));
+        let hosts_sub = watch_hosts(&s, &keys, sc.count(), hosts.clone()).await?;
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {
@@ -321,6 +359,9 @@ impl Net {
             session: s,
             keys,
             sense,
+            hosts,
+            host_writers: BTreeMap::new(),
+            time_mode: sc.time.mode,
             alive,
             alive_gen,
             alive_changed,
@@ -329,7 +370,10 @@ impl Net {
             malformed,
             ignored,
         };
-        Ok((net, Subs { _cmd: cmd_sub, _alive: alive_sub, _netem: netem_sub, _agent_keys: agent_keys }))
+        Ok((
+            net,
+            Subs { _cmd: cmd_sub, _alive: alive_sub, _hosts: hosts_sub, _netem: netem_sub, _agent_keys: agent_keys },
+        ))
     }
 
     fn alive_now(&self) -> BTreeSet<UavId> {
@@ -494,22 +538,39 @@ impl Net {
         put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 
-    /// Step 1 of a tick: the clock, then every live UAV's sensors in id order. The sensors are
-    /// computed and encoded on worker threads while this thread publishes the UAVs already done
-    /// ([`Sim::sensors_each`]); the puts are synchronous, inside `block_in_place`, so the
-    /// runtime's other worker keeps taking commands meanwhile.
-    async fn publish_sensors(&self, sim: &mut Sim, alive: &BTreeSet<UavId>) -> Result<(), WireError> {
+    /// Step 1 of a tick: the clock, then every live UAV's sensors in id order, an agent host's
+    /// in one message ([`crate::batch`]). The sensors are computed and encoded on worker threads
+    /// while this thread publishes the UAVs already done ([`Sim::sensors_each`]); the puts are
+    /// synchronous, inside `block_in_place`, so the runtime's other worker keeps taking commands
+    /// meanwhile.
+    async fn publish_sensors(&mut self, sim: &mut Sim, alive: &BTreeSet<UavId>) -> Result<(), WireError> {
         put(&self.clock, &Msg::Clock(sim.clock())).await?;
         let ids: Vec<UavId> = alive.iter().copied().filter(|&id| id.within(self.sense.len())).collect();
+        let hosts: Vec<Vec<UavId>> = self.hosts.lock().unwrap_or_else(|p| p.into_inner()).iter().cloned().collect();
+        for host in &hosts {
+            if !self.host_writers.contains_key(host) {
+                let cc = swarm_wire::session::congestion(self.time_mode);
+                let w = Writer::new(&self.session, self.keys.host_sense(host), cc).await?;
+                self.host_writers.insert(host.clone(), w);
+            }
+        }
+        let mut batches = Batches::new(&hosts, &ids);
+        let this = &*self;
         tokio::task::block_in_place(|| {
-            sim.sensors_each(&ids, |_, s| Msg::Sense(Box::new(s)).encode(), |id, e| self.put_sensors(id, e?))
+            sim.sensors_each(
+                &ids,
+                |_, s| Msg::Sense(Box::new(s)).encode(),
+                |id, e| match batches.take(id, e?) {
+                    // Blocking puts (the caller is inside `block_in_place`), unlike `put` above.
+                    Route::Alone(frame) => this.sense[id.index()].put_now(frame),
+                    Route::Held => Ok(()),
+                    Route::Complete(h, frames) => match this.host_writers.get(&hosts[h]) {
+                        Some(w) => w.put_now(Msg::senses_from_encoded(&frames)?),
+                        None => Ok(()),
+                    },
+                },
+            )
         })
-    }
-
-    /// Publishes UAV `id`'s encoded sensor frame.
-    fn put_sensors(&self, id: UavId, frame: Vec<u8>) -> Result<(), WireError> {
-        // A blocking put (the caller is inside `block_in_place`), unlike the async `put` above.
-        self.sense[id.index()].put_now(frame)
     }
 
     /// Waits for the command of tick `tick` from every agent that was `sent` this tick's sensors

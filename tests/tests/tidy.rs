@@ -185,6 +185,7 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("new", Other),
         ("prefix", Other),
         ("uav_id_of", Other),
+        ("host_ids_of", Other),
         ("all", Wildcard(|k: &Keys, _| k.all())),
         ("clock", Key(|k: &Keys, _| k.clock())),
         ("scenario", Key(|k: &Keys, _| k.scenario())),
@@ -218,12 +219,17 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("ext_view_any", Wildcard(|k: &Keys, _| k.ext_view_any())),
         ("ext_cmd_any", Wildcard(|k: &Keys, _| k.ext_cmd_any())),
         ("alive_ext_any", Wildcard(|k: &Keys, _| k.alive_ext_any())),
+        ("host_sense", Key(|k: &Keys, id| k.host_sense(&[id, swarm_types::UavId::new(id.get() + 1)]))),
+        ("host_sense_any", Wildcard(|k: &Keys, _| k.host_sense_any())),
+        ("alive_host", Key(|k: &Keys, id| k.alive_host(&[id, swarm_types::UavId::new(id.get() + 1)]))),
+        ("alive_host_any", Wildcard(|k: &Keys, _| k.alive_host_any())),
     ]
 }
 
-/// A key of run `RUNID` and UAV 4242 written as the table writes it (`{run}`, `{id}`).
+/// A key of run `RUNID` and UAV 4242 (or UAVs 4242 and 4243, an agent host's) written as the
+/// table writes it (`{run}`, `{id}`, `{ids}`).
 fn as_pattern(key: &str) -> String {
-    key.replace("RUNID", "{run}").replace("4242", "{id}")
+    key.replace("RUNID", "{run}").replace("4242-4243", "{ids}").replace("4242", "{id}")
 }
 
 /// Zenoh key-expression matching, enough for our keys: `*` is one chunk, a final `**` the rest.

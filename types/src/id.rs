@@ -98,6 +98,47 @@ impl FromStr for UavId {
     }
 }
 
+/// `ids` (ascending) as runs of ranges, the `--ids` syntax: `[1, 2, 3, 4, 7]` is `1-4,7`. The
+/// agent-host user names (`uavs1-4,7`) and the host keys (`host/1-4,7/sense`) spell their UAVs
+/// so; [`parse_ids`] reads it back.
+pub fn ids_text(ids: &[UavId]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < ids.len() {
+        let mut j = i;
+        while j + 1 < ids.len() && ids[j + 1].get() == ids[j].get() + 1 {
+            j += 1;
+        }
+        parts.push(if i == j { ids[i].to_string() } else { format!("{}-{}", ids[i], ids[j]) });
+        i = j + 1;
+    }
+    parts.join(",")
+}
+
+/// Parses `1-4,7` into `[1, 2, 3, 4, 7]` (in the order written): ranges that go up, no
+/// repeats, ids from 1. The error says which part is wrong.
+pub fn parse_ids(text: &str) -> Result<Vec<UavId>, String> {
+    let mut ids: Vec<UavId> = Vec::new();
+    for part in text.split(',').map(str::trim) {
+        let num = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` in `{text}` is not a UAV id"));
+        let (lo, hi) = match part.split_once('-') {
+            Some((a, b)) => (num(a)?, num(b)?),
+            None => (num(part)?, num(part)?),
+        };
+        if lo == 0 || hi < lo {
+            return Err(format!("`{part}` in `{text}`: ids start at 1 and ranges go up"));
+        }
+        ids.extend((lo..=hi).map(UavId::new));
+    }
+    let mut sorted = ids.clone();
+    sorted.sort_unstable();
+    sorted.dedup();
+    if sorted.len() != ids.len() {
+        return Err(format!("`{text}` names a UAV twice"));
+    }
+    Ok(ids)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -111,6 +152,17 @@ mod tests {
         assert_eq!("12".parse::<UavId>(), Ok(UavId::new(12)));
         assert!("0".parse::<UavId>().is_err());
         assert!("x".parse::<UavId>().expect_err("an error").to_string().contains("\"x\" is not a UAV id"));
+    }
+
+    #[test]
+    fn id_lists_read_back_as_written() {
+        let ids: Vec<UavId> = [1, 2, 3, 4, 7, 9, 10].map(UavId::new).to_vec();
+        assert_eq!(ids_text(&ids), "1-4,7,9-10");
+        assert_eq!(parse_ids("1-4,7,9-10"), Ok(ids));
+        assert_eq!(ids_text(&[]), "");
+        assert!(parse_ids("3-1").expect_err("down").contains("ranges go up"));
+        assert!(parse_ids("1-3,2").expect_err("twice").contains("twice"));
+        assert!(parse_ids("0").is_err() && parse_ids("a").is_err() && parse_ids("").is_err());
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //! them out again and the copies cannot drift.
 //!
 //! - `id`, [`UavId`]: a UAV's id as the scenario, the keys and the messages number it (from 1),
-//!   with the one conversion to and from its index in id order (from 0).
+//!   with the one conversion to and from its index in id order (from 0), and lists of ids as
+//!   the `--ids` syntax writes them (`1-4,7`).
 //! - `time`, [`SimTime`]: a time on the simulation's clock [s], and the tick arithmetic of a
 //!   fixed rate.
 //! - [`frame`]: 2D poses and points tagged with the frame they are expressed in (world, a body,
@@ -23,7 +24,7 @@ pub mod radio;
 mod time;
 
 pub use frame::{wrap_angle, Point, Pose};
-pub use id::{ParseUavIdError, UavId};
+pub use id::{ids_text, parse_ids, ParseUavIdError, UavId};
 pub use mode::{LocalizationMode, TimeMode};
 pub use radio::Hysteresis;
 pub use time::SimTime;

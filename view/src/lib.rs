@@ -120,7 +120,7 @@ async fn foxglove_server(
 pub struct Live {
     /// Held: the subscriptions live as long as their session.
     _session: zenoh::Session,
-    subs: [Ring; 4],
+    subs: [Ring; 5],
     shown: Shown,
     page_port: u16,
     _foxglove: foxglove::WebSocketServerHandle,
@@ -152,6 +152,7 @@ impl Live {
             ring(&session, keys.truth_all()).await?,
             ring(&session, keys.state_any()).await?,
             ring(&session, keys.sense_any()).await?,
+            ring(&session, keys.host_sense_any()).await?,
             ring(&session, keys.netem_rules()).await?,
         ];
         let text = plumbing::fetch_scenario_text(&session, &keys, ASK_WAIT).await?;
@@ -189,7 +190,7 @@ impl Live {
         let mut world = tokio::time::interval(WORLD_EVERY);
         let mut shown = None;
         loop {
-            let [truth, states, sensed, rules] = &self.subs;
+            let [truth, states, alone, hosts, rules] = &self.subs;
             tokio::select! {
                 Ok(s) = truth.recv_async() => self.shown.truth(&plumbing::payload(&s)),
                 Ok(s) = states.recv_async() => {
@@ -198,15 +199,8 @@ impl Live {
                         self.shown.board.on_state(*st);
                     }
                 }
-                Ok(s) = sensed.recv_async() => {
-                    let id = self.shown.keys.uav_id_of(s.key_expr().as_str());
-                    if let (Some(id), Ok(Msg::Sense(f))) = (id, plumbing::decode(&s)) {
-                        self.shown.board.on_radio(&f.radio);
-                        self.shown.scene.on_radio(&f.radio);
-                        self.shown.scene.on_scan(id, &f.scan);
-                        self.shown.scans.on_scan(id, f.scan);
-                    }
-                }
+                Ok(s) = alone.recv_async() => self.shown.sensed(&s),
+                Ok(s) = hosts.recv_async() => self.shown.sensed(&s),
                 Ok(s) = rules.recv_async() => {
                     if let Ok(Msg::NetemRules(json)) = plumbing::decode(&s) {
                         if let Ok(t) = serde_json::from_str::<swarm_config::Timeline>(&json) {
@@ -228,6 +222,16 @@ impl Live {
 }
 
 impl Shown {
+    /// The sensor frames of a sample, one UAV's or an agent host's.
+    fn sensed(&mut self, s: &zenoh::sample::Sample) {
+        for (id, f) in plumbing::sense_frames(&self.keys, s) {
+            self.board.on_radio(&f.radio);
+            self.scene.on_radio(&f.radio);
+            self.scene.on_scan(id, &f.scan);
+            self.scans.on_scan(id, f.scan);
+        }
+    }
+
     fn truth(&mut self, b: &[u8]) {
         match Msg::decode(b) {
             Ok(Msg::TruthStep(s)) => {

@@ -8,13 +8,15 @@
 //!   `netem/add` (the `[[netem]]` and `[[failures]]` timeline, as JSON text);
 //! - one UAV's: `uav/{id}/sense` (its sensor frame, hub -> agent), `uav/{id}/cmd`
 //!   (agent -> hub), `uav/{id}/share/{pose,obstacles}` (agent -> neighbours), `uav/{id}/state`;
+//! - an agent host's: `host/{ids}/sense` (the sensor frames of its UAVs `ids`, `1-4,7`, in one
+//!   message a tick, hub -> host);
 //! - ground truth for the recorder: `truth/world`, `truth/step`;
-//! - liveliness tokens: `alive/hub`, `alive/uav/{id}`, `alive/recorder`;
+//! - liveliness tokens: `alive/hub`, `alive/uav/{id}`, `alive/host/{ids}`, `alive/recorder`;
 //! - wildcards for subscribers: `uav/*/sense`, `uav/*/cmd`, `uav/*/state`, `truth/**`,
-//!   `alive/uav/*`.
+//!   `alive/uav/*`, `host/*/sense`, `alive/host/*`.
 //!
 //! Run ids are checked ([`check_component`]), and [`Keys::uav_id_of`] reads a UAV id back from a
-//! key of this run.
+//! key of this run, [`Keys::host_ids_of`] a host's UAVs.
 
 use crate::WireError;
 use swarm_types::mode::{LocalizationMode, ShareKind};
@@ -65,6 +67,15 @@ impl Keys {
     /// `swarm/{run}/uav/*/sense`: every UAV's sensor frames.
     pub fn sense_any(&self) -> String {
         format!("{}/uav/*/sense", self.prefix)
+    }
+    /// `swarm/{run}/host/{ids}/sense`: the sensor frames of an agent host's UAVs `ids`
+    /// (ascending, `1-4,7`), in one message a tick.
+    pub fn host_sense(&self, ids: &[UavId]) -> String {
+        format!("{}/host/{}/sense", self.prefix, swarm_types::ids_text(ids))
+    }
+    /// `swarm/{run}/host/*/sense`: every agent host's sensor frames.
+    pub fn host_sense_any(&self) -> String {
+        format!("{}/host/*/sense", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/cmd`
     pub fn cmd(&self, id: UavId) -> String {
@@ -146,6 +157,15 @@ impl Keys {
     pub fn alive_uav(&self, id: UavId) -> String {
         format!("{}/alive/uav/{id}", self.prefix)
     }
+    /// `swarm/{run}/alive/host/{ids}`: an agent host of UAVs `ids` (ascending) takes their
+    /// sensor frames on [`Keys::host_sense`].
+    pub fn alive_host(&self, ids: &[UavId]) -> String {
+        format!("{}/alive/host/{}", self.prefix, swarm_types::ids_text(ids))
+    }
+    /// `swarm/{run}/alive/host/*`
+    pub fn alive_host_any(&self) -> String {
+        format!("{}/alive/host/*", self.prefix)
+    }
     /// `swarm/{run}/alive/ext/{id}`: an external controller of UAV `id` is connected.
     pub fn alive_ext(&self, id: UavId) -> String {
         format!("{}/alive/ext/{id}", self.prefix)
@@ -189,6 +209,21 @@ impl Keys {
             _ => None,
         }
     }
+
+    /// The UAVs of an agent host's key of this run (`swarm/{run}/host/{ids}/sense` or
+    /// `swarm/{run}/alive/host/{ids}`), ascending; `None` for other keys and for a list that
+    /// is not the canonical `1-4,7` (a repeat, a range going down, not ascending), which no host
+    /// writes.
+    pub fn host_ids_of(&self, key: &str) -> Option<Vec<UavId>> {
+        let rest = key.strip_prefix(self.prefix.as_str())?.strip_prefix('/')?;
+        let text = match rest.split('/').collect::<Vec<_>>().as_slice() {
+            ["host", ids, "sense"] | ["alive", "host", ids] => *ids,
+            _ => return None,
+        };
+        let ids = swarm_types::parse_ids(text).ok()?;
+        let canonical = ids.windows(2).all(|w| w[0] < w[1]) && swarm_types::ids_text(&ids) == text;
+        canonical.then_some(ids)
+    }
 }
 
 #[cfg(test)]
@@ -220,6 +255,23 @@ mod tests {
         assert_eq!(k.uav_id_of("swarm/r/uav/x/cmd"), None);
         assert_eq!(k.uav_id_of("swarm/r/uav/0/cmd"), None, "ids are 1-based");
         assert_eq!(k.uav_id_of("swarm/other/uav/3/cmd"), None, "another run");
+    }
+
+    #[test]
+    fn host_keys_name_their_uavs_and_read_back() {
+        let k = Keys::new("r").expect("valid");
+        let ids: Vec<UavId> = [1, 2, 3, 4, 7].map(UavId::new).to_vec();
+        assert_eq!(k.host_sense(&ids), "swarm/r/host/1-4,7/sense");
+        assert_eq!(k.alive_host(&ids), "swarm/r/alive/host/1-4,7");
+        assert_eq!(k.host_ids_of(&k.host_sense(&ids)), Some(ids.clone()));
+        assert_eq!(k.host_ids_of(&k.alive_host(&ids)), Some(ids.clone()));
+        assert_eq!(k.host_ids_of("swarm/r/alive/host/4,1-3"), None, "not ascending");
+        assert_eq!(k.host_ids_of("swarm/r/alive/host/1-2,2"), None, "a repeat");
+        assert_eq!(k.host_ids_of(&k.sense(UavId::new(3))), None);
+        // Zenoh takes the list as one chunk of a key, and the wildcard matches it.
+        let key = zenoh::key_expr::KeyExpr::try_from(k.host_sense(&ids)).expect("a valid key expression");
+        let any = zenoh::key_expr::KeyExpr::try_from(k.host_sense_any()).expect("valid");
+        assert!(any.intersects(&key));
     }
 
     #[test]

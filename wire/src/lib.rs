@@ -38,6 +38,12 @@ pub enum WireError {
         /// Postcard's reason.
         source: postcard::Error,
     },
+    /// A part given to [`Msg::senses_from_encoded`] was not an encoded [`Msg::Sense`].
+    #[error("not an encoded sensor frame ({len} bytes)")]
+    NotSense {
+        /// Its size.
+        len: usize,
+    },
     /// A payload held a whole [`Msg`] and more bytes after it.
     #[error("malformed message ({len} bytes): {extra} bytes after its end")]
     Trailing {

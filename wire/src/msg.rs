@@ -48,6 +48,10 @@ pub enum Msg {
     Uvdar(Uvdar),
     /// `.../uav/{id}/sense`: one UAV's sensor frame of one tick (hub -> agent).
     Sense(Box<SenseFrame>),
+    /// `.../host/{ids}/sense`: the sensor frames of one tick of an agent host's UAVs, in id
+    /// order (hub -> host): one put, route and wake-up a tick for the host instead of one per
+    /// UAV. Each frame is the one [`Msg::Sense`] would carry.
+    Senses(Vec<UavSense>),
 }
 
 impl Msg {
@@ -85,8 +89,52 @@ impl Msg {
             Msg::NetemRules(_) => "netem_rules",
             Msg::Uvdar(_) => "uvdar",
             Msg::Sense(_) => "sense",
+            Msg::Senses(_) => "senses",
         }
     }
+
+    /// The bytes of `Msg::Senses` of `frames`, each given as its UAV and its encoded
+    /// [`Msg::Sense`], without decoding them: what the hub's workers encoded per UAV is copied
+    /// into one message (postcard writes an enum as its variant's number and then its fields, a
+    /// `Vec` as its length and then its items, so this is `Msg::Senses(..).encode()` byte for
+    /// byte). A part that is not an encoded `Msg::Sense` is an error.
+    pub fn senses_from_encoded(frames: &[(UavId, Vec<u8>)]) -> Result<Vec<u8>, WireError> {
+        let total: usize = frames.iter().map(|(_, b)| b.len() + 5).sum();
+        let mut out = Vec::with_capacity(total + 10);
+        put_varint(&mut out, SENSES_TAG);
+        put_varint(&mut out, frames.len() as u64);
+        for (id, bytes) in frames {
+            let Some(frame) = bytes.strip_prefix(&[SENSE_TAG as u8]) else {
+                return Err(WireError::NotSense { len: bytes.len() });
+            };
+            put_varint(&mut out, u64::from(id.get()));
+            out.extend_from_slice(frame);
+        }
+        Ok(out)
+    }
+}
+
+/// Postcard's variant numbers of [`Msg::Sense`] and [`Msg::Senses`] (one byte each as a
+/// varint: below 128), pinned by the golden bytes.
+const SENSE_TAG: u64 = 13;
+const SENSES_TAG: u64 = 14;
+
+/// Appends `v` as postcard's varint (LEB128: seven bits a byte, low first).
+fn put_varint(out: &mut Vec<u8>, mut v: u64) {
+    while v >= 0x80 {
+        out.push((v as u8 & 0x7f) | 0x80);
+        v >>= 7;
+    }
+    out.push(v as u8);
+}
+
+/// One UAV's sensor frame in an agent host's [`Msg::Senses`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct UavSense {
+    /// The UAV it is for.
+    pub id: UavId,
+    /// Its frame of the tick.
+    pub frame: SenseFrame,
 }
 
 /// What a UAV's onboard relative sensing (UVDAR, seed 003) saw at one tick: each neighbour in
@@ -680,12 +728,41 @@ pub(crate) mod tests {
             Msg::NetemRules(_) => 11,
             Msg::Uvdar(_) => 12,
             Msg::Sense(_) => 13,
+            Msg::Senses(_) => 14,
         }
     }
 
     /// One representative value of every variant and its exact postcard bytes (hex). Values use
     /// small integers, exact binary fractions, `Some` and non-empty vectors so every field shows
     /// in the bytes.
+    /// The sensor frame of the golden `Sense` and `Senses`.
+    fn sense_frame() -> SenseFrame {
+        SenseFrame {
+            radio: RadioSet { tick: 4, id: UavId::new(2), in_range: vec![UavId::new(1)], loss: vec![] },
+            odom: Odom {
+                tick: 4,
+                t_s: 0.5,
+                x: 1.0,
+                y: -2.0,
+                yaw: 0.5,
+                vx: 0.25,
+                vy: 0.0,
+                goal: None,
+                goal_vel: Some([0.5, 0.0]),
+            },
+            gnss: Some(Gnss { tick: 4, t_s: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: 0.0 }),
+            uvdar: None,
+            scan: Scan {
+                tick: 4,
+                t_s: 0.5,
+                angle_min: 0.0,
+                angle_increment: 0.5,
+                max_range_m: 12.0,
+                ranges_m: vec![1.0],
+            },
+        }
+    }
+
     pub(crate) fn golden() -> Vec<(Msg, &'static str)> {
         let state = AgentState {
             id: UavId::new(2),
@@ -811,31 +888,39 @@ pub(crate) mod tests {
                 Msg::Uvdar(Uvdar { tick: 6, t_s: 0.5, seen: vec![UvdarSeen { id: UavId::new(4), range_m: 2.5, bearing_rad: -0.5 }] }),
                 "0c06000000000000e03f010400002040000000bf",
             ),
+            (Msg::Sense(Box::new(sense_frame())), "0d040201010004000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000001000000000000e03f00000000000000000104000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000004000000000000e03f000000000000003f00004041010000803f"),
             (
-                Msg::Sense(Box::new(SenseFrame {
-                    radio: RadioSet { tick: 4, id: UavId::new(2), in_range: vec![UavId::new(1)], loss: vec![] },
-                    odom: Odom {
-                        tick: 4,
-                        t_s: 0.5,
-                        x: 1.0,
-                        y: -2.0,
-                        yaw: 0.5,
-                        vx: 0.25,
-                        vy: 0.0,
-                        goal: None,
-                        goal_vel: Some([0.5, 0.0]),
-                    },
-                    gnss: Some(Gnss { tick: 4, t_s: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: 0.0 }),
-                    uvdar: None,
-                    scan: Scan { tick: 4, t_s: 0.5, angle_min: 0.0, angle_increment: 0.5, max_range_m: 12.0, ranges_m: vec![1.0] },
-                })),
-                "0d040201010004000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000001000000000000e03f00000000000000000104000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000004000000000000e03f000000000000003f00004041010000803f",
+                Msg::Senses(vec![UavSense { id: UavId::new(2), frame: sense_frame() }]),
+                "0e0102040201010004000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000001000000000000e03f00000000000000000104000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000004000000000000e03f000000000000003f00004041010000803f",
             ),
         ]
     }
 
     fn hex(bytes: &[u8]) -> String {
         bytes.iter().map(|b| format!("{b:02x}")).collect()
+    }
+
+    #[test]
+    fn a_hosts_frames_are_copied_into_one_message_as_it_would_encode_them() {
+        let frame = |id: u32, tick: u64| {
+            let mut f = sense_frame();
+            f.radio.id = UavId::new(id);
+            f.scan.tick = tick;
+            f
+        };
+        // Ids past one varint byte, and none at all.
+        for ids in [vec![], vec![3], vec![1, 2, 130, 70_000]] {
+            let frames: Vec<UavSense> =
+                ids.iter().map(|&id| UavSense { id: UavId::new(id), frame: frame(id, u64::from(id)) }).collect();
+            let parts: Vec<(UavId, Vec<u8>)> = frames
+                .iter()
+                .map(|u| (u.id, Msg::Sense(Box::new(u.frame.clone())).encode().expect("encodes")))
+                .collect();
+            let want = Msg::Senses(frames).encode().expect("encodes");
+            assert_eq!(Msg::senses_from_encoded(&parts).expect("sensor frames"), want, "ids {ids:?}");
+        }
+        let clock = Msg::Clock(Clock { tick: 1, t_s: 0.1, dt_s: 0.1 }).encode().expect("encodes");
+        assert!(Msg::senses_from_encoded(&[(UavId::new(1), clock)]).is_err(), "not a sensor frame");
     }
 
     #[test]

@@ -55,6 +55,51 @@ where
         .map_err(WireError::zenoh)
 }
 
+/// The sensor frames a sample carries: one on `uav/{id}/sense` (a [`Msg::Sense`](crate::Msg)),
+/// each of an agent host's UAVs on `host/{ids}/sense` (a `Msg::Senses`; a frame for a UAV the
+/// key does not name is left out). Nothing for a malformed payload or another key.
+pub fn sense_frames(keys: &Keys, sample: &Sample) -> Vec<(swarm_types::UavId, Box<crate::SenseFrame>)> {
+    let key = sample.key_expr().as_str();
+    if let Some(id) = keys.uav_id_of(key) {
+        return match decode(sample) {
+            Ok(crate::Msg::Sense(f)) => vec![(id, f)],
+            _ => Vec::new(),
+        };
+    }
+    let Some(ids) = keys.host_ids_of(key) else { return Vec::new() };
+    match decode(sample) {
+        Ok(crate::Msg::Senses(frames)) => {
+            frames.into_iter().filter(|u| ids.binary_search(&u.id).is_ok()).map(|u| (u.id, Box::new(u.frame))).collect()
+        }
+        _ => Vec::new(),
+    }
+}
+
+/// Subscribes to every UAV's sensor frames, sent alone (`uav/*/sense`) or to an agent host
+/// (`host/*/sense`), and sends `map(id, frame, sample)` into `tx` for each frame, in the order
+/// of the frames on the wire: what an observer of the sensors (the recorder's scene, the ROS 2
+/// bridge) subscribes to, however the agents are spread over processes.
+pub async fn subscribe_frames<T: Send + 'static>(
+    s: &zenoh::Session,
+    keys: &Keys,
+    tx: mpsc::UnboundedSender<T>,
+    map: impl Fn(swarm_types::UavId, Box<crate::SenseFrame>, &Sample) -> Option<T> + Clone + Send + Sync + 'static,
+) -> Result<[Subscription; 2], WireError> {
+    let frames = |key: String| {
+        let (k, tx, map) = (keys.clone(), tx.clone(), map.clone());
+        s.declare_subscriber(key).callback(move |sample| {
+            for (id, frame) in sense_frames(&k, &sample) {
+                if let Some(m) = map(id, frame, &sample) {
+                    let _ = tx.send(m);
+                }
+            }
+        })
+    };
+    let alone = frames(keys.sense_any()).await.map_err(WireError::zenoh)?;
+    let hosts = frames(keys.host_sense_any()).await.map_err(WireError::zenoh)?;
+    Ok([alone, hosts])
+}
+
 /// Subscribes to `key` and sends every raw payload into `tx`.
 pub async fn subscribe_payloads(
     s: &zenoh::Session,

@@ -1,5 +1,5 @@
 //! What a scene needs beyond the recorder's truth and states: every UAV's sensor frame (its scan
-//! and radio set) and the netem timeline in force, subscribed on an existing session into one
+//! and radio set, sent alone or in an agent host's message) and the netem timeline in force, subscribed on an existing session into one
 //! channel.
 //! Plain callbacks into an unbounded channel: the subscriber never pushes back on the hub.
 
@@ -23,28 +23,21 @@ pub enum Extra {
 pub struct Feed {
     /// Messages in arrival order.
     pub rx: mpsc::UnboundedReceiver<Extra>,
-    _subs: [Subscription; 2],
+    _subs: [Subscription; 3],
 }
 
 impl Feed {
     /// Subscribes to sensor frames and `netem/rules` of the run `keys` on `session`.
     pub async fn subscribe(session: &zenoh::Session, keys: &Keys) -> Result<Feed> {
         let (tx, rx) = mpsc::unbounded_channel();
-        let k = keys.clone();
-        let frames = plumbing::subscribe(session, keys.sense_any(), tx.clone(), move |s| {
-            let id = k.uav_id_of(s.key_expr().as_str())?;
-            match plumbing::decode(s) {
-                Ok(Msg::Sense(frame)) => Some(Extra::Sense(id, frame)),
-                _ => None,
-            }
-        })
-        .await?;
+        let [alone, hosts] =
+            plumbing::subscribe_frames(session, keys, tx.clone(), |id, frame, _| Some(Extra::Sense(id, frame))).await?;
         let rules = plumbing::subscribe(session, keys.netem_rules(), tx, |s| match plumbing::decode(s) {
             Ok(Msg::NetemRules(json)) => serde_json::from_str(&json).ok().map(Extra::Timeline),
             _ => None,
         })
         .await?;
-        Ok(Feed { rx, _subs: [frames, rules] })
+        Ok(Feed { rx, _subs: [alone, hosts, rules] })
     }
 }
 

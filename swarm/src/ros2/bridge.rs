@@ -395,15 +395,8 @@ async fn run_subscriptions(
     keys: &Keys,
     tx: &mpsc::UnboundedSender<Event>,
 ) -> Result<Vec<Subscription>> {
-    let k = keys.clone();
-    let sense = plumbing::subscribe(s, keys.sense_any(), tx.clone(), move |x| {
-        let id = k.uav_id_of(x.key_expr().as_str())?;
-        match plumbing::decode(x) {
-            Ok(Msg::Sense(f)) => Some(Event::Sense(id, f, source_ns(x))),
-            _ => None,
-        }
-    })
-    .await?;
+    let [alone, hosts] =
+        plumbing::subscribe_frames(s, keys, tx.clone(), |id, f, x| Some(Event::Sense(id, f, source_ns(x)))).await?;
     let k = keys.clone();
     let state = plumbing::subscribe(s, keys.state_any(), tx.clone(), move |x| {
         let id = k.uav_id_of(x.key_expr().as_str())?;
@@ -418,7 +411,7 @@ async fn run_subscriptions(
         _ => None,
     })
     .await?;
-    Ok(vec![sense, state, clock])
+    Ok(vec![alone, hosts, state, clock])
 }
 
 /// When a sample was put, from its Zenoh timestamp (the hub's router stamps what it publishes,

@@ -345,19 +345,31 @@ pub(crate) struct SessionShared {
     pub(crate) netem_rules: KeyExpr<'static>,
     /// The session's Zenoh id, as the router's admin space names it.
     pub(crate) zid: String,
+    /// An agent host's frames in one message a tick (`None`: a one-agent process, whose frames
+    /// come on its own key).
+    pub(crate) frames: Option<Arc<super::frames::HostFrames>>,
 }
 
 impl SessionShared {
     /// Declares the keys every agent of session `s` uses, for scenario `sc`; the session flies
-    /// the UAVs `ids`.
+    /// the UAVs `ids`, as an agent host (taking their frames in one message) when `host`.
     pub(crate) async fn open(
         s: &zenoh::Session,
         keys: &Keys,
         sc: &Scenario,
         ids: &[UavId],
+        host: bool,
     ) -> Result<Arc<SessionShared>, AgentError> {
         let netem_rules = s.declare_keyexpr(keys.netem_rules()).await.map_err(WireError::zenoh)?;
-        Ok(Arc::new(SessionShared { feed: ShareFeed::new(s, keys, sc, ids), netem_rules, zid: s.zid().to_string() }))
+        let feed = ShareFeed::new(s, keys, sc, ids);
+        let frames = match host {
+            true => {
+                let traffic = feed.traffic().clone();
+                Some(Arc::new(super::frames::HostFrames::open(s, keys, ids, move |len| traffic.count(len)).await?))
+            }
+            false => None,
+        };
+        Ok(Arc::new(SessionShared { feed, netem_rules, zid: s.zid().to_string(), frames }))
     }
 }
 

@@ -3,7 +3,8 @@
 //!
 //! Each agent keeps everything it has alone: its [`node`] state, sensor subscriptions, netem
 //! link, writers and `alive/uav/{id}` token, so the hub, netem, the recorder and tools see
-//! exactly the keys of one process per UAV. The agents of a host share one Zenoh session and its
+//! exactly the keys of one process per UAV, and the host takes their sensor frames in one
+//! message a tick as well ([`super::frames`]). The agents of a host share one Zenoh session and its
 //! share feed ([`super::feed`]): one subscription per sender any of them listens to, so the host
 //! receives the shares of the union of its agents' radio sets, each once. A share published by
 //! one agent reaches another of the same host through Zenoh's local routing (never through
@@ -59,7 +60,7 @@ pub async fn run_host(
             None => node::fetch_scenario(&s, &keys, &opts.run).await?,
         };
         // Made once, before any agent runs (see `feed`).
-        let shared = SessionShared::open(&s, &keys, &sc, &opts.ids).await?;
+        let shared = SessionShared::open(&s, &keys, &sc, &opts.ids, true).await?;
         Ok(fly_all(&s, &keys, shared, &opts, sc, shutdown).await)
     }
     .await;

@@ -11,15 +11,18 @@
 //!   view out as JSON, the command back, bounded by the tick's wait.
 //! - `ros`: the sensors and commands of an agent on ROS 2 topics (DDS or rmw_zenoh) instead of
 //!   the hub's keys ([`Sensors`]), the way the same stack runs on a vehicle.
+//! - `frames`: an agent host's sensor frames in one message a tick, handed to each agent's
+//!   channel.
 //! - `feed`: what the agents of one session share: one subscription per sender any of them
 //!   listens to (the union of their radio sets), each share decoded once and posted to the
 //!   listeners' mailboxes, and the session's traffic counts.
 //!
-//! Arrows: `host` → `node`, and both → `feed`; `node` → `external` and `ros`; `feed`, `external`
-//! and `ros` know neither, `node` not `host`.
+//! Arrows: `host` → `node`, and both → `feed`; `node` → `external`, `ros` and `frames`, `feed` →
+//! `frames`; `feed`, `frames`, `external` and `ros` know neither, `node` not `host`.
 
 mod external;
 mod feed;
+mod frames;
 mod host;
 mod node;
 mod ros;

@@ -6,7 +6,8 @@
 //! - It subscribes to its own `sense` key (the tick's sensor frame: radio set, odometry, GNSS or
 //!   UVDAR by mode, and the scan, in one message), through a declared key expression
 //!   ([`subscribe_declared`]), so an agent host's session hands each frame to its subscriber
-//!   without testing every subscriber of the session.
+//!   without testing every subscriber of the session; in an agent host it also takes its frames
+//!   out of the host's one message a tick ([`super::frames`]), into the same channel.
 //! - It listens to the shares (`share/pose` or `share/obstacles`, by localization mode) of
 //!   exactly the UAVs in its radio set, starting and stopping as the set changes: the session's
 //!   [`ShareFeed`] holds one Zenoh subscription per sender its agents listen to, and posts each
@@ -84,7 +85,7 @@ pub async fn run(opts: AgentOptions, shutdown: impl Future<Output = ()>) -> Resu
             Some(sc) => sc,
             None => fetch_scenario(&s, &keys, &opts.run).await?,
         };
-        let shared = SessionShared::open(&s, &keys, &sc, &[opts.id]).await?;
+        let shared = SessionShared::open(&s, &keys, &sc, &[opts.id], false).await?;
         let flight = Flight {
             sc,
             hub_grace_s: opts.hub_grace_s,
@@ -150,6 +151,8 @@ type Incoming = Option<Msg>;
 struct Inputs {
     /// The hub's sensor frames (none for an agent on ROS topics).
     _sense: Option<Subscriber>,
+    /// Its frames out of its host's message (an agent host's agents).
+    _host_frames: Option<super::frames::Registered>,
     _rules: Subscriber,
     _hub_watch: Subscriber,
 }
@@ -260,11 +263,15 @@ async fn declare_inputs(
         true => Some(subscribe_declared(s, keys.sense(id), tx.clone(), decode.clone()).await?),
         false => None,
     };
+    let host_frames = match (&shared.frames, from_hub) {
+        (Some(frames), true) => Some(frames.register(id, tx.clone(), own_bytes.clone())),
+        _ => None,
+    };
     // The rules in force, republished by the hub whenever `swarm netem` changes them; on the key
     // the session declared once for all its agents.
     let rules_sub = plumbing::subscribe(s, shared.netem_rules.clone(), tx.clone(), decode).await?;
     let (hub_alive, hub_watch) = plumbing::watch_token(s, keys.alive_hub()).await?;
-    Ok((Inputs { _sense: sense, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
+    Ok((Inputs { _sense: sense, _host_frames: host_frames, _rules: rules_sub, _hub_watch: hub_watch }, hub_alive))
 }
 
 /// The command (when `to_hub`), share and state writers of UAV `id`.
