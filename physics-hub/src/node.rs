@@ -306,12 +306,11 @@ async fn watch_agents(
     .await
 }
 
-/// Keeps `hosts` equal to the agent hosts holding an `alive/host/{ids}` token, each its UAVs of
-/// the scenario (ids outside it are left out; a token naming none of them is ignored).
+/// Keeps `hosts` equal to the agent hosts holding an `alive/host/{ids}` token, each its UAVs as
+/// its key names them (those outside the scenario are never sensed, so never sent there).
 async fn watch_hosts(
     s: &zenoh::Session,
     keys: &Keys,
-    count: usize,
     hosts: Arc<Mutex<BTreeSet<Vec<UavId>>>>,
 ) -> Result<Subscription, WireError> {
     let k = keys.clone();
@@ -320,12 +319,8 @@ async fn watch_hosts(
             warn!(key = %key, "a host token that names no UAVs ignored");
             return;
         };
-        let ids: Vec<UavId> = ids.into_iter().filter(|id| id.within(count)).collect();
-        if ids.is_empty() {
-            return;
-        }
-        let mut set = hosts.lock().unwrap_or_else(|p| p.into_inner());
         info!(uavs = ids.len(), up, "agent host");
+        let mut set = hosts.lock().unwrap_or_else(|p| p.into_inner());
         match up {
             true => set.insert(ids),
             false => set.remove(&ids),
@@ -347,7 +342,7 @@ impl Net {
         let alive_sub =
             watch_agents(&s, &keys, sc.count(), alive.clone(), alive_gen.clone(), alive_changed.clone()).await?;
         let hosts = Arc::new(Mutex::new(BTreeSet::new()));
-        let hosts_sub = watch_hosts(&s, &keys, sc.count(), hosts.clone()).await?;
+        let hosts_sub = watch_hosts(&s, &keys, hosts.clone()).await?;
         let (added_tx, netem_added) = mpsc::unbounded_channel();
         let netem_sub = plumbing::subscribe_payloads(&s, keys.netem_add(), added_tx).await?;
         let net = Net {

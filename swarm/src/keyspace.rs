@@ -211,7 +211,7 @@ impl KeySpace {
 /// One key family's row.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FamilyRow {
-    /// `uav/{id}/sense`: numeric ids written `{id}`.
+    /// `uav/{id}/sense`: numeric ids written `{id}`, an agent host's id lists `{ids}`.
     pub family: String,
     /// Sessions that declared a publisher, or a writer's querier, on a key of it.
     pub publishers: Vec<String>,
@@ -241,8 +241,17 @@ pub struct SessionRow {
 /// The family of `key` (relative to `swarm/R/`): every chunk that is a UAV id, or a `*` in its
 /// place, becomes `{id}`.
 pub fn family(key: &str) -> String {
+    let digits = |c: &str| !c.is_empty() && c.bytes().all(|b| b.is_ascii_digit());
+    let id_list = |c: &str| {
+        c.bytes().any(|b| b.is_ascii_digit()) && c.bytes().all(|b| b.is_ascii_digit() || b == b'-' || b == b',')
+    };
     key.split('/')
-        .map(|c| if c == "*" || (!c.is_empty() && c.bytes().all(|b| b.is_ascii_digit())) { "{id}" } else { c })
+        .map(|c| match c {
+            "*" => "{id}",
+            c if digits(c) => "{id}",
+            c if id_list(c) => "{ids}",
+            c => c,
+        })
         .collect::<Vec<_>>()
         .join("/")
 }
@@ -255,9 +264,9 @@ fn natural(name: &str) -> (String, u64, String) {
     (head, digits.parse().unwrap_or(0), tail)
 }
 
-/// A family as a key expression (`{id}` → `*`).
+/// A family as a key expression (`{id}` and `{ids}` → `*`).
 fn family_pattern(fam: &str) -> String {
-    fam.replace("{id}", "*")
+    fam.replace("{ids}", "*").replace("{id}", "*")
 }
 
 /// Whether key expressions `a` and `b` (relative keys, any wildcards) intersect.
@@ -435,6 +444,8 @@ mod tests {
         assert_eq!(family("uav/12/sense"), "uav/{id}/sense");
         assert_eq!(family("uav/*/share/pose"), "uav/{id}/share/pose");
         assert_eq!(family("alive/uav/3"), "alive/uav/{id}");
+        assert_eq!(family("host/1-4,7/sense"), "host/{ids}/sense", "an agent host's UAVs");
+        assert_eq!(family("alive/host/12"), "alive/host/{id}");
         assert_eq!(family("truth/step"), "truth/step");
         assert_eq!(family("truth/**"), "truth/**");
     }

@@ -1,10 +1,14 @@
 //! End to end: agent hosts (`swarm agent --ids`, many agents in one process). Lockstep results
-//! must not depend on how the agents are spread over processes; a killed host takes exactly
-//! its agents down and the swarm flies on; a bad id in a host is reported by id.
+//! must not depend on how the agents are spread over processes; a host takes its UAVs' sensor
+//! frames in one message a tick on its own key, which only its login may read; a killed host
+//! takes exactly its agents down and the swarm flies on; a bad id in a host is reported by id.
 
 mod common;
 
-use common::{alive_changes, run_id, start_hub, start_recorder, summary, swarm_run, tap, Proc};
+use common::{
+    alive_changes, output_within, run_id, start_hub, start_recorder, start_secure_hub, summary, swarm_run, tap,
+    tap_listening, Creds, Proc, SWARM, TOOL_LIMIT,
+};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -38,6 +42,83 @@ fn lockstep_trajectories_do_not_depend_on_agents_per_process() {
     assert!(runs[0].len() > 1000);
     assert!(runs[0] == runs[1], "hosts of 2 fly differently from one process per UAV");
     assert!(runs[0] == runs[2], "one host of 5 flies differently from one process per UAV");
+}
+
+/// Five UAVs in a row, in realtime at 2x for 120 s of sim time, so the taps below find it flying.
+const FIVE: &str = "name = \"five\"\n[swarm]\ncount = 5\nstart_positions = [[0.0, 0.0], [0.0, 2.0], [0.0, -2.0], [0.0, 4.0], [0.0, -4.0]]\ngoal = [100.0, 0.0]\n[time]\nmode = \"realtime\"\nrealtime_factor = 2.0\n[end]\ntime_limit_s = 120.0\n";
+
+/// A secured hub, UAVs 1-4 in a host logged in as `uavs1-4` and UAV 5 alone as `uav5`: the hub
+/// sends the host its four frames in one `Senses` message a tick on `host/1-4/sense`, each with
+/// its UAV's id, and UAV 5's alone, and no frame of 1-4 alone. Only the host's login may read its
+/// key, and not every host's.
+#[test]
+fn an_agent_host_gets_its_uavs_frames_in_one_message_only_it_may_read() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("hostframes");
+    let sc = dir.path().join("five.toml");
+    std::fs::write(&sc, FIVE).expect("scenario");
+    let creds = Creds::make_with(dir.path(), 5, &["uavs1-4"]);
+    let (_hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
+    let login = |user: &str| creds.login(user);
+    let frames = {
+        let mut a =
+            vec![format!("swarm/{run}/*/*/sense"), "--connect".into(), loc.clone(), "--count".into(), "12".into()];
+        a.extend(["--duration".into(), "60".into()]);
+        a.extend(login("observer"));
+        tap_listening(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let agent = |flag: &str, ids: &str, user: &str| {
+        let mut a = vec![
+            "agent".to_string(),
+            "--run".into(),
+            run.clone(),
+            flag.into(),
+            ids.into(),
+            "--connect".into(),
+            loc.clone(),
+        ];
+        a.extend(login(user));
+        Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join(format!("{user}.log")))
+    };
+    let _agents = [agent("--ids", "1-4", "uavs1-4"), agent("--id", "5", "uav5")];
+    let lines: Vec<serde_json::Value> =
+        frames.output().lines().map(|l| serde_json::from_str(l).expect("tap json")).collect();
+    assert_eq!(lines.len(), 12, "{lines:?}");
+    let (mut batched, mut alone) = (0, 0);
+    for v in &lines {
+        let key = v["key"].as_str().expect("key");
+        if key == format!("swarm/{run}/host/1-4/sense") {
+            assert_eq!(v["kind"], "senses", "{v}");
+            let frames = v["msg"]["Senses"].as_array().expect("frames");
+            let ids: Vec<u64> = frames.iter().map(|f| f["id"].as_u64().expect("id")).collect();
+            assert_eq!(ids, [1, 2, 3, 4], "the host's four frames, in id order: {v}");
+            let own: Vec<u64> = frames.iter().map(|f| f["frame"]["radio"]["id"].as_u64().expect("id")).collect();
+            assert_eq!(own, ids, "each frame is its UAV's");
+            let ticks: Vec<&serde_json::Value> = frames.iter().map(|f| &f["frame"]["scan"]["tick"]).collect();
+            assert!(ticks.iter().all(|t| *t == ticks[0]), "one tick's frames: {ticks:?}");
+            batched += 1;
+        } else {
+            assert_eq!(key, format!("swarm/{run}/uav/5/sense"), "no frame of the host's UAVs alone: {v}");
+            assert_eq!(v["kind"], "sense");
+            alone += 1;
+        }
+    }
+    assert!(batched >= 5 && alone >= 5, "a message a tick each: {batched} to the host, {alone} to UAV 5");
+
+    let tap_as = |user: &str, key: &str, args: &[&str]| {
+        let o = output_within(
+            Command::new(SWARM)
+                .args(["tap", &format!("swarm/{run}/{key}"), "--connect", &loc])
+                .args(login(user))
+                .args(args),
+            TOOL_LIMIT,
+        );
+        assert!(o.status.success(), "tap {key} as {user}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).expect("utf8").lines().count()
+    };
+    assert_eq!(tap_as("uavs1-4", "host/1-4/sense", &["--count", "2", "--duration", "30"]), 2, "the host's own key");
+    assert_eq!(tap_as("uav5", "host/1-4/sense", &["--duration", "3"]), 0, "UAV 5 may not read the host's frames");
+    assert_eq!(tap_as("uavs1-4", "host/*/sense", &["--duration", "3"]), 0, "nor the host every host's");
 }
 
 /// Sends `signal` (`STOP`, `CONT`, `KILL`) to a child.

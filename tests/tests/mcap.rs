@@ -1,5 +1,6 @@
 //! End to end: `run.mcap` read by a reader no one here wrote. Forest-5 is flown piece by piece
-//! (hub, `swarm record`, agents) so a `swarm tap` can listen to UAV 1's scans before the first
+//! (hub, `swarm record`, UAV 1 alone and 2-5 in an agent host, so the recorder takes both kinds of
+//! sensor message) so a `swarm tap` can listen to UAV 1's scans before the first
 //! tick; Foxglove's Python `mcap` and `mcap-protobuf-support` then read the recording: every
 //! topic there with its schema, one message per tick (and per UAV) where that is the rule, every
 //! chunk zstd-compressed (decompressed by the reader's own `zstandard`), and the LaserScan of one
@@ -33,11 +34,13 @@ fn run_mcap_is_read_by_foxglove_readers_and_holds_the_wire_scans() {
         "--duration",
         "300",
     ]);
-    let _agents: Vec<Proc> = (1..=5)
-        .map(|i| {
+    // UAV 1 alone, 2-5 in a host: the scene records both kinds of sensor message.
+    let _agents: Vec<Proc> = [("--id", "1"), ("--ids", "2-5")]
+        .iter()
+        .map(|(flag, ids)| {
             Proc::start(
-                &["agent", "--run", &run, "--id", &i.to_string(), "--connect", &loc],
-                &dir.path().join(format!("a{i}.log")),
+                &["agent", "--run", &run, flag, ids, "--connect", &loc],
+                &dir.path().join(format!("a{ids}.log")),
             )
         })
         .collect();
