@@ -2,7 +2,8 @@
 //!
 //! One tick k in `lockstep` mode (SPEC section 2, refined):
 //! 1. publish the clock, then every UAV's sensor frame (radio set, odometry, GNSS in broadcast
-//!    mode, UVDAR in uvdar mode and the scan, in one message on `uav/{id}/sense`);
+//!    mode, UVDAR in uvdar mode and the scan, in one message on `uav/{id}/sense`; the frames of
+//!    an agent host holding `alive/host/{ids}` together on `host/{ids}/sense`, [`crate::batch`]);
 //! 2. wait until every agent holding a liveliness token has sent its command for tick k, or
 //!    `time.tick_timeout_ms` passes (a missing agent keeps its last command; a UAV whose agent
 //!    lost its liveliness token hovers);
