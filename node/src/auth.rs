@@ -12,7 +12,8 @@
 //!   `*/uav{id}/{cmd_vel,cmd_accel}`, as an agent on ROS topics over rmw_zenoh does.
 //! - `uavs{ids}` (`uavs1-20`, `uavs1-4,7`, the `--ids` syntax): an agent host, one session for
 //!   several UAVs, allowed exactly what each of those UAVs is, and the host's own keys of
-//!   exactly those UAVs: its sensor frames in one message, `host/{ids}/sense`, and its token
+//!   exactly those UAVs: its sensor frames in one message, `host/{ids}/sense`, its commands and
+//!   states in one message each, `host/{ids}/cmd` and `host/{ids}/state`, and its token
 //!   `alive/host/{ids}`. The same user serves a second
 //!   router that relays a group of agents to the hub.
 //! - `ext{id}`: UAV `id`'s external controller (docs/own-controller.md). It may
@@ -475,8 +476,8 @@ fn agent_common_keys(k: &Keys) -> Vec<String> {
 }
 
 /// The rules of the agents of `ids` (under subject id `subject`): subscribing to their own
-/// sensor frames (each UAV's, and the host's of exactly `ids`), their own command, shares and
-/// state out, their own liveliness tokens (and the host's).
+/// sensor frames (each UAV's, and the host's of exactly `ids`), their own commands, shares and
+/// states out (each UAV's, and the host's), their own liveliness tokens (and the host's).
 fn own_rules(k: &Keys, subject: &str, ids: &[UavId]) -> Vec<Value> {
     let keys = |f: &dyn Fn(UavId) -> Vec<String>| ids.iter().flat_map(|&i| f(i)).collect::<Vec<String>>();
     let mut ascending = ids.to_vec();
@@ -484,7 +485,9 @@ fn own_rules(k: &Keys, subject: &str, ids: &[UavId]) -> Vec<Value> {
     // An agent host's frames come in one message on the key of exactly its UAVs.
     let mut sensors = keys(&|i| vec![k.sense(i), k.ext_cmd(i)]);
     sensors.push(k.host_sense(&ascending));
-    let out = keys(&|i| vec![k.cmd(i), k.shares_of(i), k.state(i), k.ext_view(i)]);
+    // And its commands and states in one message each, on the keys of exactly its UAVs.
+    let mut out = keys(&|i| vec![k.cmd(i), k.shares_of(i), k.state(i), k.ext_view(i)]);
+    out.extend([k.host_cmd(&ascending), k.host_state(&ascending)]);
     let mut tokens = keys(&|i| vec![k.alive_uav(i)]);
     tokens.push(k.alive_host(&ascending));
     let ext_tokens = keys(&|i| vec![k.alive_ext(i)]);

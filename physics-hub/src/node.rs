@@ -4,7 +4,8 @@
 //! 1. publish the clock, then every UAV's sensor frame (radio set, odometry, GNSS in broadcast
 //!    mode, UVDAR in uvdar mode and the scan, in one message on `uav/{id}/sense`; the frames of
 //!    an agent host holding `alive/host/{ids}` together on `host/{ids}/sense`, [`crate::batch`]);
-//! 2. wait until every agent holding a liveliness token has sent its command for tick k, or
+//! 2. wait until every agent holding a liveliness token has sent its command for tick k (alone on
+//!    `uav/{id}/cmd`, or among an agent host's in one message on `host/{ids}/cmd`), or
 //!    `time.tick_timeout_ms` passes (a missing agent keeps its last command; a UAV whose agent
 //!    lost its liveliness token hovers);
 //! 3. integrate to t_{k+1} and publish `truth/step` (the last one carries `ended`).
@@ -187,7 +188,7 @@ async fn declare_world_queryable(
 
 /// Subscriptions that must live as long as the loop.
 struct Subs {
-    _cmd: Subscription,
+    _cmd: [Subscription; 2],
     _alive: Subscription,
     _hosts: Subscription,
     _netem: Subscription,
@@ -223,18 +224,24 @@ fn from_the_future(ignored: &AtomicU64, tick: u64, c: &Cmd) -> bool {
     future
 }
 
-/// Every agent's commands, decoded, into one channel; malformed ones are counted in `bad`, those
-/// for UAVs outside the scenario in `ignored`.
+/// A command, its UAV and when it came.
+type Incoming = (UavId, Cmd, Instant);
+
+/// Every agent's commands, decoded, into one channel: each UAV's alone (`uav/*/cmd`) and an
+/// agent host's in one message (`host/*/cmd`). Malformed messages are counted in `bad`; commands
+/// for UAVs outside the scenario, or in a host's message for a UAV its key does not name, in
+/// `ignored`.
 async fn subscribe_cmds(
     s: &zenoh::Session,
     keys: &Keys,
     count: usize,
     bad: Arc<AtomicU64>,
     ignored: Arc<AtomicU64>,
-) -> Result<(Subscription, mpsc::UnboundedReceiver<(UavId, Cmd, Instant)>), WireError> {
+) -> Result<([Subscription; 2], mpsc::UnboundedReceiver<Incoming>), WireError> {
     let (cmd_tx, cmds) = mpsc::unbounded_channel();
     let k = keys.clone();
-    let sub = plumbing::subscribe(s, keys.cmd_any(), cmd_tx, move |sample| {
+    let (bad2, ignored2, tx2) = (bad.clone(), ignored.clone(), cmd_tx.clone());
+    let alone = plumbing::subscribe(s, keys.cmd_any(), cmd_tx, move |sample| {
         let id = valid_id(&k, count, sample.key_expr().as_str());
         match (id, plumbing::decode(sample)) {
             (Some(id), Ok(Msg::Cmd(c))) => Some((id, c, Instant::now())),
@@ -251,7 +258,32 @@ async fn subscribe_cmds(
         }
     })
     .await?;
-    Ok((sub, cmds))
+    let k = keys.clone();
+    let host = s
+        .declare_subscriber(keys.host_cmd_any())
+        .callback(move |sample| {
+            let at = Instant::now();
+            let ids = k.host_ids_of(sample.key_expr().as_str());
+            match (ids, plumbing::decode(&sample)) {
+                (Some(ids), Ok(Msg::Cmds(cmds))) => {
+                    for u in cmds {
+                        if u.id.within(count) && ids.binary_search(&u.id).is_ok() {
+                            let _ = tx2.send((u.id, u.cmd, at));
+                        } else {
+                            ignored2.fetch_add(1, Ordering::Relaxed);
+                            debug!(key = %sample.key_expr(), uav_id = %u.id, "a host's command for a UAV it does not fly ignored");
+                        }
+                    }
+                }
+                (ids, other) => {
+                    bad2.fetch_add(1, Ordering::Relaxed);
+                    debug!(key = %sample.key_expr(), named = ids.is_some(), ?other, "dropped malformed host commands");
+                }
+            }
+        })
+        .await
+        .map_err(WireError::zenoh)?;
+    Ok(([alone, host], cmds))
 }
 
 /// Declares, on the hub's session, every key the agents of `sc` publish on: each UAV's command,

@@ -1,6 +1,7 @@
 //! End to end: agent hosts (`swarm agent --ids`, many agents in one process). Lockstep results
 //! must not depend on how the agents are spread over processes; a host takes its UAVs' sensor
-//! frames in one message a tick on its own key, which only its login may read; a killed host
+//! frames in one message a tick on its own key, which only its login may read, and in lockstep
+//! puts their commands and states in one message each; a killed host
 //! takes exactly its agents down and the swarm flies on; a bad id in a host is reported by id.
 
 mod common;
@@ -13,7 +14,8 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 /// forest-5 (ICP shares) in lockstep with one process per UAV, hosts of 2 (shares both inside a
-/// session and across sessions) and one host of all 5: the same trajectories, byte for byte.
+/// session and across sessions) and one host of all 5: the same trajectories, byte for byte, and
+/// the same localization figures from the agents' states.
 #[test]
 fn lockstep_trajectories_do_not_depend_on_agents_per_process() {
     let mut runs = Vec::new();
@@ -37,11 +39,16 @@ fn lockstep_trajectories_do_not_depend_on_agents_per_process() {
         assert_eq!(hosts, [0, 2, 1][runs.len()], "agent hosts started with --agents-per-process {per}: {logs:?}");
         let s = summary(dir.path());
         assert_eq!(s["reached_goal"], true, "{s:#}");
-        runs.push(std::fs::read(dir.path().join("trajectories.csv")).expect("csv"));
+        runs.push((std::fs::read(dir.path().join("trajectories.csv")).expect("csv"), s["localization"].clone()));
     }
-    assert!(runs[0].len() > 1000);
-    assert!(runs[0] == runs[1], "hosts of 2 fly differently from one process per UAV");
-    assert!(runs[0] == runs[2], "one host of 5 flies differently from one process per UAV");
+    assert!(runs[0].0.len() > 1000);
+    assert!(runs[0].0 == runs[1].0, "hosts of 2 fly differently from one process per UAV");
+    assert!(runs[0].0 == runs[2].0, "one host of 5 flies differently from one process per UAV");
+    // The hosts' states come in one message a tick: the recorder scores every estimate of them.
+    assert!(runs[0].1["estimates_scored"].as_u64().is_some_and(|n| n > 1000), "{:#}", runs[0].1);
+    for (per, (_, l)) in ["2", "5"].iter().zip(&runs[1..]) {
+        assert_eq!(l, &runs[0].1, "hosts of {per}: the recorder scored other estimates");
+    }
 }
 
 /// Five UAVs in a row, in realtime at 2x for 120 s of sim time, so the taps below find it flying.
@@ -119,6 +126,86 @@ fn an_agent_host_gets_its_uavs_frames_in_one_message_only_it_may_read() {
     assert_eq!(tap_as("uavs1-4", "host/1-4/sense", &["--count", "2", "--duration", "30"]), 2, "the host's own key");
     assert_eq!(tap_as("uav5", "host/1-4/sense", &["--duration", "3"]), 0, "UAV 5 may not read the host's frames");
     assert_eq!(tap_as("uavs1-4", "host/*/sense", &["--duration", "3"]), 0, "nor the host every host's");
+}
+
+/// [`FIVE`] in lockstep.
+fn five_lockstep() -> String {
+    FIVE.replace("mode = \"realtime\"\nrealtime_factor = 2.0\n", "mode = \"lockstep\"\n")
+}
+
+/// The UAV ids of an agent host's message as `swarm tap` prints it (`Cmds` or `States`), in
+/// the order they came, sorted.
+fn ids_in(v: &serde_json::Value, variant: &str, id: &dyn Fn(&serde_json::Value) -> u64) -> Vec<u64> {
+    let mut ids: Vec<u64> = v["msg"][variant].as_array().expect("a list").iter().map(id).collect();
+    ids.sort_unstable();
+    ids
+}
+
+/// In lockstep, a secured hub, UAVs 1-4 in a host logged in as `uavs1-4` and UAV 5 alone as
+/// `uav5`: the host puts its four commands of a tick as one `Cmds` message on `host/1-4/cmd` and
+/// their states as one `States` message on `host/1-4/state`, UAV 5 its own alone, and no
+/// command or state of 1-4 goes alone.
+#[test]
+fn in_lockstep_an_agent_host_puts_its_commands_and_states_in_one_message_each() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = run_id("hostcmds");
+    let sc = dir.path().join("five.toml");
+    std::fs::write(&sc, five_lockstep()).expect("scenario");
+    let creds = Creds::make_with(dir.path(), 5, &["uavs1-4"]);
+    let (_hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
+    let login = |user: &str| creds.login(user);
+    let watch = |what: &str| {
+        let mut a =
+            vec![format!("swarm/{run}/*/*/{what}"), "--connect".into(), loc.clone(), "--count".into(), "20".into()];
+        a.extend(["--duration".into(), "60".into()]);
+        a.extend(login("observer"));
+        tap_listening(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    let (cmds, states) = (watch("cmd"), watch("state"));
+    let agent = |flag: &str, ids: &str, user: &str| {
+        let mut a = vec![
+            "agent".to_string(),
+            "--run".into(),
+            run.clone(),
+            flag.into(),
+            ids.into(),
+            "--connect".into(),
+            loc.clone(),
+        ];
+        a.extend(login(user));
+        Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join(format!("{user}.log")))
+    };
+    let _agents = [agent("--ids", "1-4", "uavs1-4"), agent("--id", "5", "uav5")];
+    for (tapped, variant, one, id) in [
+        (
+            cmds,
+            "Cmds",
+            "Cmd",
+            &(|c: &serde_json::Value| c["id"].as_u64().expect("id")) as &dyn Fn(&serde_json::Value) -> u64,
+        ),
+        (states, "States", "State", &|s: &serde_json::Value| s["id"].as_u64().expect("id")),
+    ] {
+        let lines: Vec<serde_json::Value> =
+            tapped.output().lines().map(|l| serde_json::from_str(l).expect("tap json")).collect();
+        assert_eq!(lines.len(), 20, "{lines:?}");
+        let (mut batched, mut alone) = (0, 0);
+        for v in &lines {
+            let key = v["key"].as_str().expect("key");
+            let host_key = format!("swarm/{run}/host/1-4/{}", if variant == "Cmds" { "cmd" } else { "state" });
+            if key == host_key {
+                assert_eq!(ids_in(v, variant, id), [1, 2, 3, 4], "the host's four, once each: {v}");
+                batched += 1;
+            } else {
+                assert!(key.starts_with(&format!("swarm/{run}/uav/5/")), "none of the host's UAVs alone: {v}");
+                assert!(v["msg"][one].is_object(), "{v}");
+                alone += 1;
+            }
+        }
+        assert!(
+            batched >= 8 && alone >= 8,
+            "{variant}: a message a tick each, {batched} from the host, {alone} from UAV 5"
+        );
+    }
 }
 
 /// Sends `signal` (`STOP`, `CONT`, `KILL`) to a child.

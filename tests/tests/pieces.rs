@@ -155,7 +155,8 @@ const MIXED_TICKS: &str = r#"{"Sense": {
 
 /// Garbage on the wire is counted and dropped, never a panic: malformed payloads on an agent's
 /// sensor key (bytes that do not decode, and a frame whose parts disagree on the tick) and on
-/// the hub's command keys (including id 0, which has no body), mid-flight.
+/// the hub's command keys (including id 0, which has no body, and an agent host's message with a
+/// command for a UAV its key does not name), mid-flight.
 #[test]
 fn malformed_messages_are_counted_and_dropped() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -191,6 +192,15 @@ fn malformed_messages_are_counted_and_dropped() {
         format!("swarm/{run}/uav/77/cmd"),
         &["--json", r#"{"Cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}"#],
     );
+    // An agent host's commands: a malformed message, and one naming a UAV its key does not.
+    put(format!("swarm/{run}/host/1/cmd"), &["--hex", "0f 02"]);
+    put(
+        format!("swarm/{run}/host/1/cmd"),
+        &[
+            "--json",
+            r#"{"Cmds": [{"id": 1, "cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}, {"id": 2, "cmd": {"tick": 1, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}]}"#,
+        ],
+    );
 
     assert!(rec.wait_for(Duration::from_secs(120)).expect("the run ends").success());
     let s = common::summary(&out);
@@ -200,8 +210,11 @@ fn malformed_messages_are_counted_and_dropped() {
     assert!(hub.wait_for(Duration::from_secs(20)).expect("hub exits").success(), "hub did not panic");
     assert!(agent.wait_for(Duration::from_secs(20)).expect("agent exits").success(), "agent did not panic");
     let hub_log = std::fs::read_to_string(dir.path().join("hub.log")).expect("log");
-    assert!(hub_log.contains("malformed_cmds=1"), "the bad command was counted: {hub_log}");
-    assert!(hub_log.contains("ignored_cmds=2"), "the commands for UAVs 0 and 77 were counted: {hub_log}");
+    assert!(hub_log.contains("malformed_cmds=2"), "the bad command and host message were counted: {hub_log}");
+    assert!(
+        hub_log.contains("ignored_cmds=3"),
+        "the commands for UAVs 0 and 77, and the host's for UAV 2, were counted: {hub_log}"
+    );
 }
 
 /// An agent that claims an id the hub's scenario does not have (it was given its own scenario

@@ -101,6 +101,10 @@ impl Flight {
 /// A well-formed velocity command for a tick the hub will not open for a long time: the hub
 /// counts it in `ignored_cmds` if it ever arrives.
 const FUTURE_CMD: &str = r#"{"Cmd": {"tick": 1000000000, "kind": "Velocity", "x": -1.0, "y": 0.0, "yaw_rate": 0.0}}"#;
+/// An agent host's message with UAV 3's command of that tick and one for UAV 2.
+const FUTURE_HOST_CMDS: &str = r#"{"Cmds": [
+    {"id": 3, "cmd": {"tick": 1000000000, "kind": "Velocity", "x": -1.0, "y": 0.0, "yaw_rate": 0.0}},
+    {"id": 2, "cmd": {"tick": 1000000000, "kind": "Hover", "x": 0.0, "y": 0.0, "yaw_rate": 0.0}}]}"#;
 
 #[test]
 fn each_role_touches_only_what_is_its_own_with_rust_clients() {
@@ -167,6 +171,10 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     f.put_as("uav3", "uav/2/cmd", &["--hex", "05 02"]);
     f.put_as("uav3", "uav/2/cmd", &["--json", FUTURE_CMD]);
     f.put_as("uav3", "uav/3/cmd", &["--json", FUTURE_CMD]);
+    // Commands in one message on a host key: refused on a key that names another UAV; on its own
+    // host key it reaches the hub, which takes only the UAVs the key names (UAV 2's is ignored).
+    f.put_as("uav3", "host/2-3/cmd", &["--json", FUTURE_HOST_CMDS]);
+    f.put_as("uav3", "host/3/cmd", &["--json", FUTURE_HOST_CMDS]);
     // An external controller, the ROS 2 bridge and a ROS machine read none of the run's data
     // keys but their own, and none of them may command a UAV through the hub's key.
     assert_eq!(f.tap_as("ext3", "clock", &["--duration", "3"]).lines().count(), 0, "ext3 reads only its view");
@@ -198,7 +206,10 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
 
     let log = f.finish();
     assert!(log.contains("malformed_cmds=0"), "no garbage reached the hub: {log}");
-    assert!(log.contains("ignored_cmds=1"), "only UAV 3's command on its own key reached the hub: {log}");
+    assert!(
+        log.contains("ignored_cmds=3"),
+        "only UAV 3's command on its own key and its host message on its own host key reached the hub: {log}"
+    );
     assert_eq!(log.matches("netem timeline added").count(), 1, "the operator's freeze only: {log}");
 }
 

@@ -221,6 +221,10 @@ fn key_fns() -> Vec<(&'static str, KeyFn)> {
         ("alive_ext_any", Wildcard(|k: &Keys, _| k.alive_ext_any())),
         ("host_sense", Key(|k: &Keys, id| k.host_sense(&[id, swarm_types::UavId::new(id.get() + 1)]))),
         ("host_sense_any", Wildcard(|k: &Keys, _| k.host_sense_any())),
+        ("host_cmd", Key(|k: &Keys, id| k.host_cmd(&[id, swarm_types::UavId::new(id.get() + 1)]))),
+        ("host_cmd_any", Wildcard(|k: &Keys, _| k.host_cmd_any())),
+        ("host_state", Key(|k: &Keys, id| k.host_state(&[id, swarm_types::UavId::new(id.get() + 1)]))),
+        ("host_state_any", Wildcard(|k: &Keys, _| k.host_state_any())),
         ("alive_host", Key(|k: &Keys, id| k.alive_host(&[id, swarm_types::UavId::new(id.get() + 1)]))),
         ("alive_host_any", Wildcard(|k: &Keys, _| k.alive_host_any())),
     ]

@@ -25,12 +25,14 @@
 //!   early shares, the netem link seam and its inbox, with no IO.
 //! - `onboard`: [`Onboard`], an agent and its admission stepped by hand, with no IO: what the
 //!   node decides per hub message, for a whole swarm in one process (`swarm floor`).
+//! - `outbox`: which steps an agent host's one command message and one state message of a
+//!   lockstep tick wait for, and when they are complete, with no IO.
 //! - `net`: everything that touches Zenoh, and only it: one agent's node (sensor and radio
 //!   subscriptions, listening to the shares of its radio set, liveliness; entry point [`run`]),
 //!   the agent host ([`run_host`]), and the session's share feed (one subscription per sender
 //!   its agents listen to).
 //!
-//! Dependencies run one way: net → admission → agent → control → planning → geometry, agent →
+//! Dependencies run one way: net → outbox, net → admission → agent → control → planning → geometry, agent →
 //! localization → sensing, agent → perception, onboard → admission; the stages reach one another's types only below
 //! themselves, in `world_model` and `geometry`, which import nothing of the crate, never sideways;
 //! nothing below points back up to the agent or the node. Architecture invariant: an
@@ -46,6 +48,7 @@ mod geometry;
 mod localization;
 mod net;
 mod onboard;
+mod outbox;
 mod perception;
 mod planning;
 mod sensing;

@@ -120,7 +120,7 @@ async fn foxglove_server(
 pub struct Live {
     /// Held: the subscriptions live as long as their session.
     _session: zenoh::Session,
-    subs: [Ring; 5],
+    subs: [Ring; 6],
     shown: Shown,
     page_port: u16,
     _foxglove: foxglove::WebSocketServerHandle,
@@ -151,6 +151,7 @@ impl Live {
         let subs = [
             ring(&session, keys.truth_all()).await?,
             ring(&session, keys.state_any()).await?,
+            ring(&session, keys.host_state_any()).await?,
             ring(&session, keys.sense_any()).await?,
             ring(&session, keys.host_sense_any()).await?,
             ring(&session, keys.netem_rules()).await?,
@@ -190,15 +191,11 @@ impl Live {
         let mut world = tokio::time::interval(WORLD_EVERY);
         let mut shown = None;
         loop {
-            let [truth, states, alone, hosts, rules] = &self.subs;
+            let [truth, states, host_states, alone, hosts, rules] = &self.subs;
             tokio::select! {
                 Ok(s) = truth.recv_async() => self.shown.truth(&plumbing::payload(&s)),
-                Ok(s) = states.recv_async() => {
-                    if let Ok(Msg::State(st)) = plumbing::decode(&s) {
-                        self.shown.scene.on_state(&st);
-                        self.shown.board.on_state(*st);
-                    }
-                }
+                Ok(s) = states.recv_async() => self.shown.stated(&s),
+                Ok(s) = host_states.recv_async() => self.shown.stated(&s),
                 Ok(s) = alone.recv_async() => self.shown.sensed(&s),
                 Ok(s) = hosts.recv_async() => self.shown.sensed(&s),
                 Ok(s) = rules.recv_async() => {
@@ -222,6 +219,14 @@ impl Live {
 }
 
 impl Shown {
+    /// The agent states of a sample, one UAV's or an agent host's.
+    fn stated(&mut self, s: &zenoh::sample::Sample) {
+        for (_, st) in plumbing::agent_states(&self.keys, s) {
+            self.scene.on_state(&st);
+            self.board.on_state(*st);
+        }
+    }
+
     /// The sensor frames of a sample, one UAV's or an agent host's.
     fn sensed(&mut self, s: &zenoh::sample::Sample) {
         for (id, f) in plumbing::sense_frames(&self.keys, s) {

@@ -9,11 +9,12 @@
 //! - one UAV's: `uav/{id}/sense` (its sensor frame, hub -> agent), `uav/{id}/cmd`
 //!   (agent -> hub), `uav/{id}/share/{pose,obstacles}` (agent -> neighbours), `uav/{id}/state`;
 //! - an agent host's: `host/{ids}/sense` (the sensor frames of its UAVs `ids`, `1-4,7`, in one
-//!   message a tick, hub -> host);
+//!   message a tick, hub -> host), `host/{ids}/cmd` and `host/{ids}/state` (their commands and
+//!   states, in one message each a lockstep tick, host -> hub and recorder);
 //! - ground truth for the recorder: `truth/world`, `truth/step`;
 //! - liveliness tokens: `alive/hub`, `alive/uav/{id}`, `alive/host/{ids}`, `alive/recorder`;
 //! - wildcards for subscribers: `uav/*/sense`, `uav/*/cmd`, `uav/*/state`, `truth/**`,
-//!   `alive/uav/*`, `host/*/sense`, `alive/host/*`.
+//!   `alive/uav/*`, `host/*/sense`, `host/*/cmd`, `host/*/state`, `alive/host/*`.
 //!
 //! Run ids are checked ([`check_component`]), and [`Keys::uav_id_of`] reads a UAV id back from a
 //! key of this run, [`Keys::host_ids_of`] a host's UAVs.
@@ -76,6 +77,24 @@ impl Keys {
     /// `swarm/{run}/host/*/sense`: every agent host's sensor frames.
     pub fn host_sense_any(&self) -> String {
         format!("{}/host/*/sense", self.prefix)
+    }
+    /// `swarm/{run}/host/{ids}/cmd`: the commands of an agent host's UAVs `ids` (ascending), in
+    /// one message a lockstep tick.
+    pub fn host_cmd(&self, ids: &[UavId]) -> String {
+        format!("{}/host/{}/cmd", self.prefix, swarm_types::ids_text(ids))
+    }
+    /// `swarm/{run}/host/*/cmd`: every agent host's commands.
+    pub fn host_cmd_any(&self) -> String {
+        format!("{}/host/*/cmd", self.prefix)
+    }
+    /// `swarm/{run}/host/{ids}/state`: the states of an agent host's UAVs `ids` (ascending), in
+    /// one message a lockstep tick.
+    pub fn host_state(&self, ids: &[UavId]) -> String {
+        format!("{}/host/{}/state", self.prefix, swarm_types::ids_text(ids))
+    }
+    /// `swarm/{run}/host/*/state`: every agent host's states.
+    pub fn host_state_any(&self) -> String {
+        format!("{}/host/*/state", self.prefix)
     }
     /// `swarm/{run}/uav/{id}/cmd`
     pub fn cmd(&self, id: UavId) -> String {
@@ -210,14 +229,14 @@ impl Keys {
         }
     }
 
-    /// The UAVs of an agent host's key of this run (`swarm/{run}/host/{ids}/sense` or
-    /// `swarm/{run}/alive/host/{ids}`), ascending; `None` for other keys and for a list that
+    /// The UAVs of an agent host's key of this run (`swarm/{run}/host/{ids}/{sense,cmd,state}`
+    /// or `swarm/{run}/alive/host/{ids}`), ascending; `None` for other keys and for a list that
     /// is not the canonical `1-4,7` (a repeat, a range going down, not ascending), which no host
     /// writes.
     pub fn host_ids_of(&self, key: &str) -> Option<Vec<UavId>> {
         let rest = key.strip_prefix(self.prefix.as_str())?.strip_prefix('/')?;
         let text = match rest.split('/').collect::<Vec<_>>().as_slice() {
-            ["host", ids, "sense"] | ["alive", "host", ids] => *ids,
+            ["host", ids, "sense" | "cmd" | "state"] | ["alive", "host", ids] => *ids,
             _ => return None,
         };
         let ids = swarm_types::parse_ids(text).ok()?;
@@ -265,6 +284,10 @@ mod tests {
         assert_eq!(k.alive_host(&ids), "swarm/r/alive/host/1-4,7");
         assert_eq!(k.host_ids_of(&k.host_sense(&ids)), Some(ids.clone()));
         assert_eq!(k.host_ids_of(&k.alive_host(&ids)), Some(ids.clone()));
+        assert_eq!(k.host_cmd(&ids), "swarm/r/host/1-4,7/cmd");
+        assert_eq!(k.host_ids_of(&k.host_cmd(&ids)), Some(ids.clone()));
+        assert_eq!(k.host_ids_of(&k.host_state(&ids)), Some(ids.clone()));
+        assert_eq!(k.host_ids_of("swarm/r/host/1-4,7/share"), None, "no such host key");
         assert_eq!(k.host_ids_of("swarm/r/alive/host/4,1-3"), None, "not ascending");
         assert_eq!(k.host_ids_of("swarm/r/alive/host/1-2,2"), None, "a repeat");
         assert_eq!(k.host_ids_of(&k.sense(UavId::new(3))), None);

@@ -52,6 +52,13 @@ pub enum Msg {
     /// order (hub -> host): one put, route and wake-up a tick for the host instead of one per
     /// UAV. Each frame is the one [`Msg::Sense`] would carry.
     Senses(Vec<UavSense>),
+    /// `.../host/{ids}/cmd`: the commands of one lockstep tick of an agent host's UAVs, in the
+    /// order they were given (host -> hub): one put, route and wake-up of the hub a tick for
+    /// the host instead of one per UAV. Each is the command [`Msg::Cmd`] would carry.
+    Cmds(Vec<UavCmd>),
+    /// `.../host/{ids}/state`: the states of one lockstep tick of an agent host's UAVs (host ->
+    /// recorder, tools). Each is the state [`Msg::State`] would carry; it names its UAV.
+    States(Vec<AgentState>),
 }
 
 impl Msg {
@@ -90,6 +97,8 @@ impl Msg {
             Msg::Uvdar(_) => "uvdar",
             Msg::Sense(_) => "sense",
             Msg::Senses(_) => "senses",
+            Msg::Cmds(_) => "cmds",
+            Msg::States(_) => "states",
         }
     }
 
@@ -135,6 +144,15 @@ pub struct UavSense {
     pub id: UavId,
     /// Its frame of the tick.
     pub frame: SenseFrame,
+}
+
+/// One UAV's command in an agent host's [`Msg::Cmds`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct UavCmd {
+    /// The UAV it is for.
+    pub id: UavId,
+    /// Its command of the tick.
+    pub cmd: Cmd,
 }
 
 /// What a UAV's onboard relative sensing (UVDAR, seed 003) saw at one tick: each neighbour in
@@ -729,6 +747,8 @@ pub(crate) mod tests {
             Msg::Uvdar(_) => 12,
             Msg::Sense(_) => 13,
             Msg::Senses(_) => 14,
+            Msg::Cmds(_) => 15,
+            Msg::States(_) => 16,
         }
     }
 
@@ -858,7 +878,7 @@ pub(crate) mod tests {
                 Msg::Pose(PoseShare { from: UavId::new(3), tick: 5, t_s: 0.5, x: 1.0, y: -2.0, yaw: 0.5, vx: 0.25, vy: -0.125, hops: 0, arrival: 7 }),
                 "060305000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f000000000000c0bf0007",
             ),
-            (Msg::State(Box::new(state)), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a0b"),
+            (Msg::State(Box::new(state.clone())), "070207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a0b"),
             (
                 Msg::TruthWorld(TruthWorld {
                     trees: vec![[1.0, 2.0, 0.25]],
@@ -893,6 +913,14 @@ pub(crate) mod tests {
                 Msg::Senses(vec![UavSense { id: UavId::new(2), frame: sense_frame() }]),
                 "0e0102040201010004000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000001000000000000e03f00000000000000000104000000000000e03f000000000000f03f00000000000000c0000000000000e03f000000000000d03f00000000000000000004000000000000e03f000000000000003f00004041010000803f",
             ),
+            (
+                Msg::Cmds(vec![UavCmd {
+                    id: UavId::new(3),
+                    cmd: Cmd { tick: 2, kind: CmdKind::Velocity, x: 0.25, y: -0.5, yaw_rate: 0.0 },
+                }]),
+                "0f010302000000803e000000bf00000000",
+            ),
+            (Msg::States(vec![state]), "10010207000000000000e03fac02040101030000c03f000000c00000803e0000003e010000003f0000803f000000400000803e0000c03f01c801030405060708090a0b0c0d0e0f10111213141516171801020304050601010000003f0261310203ac0205060708090a0b"),
         ]
     }
 

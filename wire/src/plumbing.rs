@@ -75,6 +75,27 @@ pub fn sense_frames(keys: &Keys, sample: &Sample) -> Vec<(swarm_types::UavId, Bo
     }
 }
 
+/// The agent states a sample carries: one on `uav/{id}/state` (a [`Msg::State`](crate::Msg),
+/// named by its key), each of an agent host's UAVs on `host/{ids}/state` (a `Msg::States`; a
+/// state for a UAV the key does not name is left out). Nothing for a malformed payload or
+/// another key.
+pub fn agent_states(keys: &Keys, sample: &Sample) -> Vec<(swarm_types::UavId, Box<crate::AgentState>)> {
+    let key = sample.key_expr().as_str();
+    if let Some(id) = keys.uav_id_of(key) {
+        return match decode(sample) {
+            Ok(crate::Msg::State(st)) => vec![(id, st)],
+            _ => Vec::new(),
+        };
+    }
+    let Some(ids) = keys.host_ids_of(key) else { return Vec::new() };
+    match decode(sample) {
+        Ok(crate::Msg::States(states)) => {
+            states.into_iter().filter(|st| ids.binary_search(&st.id).is_ok()).map(|st| (st.id, Box::new(st))).collect()
+        }
+        _ => Vec::new(),
+    }
+}
+
 /// Subscribes to every UAV's sensor frames, sent alone (`uav/*/sense`) or to an agent host
 /// (`host/*/sense`), and sends `map(id, frame, sample)` into `tx` for each frame, in the order
 /// of the frames on the wire: what an observer of the sensors (the recorder's scene, the ROS 2
@@ -85,19 +106,44 @@ pub async fn subscribe_frames<T: Send + 'static>(
     tx: mpsc::UnboundedSender<T>,
     map: impl Fn(swarm_types::UavId, Box<crate::SenseFrame>, &Sample) -> Option<T> + Clone + Send + Sync + 'static,
 ) -> Result<[Subscription; 2], WireError> {
-    let frames = |key: String| {
+    subscribe_split(s, keys, [keys.sense_any(), keys.host_sense_any()], sense_frames, tx, map).await
+}
+
+/// Subscribes to every UAV's state, sent alone (`uav/*/state`) or by an agent host
+/// (`host/*/state`), and sends `map(id, state, sample)` into `tx` for each, in wire order.
+pub async fn subscribe_states<T: Send + 'static>(
+    s: &zenoh::Session,
+    keys: &Keys,
+    tx: mpsc::UnboundedSender<T>,
+    map: impl Fn(swarm_types::UavId, Box<crate::AgentState>, &Sample) -> Option<T> + Clone + Send + Sync + 'static,
+) -> Result<[Subscription; 2], WireError> {
+    subscribe_split(s, keys, [keys.state_any(), keys.host_state_any()], agent_states, tx, map).await
+}
+
+/// Subscribes to the two wildcards `keys_any` (a UAV's key and an agent host's), splits each
+/// sample into its UAVs' parts with `split`, and sends `map(id, part, sample)` into `tx`.
+async fn subscribe_split<U: 'static, T: Send + 'static>(
+    s: &zenoh::Session,
+    keys: &Keys,
+    keys_any: [String; 2],
+    split: fn(&Keys, &Sample) -> Vec<(swarm_types::UavId, U)>,
+    tx: mpsc::UnboundedSender<T>,
+    map: impl Fn(swarm_types::UavId, U, &Sample) -> Option<T> + Clone + Send + Sync + 'static,
+) -> Result<[Subscription; 2], WireError> {
+    let [alone, host] = keys_any;
+    let each = |key: String| {
         let (k, tx, map) = (keys.clone(), tx.clone(), map.clone());
         s.declare_subscriber(key).callback(move |sample| {
-            for (id, frame) in sense_frames(&k, &sample) {
-                if let Some(m) = map(id, frame, &sample) {
+            for (id, part) in split(&k, &sample) {
+                if let Some(m) = map(id, part, &sample) {
                     let _ = tx.send(m);
                 }
             }
         })
     };
-    let alone = frames(keys.sense_any()).await.map_err(WireError::zenoh)?;
-    let hosts = frames(keys.host_sense_any()).await.map_err(WireError::zenoh)?;
-    Ok([alone, hosts])
+    let alone = each(alone).await.map_err(WireError::zenoh)?;
+    let host = each(host).await.map_err(WireError::zenoh)?;
+    Ok([alone, host])
 }
 
 /// Subscribes to `key` and sends every raw payload into `tx`.

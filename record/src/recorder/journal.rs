@@ -32,7 +32,7 @@ const RUN_ID: &str = "run_id";
 pub enum Kind {
     /// `truth/**`: the world and the truth steps.
     Truth,
-    /// `uav/*/state`.
+    /// `uav/*/state` and `host/*/state`.
     State,
 }
 

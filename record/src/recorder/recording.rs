@@ -15,7 +15,7 @@ use std::time::Duration;
 use swarm_config::Scenario;
 use swarm_wire::plumbing::{self, Subscription};
 use swarm_wire::session::{self, Role};
-use swarm_wire::{Keys, Msg};
+use swarm_wire::{AgentState, Keys, Msg};
 use tokio::process::Child;
 use tokio::sync::{mpsc, watch};
 use tracing::warn;
@@ -35,7 +35,7 @@ pub struct Recording {
     truth: mpsc::UnboundedReceiver<Vec<u8>>,
     states: mpsc::UnboundedReceiver<Vec<u8>>,
     hub_alive: watch::Receiver<bool>,
-    _subs: [Subscription; 3],
+    _subs: [Subscription; 4],
     feed: Option<Feed>,
     scene: Option<Scene>,
     journal: bool,
@@ -164,19 +164,27 @@ impl<'a> Sink<'a> {
         }
     }
 
-    /// Takes one agent state payload (states of ids outside the scenario are dropped).
+    /// Takes one agent state payload: one UAV's, or an agent host's states of a tick (states of
+    /// ids outside the scenario are dropped).
     fn state(&mut self, b: &[u8]) -> Result<()> {
         self.journal(Kind::State, b)?;
-        if let Some(Msg::State(st)) = decode(b, &mut self.malformed) {
-            if st.id.within(self.sc.count()) {
-                self.files.write_state(&st)?;
-                if let Some(scene) = self.scene.as_mut() {
-                    scene.on_state(&st);
-                }
-                self.checks.on_state(&st);
-                self.m.on_state(*st);
-                self.files.write_scored(&self.m.take_scored())?;
+        match decode(b, &mut self.malformed) {
+            Some(Msg::State(st)) => self.fold_state(*st),
+            Some(Msg::States(states)) => states.into_iter().try_for_each(|st| self.fold_state(st)),
+            _ => Ok(()),
+        }
+    }
+
+    /// Folds one agent's state into the files, the scene, the checks and the metrics.
+    fn fold_state(&mut self, st: AgentState) -> Result<()> {
+        if st.id.within(self.sc.count()) {
+            self.files.write_state(&st)?;
+            if let Some(scene) = self.scene.as_mut() {
+                scene.on_state(&st);
             }
+            self.checks.on_state(&st);
+            self.m.on_state(st);
+            self.files.write_scored(&self.m.take_scored())?;
         }
         Ok(())
     }
@@ -191,7 +199,8 @@ impl Recording {
         let (ttx, truth) = mpsc::unbounded_channel();
         let (stx, states) = mpsc::unbounded_channel();
         let t_sub = plumbing::subscribe_payloads(&session, keys.truth_all(), ttx).await?;
-        let s_sub = plumbing::subscribe_payloads(&session, keys.state_any(), stx).await?;
+        let s_sub = plumbing::subscribe_payloads(&session, keys.state_any(), stx.clone()).await?;
+        let hs_sub = plumbing::subscribe_payloads(&session, keys.host_state_any(), stx).await?;
         let (hub_alive, h_sub) = plumbing::watch_token(&session, keys.alive_hub()).await?;
         let feed = if mcap { Some(Feed::subscribe(&session, &keys).await?) } else { None };
         // Subscribed: say so, for whoever starts agents by hand and wants the whole run recorded.
@@ -204,7 +213,7 @@ impl Recording {
             truth,
             states,
             hub_alive,
-            _subs: [t_sub, s_sub, h_sub],
+            _subs: [t_sub, s_sub, hs_sub, h_sub],
             feed,
             scene: None,
             journal: true,

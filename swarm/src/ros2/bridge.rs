@@ -397,21 +397,14 @@ async fn run_subscriptions(
 ) -> Result<Vec<Subscription>> {
     let [alone, hosts] =
         plumbing::subscribe_frames(s, keys, tx.clone(), |id, f, x| Some(Event::Sense(id, f, source_ns(x)))).await?;
-    let k = keys.clone();
-    let state = plumbing::subscribe(s, keys.state_any(), tx.clone(), move |x| {
-        let id = k.uav_id_of(x.key_expr().as_str())?;
-        match plumbing::decode(x) {
-            Ok(Msg::State(st)) => Some(Event::State(id, st, source_ns(x))),
-            _ => None,
-        }
-    })
-    .await?;
+    let [state, host_states] =
+        plumbing::subscribe_states(s, keys, tx.clone(), |id, st, x| Some(Event::State(id, st, source_ns(x)))).await?;
     let clock = plumbing::subscribe(s, keys.clock(), tx.clone(), |x| match plumbing::decode(x) {
         Ok(Msg::Clock(c)) => Some(Event::Clock(c, source_ns(x))),
         _ => None,
     })
     .await?;
-    Ok(vec![alone, hosts, state, clock])
+    Ok(vec![alone, hosts, state, host_states, clock])
 }
 
 /// When a sample was put, from its Zenoh timestamp (the hub's router stamps what it publishes,

@@ -365,7 +365,7 @@ impl SessionShared {
         let frames = match host {
             true => {
                 let traffic = feed.traffic().clone();
-                Some(Arc::new(super::frames::HostFrames::open(s, keys, ids, move |len| traffic.count(len)).await?))
+                Some(Arc::new(super::frames::HostFrames::open(s, keys, sc, ids, move |len| traffic.count(len)).await?))
             }
             false => None,
         };

@@ -241,12 +241,13 @@ async fn subscribe_declared<T: Send + 'static>(
 
 /// Subscribes the node's own sensor-frame (when `from_hub`) and netem-rule keys into `tx`, and
 /// watches the hub's liveliness token. Every sample's bytes are counted in the session's
-/// traffic and `own_bytes`.
+/// traffic and `own_bytes`. In an agent host, the host's messages wait for its steps when
+/// `awaited` (see [`super::frames`]).
 async fn declare_inputs(
     s: &zenoh::Session,
     keys: &Keys,
     shared: &SessionShared,
-    (id, from_hub): (UavId, bool),
+    (id, from_hub, awaited): (UavId, bool, bool),
     tx: &mpsc::UnboundedSender<Incoming>,
     own_bytes: &Arc<AtomicU64>,
 ) -> Result<(Inputs, watch::Receiver<bool>), AgentError> {
@@ -264,7 +265,7 @@ async fn declare_inputs(
         false => None,
     };
     let host_frames = match (&shared.frames, from_hub) {
-        (Some(frames), true) => Some(frames.register(id, tx.clone(), own_bytes.clone())),
+        (Some(frames), true) => Some(frames.register(id, tx.clone(), own_bytes.clone(), awaited)),
         _ => None,
     };
     // The rules in force, republished by the hub whenever `swarm netem` changes them; on the key
@@ -316,7 +317,10 @@ impl Node {
         }
         let (tx, rx) = mpsc::unbounded_channel();
         let own_bytes = Arc::new(AtomicU64::new(0));
-        let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, (id, hub), &tx, &own_bytes).await?;
+        // An external controller may keep its agent past the hub's tick timeout: such an agent's
+        // commands go alone, so the host's others never wait with it.
+        let awaited = !sc.controller.external.contains(&id);
+        let (inputs, hub_alive) = declare_inputs(&s, &keys, &shared, (id, hub, awaited), &tx, &own_bytes).await?;
         let publish = declare_outputs(&s, &keys, &shared, (id, hub), &sc).await?;
         let ros = match hub {
             true => None,
@@ -441,16 +445,22 @@ impl Node {
         self.take_shares();
         self.admission.admit_early();
         match msg {
-            Msg::Sense(wire) => match SensorFrame::from_wire(*wire, self.needs) {
-                Ok((radio, frame)) => {
-                    self.on_radio(radio.tick, &radio.in_range, &radio.loss)?;
-                    self.step(frame).await?;
+            Msg::Sense(wire) => {
+                let tick = wire.radio.tick;
+                match SensorFrame::from_wire(*wire, self.needs) {
+                    Ok((radio, frame)) => {
+                        self.on_radio(radio.tick, &radio.in_range, &radio.loss)?;
+                        self.step(frame).await?;
+                    }
+                    Err(why) => {
+                        self.admission.count_malformed();
+                        debug!("dropped a malformed sensor frame: {why}");
+                        if let Some(frames) = &self.shared.frames {
+                            frames.skip(self.id, tick).await?;
+                        }
+                    }
                 }
-                Err(why) => {
-                    self.admission.count_malformed();
-                    debug!("dropped a malformed sensor frame: {why}");
-                }
-            },
+            }
             Msg::NetemRules(json) => self.on_netem_rules(&json),
             other => trace!(kind = other.kind(), "ignored"),
         }
@@ -508,7 +518,9 @@ impl Node {
         Ok(())
     }
 
-    /// Publishes a step's share (through the link), command and state, in that order.
+    /// Publishes a step's share (through the link), command and state, in that order; in an
+    /// agent host, the command and state into the host's messages of the tick when they wait
+    /// for this step ([`super::frames`]).
     async fn publish_step(&mut self, out: StepOutput, t_s: f64) -> Result<(), AgentError> {
         if let Some(share) = out.share {
             let bytes = share.into_msg().encode()?;
@@ -519,12 +531,18 @@ impl Node {
                 }
             }
         }
-        self.command(&out.cmd, t_s).await?;
         let mut link = self.admission.report();
         let own = (self.arrived.0, self.arrived.1 + self.own_bytes.load(Ordering::Relaxed));
         link.traffic = self.shared.feed.traffic().snapshot(&self.shared.zid, own);
-        let state = out.report.into_state(link);
-        self.publish.state.put(Msg::State(Box::new(state)).encode()?).await?;
+        let state = Box::new(out.report.into_state(link));
+        let alone = match (&self.shared.frames, self.ros.is_none()) {
+            (Some(frames), true) => frames.offer(self.id, out.cmd, state).await?,
+            _ => Some((out.cmd, state)),
+        };
+        if let Some((cmd, state)) = alone {
+            self.command(&cmd, t_s).await?;
+            self.publish.state.put(Msg::State(state).encode()?).await?;
+        }
         Ok(())
     }
 }
