@@ -239,18 +239,27 @@ pub struct SessionRow {
 }
 
 /// The family of `key` (relative to `swarm/R/`): every chunk that is a UAV id, or a `*` in its
-/// place, becomes `{id}`.
+/// place, becomes `{id}`; an agent host's list of UAVs (`1-4,7`, or one id, or a `*`, after
+/// `host`) becomes `{ids}`.
 pub fn family(key: &str) -> String {
     let digits = |c: &str| !c.is_empty() && c.bytes().all(|b| b.is_ascii_digit());
     let id_list = |c: &str| {
         c.bytes().any(|b| b.is_ascii_digit()) && c.bytes().all(|b| b.is_ascii_digit() || b == b'-' || b == b',')
     };
-    key.split('/')
-        .map(|c| match c {
-            "*" => "{id}",
-            c if digits(c) => "{id}",
-            c if id_list(c) => "{ids}",
-            c => c,
+    let chunks: Vec<&str> = key.split('/').collect();
+    chunks
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| {
+            // The chunk after `host` names an agent host's UAVs, one or many, or any host's (`*`).
+            let host = i > 0 && chunks[i - 1] == "host";
+            match c {
+                _ if host && (c == "*" || id_list(c)) => "{ids}",
+                "*" => "{id}",
+                c if digits(c) => "{id}",
+                c if id_list(c) => "{ids}",
+                c => c,
+            }
         })
         .collect::<Vec<_>>()
         .join("/")
@@ -445,7 +454,9 @@ mod tests {
         assert_eq!(family("uav/*/share/pose"), "uav/{id}/share/pose");
         assert_eq!(family("alive/uav/3"), "alive/uav/{id}");
         assert_eq!(family("host/1-4,7/sense"), "host/{ids}/sense", "an agent host's UAVs");
-        assert_eq!(family("alive/host/12"), "alive/host/{id}");
+        assert_eq!(family("alive/host/12"), "alive/host/{ids}", "a host of one UAV");
+        assert_eq!(family("host/*/cmd"), "host/{ids}/cmd", "the hub's subscription to every host's");
+        assert_eq!(family("uav/*/cmd"), "uav/{id}/cmd");
         assert_eq!(family("truth/step"), "truth/step");
         assert_eq!(family("truth/**"), "truth/**");
     }

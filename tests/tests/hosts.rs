@@ -128,9 +128,10 @@ fn an_agent_host_gets_its_uavs_frames_in_one_message_only_it_may_read() {
     assert_eq!(tap_as("uavs1-4", "host/*/sense", &["--duration", "3"]), 0, "nor the host every host's");
 }
 
-/// [`FIVE`] in lockstep.
+/// [`FIVE`] in lockstep, long enough (3000 s of sim time) that `swarm keys` finds it flying.
 fn five_lockstep() -> String {
     FIVE.replace("mode = \"realtime\"\nrealtime_factor = 2.0\n", "mode = \"lockstep\"\n")
+        .replace("time_limit_s = 120.0", "time_limit_s = 3000.0")
 }
 
 /// The UAV ids of an agent host's message as `swarm tap` prints it (`Cmds` or `States`), in
@@ -144,7 +145,7 @@ fn ids_in(v: &serde_json::Value, variant: &str, id: &dyn Fn(&serde_json::Value) 
 /// In lockstep, a secured hub, UAVs 1-4 in a host logged in as `uavs1-4` and UAV 5 alone as
 /// `uav5`: the host puts its four commands of a tick as one `Cmds` message on `host/1-4/cmd` and
 /// their states as one `States` message on `host/1-4/state`, UAV 5 its own alone, and no
-/// command or state of 1-4 goes alone.
+/// command or state of 1-4 goes alone; `swarm keys` shows the host's families.
 #[test]
 fn in_lockstep_an_agent_host_puts_its_commands_and_states_in_one_message_each() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -206,6 +207,27 @@ fn in_lockstep_an_agent_host_puts_its_commands_and_states_in_one_message_each() 
             "{variant}: a message a tick each, {batched} from the host, {alone} from UAV 5"
         );
     }
+    // `swarm keys` shows the host's keys as families of their own, with the hub reading its
+    // commands (its subscription to every host's, `host/*/cmd`, in the same family).
+    let o = output_within(
+        Command::new(SWARM)
+            .args(["keys", "--run", &run, "--connect", &loc, "--json", "--window", "1"])
+            .args(login("observer")),
+        TOOL_LIMIT,
+    );
+    assert!(o.status.success(), "swarm keys: {}", String::from_utf8_lossy(&o.stderr));
+    let k: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    let family = |name: &str| k["families"].as_array().expect("families").iter().find(|r| r["family"] == name).cloned();
+    let cmds = family("host/{ids}/cmd").expect("the hosts' commands");
+    assert_eq!(
+        (&cmds["publishers"], &cmds["subscribers"]),
+        (&serde_json::json!(["uavs1-4"]), &serde_json::json!(["hub"])),
+        "{cmds}"
+    );
+    assert!(cmds["msgs_per_s"].as_f64().expect("a rate") > 5.0, "{cmds}");
+    let states = family("host/{ids}/state").expect("the hosts' states");
+    assert_eq!(states["publishers"], serde_json::json!(["uavs1-4"]), "{states}");
+    assert!(family("host/{id}/cmd").is_none(), "one family for a host's commands: {k}");
 }
 
 /// Sends `signal` (`STOP`, `CONT`, `KILL`) to a child.
