@@ -54,40 +54,60 @@ fn lockstep_trajectories_do_not_depend_on_agents_per_process() {
 /// Five UAVs in a row, in realtime at 2x for 120 s of sim time, so the taps below find it flying.
 const FIVE: &str = "name = \"five\"\n[swarm]\ncount = 5\nstart_positions = [[0.0, 0.0], [0.0, 2.0], [0.0, -2.0], [0.0, 4.0], [0.0, -4.0]]\ngoal = [100.0, 0.0]\n[time]\nmode = \"realtime\"\nrealtime_factor = 2.0\n[end]\ntime_limit_s = 120.0\n";
 
+/// A secured hub flying a scenario of five UAVs, with the logins of a host of UAVs 1-4
+/// (`uavs1-4`), of UAV 5 (`uav5`) and of an observer.
+struct HostAndOne {
+    dir: tempfile::TempDir,
+    run: String,
+    loc: String,
+    creds: Creds,
+    _hub: Proc,
+}
+
+impl HostAndOne {
+    /// Starts the hub on `scenario` (TOML text) for a run named after `name`.
+    fn start(name: &str, scenario: &str) -> HostAndOne {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let run = run_id(name);
+        let sc = dir.path().join("five.toml");
+        std::fs::write(&sc, scenario).expect("scenario");
+        let creds = Creds::make_with(dir.path(), 5, &["uavs1-4"]);
+        let (hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
+        HostAndOne { dir, run, loc, creds, _hub: hub }
+    }
+
+    /// `swarm tap` as the observer of the first `count` messages on `swarm/{run}/*/*/{leaf}`,
+    /// listening when this returns.
+    fn tap_every(&self, leaf: &str, count: usize) -> common::Listening {
+        let mut a = vec![format!("swarm/{}/*/*/{leaf}", self.run), "--connect".into(), self.loc.clone()];
+        a.extend(["--count".into(), count.to_string(), "--duration".into(), "60".into()]);
+        a.extend(self.creds.login("observer"));
+        tap_listening(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    }
+
+    /// The host of UAVs 1-4 and UAV 5's agent alone, each logged in as itself.
+    fn fly(&self) -> [Proc; 2] {
+        let agent = |flag: &str, ids: &str, user: &str| {
+            let mut a = vec!["agent".to_string(), "--run".into(), self.run.clone(), flag.into(), ids.into()];
+            a.extend(["--connect".into(), self.loc.clone()]);
+            a.extend(self.creds.login(user));
+            Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &self.dir.path().join(format!("{user}.log")))
+        };
+        [agent("--ids", "1-4", "uavs1-4"), agent("--id", "5", "uav5")]
+    }
+}
+
 /// A secured hub, UAVs 1-4 in a host logged in as `uavs1-4` and UAV 5 alone as `uav5`: the hub
 /// sends the host its four frames in one `Senses` message a tick on `host/1-4/sense`, each with
 /// its UAV's id, and UAV 5's alone, and no frame of 1-4 alone. Only the host's login may read its
 /// key, and not every host's.
 #[test]
 fn an_agent_host_gets_its_uavs_frames_in_one_message_only_it_may_read() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let run = run_id("hostframes");
-    let sc = dir.path().join("five.toml");
-    std::fs::write(&sc, FIVE).expect("scenario");
-    let creds = Creds::make_with(dir.path(), 5, &["uavs1-4"]);
-    let (_hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
-    let login = |user: &str| creds.login(user);
-    let frames = {
-        let mut a =
-            vec![format!("swarm/{run}/*/*/sense"), "--connect".into(), loc.clone(), "--count".into(), "12".into()];
-        a.extend(["--duration".into(), "60".into()]);
-        a.extend(login("observer"));
-        tap_listening(&a.iter().map(String::as_str).collect::<Vec<_>>())
-    };
-    let agent = |flag: &str, ids: &str, user: &str| {
-        let mut a = vec![
-            "agent".to_string(),
-            "--run".into(),
-            run.clone(),
-            flag.into(),
-            ids.into(),
-            "--connect".into(),
-            loc.clone(),
-        ];
-        a.extend(login(user));
-        Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join(format!("{user}.log")))
-    };
-    let _agents = [agent("--ids", "1-4", "uavs1-4"), agent("--id", "5", "uav5")];
+    let f = HostAndOne::start("hostframes", FIVE);
+    let (run, loc) = (&f.run, &f.loc);
+    let login = |user: &str| f.creds.login(user);
+    let frames = f.tap_every("sense", 12);
+    let _agents = f.fly();
     let lines: Vec<serde_json::Value> =
         frames.output().lines().map(|l| serde_json::from_str(l).expect("tap json")).collect();
     assert_eq!(lines.len(), 12, "{lines:?}");
@@ -134,10 +154,11 @@ fn five_lockstep() -> String {
         .replace("time_limit_s = 120.0", "time_limit_s = 3000.0")
 }
 
-/// The UAV ids of an agent host's message as `swarm tap` prints it (`Cmds` or `States`), in
-/// the order they came, sorted.
-fn ids_in(v: &serde_json::Value, variant: &str, id: &dyn Fn(&serde_json::Value) -> u64) -> Vec<u64> {
-    let mut ids: Vec<u64> = v["msg"][variant].as_array().expect("a list").iter().map(id).collect();
+/// The UAV ids of an agent host's message as `swarm tap` prints it (`Cmds` or `States`, each
+/// item naming its UAV), sorted.
+fn ids_in(v: &serde_json::Value, variant: &str) -> Vec<u64> {
+    let mut ids: Vec<u64> =
+        v["msg"][variant].as_array().expect("a list").iter().map(|x| x["id"].as_u64().expect("id")).collect();
     ids.sort_unstable();
     ids
 }
@@ -148,53 +169,20 @@ fn ids_in(v: &serde_json::Value, variant: &str, id: &dyn Fn(&serde_json::Value) 
 /// command or state of 1-4 goes alone; `swarm keys` shows the host's families.
 #[test]
 fn in_lockstep_an_agent_host_puts_its_commands_and_states_in_one_message_each() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let run = run_id("hostcmds");
-    let sc = dir.path().join("five.toml");
-    std::fs::write(&sc, five_lockstep()).expect("scenario");
-    let creds = Creds::make_with(dir.path(), 5, &["uavs1-4"]);
-    let (_hub, loc) = start_secure_hub(sc.to_str().expect("utf8"), &run, dir.path(), &creds);
-    let login = |user: &str| creds.login(user);
-    let watch = |what: &str| {
-        let mut a =
-            vec![format!("swarm/{run}/*/*/{what}"), "--connect".into(), loc.clone(), "--count".into(), "20".into()];
-        a.extend(["--duration".into(), "60".into()]);
-        a.extend(login("observer"));
-        tap_listening(&a.iter().map(String::as_str).collect::<Vec<_>>())
-    };
-    let (cmds, states) = (watch("cmd"), watch("state"));
-    let agent = |flag: &str, ids: &str, user: &str| {
-        let mut a = vec![
-            "agent".to_string(),
-            "--run".into(),
-            run.clone(),
-            flag.into(),
-            ids.into(),
-            "--connect".into(),
-            loc.clone(),
-        ];
-        a.extend(login(user));
-        Proc::start(&a.iter().map(String::as_str).collect::<Vec<_>>(), &dir.path().join(format!("{user}.log")))
-    };
-    let _agents = [agent("--ids", "1-4", "uavs1-4"), agent("--id", "5", "uav5")];
-    for (tapped, variant, one, id) in [
-        (
-            cmds,
-            "Cmds",
-            "Cmd",
-            &(|c: &serde_json::Value| c["id"].as_u64().expect("id")) as &dyn Fn(&serde_json::Value) -> u64,
-        ),
-        (states, "States", "State", &|s: &serde_json::Value| s["id"].as_u64().expect("id")),
-    ] {
+    let f = HostAndOne::start("hostcmds", &five_lockstep());
+    let (run, loc) = (&f.run, &f.loc);
+    let login = |user: &str| f.creds.login(user);
+    let (cmds, states) = (f.tap_every("cmd", 20), f.tap_every("state", 20));
+    let _agents = f.fly();
+    for (tapped, leaf, variant, one) in [(cmds, "cmd", "Cmds", "Cmd"), (states, "state", "States", "State")] {
         let lines: Vec<serde_json::Value> =
             tapped.output().lines().map(|l| serde_json::from_str(l).expect("tap json")).collect();
         assert_eq!(lines.len(), 20, "{lines:?}");
         let (mut batched, mut alone) = (0, 0);
         for v in &lines {
             let key = v["key"].as_str().expect("key");
-            let host_key = format!("swarm/{run}/host/1-4/{}", if variant == "Cmds" { "cmd" } else { "state" });
-            if key == host_key {
-                assert_eq!(ids_in(v, variant, id), [1, 2, 3, 4], "the host's four, once each: {v}");
+            if key == format!("swarm/{run}/host/1-4/{leaf}") {
+                assert_eq!(ids_in(v, variant), [1, 2, 3, 4], "the host's four, once each: {v}");
                 batched += 1;
             } else {
                 assert!(key.starts_with(&format!("swarm/{run}/uav/5/")), "none of the host's UAVs alone: {v}");
@@ -211,7 +199,7 @@ fn in_lockstep_an_agent_host_puts_its_commands_and_states_in_one_message_each() 
     // commands (its subscription to every host's, `host/*/cmd`, in the same family).
     let o = output_within(
         Command::new(SWARM)
-            .args(["keys", "--run", &run, "--connect", &loc, "--json", "--window", "1"])
+            .args(["keys", "--run", run, "--connect", loc, "--json", "--window", "1"])
             .args(login("observer")),
         TOOL_LIMIT,
     );
