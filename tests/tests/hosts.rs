@@ -135,7 +135,7 @@ fn an_agent_host_gets_its_uavs_frames_in_one_message_only_it_may_read() {
     let tap_as = |user: &str, key: &str, args: &[&str]| {
         let o = output_within(
             Command::new(SWARM)
-                .args(["tap", &format!("swarm/{run}/{key}"), "--connect", &loc])
+                .args(["tap", &format!("swarm/{run}/{key}"), "--connect", loc])
                 .args(login(user))
                 .args(args),
             TOOL_LIMIT,

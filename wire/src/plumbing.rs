@@ -59,20 +59,16 @@ where
 /// each of an agent host's UAVs on `host/{ids}/sense` (a `Msg::Senses`; a frame for a UAV the
 /// key does not name is left out). Nothing for a malformed payload or another key.
 pub fn sense_frames(keys: &Keys, sample: &Sample) -> Vec<(swarm_types::UavId, Box<crate::SenseFrame>)> {
-    let key = sample.key_expr().as_str();
-    if let Some(id) = keys.uav_id_of(key) {
-        return match decode(sample) {
-            Ok(crate::Msg::Sense(f)) => vec![(id, f)],
-            _ => Vec::new(),
-        };
-    }
-    let Some(ids) = keys.host_ids_of(key) else { return Vec::new() };
-    match decode(sample) {
-        Ok(crate::Msg::Senses(frames)) => {
-            frames.into_iter().filter(|u| ids.binary_search(&u.id).is_ok()).map(|u| (u.id, Box::new(u.frame))).collect()
-        }
-        _ => Vec::new(),
-    }
+    split(
+        keys,
+        sample.key_expr().as_str(),
+        || decode(sample).ok(),
+        |m| match m {
+            crate::Msg::Sense(f) => Some(vec![(None, f)]),
+            crate::Msg::Senses(frames) => Some(frames.into_iter().map(|u| (Some(u.id), Box::new(u.frame))).collect()),
+            _ => None,
+        },
+    )
 }
 
 /// The agent states a sample carries: one on `uav/{id}/state` (a [`Msg::State`](crate::Msg),
@@ -80,20 +76,46 @@ pub fn sense_frames(keys: &Keys, sample: &Sample) -> Vec<(swarm_types::UavId, Bo
 /// state for a UAV the key does not name is left out). Nothing for a malformed payload or
 /// another key.
 pub fn agent_states(keys: &Keys, sample: &Sample) -> Vec<(swarm_types::UavId, Box<crate::AgentState>)> {
-    let key = sample.key_expr().as_str();
-    if let Some(id) = keys.uav_id_of(key) {
-        return match decode(sample) {
-            Ok(crate::Msg::State(st)) => vec![(id, st)],
-            _ => Vec::new(),
-        };
+    states_of(keys, sample.key_expr().as_str(), || decode(sample).ok())
+}
+
+/// [`agent_states`] of a message `msg` on `key`.
+fn states_of(
+    keys: &Keys,
+    key: &str,
+    msg: impl FnOnce() -> Option<crate::Msg>,
+) -> Vec<(swarm_types::UavId, Box<crate::AgentState>)> {
+    split(keys, key, msg, |m| match m {
+        crate::Msg::State(st) => Some(vec![(None, st)]),
+        crate::Msg::States(states) => Some(states.into_iter().map(|st| (Some(st.id), Box::new(st))).collect()),
+        _ => None,
+    })
+}
+
+/// The UAVs' parts of the message `msg` (decoded only when `key` is one of a UAV or an agent
+/// host of this run): `parts` takes it to its parts, each with the UAV it names (`None`: a
+/// message of one UAV, named by its key). A message of one UAV counts only on a UAV's key, a
+/// host's parts only on a host's key and only for the UAVs the key names.
+fn split<U>(
+    keys: &Keys,
+    key: &str,
+    msg: impl FnOnce() -> Option<crate::Msg>,
+    parts: impl FnOnce(crate::Msg) -> Option<Vec<(Option<swarm_types::UavId>, Box<U>)>>,
+) -> Vec<(swarm_types::UavId, Box<U>)> {
+    let alone = keys.uav_id_of(key);
+    let host = alone.is_none().then(|| keys.host_ids_of(key)).flatten();
+    if alone.is_none() && host.is_none() {
+        return Vec::new();
     }
-    let Some(ids) = keys.host_ids_of(key) else { return Vec::new() };
-    match decode(sample) {
-        Ok(crate::Msg::States(states)) => {
-            states.into_iter().filter(|st| ids.binary_search(&st.id).is_ok()).map(|st| (st.id, Box::new(st))).collect()
-        }
-        _ => Vec::new(),
-    }
+    let Some(parts) = msg().and_then(parts) else { return Vec::new() };
+    parts
+        .into_iter()
+        .filter_map(|(id, part)| match (id, alone, &host) {
+            (None, Some(alone), _) => Some((alone, part)),
+            (Some(id), None, Some(ids)) if ids.binary_search(&id).is_ok() => Some((id, part)),
+            _ => None,
+        })
+        .collect()
 }
 
 /// Subscribes to every UAV's sensor frames, sent alone (`uav/*/sense`) or to an agent host
@@ -213,4 +235,39 @@ pub async fn put_once(s: &zenoh::Session, key: &str, bytes: Vec<u8>, cc: Congest
         .priority(Priority::Data)
         .await
         .map_err(WireError::zenoh)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{AgentState, Msg};
+    use swarm_types::UavId;
+
+    fn state(id: u32) -> AgentState {
+        AgentState { id: UavId::new(id), tick: 3, ..AgentState::default() }
+    }
+
+    fn ids(got: &[(UavId, Box<AgentState>)]) -> Vec<(u32, u32)> {
+        got.iter().map(|(id, st)| (id.get(), st.id.get())).collect()
+    }
+
+    #[test]
+    fn a_hosts_states_count_for_the_uavs_its_key_names_and_one_uavs_for_its_key() {
+        let k = Keys::new("r").expect("valid");
+        let host = k.host_state(&[1, 2, 3, 4].map(UavId::new));
+        let many = || Some(Msg::States(vec![state(2), state(9), state(1)]));
+        assert_eq!(ids(&states_of(&k, &host, many)), [(2, 2), (1, 1)], "UAV 9 is not the host's");
+        // One UAV's state is named by its key, not by what it says.
+        assert_eq!(ids(&states_of(&k, &k.state(UavId::new(5)), || Some(Msg::State(Box::new(state(6)))))), [(5, 6)]);
+        assert!(states_of(&k, &k.state(UavId::new(5)), many).is_empty(), "a host's message on a UAV's key");
+        assert!(states_of(&k, &host, || Some(Msg::State(Box::new(state(1))))).is_empty(), "one UAV's on a host's key");
+        assert!(states_of(&k, &host, || None).is_empty(), "malformed");
+        let mut decoded = false;
+        assert!(states_of(&k, "swarm/r/truth/step", || {
+            decoded = true;
+            many()
+        })
+        .is_empty());
+        assert!(!decoded, "another key's payload is not decoded");
+    }
 }
