@@ -11,8 +11,9 @@
 //!   view out as JSON, the command back, bounded by the tick's wait.
 //! - `ros`: the sensors and commands of an agent on ROS 2 topics (DDS or rmw_zenoh) instead of
 //!   the hub's keys ([`Sensors`]), the way the same stack runs on a vehicle.
-//! - `frames`: an agent host's sensor frames in one message a tick, handed to each agent's
-//!   channel.
+//! - `frames`: an agent host's one message a tick each way: the sensor frames, handed to each
+//!   agent's channel, and in lockstep its agents' commands and states, put when
+//!   [`crate::outbox`] says a tick is complete.
 //! - `feed`: what the agents of one session share: one subscription per sender any of them
 //!   listens to (the union of their radio sets), each share decoded once and posted to the
 //!   listeners' mailboxes, and the session's traffic counts.
