@@ -27,8 +27,6 @@ use swarm_wire::{AgentState, Cmd, UavCmd};
 /// The commands and states of one tick of a host's agents, to put as one message each.
 #[derive(Debug, Default, PartialEq)]
 pub(crate) struct Batch {
-    /// The tick.
-    pub(crate) tick: u64,
     /// Each agent's command, in the order offered.
     pub(crate) cmds: Vec<UavCmd>,
     /// Each agent's state, in the same order.
@@ -61,11 +59,7 @@ impl Outbox {
     /// The frames of `tick` came to the agents `ids` in one message: their steps of `tick` are
     /// awaited.
     pub(crate) fn expect(&mut self, tick: u64, ids: impl IntoIterator<Item = UavId>) {
-        let open = self
-            .open
-            .entry(tick)
-            .or_insert_with(|| Open { batch: Batch { tick, ..Batch::default() }, ..Open::default() });
-        open.waiting.extend(ids);
+        self.open.entry(tick).or_default().waiting.extend(ids);
     }
 
     /// Agent `id`'s command and state of tick `cmd.tick`.
@@ -98,8 +92,12 @@ impl Outbox {
         ticks.into_iter().flat_map(|tick| self.skip(id, tick)).collect()
     }
 
-    /// The ticks before `tick`, as they are.
+    /// The ticks before `tick`, as they are (none, but after a tick timeout: nothing is moved
+    /// then, as this runs for every step).
     fn take_before(&mut self, tick: u64) -> Vec<Batch> {
+        if self.open.first_key_value().is_none_or(|(&first, _)| first >= tick) {
+            return Vec::new();
+        }
         let later = self.open.split_off(&tick);
         let earlier = std::mem::replace(&mut self.open, later);
         earlier.into_values().map(|o| o.batch).filter(|b| !b.cmds.is_empty()).collect()
@@ -137,6 +135,11 @@ mod tests {
         b.cmds.iter().map(|c| c.id.get()).collect()
     }
 
+    /// A batch's tick, as its commands answer it.
+    fn tick_of(b: &Batch) -> u64 {
+        b.cmds[0].cmd.tick
+    }
+
     #[test]
     fn a_tick_goes_out_once_its_last_expected_agent_has_stepped() {
         let mut o = Outbox::default();
@@ -145,7 +148,7 @@ mod tests {
         assert_eq!(offer(&mut o, 1, 4), Offered::Taken(vec![]));
         let Offered::Taken(done) = offer(&mut o, 3, 4) else { panic!("expected") };
         assert_eq!(done.len(), 1);
-        assert_eq!((done[0].tick, ids_of(&done[0])), (4, vec![2, 1, 3]), "in the order offered");
+        assert_eq!(ids_of(&done[0]), vec![2, 1, 3], "in the order offered");
         let states: Vec<u32> = done[0].states.iter().map(|s| s.id.get()).collect();
         assert_eq!(states, vec![2, 1, 3]);
         assert!(o.open.is_empty());
@@ -184,9 +187,9 @@ mod tests {
         // The hub timed out waiting for UAV 2 and sent tick 4.
         o.expect(4, [id(1), id(2)]);
         let Offered::Taken(done) = offer(&mut o, 1, 4) else { panic!("expected") };
-        assert_eq!(done.iter().map(|b| (b.tick, ids_of(b))).collect::<Vec<_>>(), vec![(3, vec![1])]);
+        assert_eq!(done.iter().map(|b| (tick_of(b), ids_of(b))).collect::<Vec<_>>(), vec![(3, vec![1])]);
         assert!(matches!(offer(&mut o, 2, 3), Offered::Alone(..)), "the late step goes alone");
         let Offered::Taken(done) = offer(&mut o, 2, 4) else { panic!("expected") };
-        assert_eq!(done.iter().map(|b| (b.tick, ids_of(b))).collect::<Vec<_>>(), vec![(4, vec![1, 2])]);
+        assert_eq!(done.iter().map(|b| (tick_of(b), ids_of(b))).collect::<Vec<_>>(), vec![(4, vec![1, 2])]);
     }
 }
