@@ -85,6 +85,14 @@ impl HostAndOne {
         tap_listening(&a.iter().map(String::as_str).collect::<Vec<_>>())
     }
 
+    /// The `count` messages a [`HostAndOne::tap_every`] printed, as JSON.
+    fn tapped(tap: common::Listening, count: usize) -> Vec<serde_json::Value> {
+        let lines: Vec<serde_json::Value> =
+            tap.output().lines().map(|l| serde_json::from_str(l).expect("tap json")).collect();
+        assert_eq!(lines.len(), count, "{lines:?}");
+        lines
+    }
+
     /// The host of UAVs 1-4 and UAV 5's agent alone, each logged in as itself.
     fn fly(&self) -> [Proc; 2] {
         let agent = |flag: &str, ids: &str, user: &str| {
@@ -108,9 +116,7 @@ fn an_agent_host_gets_its_uavs_frames_in_one_message_only_it_may_read() {
     let login = |user: &str| f.creds.login(user);
     let frames = f.tap_every("sense", 12);
     let _agents = f.fly();
-    let lines: Vec<serde_json::Value> =
-        frames.output().lines().map(|l| serde_json::from_str(l).expect("tap json")).collect();
-    assert_eq!(lines.len(), 12, "{lines:?}");
+    let lines = HostAndOne::tapped(frames, 12);
     let (mut batched, mut alone) = (0, 0);
     for v in &lines {
         let key = v["key"].as_str().expect("key");
@@ -175,9 +181,7 @@ fn in_lockstep_an_agent_host_puts_its_commands_and_states_in_one_message_each() 
     let (cmds, states) = (f.tap_every("cmd", 20), f.tap_every("state", 20));
     let _agents = f.fly();
     for (tapped, leaf, variant, one) in [(cmds, "cmd", "Cmds", "Cmd"), (states, "state", "States", "State")] {
-        let lines: Vec<serde_json::Value> =
-            tapped.output().lines().map(|l| serde_json::from_str(l).expect("tap json")).collect();
-        assert_eq!(lines.len(), 20, "{lines:?}");
+        let lines = HostAndOne::tapped(tapped, 20);
         let (mut batched, mut alone) = (0, 0);
         for v in &lines {
             let key = v["key"].as_str().expect("key");
