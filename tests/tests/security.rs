@@ -89,13 +89,27 @@ impl Flight {
     }
 
     /// Waits for the run's end and returns the hub's log.
-    fn finish(mut self) -> String {
+    fn finish(self) -> String {
+        self.finish_recorded().hub_log
+    }
+
+    /// Waits for the run's end and returns the hub's and the recorder's logs and the recorder's
+    /// `agent_states.csv`.
+    fn finish_recorded(mut self) -> Ended {
         assert!(self.rec.wait_for(Duration::from_secs(180)).expect("the run ends").success(), "recorder");
         assert!(self.hub.wait_for(Duration::from_secs(30)).expect("hub exits").success(), "hub");
-        let log = std::fs::read_to_string(self.dir.path().join("hub.log")).expect("hub log");
-        assert!(log.contains("hub done"), "{log}");
-        log
+        let read = |name: &str| std::fs::read_to_string(self.dir.path().join(name)).expect(name);
+        let hub_log = read("hub.log");
+        assert!(hub_log.contains("hub done"), "{hub_log}");
+        Ended { hub_log, rec_log: read("rec.log"), agent_states: read("rec/agent_states.csv") }
     }
+}
+
+/// What a [`Flight`] leaves.
+struct Ended {
+    hub_log: String,
+    rec_log: String,
+    agent_states: String,
 }
 
 /// A well-formed velocity command for a tick the hub will not open for a long time: the hub
@@ -175,6 +189,15 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     // host key it reaches the hub, which takes only the UAVs the key names (UAV 2's is ignored).
     f.put_as("uav3", "host/2-3/cmd", &["--json", FUTURE_HOST_CMDS]);
     f.put_as("uav3", "host/3/cmd", &["--json", FUTURE_HOST_CMDS]);
+    // A state counts only on a key that names its UAV: UAV 2's state, put again by UAV 3 on its
+    // own key and in a host message on its own host key, reaches the recorder, which counts
+    // both and records neither (the run's own copy of that state is recorded once).
+    let tapped = f.tap_as("observer", "uav/2/state", &["--count", "1", "--duration", "30"]);
+    let tapped: serde_json::Value = serde_json::from_str(tapped.trim()).expect("a state as JSON");
+    let state = &tapped["msg"]["State"];
+    let tick = state["tick"].as_u64().expect("a state's tick");
+    f.put_as("uav3", "uav/3/state", &["--json", &serde_json::json!({ "State": state }).to_string()]);
+    f.put_as("uav3", "host/3/state", &["--json", &serde_json::json!({ "States": [state] }).to_string()]);
     // An external controller, the ROS 2 bridge and a ROS machine read none of the run's data
     // keys but their own, and none of them may command a UAV through the hub's key.
     assert_eq!(f.tap_as("ext3", "clock", &["--duration", "3"]).lines().count(), 0, "ext3 reads only its view");
@@ -204,13 +227,27 @@ fn each_role_touches_only_what_is_its_own_with_rust_clients() {
     let o = f.as_user(Some("operator"), "netem", &["--run", &f.run, "freeze", "1"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 
-    let log = f.finish();
+    let ended = f.finish_recorded();
+    let log = ended.hub_log;
     assert!(log.contains("malformed_cmds=0"), "no garbage reached the hub: {log}");
     assert!(
         log.contains("ignored_cmds=3"),
         "only UAV 3's command on its own key and its host message on its own host key reached the hub: {log}"
     );
     assert_eq!(log.matches("netem timeline added").count(), 1, "the operator's freeze only: {log}");
+    assert!(
+        ended.rec_log.contains("recorder dropped states whose key does not name their UAV unnamed=2"),
+        "both of UAV 3's copies of UAV 2's state were dropped: {}",
+        ended.rec_log
+    );
+    let recorded = |id: &str| {
+        ended
+            .agent_states
+            .lines()
+            .filter(|l| l.split(',').nth(2) == Some(id) && l.starts_with(&format!("{tick},")))
+            .count()
+    };
+    assert_eq!(recorded("2"), 1, "UAV 2's state of tick {tick}, its own copy only");
 }
 
 #[test]

@@ -92,30 +92,50 @@ fn states_of(
     })
 }
 
+/// Whom a sample's key lets it speak for: one UAV (`uav/{id}/…`) or an agent host's UAVs
+/// (`host/{ids}/…`). The access rules hold a login to its own UAVs' keys, so a reader that
+/// takes a message's parts only for the UAVs its key names takes from each login only its own.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Speaker {
+    /// A UAV's key: a message of one UAV, which its key names.
+    Uav(swarm_types::UavId),
+    /// An agent host's key: the parts of a host's message, for these UAVs (ascending).
+    Host(Vec<swarm_types::UavId>),
+}
+
+impl Speaker {
+    /// Whom `key` speaks for; `None` for a key of neither a UAV nor an agent host of this run.
+    pub fn of(keys: &Keys, key: &str) -> Option<Speaker> {
+        match keys.uav_id_of(key) {
+            Some(id) => Some(Speaker::Uav(id)),
+            None => keys.host_ids_of(key).map(Speaker::Host),
+        }
+    }
+
+    /// The UAV a part of a message on this key is then: `part` is the UAV the part names
+    /// (`None`: a message of one UAV, named by its key). A message of one UAV counts only on a
+    /// UAV's key, a host's parts only on a host's key and only for the UAVs the key names.
+    pub fn names(&self, part: Option<swarm_types::UavId>) -> Option<swarm_types::UavId> {
+        match (self, part) {
+            (Speaker::Uav(id), None) => Some(*id),
+            (Speaker::Host(ids), Some(id)) => ids.binary_search(&id).is_ok().then_some(id),
+            _ => None,
+        }
+    }
+}
+
 /// The UAVs' parts of the message `msg` (decoded only when `key` is one of a UAV or an agent
 /// host of this run): `parts` takes it to its parts, each with the UAV it names (`None`: a
-/// message of one UAV, named by its key). A message of one UAV counts only on a UAV's key, a
-/// host's parts only on a host's key and only for the UAVs the key names.
+/// message of one UAV, named by its key), kept where [`Speaker::names`] says so.
 fn split<U>(
     keys: &Keys,
     key: &str,
     msg: impl FnOnce() -> Option<crate::Msg>,
     parts: impl FnOnce(crate::Msg) -> Option<Vec<(Option<swarm_types::UavId>, Box<U>)>>,
 ) -> Vec<(swarm_types::UavId, Box<U>)> {
-    let alone = keys.uav_id_of(key);
-    let host = alone.is_none().then(|| keys.host_ids_of(key)).flatten();
-    if alone.is_none() && host.is_none() {
-        return Vec::new();
-    }
+    let Some(speaker) = Speaker::of(keys, key) else { return Vec::new() };
     let Some(parts) = msg().and_then(parts) else { return Vec::new() };
-    parts
-        .into_iter()
-        .filter_map(|(id, part)| match (id, alone, &host) {
-            (None, Some(alone), _) => Some((alone, part)),
-            (Some(id), None, Some(ids)) if ids.binary_search(&id).is_ok() => Some((id, part)),
-            _ => None,
-        })
-        .collect()
+    parts.into_iter().filter_map(|(id, part)| Some((speaker.names(id)?, part))).collect()
 }
 
 /// Subscribes to every UAV's sensor frames, sent alone (`uav/*/sense`) or to an agent host
@@ -269,5 +289,20 @@ mod tests {
         })
         .is_empty());
         assert!(!decoded, "another key's payload is not decoded");
+    }
+
+    #[test]
+    fn a_key_speaks_for_the_uavs_it_names() {
+        let k = Keys::new("r").expect("valid");
+        let uav5 = Speaker::of(&k, &k.state(UavId::new(5))).expect("a UAV's key");
+        assert_eq!(uav5, Speaker::Uav(UavId::new(5)));
+        assert_eq!(uav5.names(None), Some(UavId::new(5)));
+        assert_eq!(uav5.names(Some(UavId::new(5))), None, "a host's part on a UAV's key");
+        let host = Speaker::of(&k, &k.host_state(&[1, 2, 4].map(UavId::new))).expect("a host's key");
+        assert_eq!(host.names(Some(UavId::new(4))), Some(UavId::new(4)));
+        assert_eq!(host.names(Some(UavId::new(3))), None, "not in the host's list");
+        assert_eq!(host.names(None), None, "one UAV's message on a host's key");
+        assert_eq!(Speaker::of(&k, "swarm/r/host/2-1/state"), None, "a list no host writes");
+        assert_eq!(Speaker::of(&k, "swarm/other/uav/5/state"), None, "another run");
     }
 }

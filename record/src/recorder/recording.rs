@@ -13,7 +13,7 @@ use indicatif::ProgressBar;
 use std::path::Path;
 use std::time::Duration;
 use swarm_config::Scenario;
-use swarm_wire::plumbing::{self, Subscription};
+use swarm_wire::plumbing::{self, Speaker, Subscription};
 use swarm_wire::session::{self, Role};
 use swarm_wire::{AgentState, Keys, Msg};
 use tokio::process::Child;
@@ -33,7 +33,7 @@ pub struct Recording {
     keys: Keys,
     run_id: String,
     truth: mpsc::UnboundedReceiver<Vec<u8>>,
-    states: mpsc::UnboundedReceiver<Vec<u8>>,
+    states: mpsc::UnboundedReceiver<(Origin, Vec<u8>)>,
     hub_alive: watch::Receiver<bool>,
     _subs: [Subscription; 4],
     feed: Option<Feed>,
@@ -47,12 +47,23 @@ pub struct Recording {
 /// data of the last such span (see `swarm recover`).
 pub const CHECKPOINT_S: f64 = 1.0;
 
+/// Where an agent state payload comes from.
+enum Origin {
+    /// The recorder's own journal, or a flight in its own process: states already taken.
+    Taken,
+    /// A sample on the wire, and whom its key lets it speak for (`None`: a key that names no
+    /// UAV of the run, such as a host's list not written the way hosts write it).
+    Wire(Option<Speaker>),
+}
+
 /// What the recorder writes as it goes.
 struct Sink<'a> {
     files: Files,
     m: Metrics,
     checks: Checker,
     malformed: u64,
+    /// States dropped because their key does not name their UAV.
+    unnamed: u64,
     sc: &'a Scenario,
     pb: &'a ProgressBar,
     scene: Option<Scene>,
@@ -75,6 +86,7 @@ impl<'a> Sink<'a> {
             m: Metrics::settling(sc),
             checks: Checker::new(sc),
             malformed: 0,
+            unnamed: 0,
             sc,
             pb,
             scene,
@@ -113,7 +125,7 @@ impl<'a> Sink<'a> {
     /// figures into `out`. `recovered`: folded again from a killed run's journal (see
     /// [`replay`]).
     fn finish(self, run_id: &str, out: &Path, recovered: bool) -> Result<Summary> {
-        let Sink { mut files, m, checks, malformed, scene, sc, .. } = self;
+        let Sink { mut files, m, checks, malformed, unnamed, scene, sc, .. } = self;
         files.flush()?;
         if let Some(mut scene) = scene {
             scene.finish()?;
@@ -126,6 +138,9 @@ impl<'a> Sink<'a> {
         write_outputs(out, &summary, &m)?;
         if malformed > 0 {
             warn!(malformed, "recorder dropped malformed messages");
+        }
+        if unnamed > 0 {
+            warn!(unnamed, "recorder dropped states whose key does not name their UAV");
         }
         Ok(summary)
     }
@@ -164,15 +179,37 @@ impl<'a> Sink<'a> {
         }
     }
 
-    /// Takes one agent state payload: one UAV's, or an agent host's states of a tick (states of
-    /// ids outside the scenario are dropped).
-    fn state(&mut self, b: &[u8]) -> Result<()> {
-        self.journal(Kind::State, b)?;
-        match decode(b, &mut self.malformed) {
-            Some(Msg::State(st)) => self.fold_state(*st),
-            Some(Msg::States(states)) => states.into_iter().try_for_each(|st| self.fold_state(st)),
-            _ => Ok(()),
+    /// Takes one agent state payload: one UAV's, or an agent host's states of a tick. From the
+    /// wire it keeps only the states of the UAVs their key names ([`Speaker::names`]), as the
+    /// access rules hold each login to its own UAVs' keys: a state whose id is not its key's is
+    /// counted and dropped, and the journal keeps only what was taken. States of ids outside
+    /// the scenario are dropped too.
+    fn state(&mut self, b: &[u8], origin: Origin) -> Result<()> {
+        let speaker = match origin {
+            Origin::Taken => None,
+            Origin::Wire(None) => {
+                self.unnamed += 1;
+                return Ok(());
+            }
+            Origin::Wire(Some(s)) => Some(s),
+        };
+        let (states, alone) = match decode(b, &mut self.malformed) {
+            Some(Msg::State(st)) => (vec![*st], true),
+            Some(Msg::States(states)) => (states, false),
+            // Journaled as it came, so that folding the journal again counts it again.
+            _ => return self.journal(Kind::State, b),
+        };
+        let all = states.len();
+        let named =
+            |st: &AgentState| speaker.as_ref().is_none_or(|s| s.names((!alone).then_some(st.id)) == Some(st.id));
+        let states: Vec<AgentState> = states.into_iter().filter(named).collect();
+        self.unnamed += (all - states.len()) as u64;
+        if states.len() == all {
+            self.journal(Kind::State, b)?;
+        } else if !states.is_empty() {
+            self.journal(Kind::State, &Msg::States(states.clone()).encode()?)?;
         }
+        states.into_iter().try_for_each(|st| self.fold_state(st))
     }
 
     /// Folds one agent's state into the files, the scene, the checks and the metrics.
@@ -199,8 +236,8 @@ impl Recording {
         let (ttx, truth) = mpsc::unbounded_channel();
         let (stx, states) = mpsc::unbounded_channel();
         let t_sub = plumbing::subscribe_payloads(&session, keys.truth_all(), ttx).await?;
-        let s_sub = plumbing::subscribe_payloads(&session, keys.state_any(), stx.clone()).await?;
-        let hs_sub = plumbing::subscribe_payloads(&session, keys.host_state_any(), stx).await?;
+        let s_sub = subscribe_states(&session, &keys, keys.state_any(), stx.clone()).await?;
+        let hs_sub = subscribe_states(&session, &keys, keys.host_state_any(), stx).await?;
         let (hub_alive, h_sub) = plumbing::watch_token(&session, keys.alive_hub()).await?;
         let feed = if mcap { Some(Feed::subscribe(&session, &keys).await?) } else { None };
         // Subscribed: say so, for whoever starts agents by hand and wants the whole run recorded.
@@ -314,7 +351,7 @@ impl Recording {
             // forest-100's summary scored a different number of estimates on every run).
             tokio::select! {
                 biased;
-                Some(b) = self.states.recv() => sink.state(&b)?,
+                Some((from, b)) = self.states.recv() => sink.state(&b, from)?,
                 Some(b) = self.truth.recv() => {
                     if sink.truth(&b)? { break }
                     if let Some(t) = sink.m.last_step().map(|s| s.t_s) { on_tick(t)?; }
@@ -352,7 +389,7 @@ impl Recording {
         let drain_until = tokio::time::Instant::now() + LAST_STATES_WAIT;
         while sink.m.awaiting_last_states() {
             match tokio::time::timeout_at(drain_until, self.states.recv()).await {
-                Ok(Some(b)) => sink.state(&b)?,
+                Ok(Some((from, b))) => sink.state(&b, from)?,
                 Ok(None) => break,
                 Err(_) => {
                     warn!("some agents' last states did not come within {LAST_STATES_WAIT:?}");
@@ -360,11 +397,26 @@ impl Recording {
                 }
             }
         }
-        while let Ok(b) = self.states.try_recv() {
-            sink.state(&b)?;
+        while let Ok((from, b)) = self.states.try_recv() {
+            sink.state(&b, from)?;
         }
         Ok(())
     }
+}
+
+/// Subscribes to the agent states on `key` (a wildcard of UAVs' or agent hosts' state keys) and
+/// sends each payload into `tx` with whom its key speaks for.
+async fn subscribe_states(
+    session: &zenoh::Session,
+    keys: &Keys,
+    key: String,
+    tx: mpsc::UnboundedSender<(Origin, Vec<u8>)>,
+) -> Result<Subscription> {
+    let k = keys.clone();
+    let map = move |sample: &zenoh::sample::Sample| {
+        Some((Origin::Wire(Speaker::of(&k, sample.key_expr().as_str())), plumbing::payload(sample)))
+    };
+    Ok(plumbing::subscribe(session, key, tx, map).await?)
 }
 
 /// A recording fed by hand instead of by a session: what `swarm floor`, which flies the whole
@@ -393,7 +445,7 @@ impl<'a> Offline<'a> {
 
     /// An agent's state.
     pub fn state(&mut self, st: swarm_wire::AgentState) -> Result<()> {
-        self.sink.state(&Msg::State(Box::new(st)).encode()?)
+        self.sink.state(&Msg::State(Box::new(st)).encode()?, Origin::Taken)
     }
 
     /// A truth step; true on the run's last.
@@ -421,7 +473,7 @@ pub fn replay(out: &Path, sc: &Scenario) -> Result<(Summary, journal::salvage::C
         if folded.is_ok() {
             folded = match kind {
                 Kind::Truth => sink.truth(b).map(|_| ()),
-                Kind::State => sink.state(b),
+                Kind::State => sink.state(b, Origin::Taken),
             };
         }
     })?;
