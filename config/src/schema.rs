@@ -1080,6 +1080,15 @@ pub struct IcpParams {
     /// (`docs/performance.md`, "Retries first").
     #[serde(default)]
     pub crowd_retries_first: bool,
+    /// In a crowd, a neighbour whose radio link came up less than `suspend_s` ago is taken as out
+    /// of the full grid's reach: its new entry starts suspended (seed 000 5.3's out of range),
+    /// so its first full grid is a retry in `crowd_full_grids_per_s`, `suspend_s` after the link
+    /// came up, instead of a placement outside the rate that almost never places. A link comes
+    /// up at the radio range's edge (10 m by default), twice the grid's reach (±5 m); the links
+    /// of an agent's first radio set are not waited for. false (the default): every new
+    /// neighbour is placed at once, as seed 000 does (`docs/performance.md`, "New links wait").
+    #[serde(default)]
+    pub crowd_new_links_wait: bool,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1145,6 +1154,7 @@ impl Default for IcpParams {
             budget_per_step: 0,
             crowd_full_grids_per_s: 1.0,
             crowd_retries_first: false,
+            crowd_new_links_wait: false,
         }
     }
 }

@@ -148,6 +148,13 @@ impl Agent {
         self.localizer.receive(share);
     }
 
+    /// The radio links to `senders` came up at sim time `t_s`: they entered our radio set (the
+    /// caller's admission says who did). The `icp` mode's crowd rules may wait to place a
+    /// neighbour just come into range (`crowd_new_links_wait`); the first call is the start.
+    pub fn links_came_up(&mut self, senders: &[UavId], t_s: f64) {
+        self.localizer.links_came_up(senders, t_s);
+    }
+
     /// Runs perception, localization and control for one frame.
     pub fn step(&mut self, frame: &SensorFrame) -> StepOutput {
         let seen = self.perceive(frame);

@@ -78,7 +78,8 @@ impl Onboard {
         let (radio, frame) =
             SensorFrame::from_wire(wire, self.needs).inspect_err(|_| self.admission.count_malformed())?;
         // Whom to listen to is the caller's to follow (the radio set it just handed in).
-        let _ = self.admission.on_radio(radio.tick, &radio.in_range, &radio.loss);
+        let change = self.admission.on_radio(radio.tick, &radio.in_range, &radio.loss);
+        self.agent.links_came_up(&change.entered, frame.scan.t_s);
         let due = self
             .admission
             .begin_step(frame.tick(), frame.scan.t_s)

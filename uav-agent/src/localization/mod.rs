@@ -145,6 +145,13 @@ impl Localizer {
         }
     }
 
+    /// The radio links to `senders` came up at sim time `t_s` (they entered our radio set).
+    pub(crate) fn links_came_up(&mut self, senders: &[UavId], t_s: f64) {
+        if let Localizer::Icp(i) = self {
+            i.links_came_up(senders, t_s);
+        }
+    }
+
     /// The neighbours in this frame; `circles` are our own obstacles, `started` when the step
     /// began (wall clock).
     pub(crate) fn localize(&mut self, frame: &SensorFrame, circles: &[Circle], started: Instant) -> Localized {

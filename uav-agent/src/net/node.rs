@@ -449,7 +449,7 @@ impl Node {
                 let tick = wire.radio.tick;
                 match SensorFrame::from_wire(*wire, self.needs) {
                     Ok((radio, frame)) => {
-                        self.on_radio(radio.tick, &radio.in_range, &radio.loss)?;
+                        self.on_radio(radio.tick, &radio.in_range, &radio.loss, frame.scan.t_s)?;
                         self.step(frame).await?;
                     }
                     Err(why) => {
@@ -467,10 +467,12 @@ impl Node {
         Ok(())
     }
 
-    /// The radio set of `tick`: listens to the shares of exactly the UAVs in range (see
-    /// [`crate::admission`] for which of them count).
-    fn on_radio(&mut self, tick: u64, in_range: &[UavId], loss: &[f32]) -> Result<(), AgentError> {
+    /// The radio set of `tick` (sim time `t_s`): listens to the shares of exactly the UAVs in
+    /// range (see [`crate::admission`] for which of them count), and tells the agent whose links
+    /// came up.
+    fn on_radio(&mut self, tick: u64, in_range: &[UavId], loss: &[f32], t_s: f64) -> Result<(), AgentError> {
         let change = self.admission.on_radio(tick, in_range, loss);
+        self.agent.links_came_up(&change.entered, t_s);
         for id in change.left {
             self.listening.remove(&id);
         }

@@ -138,6 +138,16 @@
 //!   reach), and a retry that places one that has come closer adds a neighbour to the
 //!   controller's view; at a scarce rate, most overdue first left those waiting behind re-checks
 //!   that seldom moved a track, and the view thinned out as the swarm went into the forest.
+//! - With `crowd_new_links_wait` a new entry whose sender's radio link came up less than
+//!   `suspend_s` ago starts suspended since that moment, as seed 000 5.3 suspends a neighbour
+//!   out of ICP range, and is first tried by a retry in the rate (issue 48). A link comes up at
+//!   the radio range's edge (10 m by default), twice the grid's reach (±5 m): forest-1000-icp's
+//!   new entries after the start placed 5 of 14 115 at their first full grid, which, outside
+//!   the rate, was about a fifth of its placed agents' full grids at rate 1. Without it the
+//!   entry's full grid fails and suspends it, and its retry comes `suspend_s` later in the same
+//!   queue; the radio set says as much before the grid is spent. That is a fact of the radio,
+//!   not the sender's identity, which identification still never uses. The links of an agent's
+//!   first radio set are not waited for ([`Database::links_came_up`]).
 //!
 //! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -175,6 +185,7 @@ use crate::geometry::wrap_angle;
 use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
+use std::collections::BTreeMap;
 use swarm_config::{IcpParams, Identify};
 use swarm_types::UavId;
 
@@ -272,6 +283,9 @@ pub struct StepCounts {
     pub waited: u32,
     /// Of those, the ones whose set fit the estimate's prediction (the estimate confirmed).
     pub confirmed: u32,
+    /// Crowd rules with `crowd_new_links_wait`: new entries that started suspended because
+    /// their sender's radio link came up less than `suspend_s` ago.
+    pub new_link_waits: u32,
 }
 
 /// One neighbour: seed 000 Algorithm 5, plus what the scheduling and metrics need.
@@ -401,6 +415,11 @@ pub struct Database {
     /// Our odometry pose this step (position [m], heading [rad]): the localization budget
     /// tracks its neighbours in the odometry frame ([`Database::set_pose`]).
     pose: (Vector2<f64>, f64),
+    /// Crowd rules with `crowd_new_links_wait`: when each sender's radio link last came up [s];
+    /// −∞ for the links of our first radio set ([`Database::links_came_up`]).
+    link_up: BTreeMap<UavId, f64>,
+    /// Whether a radio set has come yet (the first one's links are not waited for).
+    radio_seen: bool,
 }
 
 /// Crowd rules (issue 11, module doc "Fewer ICPs in a crowd"): they apply in a step with at least
@@ -452,6 +471,20 @@ impl Database {
             full_grid_tokens,
             last_step_s: None,
             pose: (Vector2::zeros(), 0.0),
+            link_up: BTreeMap::new(),
+            radio_seen: false,
+        }
+    }
+
+    /// The radio links to `senders` came up at sim time `t_s` (they entered our radio set); only
+    /// `crowd_new_links_wait` reads it. The links of our first radio set are not at the range's
+    /// edge (the swarm's start, or our own restart among neighbours at any distance), so they
+    /// count as up since ever.
+    pub fn links_came_up(&mut self, senders: &[UavId], t_s: f64) {
+        let t_s = if self.radio_seen { t_s } else { f64::NEG_INFINITY };
+        self.radio_seen = true;
+        if self.params.crowd_new_links_wait {
+            self.link_up.extend(senders.iter().map(|&id| (id, t_s)));
         }
     }
 
@@ -497,7 +530,11 @@ impl Database {
                 Some(idx) => idx,
                 None => {
                     counts.created += 1;
-                    self.push_new_entry(now, set)
+                    let idx = self.push_new_entry(now, set);
+                    if crowd {
+                        self.wait_for_a_new_link(now, idx, &mut counts);
+                    }
+                    idx
                 }
             };
             let e = &mut self.entries[idx];
@@ -802,6 +839,19 @@ impl Database {
         });
         self.next_key += 1;
         self.entries.len() - 1
+    }
+
+    /// Crowd rules with `crowd_new_links_wait`: a new entry whose sender's link came up less
+    /// than `suspend_s` ago starts suspended since the link came up (its neighbour is at the
+    /// radio range's edge, out of the grid's reach), so it is first tried by a retry in the rate.
+    fn wait_for_a_new_link(&mut self, now: f64, idx: usize, counts: &mut StepCounts) {
+        let e = &mut self.entries[idx];
+        let Some(&up) = self.link_up.get(&e.sender) else { return };
+        if now - up + EPS < self.params.suspend_s {
+            e.suspended = true;
+            e.suspension_time = up;
+            counts.new_link_waits += 1;
+        }
     }
 
     /// The localization budget (issue 48; `budget_per_step`, module doc): of the tracked
@@ -1580,6 +1630,46 @@ mod tests {
         assert!(rechecks > 0, "the re-checks get what the retries leave");
         let (queued, _) = placed_at(false);
         assert!(queued.is_none_or(|t| t > first), "most overdue first: placed at {queued:?} s, not before {first} s");
+    }
+
+    #[test]
+    fn in_a_crowd_a_neighbour_whose_link_just_came_up_is_first_tried_by_a_retry() {
+        // 12 neighbours in our first radio set, placed at once; neighbour 13's link comes up at
+        // 2 s, its first set counts at 2.2 s. When does its first full grid come?
+        let first_full_grid = |wait: bool| {
+            let p = IcpParams { crowd_new_links_wait: wait, ..params() };
+            let (mut d, mut m) = (Database::new(p, 0.5), Scripted::default());
+            let ks: Vec<u32> = (1..=12).collect();
+            d.links_came_up(&ks.iter().map(|&k| UavId::new(k)).collect::<Vec<_>>(), 0.0);
+            let placed: u32 = run(&mut d, &mut m, &ks, 0.0, 0.5).iter().map(|c| c.initial).sum();
+            assert_eq!((placed, d.estimates(0.5).len()), (12, 12), "the first radio set's links do not wait");
+            run(&mut d, &mut m, &ks, 0.6, 2.1);
+            d.links_came_up(&[UavId::new(13)], 2.0);
+            m.calls.clear();
+            let with_13: Vec<u32> = (1..=13).collect();
+            let mut waits = 0;
+            let first = (22..=150).map(|i| f64::from(i) / 10.0).find(|&now| {
+                let sets: Vec<Received> = with_13.iter().map(|&k| recv(UavId::new(k), k, now)).collect();
+                waits += step(&mut d, &mut m, now, &sets).new_link_waits;
+                m.neighbours(Kind::Long).contains(&13)
+            });
+            (first, waits, d.estimates(first.unwrap_or(15.0)).iter().any(|e| e.id == Some(UavId::new(13))))
+        };
+        assert_eq!(first_full_grid(false), (Some(2.2), 0, true), "seed 000: placed at its first set");
+        let (first, waits, placed) = first_full_grid(true);
+        let first = first.expect("tried by a retry");
+        // Suspended since 2 s, its retry is due at 7 s and waits its turn in the rate (re-checks
+        // overdue since 5 s go first, at 1 per s after the 4 saved).
+        assert!((7.0..=7.0 + 13.0 * 1.0).contains(&first), "first full grid at {first} s");
+        assert_eq!((waits, placed), (1, true), "one entry waited, then the retry placed it");
+        // Out of a crowd the rule does not apply: a new link's neighbour is placed at once.
+        let p = IcpParams { crowd_new_links_wait: true, ..params() };
+        let (mut d, mut m) = (Database::new(p, 0.5), Scripted::default());
+        d.links_came_up(&[UavId::new(1)], 0.0);
+        run(&mut d, &mut m, &[1], 0.0, 1.0);
+        d.links_came_up(&[UavId::new(2)], 1.0);
+        let c = step(&mut d, &mut m, 1.2, &[recv(UavId::new(1), 1, 1.2), recv(UavId::new(2), 2, 1.2)]);
+        assert_eq!((c.created, c.initial, c.new_link_waits), (1, 1, 0));
     }
 
     #[test]

@@ -65,6 +65,12 @@ impl IcpLocalizer {
         }
     }
 
+    /// The radio links to `senders` came up at sim time `t_s` (the database's crowd rules may
+    /// wait for a neighbour just come into range before placing it).
+    pub(crate) fn links_came_up(&mut self, senders: &[UavId], t_s: f64) {
+        self.db.links_came_up(senders, t_s);
+    }
+
     /// The neighbours placed by matching their sets to our `circles` at the frame's sim time (its
     /// odometry pose for the localization budget's tracks), and the ICP work it took; `started` is
     /// when the step began (wall clock).
