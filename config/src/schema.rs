@@ -928,6 +928,20 @@ pub enum Identify {
     Key,
 }
 
+/// When a tracked neighbour's re-check (lICP) is due in a crowd (`[localization.icp]
+/// crowd_rechecks`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CrowdRechecks {
+    /// Every `long_every_s`, whatever the fit: seed 000's clock, which the crowd's full-grid rate
+    /// then spreads (the default).
+    #[default]
+    Clock,
+    /// As outside a crowd: a neighbour whose short ICPs all fit tightly since its last full grid
+    /// waits `tight_long_every_s`, so the rate goes first to the tracks in doubt.
+    TightWait,
+}
+
 /// Localization settings.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -1089,6 +1103,13 @@ pub struct IcpParams {
     /// neighbour is placed at once, as seed 000 does (`docs/performance.md`, "New links wait").
     #[serde(default)]
     pub crowd_new_links_wait: bool,
+    /// In a crowd, when a tracked neighbour's re-check is due in `crowd_full_grids_per_s`:
+    /// `"clock"` (the default: every `long_every_s`, most overdue first) or `"tight_wait"` (one
+    /// whose short ICPs all fit tightly since its last full grid waits `tight_long_every_s`, as
+    /// outside a crowd). A false track's short ICPs fit poorly, so a scarce rate goes first where
+    /// a track may be wrong (`docs/performance.md`, "Re-checks by need in a crowd").
+    #[serde(default)]
+    pub crowd_rechecks: CrowdRechecks,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1155,6 +1176,7 @@ impl Default for IcpParams {
             crowd_full_grids_per_s: 1.0,
             crowd_retries_first: false,
             crowd_new_links_wait: false,
+            crowd_rechecks: CrowdRechecks::Clock,
         }
     }
 }

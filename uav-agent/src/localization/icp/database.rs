@@ -104,8 +104,9 @@
 //! last full grid did not all fit within [`TIGHT_FRMSD_M`], or whose last lICP found a better
 //! fit elsewhere and refused it. An entry whose sICPs all fit tightly is re-checked every
 //! `tight_long_every_s` (30 s) instead; setting it to `long_every_s` gives seed 000's schedule.
-//! A crowd (the crowd rules below) keeps the clock: there a tight fit is no sign of a right
-//! track (look-alike places fit as well), and the rules' budget already spaces the re-checks.
+//! A crowd (the crowd rules below) keeps the clock by default: there a tight fit is no sign of a
+//! right track (look-alike places fit as well), and the rules' budget already spaces the
+//! re-checks. `crowd_rechecks` lets a crowd re-check by need too (below).
 //!
 //! # Fewer ICPs in a crowd (issue 11; seed 000 stops at 40 UAVs on the controller alone)
 //!
@@ -148,6 +149,11 @@
 //!   queue; the radio set says as much before the grid is spent. That is a fact of the radio,
 //!   not the sender's identity, which identification still never uses. The links of an agent's
 //!   first radio set are not waited for ([`Database::links_came_up`]).
+//! - With `crowd_rechecks = "tight_wait"` a tracked entry whose sICPs all fit tightly waits
+//!   `tight_long_every_s` for its re-check, as outside a crowd (issue 48). A false track's
+//!   sICPs fit poorly (above), so where a scarce rate cannot re-check every track it goes first
+//!   to the ones that may be wrong. Putting those re-checks before every retry was tried: in a
+//!   crowd nearly every track has had a loose fit by its turn, and the retries starved.
 //!
 //! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -186,7 +192,7 @@ use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
-use swarm_config::{IcpParams, Identify};
+use swarm_config::{CrowdRechecks, IcpParams, Identify};
 use swarm_types::UavId;
 
 /// The ICP variants the database needs (seed 000 5.1). Implemented by the real ICP, and by
@@ -772,8 +778,8 @@ impl Database {
     }
 
     /// Crowd rules: full-grid ICPs go most overdue first, a new entry (never tried) before all,
-    /// where overdue is `now − last_long − long_every_s` for a re-check and `now −
-    /// suspension_time − suspend_s` for a retry; so neither kind starves the other under the
+    /// where overdue is `now − last_long` less [`Database::recheck_every`] for a re-check and
+    /// `now − suspension_time − suspend_s` for a retry; so neither kind starves the other under the
     /// budget. With `crowd_retries_first` every retry goes before every re-check. Rewrites each
     /// want's priority; the caller sorts.
     fn order_crowd_longs(&self, now: f64, longs: &mut [(f64, usize, &Received)]) {
@@ -935,10 +941,11 @@ impl Database {
     }
 
     /// How long a tracked entry waits for its lICP [s]: `tight_long_every_s` while its sICPs fit
-    /// tightly, outside a crowd; `long_every_s` (seed 000) otherwise (module doc "Re-checks by
-    /// need").
+    /// tightly, outside a crowd (in one too, unless `crowd_rechecks` is the clock);
+    /// `long_every_s` (seed 000) otherwise (module doc "Re-checks by need").
     fn recheck_every(&self, e: &Entry, crowd: bool) -> f64 {
-        if !crowd && e.worst_frmsd <= TIGHT_FRMSD_M {
+        let by_need = !crowd || self.params.crowd_rechecks != CrowdRechecks::Clock;
+        if by_need && e.worst_frmsd <= TIGHT_FRMSD_M {
             self.params.tight_long_every_s
         } else {
             self.params.long_every_s
@@ -1630,6 +1637,33 @@ mod tests {
         assert!(rechecks > 0, "the re-checks get what the retries leave");
         let (queued, _) = placed_at(false);
         assert!(queued.is_none_or(|t| t > first), "most overdue first: placed at {queued:?} s, not before {first} s");
+    }
+
+    #[test]
+    fn in_a_crowd_rechecks_by_need_go_to_the_track_in_doubt() {
+        // 12 tracked neighbours at a scarce 0.25 full grids per s, every full grid fitting
+        // tightly; neighbour 3's short ICPs fit loosely (0.5 m, above the tight 0.3 m, within
+        // `match_frmsd`), the others' tightly.
+        let rechecks = |mode: CrowdRechecks, until: f64| {
+            let p =
+                IcpParams { crowd_full_grids_per_s: 0.25, crowd_rechecks: mode, tight_long_every_s: 30.0, ..params() };
+            let mut d = Database::new(p, 0.5);
+            let mut m =
+                Scripted { frmsd_own: BTreeMap::from([(3, 0.5)]), long_frmsd: Some(0.2), ..Scripted::default() };
+            let ks: Vec<u32> = (1..=12).collect();
+            run(&mut d, &mut m, &ks, 0.0, 0.5);
+            m.calls.clear();
+            run(&mut d, &mut m, &ks, 0.6, until);
+            assert_eq!(d.estimates(until).len(), 12, "{mode:?}: every track kept");
+            let longs = m.neighbours(Kind::Long);
+            (longs.iter().filter(|&&k| k == 3).count(), longs.iter().filter(|&&k| k != 3).count())
+        };
+        // The clock: neighbour 3 waits its turn among the 12, most overdue first.
+        let (doubt, tight) = rechecks(CrowdRechecks::Clock, 60.5);
+        assert!(doubt <= 3 && tight >= 10, "clock: {doubt} re-checks of the loose track, {tight} of the tight");
+        // Tight tracks wait 30 s: until then the rate's re-checks are all the loose track's.
+        let (doubt, tight) = rechecks(CrowdRechecks::TightWait, 29.5);
+        assert!(doubt >= 4 && tight == 0, "tight wait: {doubt} and {tight}");
     }
 
     #[test]
