@@ -155,7 +155,7 @@
 //!   to the ones that may be wrong. Putting those re-checks before every retry was tried: in a
 //!   crowd nearly every track has had a loose fit by its turn, and the retries starved.
 //!
-//! Both are sim-time decisions, so lockstep runs still repeat byte for byte.
+//! All of them are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
 //! # The localization budget (issue 48; `budget_per_step`, off by default)
 //!
