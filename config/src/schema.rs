@@ -1110,6 +1110,14 @@ pub struct IcpParams {
     /// a track may be wrong (`docs/performance.md`, "Re-checks by need in a crowd").
     #[serde(default)]
     pub crowd_rechecks: CrowdRechecks,
+    /// In a crowd, the retry of a lost track (a placed neighbour whose ICP failed) scores the
+    /// whole grid of positions but only this many of the `grid_headings` headings, the ones
+    /// nearest the track's last relative heading; 0 (the default): every heading, as seed 000's
+    /// full grid. A look-alike place anywhere in the grid at those headings still makes the match
+    /// ambiguous; what is given up is a neighbour that turned more than a grid step against us
+    /// while lost (`docs/performance.md`, "Retries at the lost heading").
+    #[serde(default)]
+    pub crowd_retry_headings: u32,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1177,6 +1185,7 @@ impl Default for IcpParams {
             crowd_retries_first: false,
             crowd_new_links_wait: false,
             crowd_rechecks: CrowdRechecks::Clock,
+            crowd_retry_headings: 0,
         }
     }
 }

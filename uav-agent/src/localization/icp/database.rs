@@ -154,6 +154,14 @@
 //!   sICPs fit poorly (above), so where a scarce rate cannot re-check every track it goes first
 //!   to the ones that may be wrong. Putting those re-checks before every retry was tried: in a
 //!   crowd nearly every track has had a loose fit by its turn, and the retries starved.
+//! - With `crowd_retry_headings` the retry of a lost track (placed before, then suspended)
+//!   scores every position of the grid but only that many of its headings, the ones nearest the
+//!   track's last relative heading (issue 48). Seed 000 5.1 tries all headings because nothing
+//!   is known of a new neighbour; a lost one's heading is known, and a neighbour turns little in
+//!   the seconds it is lost (K21 aligns the swarm's headings, eq. 4.14). The first pass's cost is
+//!   per heading, so 3 of 16 cost about a fifth of it, and a look-alike place anywhere in the
+//!   grid at those headings still makes the placement ambiguous. A re-check (lICP) keeps every
+//!   heading: it is there to find a track locked onto a wrong place, wrong heading included.
 //!
 //! All of them are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -210,6 +218,18 @@ pub trait Matcher {
     /// [`Matcher::long`] with the runner-up alignment, where the matcher knows it.
     fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
         self.long(reference, source).map(|best| Ranked { best, runner_up: None })
+    }
+    /// [`Matcher::long_ranked`] at only the `count` grid headings nearest `heading_rad` (every
+    /// position still scored): the retry of a lost track, `crowd_retry_headings`. By default
+    /// the whole grid, for matchers that cannot narrow it.
+    fn long_ranked_near(
+        &mut self,
+        reference: &[Point2<f64>],
+        source: &[Point2<f64>],
+        _heading_rad: f64,
+        _count: u32,
+    ) -> Option<Ranked> {
+        self.long_ranked(reference, source)
     }
     /// The FRMSD of `source` at `t` with no iteration (the localization budget's prediction
     /// check; [`super::alignment::fit`]); `None` when it cannot say, which counts as a misfit.
@@ -292,6 +312,9 @@ pub struct StepCounts {
     /// Crowd rules with `crowd_new_links_wait`: new entries that started suspended because
     /// their sender's radio link came up less than `suspend_s` ago.
     pub new_link_waits: u32,
+    /// Crowd rules with `crowd_retry_headings`: retries of lost tracks that scored only the grid
+    /// headings nearest the track's last heading.
+    pub narrow_retries: u32,
 }
 
 /// One neighbour: seed 000 Algorithm 5, plus what the scheduling and metrics need.
@@ -584,7 +607,7 @@ impl Database {
             allowed = allowed && (!crowd || self.take_full_grid(idx));
             if allowed {
                 ran += 1;
-                self.run_long(now, own, idx, set, m, &mut counts);
+                self.run_long(now, own, idx, set, crowd, m, &mut counts);
             } else {
                 counts.skipped_long += 1;
                 let e = &self.entries[idx];
@@ -969,13 +992,16 @@ impl Database {
         self.apply(now, idx, set, found, false, counts);
     }
 
-    /// iICP or lICP: full-grid ICP of the set against `own`.
+    /// iICP or lICP: full-grid ICP of the set against `own`; in a crowd with
+    /// `crowd_retry_headings`, a lost track's retry only at the headings nearest its last one.
+    #[allow(clippy::too_many_arguments)] // one step's context, as `run_short` less the crowd flag
     fn run_long(
         &mut self,
         now: f64,
         own: &[Point2<f64>],
         idx: usize,
         set: &Received,
+        crowd: bool,
         m: &mut impl Matcher,
         counts: &mut StepCounts,
     ) {
@@ -984,7 +1010,16 @@ impl Database {
         } else {
             counts.initial += 1;
         }
-        let ranked = m.long_ranked(own, &set.points);
+        let e = &self.entries[idx];
+        let lost_heading = e.agent_from_neighbour.filter(|_| e.suspended).map(|t| t.rotation_rad);
+        let narrow = self.params.crowd_retry_headings;
+        let ranked = match lost_heading {
+            Some(heading) if crowd && narrow > 0 => {
+                counts.narrow_retries += 1;
+                m.long_ranked_near(own, &set.points, heading, narrow)
+            }
+            _ => m.long_ranked(own, &set.points),
+        };
         self.entries[idx].last_icp_s = now;
         trace_full_grid(now, self.entries[idx].key, set, ranked.as_ref());
         let e = &self.entries[idx];
@@ -1185,6 +1220,8 @@ mod tests {
         /// The localization budget's prediction check: neighbour k's set fits its estimate with
         /// this FRMSD (none: cannot say).
         fits: BTreeMap<u32, f64>,
+        /// (neighbour, heading, count) of every full grid narrowed to the headings near one.
+        near: Vec<(u32, f64, u32)>,
     }
 
     impl Scripted {
@@ -1236,6 +1273,17 @@ mod tests {
             found.agent_from_neighbour.translation_m.x += self.long_shift;
             found.frmsd = self.long_frmsd.unwrap_or(found.frmsd);
             Some(found)
+        }
+
+        fn long_ranked_near(
+            &mut self,
+            reference: &[Point2<f64>],
+            source: &[Point2<f64>],
+            heading_rad: f64,
+            count: u32,
+        ) -> Option<Ranked> {
+            self.near.push((tag(source).0, heading_rad, count));
+            self.long_ranked(reference, source)
         }
 
         fn fit(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], _: AgentFromNeighbour) -> Option<f64> {
@@ -1704,6 +1752,32 @@ mod tests {
         d.links_came_up(&[UavId::new(2)], 1.0);
         let c = step(&mut d, &mut m, 1.2, &[recv(UavId::new(1), 1, 1.2), recv(UavId::new(2), 2, 1.2)]);
         assert_eq!((c.created, c.initial, c.new_link_waits), (1, 1, 0));
+    }
+
+    #[test]
+    fn in_a_crowd_a_lost_tracks_retry_scores_the_headings_near_its_last_one() {
+        // 12 neighbours (a crowd, retries before the re-checks): neighbour 12 tracked, then lost
+        // at 1 s; neighbour 11 never in reach. Which full grids are narrowed, and to what?
+        let narrowed = |count: u32, ks: &[u32]| {
+            let p = IcpParams { crowd_retry_headings: count, crowd_retries_first: true, ..params() };
+            let (mut d, mut m) = (Database::new(p, 0.5), Scripted { out_of_range: vec![11], ..Scripted::default() });
+            run(&mut d, &mut m, ks, 0.0, 0.9);
+            m.out_of_range.push(12);
+            let counts = run(&mut d, &mut m, ks, 1.0, 12.0);
+            let narrow: u32 = counts.iter().map(|c| c.narrow_retries).sum();
+            let retries_of_11 = m.neighbours(Kind::Long).iter().filter(|&&k| k == 11).count();
+            (m.near, narrow, retries_of_11)
+        };
+        let ks: Vec<u32> = (1..=12).collect();
+        let (near, narrow, retries_of_11) = narrowed(3, &ks);
+        // Lost at 1 s, retried at 6 s and 11 s (suspend_s 5), from its last heading 0.1·12.
+        let last = 0.1 * 12.0;
+        assert_eq!(near, vec![(12, last, 3), (12, last, 3)]);
+        assert_eq!(narrow, 2);
+        assert!(retries_of_11 >= 2, "the never placed neighbour's retries score every heading");
+        // Off (0): every retry is the whole grid; out of a crowd too.
+        assert_eq!(narrowed(0, &ks).0, vec![]);
+        assert_eq!(narrowed(3, &[11, 12]).0, vec![]);
     }
 
     #[test]

@@ -343,16 +343,50 @@ pub fn initial_icp_ranked(
     source: &[Point2<f64>],
     p: &IcpParams,
 ) -> Result<Ranked, NoEstimate> {
-    initial_icp_ranked_from(reference, source, p, TABLE_FROM_POINTS)
+    let all: Vec<u32> = (0..p.grid_headings.max(1)).collect();
+    initial_icp_ranked_from(reference, source, p, TABLE_FROM_POINTS, &all)
 }
 
-/// [`initial_icp_ranked`] with the first pass's candidate table from `table_from` reference
-/// points (the tests compare both layouts).
+/// [`initial_icp_ranked`] over the whole grid of positions but only the `count` grid headings
+/// nearest `heading_rad` (all of them when `count` is 0 or at least `grid_headings`): the retry
+/// of a neighbour whose relative heading is known from its lost track (the crowd rules'
+/// `crowd_retry_headings`). Every position is still scored, so a look-alike place anywhere in
+/// the grid at those headings still makes the match ambiguous.
+pub fn initial_icp_ranked_near(
+    reference: &[Point2<f64>],
+    source: &[Point2<f64>],
+    p: &IcpParams,
+    heading_rad: f64,
+    count: u32,
+) -> Result<Ranked, NoEstimate> {
+    let nearest = nearest_headings(p.grid_headings.max(1), heading_rad, count);
+    initial_icp_ranked_from(reference, source, p, TABLE_FROM_POINTS, &nearest)
+}
+
+/// The indices k of the `count` grid headings θ_k = 2π·k/H nearest `heading_rad` (by angle,
+/// ties to the lower index), in increasing k; every k when `count` is 0 or at least H, or when
+/// the heading is not finite.
+fn nearest_headings(headings: u32, heading_rad: f64, count: u32) -> Vec<u32> {
+    if count == 0 || count >= headings || !heading_rad.is_finite() {
+        return (0..headings).collect();
+    }
+    let off = |k: u32| wrap_angle(std::f64::consts::TAU * f64::from(k) / f64::from(headings) - heading_rad).abs();
+    let mut ks: Vec<u32> = (0..headings).collect();
+    ks.sort_by(|&a, &b| off(a).total_cmp(&off(b)).then(a.cmp(&b)));
+    ks.truncate(count as usize);
+    ks.sort_unstable();
+    ks
+}
+
+/// [`initial_icp_ranked`] at the grid headings `ks` (indices k of θ_k = 2π·k/H, in the order
+/// scored), with the first pass's candidate table from `table_from` reference points (the tests
+/// compare both layouts).
 fn initial_icp_ranked_from(
     reference: &[Point2<f64>],
     source: &[Point2<f64>],
     p: &IcpParams,
     table_from: usize,
+    ks: &[u32],
 ) -> Result<Ranked, NoEstimate> {
     let k_min = validate(reference, source, p)?;
     if !p.grid_spacing_m.is_finite() {
@@ -368,17 +402,18 @@ fn initial_icp_ranked_from(
 
     // First pass: score all starts, keep the best of each heading and a shortlist overall.
     let mut shortlist: Vec<Start> = Vec::with_capacity(SHORTLIST + 1);
-    let mut per_heading: Vec<Start> = Vec::with_capacity(headings as usize);
+    let mut per_heading: Vec<Start> = Vec::with_capacity(ks.len());
     let cells = grid_cells(h, p.grid_spacing_m);
     let side = (2 * h + 1) as usize;
     // Every start's anchor lies within the source's reach plus the grid's half width.
     let reach = source.iter().map(|q| q.coords.norm()).fold(0.0, f64::max) + h as f64 * p.grid_spacing_m.abs();
-    let layout = Layout::new(reference, &cells, side, headings, reach * (1.0 + 1e-9), p.grid_spacing_m, table_from);
+    let scored = u32::try_from(ks.len()).unwrap_or(u32::MAX);
+    let layout = Layout::new(reference, &cells, side, scored, reach * (1.0 + 1e-9), p.grid_spacing_m, table_from);
     let n = source.len();
     let slots_per_column = layout.slots_per_column(side);
     let mut by_cell = vec![[0.0; BLOCK]; layout.rows(cells.len(), side, n)];
     let net = Network::new(n);
-    for k in 0..headings {
+    for &k in ks {
         // seed 000, 5.1 ("all relative headings"): θ_k = 2π·k/H, evenly spaced.
         let heading = wrap_angle(std::f64::consts::TAU * f64::from(k) / f64::from(headings));
         let r = rot(heading);
@@ -495,8 +530,57 @@ mod tests {
         assert!(matches!(layout(f64::INFINITY), Layout::All { .. }));
         let source: Vec<Point2<f64>> = reference.iter().map(|q| Point2::new(q.y + 0.4, -q.x + 0.2)).collect();
         let p = IcpParams { grid_spacing_m: 2e8, ..IcpParams::default() };
-        let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX);
-        assert_eq!(format!("{all:?}"), format!("{:?}", initial_icp_ranked_from(&reference, &source, &p, 0)));
+        let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX, &every(&p));
+        assert_eq!(
+            format!("{all:?}"),
+            format!("{:?}", initial_icp_ranked_from(&reference, &source, &p, 0, &every(&p)))
+        );
+    }
+
+    /// Every grid heading, in the full grid's order.
+    fn every(p: &IcpParams) -> Vec<u32> {
+        (0..p.grid_headings.max(1)).collect()
+    }
+
+    #[test]
+    fn a_retry_scores_the_grid_headings_nearest_the_lost_heading() {
+        let step = std::f64::consts::TAU / 16.0;
+        assert_eq!(nearest_headings(16, 0.1, 3), vec![0, 1, 15]);
+        assert_eq!(nearest_headings(16, -0.1, 3), vec![0, 1, 15]);
+        assert_eq!(nearest_headings(16, std::f64::consts::PI, 3), vec![7, 8, 9]);
+        // 0.4 of a step past heading 5: the two nearest are 5 and 6, then 4 before 7.
+        assert_eq!(nearest_headings(16, 5.4 * step, 2), vec![5, 6]);
+        assert_eq!(nearest_headings(16, 5.4 * step, 4), vec![4, 5, 6, 7]);
+        assert_eq!(nearest_headings(16, 5.4 * step, 1), vec![5]);
+        // Off, too many, or no heading to go by: every heading.
+        for (heading, count) in [(0.3, 0), (0.3, 16), (0.3, 40), (f64::NAN, 3), (f64::INFINITY, 3)] {
+            assert_eq!(nearest_headings(16, heading, count), (0..16).collect::<Vec<_>>(), "{heading} {count}");
+        }
+    }
+
+    /// With the lost heading known to within a grid step (±22.5°), three headings place a
+    /// neighbour anywhere in the grid as well as all sixteen do; with every heading it is the
+    /// full grid, bit for bit.
+    #[test]
+    fn a_retry_near_the_lost_heading_places_as_the_full_grid_does() {
+        let p = IcpParams::default();
+        let mut rng = Rng(0x5EED_0048);
+        let cases = 200;
+        let (mut full_ok, mut near_ok) = (0, 0);
+        for _ in 0..cases {
+            let (reference, source, truth) = scenario(&mut rng, 0.03);
+            let lost = truth.rotation_rad + rng.range(-0.39, 0.39);
+            let near = initial_icp_ranked_near(&reference, &source, &p, lost, 3);
+            let full = initial_icp_ranked(&reference, &source, &p);
+            let every = initial_icp_ranked_near(&reference, &source, &p, lost, 0);
+            assert_eq!(format!("{full:?}"), format!("{every:?}"));
+            let placed =
+                |r: &Result<Ranked, NoEstimate>| r.is_ok_and(|r| close(&r.best, &truth, 0.1, 2f64.to_radians()));
+            full_ok += usize::from(placed(&full));
+            near_ok += usize::from(placed(&near));
+        }
+        eprintln!("placed: full grid {full_ok}/{cases}, three headings {near_ok}/{cases}");
+        assert!(near_ok as f64 >= 0.95 * cases as f64 && near_ok + 2 >= full_ok, "{near_ok} vs {full_ok} of {cases}");
     }
 
     #[test]
@@ -680,8 +764,8 @@ mod tests {
             let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
             let source: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
             let p = IcpParams::default();
-            let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX);
-            let table = initial_icp_ranked_from(&reference, &source, &p, 0);
+            let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX, &every(&p));
+            let table = initial_icp_ranked_from(&reference, &source, &p, 0, &every(&p));
             prop_assert_eq!(format!("{all:?}"), format!("{table:?}"));
         }
     }

@@ -10,7 +10,7 @@
 
 use super::alignment::{fit, icp, AgentFromNeighbour, Match};
 use super::database::{Database, Matcher, Received};
-use super::grid::{initial_icp, initial_icp_ranked, Ranked};
+use super::grid::{initial_icp, initial_icp_ranked, initial_icp_ranked_near, Ranked};
 use crate::localization::Share;
 use crate::sensing::SensorFrame;
 use crate::world_model::{Circle, Estimate};
@@ -133,6 +133,15 @@ impl Matcher for IcpMatcher<'_> {
     }
     fn long_ranked(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>]) -> Option<Ranked> {
         initial_icp_ranked(reference, source, self.0).ok()
+    }
+    fn long_ranked_near(
+        &mut self,
+        reference: &[Point2<f64>],
+        source: &[Point2<f64>],
+        heading_rad: f64,
+        count: u32,
+    ) -> Option<Ranked> {
+        initial_icp_ranked_near(reference, source, self.0, heading_rad, count).ok()
     }
     fn fit(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], t: AgentFromNeighbour) -> Option<f64> {
         fit(reference, source, t, self.0).ok()
