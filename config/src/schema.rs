@@ -1110,14 +1110,15 @@ pub struct IcpParams {
     /// a track may be wrong (`docs/performance.md`, "Re-checks by need in a crowd").
     #[serde(default)]
     pub crowd_rechecks: CrowdRechecks,
-    /// In a crowd, the retry of a lost track (a placed neighbour whose ICP failed) scores the
-    /// whole grid of positions but only this many of the `grid_headings` headings, the ones
-    /// nearest the track's last relative heading; 0 (the default): every heading, as seed 000's
-    /// full grid. A look-alike place anywhere in the grid at those headings still makes the match
-    /// ambiguous; what is given up is a neighbour that turned more than a grid step against us
-    /// while lost (`docs/performance.md`, "Retries at the lost heading").
+    /// In a crowd, a full grid that places a neighbour scores the whole grid of positions but
+    /// only this many of the `grid_headings` headings, the ones nearest where the neighbour is
+    /// expected to be turned: a lost track's last relative heading, or for a neighbour never
+    /// placed the placed neighbours' mean one, when at least three agree within about 26° (K21
+    /// aligns a swarm's headings). A re-check of a tracked neighbour, or a placement with
+    /// nothing to go by, keeps every heading. 0 (the default): every heading, as seed 000's
+    /// full grid (`docs/performance.md`, "Placements at the expected heading").
     #[serde(default)]
-    pub crowd_retry_headings: u32,
+    pub crowd_placement_headings: u32,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1185,7 +1186,7 @@ impl Default for IcpParams {
             crowd_retries_first: false,
             crowd_new_links_wait: false,
             crowd_rechecks: CrowdRechecks::Clock,
-            crowd_retry_headings: 0,
+            crowd_placement_headings: 0,
         }
     }
 }

@@ -8,8 +8,8 @@
 //! Why: a 40-UAV run on the full stack takes tens of minutes on a loaded 2-core machine, and it
 //! mixes localization with the controller's crowd behaviour; this isolates localization, repeats
 //! exactly, and prints the numbers the issue judges (mean and p95 error, false share, estimates
-//! per agent, step CPU time) in minutes. `cargo bench -p uav-agent --bench crowd_lab -- [N] [TICKS]`
-//! (default 40 UAVs, 300 ticks = 30 s).
+//! per agent, step CPU time) in minutes. `cargo bench -p uav-agent --bench crowd_lab -- [N] [TICKS]
+//! [PLACEMENT_HEADINGS]` (default 40 UAVs, 300 ticks = 30 s, every heading in a placement).
 
 use swarm_types::UavId;
 use swarm_wire::{Odom, Scan};
@@ -118,7 +118,10 @@ fn main() {
     let args: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
     let n = args.first().copied().unwrap_or(40);
     let ticks = args.get(1).copied().unwrap_or(300) as u64;
-    let sc = swarm_config::builtin("forest-40-icp").expect("builtin");
+    let mut sc = swarm_config::builtin("forest-40-icp").expect("builtin");
+    // An optional third number: `crowd_placement_headings` (docs/performance.md, "Placements at
+    // the expected heading").
+    sc.localization.icp.crowd_placement_headings = args.get(2).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
     let radio_m = sc.radio.range_m;
     let mut rng = Lcg(0x5eed_0040);
     let trees = forest(&mut rng);

@@ -154,14 +154,16 @@
 //!   sICPs fit poorly (above), so where a scarce rate cannot re-check every track it goes first
 //!   to the ones that may be wrong. Putting those re-checks before every retry was tried: in a
 //!   crowd nearly every track has had a loose fit by its turn, and the retries starved.
-//! - With `crowd_retry_headings` the retry of a lost track (placed before, then suspended)
-//!   scores every position of the grid but only that many of its headings, the ones nearest the
-//!   track's last relative heading (issue 48). Seed 000 5.1 tries all headings because nothing
-//!   is known of a new neighbour; a lost one's heading is known, and a neighbour turns little in
-//!   the seconds it is lost (K21 aligns the swarm's headings, eq. 4.14). The first pass's cost is
-//!   per heading, so 3 of 16 cost about a fifth of it, and a look-alike place anywhere in the
-//!   grid at those headings still makes the placement ambiguous. A re-check (lICP) keeps every
-//!   heading: it is there to find a track locked onto a wrong place, wrong heading included.
+//! - With `crowd_placement_headings` a full grid that places a neighbour scores every position
+//!   of the grid but only that many of its headings, the ones nearest where the neighbour is
+//!   expected to be turned (issue 48): a lost track's last relative heading, or for a neighbour
+//!   never placed the placed neighbours' mean heading when enough of them agree
+//!   ([`HEADINGS_AGREE`]). Seed 000 5.1 tries all headings because nothing is known of a new
+//!   neighbour; in a crowd much is: K21 aligns the swarm's headings (eq. 4.14), and a lost
+//!   neighbour turns little in the seconds it is lost. The first pass's cost is per heading,
+//!   so 3 of 16 cost about a fifth of it, and a look-alike place anywhere in the grid at those
+//!   headings still makes the placement ambiguous. A re-check (lICP) keeps every heading: it is
+//!   there to find a track locked onto a wrong place, wrong heading included.
 //!
 //! All of them are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -220,7 +222,7 @@ pub trait Matcher {
         self.long(reference, source).map(|best| Ranked { best, runner_up: None })
     }
     /// [`Matcher::long_ranked`] at only the `count` grid headings nearest `heading_rad` (every
-    /// position still scored): the retry of a lost track, `crowd_retry_headings`. By default
+    /// position still scored): a placement at an expected heading, `crowd_placement_headings`. By default
     /// the whole grid, for matchers that cannot narrow it.
     fn long_ranked_near(
         &mut self,
@@ -312,9 +314,9 @@ pub struct StepCounts {
     /// Crowd rules with `crowd_new_links_wait`: new entries that started suspended because
     /// their sender's radio link came up less than `suspend_s` ago.
     pub new_link_waits: u32,
-    /// Crowd rules with `crowd_retry_headings`: retries of lost tracks that scored only the grid
-    /// headings nearest the track's last heading.
-    pub narrow_retries: u32,
+    /// Crowd rules with `crowd_placement_headings`: placements that scored only the grid
+    /// headings nearest the expected one.
+    pub narrowed_placements: u32,
 }
 
 /// One neighbour: seed 000 Algorithm 5, plus what the scheduling and metrics need.
@@ -464,6 +466,15 @@ const CROWD_FROM_SETS: usize = 10;
 /// trees (mean error 2.9 m by 550 s), so 1/s stays the default everywhere. The full grids are
 /// then saved up to this many (so a few due together still go at seed 000 6.2's two per step).
 const CROWD_FULL_GRID_BURST: f64 = 4.0;
+
+/// Crowd rules with `crowd_placement_headings`: a neighbour never placed is expected at the
+/// placed neighbours' mean relative heading only when at least this many are placed ...
+const HEADING_FROM_PLACED: usize = 3;
+
+/// ... and their headings agree: mean resultant length at least this (headings spread by a
+/// standard deviation of about 26°, a grid step and a sixth; K21 aligns a swarm's headings, seed
+/// 000 eq. 4.14, so in its crowds the placed neighbours' headings agree within a few degrees).
+const HEADINGS_AGREE: f64 = 0.9;
 
 /// Crowd rules with `crowd_retries_first`: taken from a re-check's overdue seconds, so every
 /// retry sorts before it (no overdue comes near this) and the re-checks keep their own order.
@@ -992,8 +1003,37 @@ impl Database {
         self.apply(now, idx, set, found, false, counts);
     }
 
+    /// Crowd rules with `crowd_placement_headings`: the relative heading entry `idx`'s full grid
+    /// is narrowed to, if it places a neighbour: a lost track's last heading; for a neighbour
+    /// never placed, the mean heading of the placed ones ([`Database::placed_heading`]). `None`
+    /// for a re-check of a tracked neighbour (it keeps every heading), or with nothing to go by.
+    fn expected_heading(&self, idx: usize) -> Option<f64> {
+        let e = &self.entries[idx];
+        match e.agent_from_neighbour {
+            Some(t) => e.suspended.then_some(t.rotation_rad),
+            None => self.placed_heading(),
+        }
+    }
+
+    /// The circular mean of the placed (unsuspended) entries' relative headings, when at least
+    /// [`HEADING_FROM_PLACED`] of them agree, their mean resultant length at least
+    /// [`HEADINGS_AGREE`]; `None` otherwise.
+    fn placed_heading(&self) -> Option<f64> {
+        let placed = self.entries.iter().filter(|e| !e.suspended).filter_map(|e| e.agent_from_neighbour);
+        let (mut sin, mut cos, mut n) = (0.0, 0.0, 0usize);
+        for t in placed {
+            let (s, c) = t.rotation_rad.sin_cos();
+            sin += s;
+            cos += c;
+            n += 1;
+        }
+        let agree = n >= HEADING_FROM_PLACED && sin.hypot(cos) >= HEADINGS_AGREE * n as f64;
+        agree.then(|| sin.atan2(cos))
+    }
+
     /// iICP or lICP: full-grid ICP of the set against `own`; in a crowd with
-    /// `crowd_retry_headings`, a lost track's retry only at the headings nearest its last one.
+    /// `crowd_placement_headings`, a placement only at the headings nearest the expected one
+    /// ([`Database::expected_heading`]).
     #[allow(clippy::too_many_arguments)] // one step's context, as `run_short` less the crowd flag
     fn run_long(
         &mut self,
@@ -1010,15 +1050,14 @@ impl Database {
         } else {
             counts.initial += 1;
         }
-        let e = &self.entries[idx];
-        let lost_heading = e.agent_from_neighbour.filter(|_| e.suspended).map(|t| t.rotation_rad);
-        let narrow = self.params.crowd_retry_headings;
-        let ranked = match lost_heading {
-            Some(heading) if crowd && narrow > 0 => {
-                counts.narrow_retries += 1;
+        let narrow = self.params.crowd_placement_headings;
+        let expected = if crowd && narrow > 0 { self.expected_heading(idx) } else { None };
+        let ranked = match expected {
+            Some(heading) => {
+                counts.narrowed_placements += 1;
                 m.long_ranked_near(own, &set.points, heading, narrow)
             }
-            _ => m.long_ranked(own, &set.points),
+            None => m.long_ranked(own, &set.points),
         };
         self.entries[idx].last_icp_s = now;
         trace_full_grid(now, self.entries[idx].key, set, ranked.as_ref());
@@ -1222,6 +1261,8 @@ mod tests {
         fits: BTreeMap<u32, f64>,
         /// (neighbour, heading, count) of every full grid narrowed to the headings near one.
         near: Vec<(u32, f64, u32)>,
+        /// Neighbour k's relative heading is this times k [rad] (none: 0.1).
+        turn: Option<f64>,
     }
 
     impl Scripted {
@@ -1232,7 +1273,7 @@ mod tests {
             let kf = f64::from(k);
             Some(Match {
                 agent_from_neighbour: AgentFromNeighbour {
-                    rotation_rad: 0.1 * kf,
+                    rotation_rad: self.turn.unwrap_or(0.1) * kf,
                     translation_m: Vector2::new(kf + self.shift, 0.5 * kf),
                 },
                 frmsd: self.frmsd_own.get(&k).copied().unwrap_or(0.2),
@@ -1755,29 +1796,40 @@ mod tests {
     }
 
     #[test]
-    fn in_a_crowd_a_lost_tracks_retry_scores_the_headings_near_its_last_one() {
-        // 12 neighbours (a crowd, retries before the re-checks): neighbour 12 tracked, then lost
-        // at 1 s; neighbour 11 never in reach. Which full grids are narrowed, and to what?
-        let narrowed = |count: u32, ks: &[u32]| {
-            let p = IcpParams { crowd_retry_headings: count, crowd_retries_first: true, ..params() };
-            let (mut d, mut m) = (Database::new(p, 0.5), Scripted { out_of_range: vec![11], ..Scripted::default() });
+    fn in_a_crowd_placements_score_the_headings_near_the_expected_one() {
+        // 12 neighbours (a crowd, retries before the re-checks), neighbour k turned by `turn`·k:
+        // neighbour 12 tracked, then lost at 1 s; neighbour 11 never in reach. Which full grids
+        // are narrowed after 1 s, and to what heading?
+        let narrowed = |count: u32, ks: &[u32], turn: f64| {
+            let p = IcpParams { crowd_placement_headings: count, crowd_retries_first: true, ..params() };
+            let mut m = Scripted { out_of_range: vec![11], turn: Some(turn), ..Scripted::default() };
+            let mut d = Database::new(p, 0.5);
             run(&mut d, &mut m, ks, 0.0, 0.9);
+            let first: Vec<u32> = m.near.iter().map(|n| n.0).collect();
+            m.near.clear();
             m.out_of_range.push(12);
             let counts = run(&mut d, &mut m, ks, 1.0, 12.0);
-            let narrow: u32 = counts.iter().map(|c| c.narrow_retries).sum();
-            let retries_of_11 = m.neighbours(Kind::Long).iter().filter(|&&k| k == 11).count();
-            (m.near, narrow, retries_of_11)
+            let narrow: u32 = counts.iter().map(|c| c.narrowed_placements).sum();
+            (first, m.near, narrow)
         };
         let ks: Vec<u32> = (1..=12).collect();
-        let (near, narrow, retries_of_11) = narrowed(3, &ks);
-        // Lost at 1 s, retried at 6 s and 11 s (suspend_s 5), from its last heading 0.1·12.
-        let last = 0.1 * 12.0;
-        assert_eq!(near, vec![(12, last, 3), (12, last, 3)]);
-        assert_eq!(narrow, 2);
-        assert!(retries_of_11 >= 2, "the never placed neighbour's retries score every heading");
-        // Off (0): every retry is the whole grid; out of a crowd too.
-        assert_eq!(narrowed(0, &ks).0, vec![]);
-        assert_eq!(narrowed(3, &[11, 12]).0, vec![]);
+        let (first, near, narrow) = narrowed(3, &ks, 0.1);
+        // The first placements go by nothing (fewer than 3 placed), then by the placed ones.
+        assert!(!first.contains(&1) && !first.contains(&3) && first.contains(&11), "{first:?}");
+        // Neighbour 12, lost at 1 s, is retried at 6 s and 11 s (suspend_s 5) at its last heading
+        // 0.1·12; neighbour 11's retries at the mean heading of neighbours 1 to 10, 0.55.
+        let of = |k: u32| near.iter().filter(|n| n.0 == k).map(|n| (n.1, n.2)).collect::<Vec<_>>();
+        assert_eq!(of(12), vec![(0.1 * 12.0, 3), (0.1 * 12.0, 3)]);
+        let of_11 = of(11);
+        assert!(of_11.len() >= 2 && of_11.iter().all(|&(h, c)| (h - 0.55).abs() < 1e-9 && c == 3), "{of_11:?}");
+        assert_eq!(narrow as usize, near.len());
+        // Headings that disagree (0.6 rad apart from one neighbour to the next) say nothing of a
+        // new neighbour's; a lost one's own heading still counts.
+        let (_, near, _) = narrowed(3, &ks, 0.6);
+        assert_eq!(near.iter().map(|n| n.0).collect::<Vec<_>>(), vec![12, 12]);
+        // Off (0): every full grid is the whole grid; out of a crowd too.
+        assert_eq!(narrowed(0, &ks, 0.1).1, vec![]);
+        assert_eq!(narrowed(3, &[1, 2, 3, 11, 12], 0.1).1, vec![]);
     }
 
     #[test]

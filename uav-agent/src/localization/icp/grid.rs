@@ -348,9 +348,9 @@ pub fn initial_icp_ranked(
 }
 
 /// [`initial_icp_ranked`] over the whole grid of positions but only the `count` grid headings
-/// nearest `heading_rad` (all of them when `count` is 0 or at least `grid_headings`): the retry
-/// of a neighbour whose relative heading is known from its lost track (the crowd rules'
-/// `crowd_retry_headings`). Every position is still scored, so a look-alike place anywhere in
+/// nearest `heading_rad` (all of them when `count` is 0 or at least `grid_headings`): the
+/// placement of a neighbour whose relative heading is expected (the crowd rules'
+/// `crowd_placement_headings`). Every position is still scored, so a look-alike place anywhere in
 /// the grid at those headings still makes the match ambiguous.
 pub fn initial_icp_ranked_near(
     reference: &[Point2<f64>],
@@ -558,7 +558,7 @@ mod tests {
         }
     }
 
-    /// With the lost heading known to within a grid step (±22.5°), three headings place a
+    /// With the expected heading known to within a grid step (±22.5°), three headings place a
     /// neighbour anywhere in the grid as well as all sixteen do; with every heading it is the
     /// full grid, bit for bit.
     #[test]
