@@ -222,8 +222,8 @@ pub trait Matcher {
         self.long(reference, source).map(|best| Ranked { best, runner_up: None })
     }
     /// [`Matcher::long_ranked`] at only the `count` grid headings nearest `heading_rad` (every
-    /// position still scored): a placement at an expected heading, `crowd_placement_headings`. By default
-    /// the whole grid, for matchers that cannot narrow it.
+    /// position still scored): a placement at an expected heading, `crowd_placement_headings`.
+    /// By default the whole grid, for matchers that cannot narrow it.
     fn long_ranked_near(
         &mut self,
         reference: &[Point2<f64>],

@@ -343,8 +343,12 @@ pub fn initial_icp_ranked(
     source: &[Point2<f64>],
     p: &IcpParams,
 ) -> Result<Ranked, NoEstimate> {
-    let all: Vec<u32> = (0..p.grid_headings.max(1)).collect();
-    initial_icp_ranked_from(reference, source, p, TABLE_FROM_POINTS, &all)
+    initial_icp_ranked_from(reference, source, p, TABLE_FROM_POINTS, &every_heading(p))
+}
+
+/// The indices k of every grid heading θ_k = 2π·k/H, in the full grid's order.
+fn every_heading(p: &IcpParams) -> Vec<u32> {
+    (0..p.grid_headings.max(1)).collect()
 }
 
 /// [`initial_icp_ranked`] over the whole grid of positions but only the `count` grid headings
@@ -530,20 +534,15 @@ mod tests {
         assert!(matches!(layout(f64::INFINITY), Layout::All { .. }));
         let source: Vec<Point2<f64>> = reference.iter().map(|q| Point2::new(q.y + 0.4, -q.x + 0.2)).collect();
         let p = IcpParams { grid_spacing_m: 2e8, ..IcpParams::default() };
-        let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX, &every(&p));
+        let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX, &every_heading(&p));
         assert_eq!(
             format!("{all:?}"),
-            format!("{:?}", initial_icp_ranked_from(&reference, &source, &p, 0, &every(&p)))
+            format!("{:?}", initial_icp_ranked_from(&reference, &source, &p, 0, &every_heading(&p)))
         );
     }
 
-    /// Every grid heading, in the full grid's order.
-    fn every(p: &IcpParams) -> Vec<u32> {
-        (0..p.grid_headings.max(1)).collect()
-    }
-
     #[test]
-    fn a_retry_scores_the_grid_headings_nearest_the_lost_heading() {
+    fn a_placement_scores_the_grid_headings_nearest_the_expected_one() {
         let step = std::f64::consts::TAU / 16.0;
         assert_eq!(nearest_headings(16, 0.1, 3), vec![0, 1, 15]);
         assert_eq!(nearest_headings(16, -0.1, 3), vec![0, 1, 15]);
@@ -562,7 +561,7 @@ mod tests {
     /// neighbour anywhere in the grid as well as all sixteen do; with every heading it is the
     /// full grid, bit for bit.
     #[test]
-    fn a_retry_near_the_lost_heading_places_as_the_full_grid_does() {
+    fn a_placement_near_the_expected_heading_places_as_the_full_grid_does() {
         let p = IcpParams::default();
         let mut rng = Rng(0x5EED_0048);
         let cases = 200;
@@ -764,8 +763,8 @@ mod tests {
             let reference: Vec<Point2<f64>> = (0..n_ref).map(|_| point(&mut rng)).collect();
             let source: Vec<Point2<f64>> = (0..n_src).map(|_| point(&mut rng)).collect();
             let p = IcpParams::default();
-            let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX, &every(&p));
-            let table = initial_icp_ranked_from(&reference, &source, &p, 0, &every(&p));
+            let all = initial_icp_ranked_from(&reference, &source, &p, usize::MAX, &every_heading(&p));
+            let table = initial_icp_ranked_from(&reference, &source, &p, 0, &every_heading(&p));
             prop_assert_eq!(format!("{all:?}"), format!("{table:?}"));
         }
     }
