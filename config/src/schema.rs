@@ -1114,11 +1114,19 @@ pub struct IcpParams {
     /// only this many of the `grid_headings` headings, the ones nearest where the neighbour is
     /// expected to be turned: a lost track's last relative heading, or for a neighbour never
     /// placed the placed neighbours' mean one, when at least three agree within about 26° (K21
-    /// aligns a swarm's headings). A re-check of a tracked neighbour, or a placement with
-    /// nothing to go by, keeps every heading. 0 (the default): every heading, as seed 000's
-    /// full grid (`docs/performance.md`, "Placements at the expected heading").
+    /// aligns a swarm's headings). A placement with nothing to go by keeps every heading, as a
+    /// re-check does (but see `crowd_recheck_headings`). 0 (the default): every heading, as
+    /// seed 000's full grid (`docs/performance.md`, "Placements at the expected heading").
     #[serde(default)]
     pub crowd_placement_headings: u32,
+    /// In a crowd, a re-check of a tracked neighbour scores the whole grid of positions but only
+    /// this many of the `grid_headings` headings, the ones nearest the placed neighbours' mean
+    /// relative heading when at least three agree within about 26° (K21 aligns a swarm's
+    /// headings), so a track locked onto a place turned away from the swarm is still found
+    /// out. With nothing to go by the re-check keeps every heading. 0 (the default): every
+    /// heading, as seed 000's lICP (`docs/performance.md`, "Re-checks at the swarm's heading").
+    #[serde(default)]
+    pub crowd_recheck_headings: u32,
 }
 fn d_lambda() -> f64 {
     1.3
@@ -1187,6 +1195,7 @@ impl Default for IcpParams {
             crowd_new_links_wait: false,
             crowd_rechecks: CrowdRechecks::Clock,
             crowd_placement_headings: 0,
+            crowd_recheck_headings: 0,
         }
     }
 }

@@ -122,6 +122,8 @@ fn main() {
     // An optional third number: `crowd_placement_headings` (docs/performance.md, "Placements at
     // the expected heading").
     sc.localization.icp.crowd_placement_headings = args.get(2).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
+    // ... and a fourth: `crowd_recheck_headings` ("Re-checks at the swarm's heading").
+    sc.localization.icp.crowd_recheck_headings = args.get(3).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
     let radio_m = sc.radio.range_m;
     let mut rng = Lcg(0x5eed_0040);
     let trees = forest(&mut rng);

@@ -164,6 +164,9 @@
 //!   so 3 of 16 cost about a fifth of it, and a look-alike place anywhere in the grid at those
 //!   headings still makes the placement ambiguous. A re-check (lICP) keeps every heading: it is
 //!   there to find a track locked onto a wrong place, wrong heading included.
+//! - With `crowd_recheck_headings` a re-check is narrowed too, but to the placed neighbours'
+//!   mean heading, not to the track's own: a track locked onto a place turned away from the
+//!   swarm's heading is then still found out, as K21 keeps the true one near the swarm's.
 //!
 //! All of them are sim-time decisions, so lockstep runs still repeat byte for byte.
 //!
@@ -222,8 +225,9 @@ pub trait Matcher {
         self.long(reference, source).map(|best| Ranked { best, runner_up: None })
     }
     /// [`Matcher::long_ranked`] at only the `count` grid headings nearest `heading_rad` (every
-    /// position still scored): a placement at an expected heading, `crowd_placement_headings`.
-    /// By default the whole grid, for matchers that cannot narrow it.
+    /// position still scored): a placement at an expected heading, `crowd_placement_headings`,
+    /// or a re-check at the swarm's, `crowd_recheck_headings`. By default the whole grid, for
+    /// matchers that cannot narrow it.
     fn long_ranked_near(
         &mut self,
         reference: &[Point2<f64>],
@@ -317,6 +321,9 @@ pub struct StepCounts {
     /// Crowd rules with `crowd_placement_headings`: placements that scored only the grid
     /// headings nearest the expected one.
     pub narrowed_placements: u32,
+    /// Crowd rules with `crowd_recheck_headings`: re-checks that scored only the grid headings
+    /// nearest the placed neighbours' mean one.
+    pub narrowed_rechecks: u32,
 }
 
 /// One neighbour: seed 000 Algorithm 5, plus what the scheduling and metrics need.
@@ -1003,15 +1010,20 @@ impl Database {
         self.apply(now, idx, set, found, false, counts);
     }
 
-    /// Crowd rules with `crowd_placement_headings`: the relative heading entry `idx`'s full grid
-    /// is narrowed to, if it places a neighbour: a lost track's last heading; for a neighbour
-    /// never placed, the mean heading of the placed ones ([`Database::placed_heading`]). `None`
-    /// for a re-check of a tracked neighbour (it keeps every heading), or with nothing to go by.
-    fn expected_heading(&self, idx: usize) -> Option<f64> {
+    /// Crowd rules: the relative heading entry `idx`'s full grid is narrowed to, and to how many
+    /// headings. With `crowd_placement_headings`, a placement: a lost track's last heading; for a
+    /// neighbour never placed, the mean heading of the placed ones ([`Database::placed_heading`]).
+    /// With `crowd_recheck_headings`, a re-check of a tracked neighbour: the placed ones' mean
+    /// heading, not its own (a track locked onto a place turned away from the swarm's is what a
+    /// re-check is there to find). `None`: every heading (the option off, or nothing to go by).
+    fn narrowing(&self, idx: usize) -> Option<(f64, u32)> {
         let e = &self.entries[idx];
+        let (placement, recheck) = (self.params.crowd_placement_headings, self.params.crowd_recheck_headings);
         match e.agent_from_neighbour {
-            Some(t) => e.suspended.then_some(t.rotation_rad),
-            None => self.placed_heading(),
+            Some(t) if e.suspended && placement > 0 => Some((t.rotation_rad, placement)),
+            Some(_) if !e.suspended && recheck > 0 => self.placed_heading().map(|h| (h, recheck)),
+            None if placement > 0 => self.placed_heading().map(|h| (h, placement)),
+            _ => None,
         }
     }
 
@@ -1050,12 +1062,16 @@ impl Database {
         } else {
             counts.initial += 1;
         }
-        let narrow = self.params.crowd_placement_headings;
-        let expected = if crowd && narrow > 0 { self.expected_heading(idx) } else { None };
-        let ranked = match expected {
-            Some(heading) => {
-                counts.narrowed_placements += 1;
-                m.long_ranked_near(own, &set.points, heading, narrow)
+        let narrowing = if crowd { self.narrowing(idx) } else { None };
+        let ranked = match narrowing {
+            Some((heading, count)) => {
+                let e = &self.entries[idx];
+                if e.agent_from_neighbour.is_some() && !e.suspended {
+                    counts.narrowed_rechecks += 1;
+                } else {
+                    counts.narrowed_placements += 1;
+                }
+                m.long_ranked_near(own, &set.points, heading, count)
             }
             None => m.long_ranked(own, &set.points),
         };
@@ -1830,6 +1846,37 @@ mod tests {
         // Off (0): every full grid is the whole grid; out of a crowd too.
         assert_eq!(narrowed(0, &ks, 0.1).1, vec![]);
         assert_eq!(narrowed(3, &[1, 2, 3, 11, 12], 0.1).1, vec![]);
+    }
+
+    #[test]
+    fn in_a_crowd_rechecks_score_the_headings_near_the_swarms() {
+        // 12 neighbours tracked (a crowd), neighbour k turned by `turn`·k, flown until each has
+        // been re-checked (every 5 s, at the crowd's rate of 1 a second after the 4 saved).
+        // Which full grids are narrowed, and to what?
+        let narrowed = |count: u32, ks: &[u32], turn: f64| {
+            let p = IcpParams { crowd_recheck_headings: count, ..params() };
+            let mut m = Scripted { turn: Some(turn), ..Scripted::default() };
+            let mut d = Database::new(p, 0.5);
+            let counts = run(&mut d, &mut m, ks, 0.0, 16.0);
+            let rechecks: u32 = counts.iter().map(|c| c.long).sum();
+            let narrow: u32 = counts.iter().map(|c| c.narrowed_rechecks).sum();
+            let placements: u32 = counts.iter().map(|c| c.narrowed_placements).sum();
+            (m.near, rechecks, narrow, placements)
+        };
+        let ks: Vec<u32> = (1..=12).collect();
+        let (near, rechecks, narrow, placements) = narrowed(3, &ks, 0.1);
+        // Every re-check is narrowed, to the mean of the placed headings 0.1·k, k = 1..12
+        // (0.65), never to the neighbour's own; the placements keep every heading.
+        assert!(rechecks >= 12, "{rechecks} re-checks");
+        assert_eq!((narrow, placements, near.len()), (rechecks, 0, rechecks as usize));
+        assert!(near.iter().all(|&(_, h, c)| (h - 0.65).abs() < 1e-9 && c == 3), "{near:?}");
+        assert!(ks.iter().all(|k| near.iter().any(|n| n.0 == *k)), "every track re-checked: {near:?}");
+        // Headings that disagree (0.6 rad apart from one neighbour to the next) say nothing.
+        assert_eq!(narrowed(3, &ks, 0.6).0, vec![]);
+        // Off (0): every re-check is the whole grid; out of a crowd too.
+        assert_eq!(narrowed(0, &ks, 0.1).0, vec![]);
+        let (near, rechecks, _, _) = narrowed(3, &[1, 2, 3, 4], 0.1);
+        assert!(rechecks >= 4 && near.is_empty(), "{rechecks} re-checks, {near:?}");
     }
 
     #[test]
