@@ -119,11 +119,12 @@ fn main() {
     let n = args.first().copied().unwrap_or(40);
     let ticks = args.get(1).copied().unwrap_or(300) as u64;
     let mut sc = swarm_config::builtin("forest-40-icp").expect("builtin");
-    // An optional third number: `crowd_placement_headings` (docs/performance.md, "Placements at
-    // the expected heading").
-    sc.localization.icp.crowd_placement_headings = args.get(2).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
-    // ... and a fourth: `crowd_recheck_headings` ("Re-checks at the swarm's heading").
-    sc.localization.icp.crowd_recheck_headings = args.get(3).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
+    // Optional third and fourth numbers: `crowd_placement_headings` and `crowd_recheck_headings`
+    // (docs/performance.md, "Placements at the expected heading", "Re-checks at the swarm's
+    // heading"); 0 when left out.
+    let headings = |i: usize| args.get(i).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
+    sc.localization.icp.crowd_placement_headings = headings(2);
+    sc.localization.icp.crowd_recheck_headings = headings(3);
     let radio_m = sc.radio.range_m;
     let mut rng = Lcg(0x5eed_0040);
     let trees = forest(&mut rng);

@@ -420,9 +420,15 @@ const RATE_SMOOTHING: f64 = 0.3;
 const MIN_RATE_DT_S: f64 = 0.15;
 
 impl Entry {
-    /// Where its neighbour is, body frame [m]: placed and not suspended (what the [`Gate`] reads).
+    /// Its estimate while it is tracked: placed and not suspended (a full grid of it is then a
+    /// re-check, not a placement).
+    fn tracked(&self) -> Option<AgentFromNeighbour> {
+        self.agent_from_neighbour.filter(|_| !self.suspended)
+    }
+
+    /// Where its neighbour is, body frame [m], while tracked (what the [`Gate`] reads).
     fn located(&self) -> Option<Vector2<f64>> {
-        self.agent_from_neighbour.filter(|_| !self.suspended).map(|t| t.translation_m)
+        self.tracked().map(|t| t.translation_m)
     }
 }
 
@@ -629,7 +635,7 @@ impl Database {
             } else {
                 counts.skipped_long += 1;
                 let e = &self.entries[idx];
-                if e.agent_from_neighbour.is_some() && !e.suspended {
+                if e.tracked().is_some() {
                     if budget == 0 {
                         self.run_short(now, own, idx, set, m, &mut counts);
                     } else {
@@ -1031,7 +1037,7 @@ impl Database {
     /// [`HEADING_FROM_PLACED`] of them agree, their mean resultant length at least
     /// [`HEADINGS_AGREE`]; `None` otherwise.
     fn placed_heading(&self) -> Option<f64> {
-        let placed = self.entries.iter().filter(|e| !e.suspended).filter_map(|e| e.agent_from_neighbour);
+        let placed = self.entries.iter().filter_map(Entry::tracked);
         let (mut sin, mut cos, mut n) = (0.0, 0.0, 0usize);
         for t in placed {
             let (s, c) = t.rotation_rad.sin_cos();
@@ -1062,11 +1068,11 @@ impl Database {
         } else {
             counts.initial += 1;
         }
+        let tracked = self.entries[idx].tracked();
         let narrowing = if crowd { self.narrowing(idx) } else { None };
         let ranked = match narrowing {
             Some((heading, count)) => {
-                let e = &self.entries[idx];
-                if e.agent_from_neighbour.is_some() && !e.suspended {
+                if tracked.is_some() {
                     counts.narrowed_rechecks += 1;
                 } else {
                     counts.narrowed_placements += 1;
@@ -1077,8 +1083,7 @@ impl Database {
         };
         self.entries[idx].last_icp_s = now;
         trace_full_grid(now, self.entries[idx].key, set, ranked.as_ref());
-        let e = &self.entries[idx];
-        let found = match e.agent_from_neighbour.filter(|_| !e.suspended) {
+        let found = match tracked {
             // A tracked neighbour: the lICP may move it only as confidently as a first placement.
             Some(tracked) => match judge_long(&tracked, ranked, self.params.match_frmsd) {
                 Recheck::Agrees(m) => m,
@@ -1169,8 +1174,7 @@ fn trace_accepted(now: f64, e: &Entry, set: &Received, found: &Match, full_grid:
     if !tracing::enabled!(target: "icp_provenance", tracing::Level::TRACE) {
         return;
     }
-    let tracked = e.agent_from_neighbour.is_some() && !e.suspended;
-    let kind = match (full_grid, tracked) {
+    let kind = match (full_grid, e.tracked().is_some()) {
         (true, true) => "long",
         (true, false) => "initial",
         (false, _) => "short",
