@@ -9,7 +9,8 @@
 //! mixes localization with the controller's crowd behaviour; this isolates localization, repeats
 //! exactly, and prints the numbers the issue judges (mean and p95 error, false share, estimates
 //! per agent, step CPU time) in minutes. `cargo bench -p uav-agent --bench crowd_lab -- [N] [TICKS]
-//! [PLACEMENT_HEADINGS]` (default 40 UAVs, 300 ticks = 30 s, every heading in a placement).
+//! [PLACEMENT_HEADINGS] [RECHECK_HEADINGS] [BUDGET]` (default 40 UAVs, 300 ticks = 30 s, every
+//! heading in a placement and a re-check, no localization budget).
 
 use swarm_types::UavId;
 use swarm_wire::{Odom, Scan};
@@ -119,12 +120,13 @@ fn main() {
     let n = args.first().copied().unwrap_or(40);
     let ticks = args.get(1).copied().unwrap_or(300) as u64;
     let mut sc = swarm_config::builtin("forest-40-icp").expect("builtin");
-    // Optional third and fourth numbers: `crowd_placement_headings` and `crowd_recheck_headings`
-    // (docs/performance.md, "Placements at the expected heading", "Re-checks at the swarm's
-    // heading"); 0 when left out.
-    let headings = |i: usize| args.get(i).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
-    sc.localization.icp.crowd_placement_headings = headings(2);
-    sc.localization.icp.crowd_recheck_headings = headings(3);
+    // Optional third to fifth numbers: `crowd_placement_headings`, `crowd_recheck_headings` and
+    // `budget_per_step` (docs/performance.md, "Placements at the expected heading", "Re-checks at
+    // the swarm's heading", "The localization budget"); 0 when left out.
+    let setting = |i: usize| args.get(i).map_or(0, |&h| u32::try_from(h).unwrap_or(u32::MAX));
+    sc.localization.icp.crowd_placement_headings = setting(2);
+    sc.localization.icp.crowd_recheck_headings = setting(3);
+    sc.localization.icp.budget_per_step = setting(4);
     let radio_m = sc.radio.range_m;
     let mut rng = Lcg(0x5eed_0040);
     let trees = forest(&mut rng);

@@ -5,6 +5,8 @@
 //!
 //! - `icp/initial_20pts`: one full-grid initial ICP (21×21 positions × 16 headings);
 //! - `icp/short_20pts`: one short ICP from a nearby estimate (0.3 m, 5° off);
+//! - `icp/fit_20pts`, `icp/fit_near_middle_20pts`: the localization budget's check from there,
+//!   of the whole set (before) and of the eight points nearest the middle (now);
 //! - `icp/initial_45pts`, `icp/short_45pts`: the same on a crowd's set (forest-40-icp,
 //!   forest-100-icp: 40–50 obstacle centres per set), 34 shared + 11 one-sided per side;
 //! - `icp/initial_12pts`, `icp/initial_16pts` (and their short ICPs): a sparse forest's sets
@@ -15,7 +17,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Point2, Rotation2, Vector2};
 use std::hint::black_box;
 use swarm_config::IcpParams;
-use uav_agent::icp::{icp, initial_icp, AgentFromNeighbour};
+use uav_agent::icp::{fit, fit_near_middle, icp, initial_icp, AgentFromNeighbour};
 
 /// SplitMix64, so the bench needs no rand crate and is deterministic.
 struct Rng(u64);
@@ -87,6 +89,12 @@ fn bench_case(c: &mut Criterion, seed: u64, shared: usize, own: usize) {
     };
     c.bench_function(&format!("icp/short_{pts}pts"), |b| {
         b.iter(|| icp(black_box(&reference), black_box(&source), start, &p))
+    });
+    c.bench_function(&format!("icp/fit_{pts}pts"), |b| {
+        b.iter(|| fit(black_box(&reference), black_box(&source), start, &p))
+    });
+    c.bench_function(&format!("icp/fit_near_middle_{pts}pts"), |b| {
+        b.iter(|| fit_near_middle(black_box(&reference), black_box(&source), start, &p))
     });
 }
 

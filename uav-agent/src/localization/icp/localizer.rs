@@ -8,7 +8,7 @@
 //! and it implements [`Matcher`] with the ICP of [`super::alignment`] and [`super::grid`]. It also decides the one
 //! thing that depends on the run's time mode: whether the wall clock may cut a step short.
 
-use super::alignment::{fit, icp, AgentFromNeighbour, Match};
+use super::alignment::{fit_near_middle, icp, AgentFromNeighbour, Match};
 use super::database::{Database, Matcher, Received};
 use super::grid::{initial_icp, initial_icp_ranked, initial_icp_ranked_near, Ranked};
 use crate::localization::Share;
@@ -144,6 +144,6 @@ impl Matcher for IcpMatcher<'_> {
         initial_icp_ranked_near(reference, source, self.0, heading_rad, count).ok()
     }
     fn fit(&mut self, reference: &[Point2<f64>], source: &[Point2<f64>], t: AgentFromNeighbour) -> Option<f64> {
-        fit(reference, source, t, self.0).ok()
+        fit_near_middle(reference, source, t, self.0).ok()
     }
 }

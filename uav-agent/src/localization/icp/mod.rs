@@ -46,7 +46,7 @@ mod network;
 mod pairing;
 mod placement;
 
-pub use alignment::{icp, AgentFromNeighbour, Match, NoEstimate, DISTINCT_M, DISTINCT_RAD};
+pub use alignment::{fit, fit_near_middle, icp, AgentFromNeighbour, Match, NoEstimate, DISTINCT_M, DISTINCT_RAD};
 pub use grid::{initial_icp, initial_icp_ranked, Ranked};
 pub(crate) use localizer::IcpLocalizer;
 pub use placement::{
