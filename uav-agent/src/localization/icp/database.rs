@@ -973,7 +973,11 @@ impl Database {
                 counts.confirmed += 1;
                 let e = &mut self.entries[idx];
                 e.estimate_t = set.t_s;
-                e.worst_frmsd = e.worst_frmsd.max(f);
+                // The check is comparable with its level only, not with an ICP's FRMSD: a set
+                // that fits counts as an sICP as far above the estimate's FRMSD as it is above
+                // the level (at most FIT_SLACK_M).
+                let above = e.fit_level.map_or(0.0, |level| (f - level).max(0.0));
+                e.worst_frmsd = e.worst_frmsd.max(e.frmsd + above);
             }
         }
     }
@@ -2095,6 +2099,22 @@ mod tests {
         let est = d.estimates(0.5);
         assert_eq!(est.len(), 5);
         assert!(est.iter().all(|e| e.age_s < 1e-9), "{est:?}");
+    }
+
+    #[test]
+    fn a_confirmation_counts_as_far_above_the_estimates_frmsd_as_its_check_is_above_the_level() {
+        // Every set fits 0.02 above the level its last ICP set (LEVEL), within FIT_SLACK_M.
+        let fits = BTreeMap::from([(1, LEVEL + 0.02), (2, LEVEL + 0.02), (3, LEVEL + 0.02)]);
+        let mut m = Scripted { fits, ..Scripted::default() };
+        let mut d = five_placed(&mut m, 1);
+        let c = step(&mut d, &mut m, 0.1, &[1, 2, 3].map(|k| recv(UavId::new(k), k, 0.1)));
+        assert_eq!((c.short, c.waited, c.confirmed), (1, 2, 2), "{c:?}");
+        // Neighbour 1 had the sICP; 2 and 3 were confirmed: the placement's FRMSD + 0.02, not
+        // the check's own value (comparable with its level only).
+        for k in [2, 3] {
+            let e = d.entries.iter().find(|e| e.sender == UavId::new(k)).expect("entry");
+            assert!((e.worst_frmsd - (e.frmsd + 0.02)).abs() < 1e-12, "{k}: {} vs {}", e.worst_frmsd, e.frmsd);
+        }
     }
 
     #[test]
