@@ -185,14 +185,14 @@
 //! ([`Matcher::fit`]; the whole set's pairing cost about half a short ICP, 18 % of
 //! forest-1000-icp's floor). Its value is held to the entry's level, the same check of the set
 //! the last accepted ICP aligned at its transform: more than [`FIT_SLACK_M`] above it, or either
-//! unknown, is a misfit. An entry left over is listed at its prediction; if its set fit there, the estimate is
-//! confirmed by it (its time becomes the set's), else it ages until its turn
+//! unknown, is a misfit. An entry left over is listed at its prediction; if its set fit there,
+//! the estimate is confirmed by it (its time becomes the set's), else it ages until its turn
 //! ([`StepCounts::waited`], [`StepCounts::confirmed`]). Identification (findBestMatch) is not
 //! counted: in a crowd the crowd rules already skip it for a link with one entry. forest-40-icp
-//! (one seed, 120 s, 17 neighbours tracked on average; the check was then of the whole set,
-//! held to the ICP's FRMSD): no budget 0.034 m mean error, 0.064 m
-//! p95; 8 a step with the odometry-frame track 0.037 m, 0.071 m; the same with the estimate
-//! held still instead of predicted 0.046 m, 0.100 m; 4 a step 0.046 m, 0.094 m.
+//! (10 seeds, 17 neighbours tracked on average): no budget 0.038 m mean error, 0.063 m p95; 8 a
+//! step 0.040 m, 0.076 m; 4 a step (an earlier check of the whole set) 0.048 m, 0.100 m; one seed
+//! with the estimate held still instead of predicted 0.046 m mean (docs/performance.md, "The
+//! localization budget").
 //!
 //! Contract with the caller: pass, every step, the newest set held from each neighbour (a set
 //! may be passed again in later steps; it is ignored once older than `stale_after_s`).
