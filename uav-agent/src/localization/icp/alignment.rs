@@ -36,7 +36,7 @@
 //!   each point's previous partner where it is certainly still the nearest.
 
 use super::network::LANES;
-use super::pairing::{distance2, Pair, Pairing};
+use super::pairing::{block_nearest, Pair, Pairing};
 use crate::geometry::wrap_angle;
 use nalgebra::{Matrix2, Point2, Vector2};
 use std::cmp::Ordering;
@@ -548,14 +548,7 @@ fn near_middle(source: &[Point2<f64>], t: &AgentFromNeighbour) -> Option<NearMid
 fn nearest_d2(reference: &[Point2<f64>], points: &[Point2<f64>; FIT_POINTS]) -> [f64; FIT_POINTS] {
     let (qx, qy): ([f64; FIT_POINTS], [f64; FIT_POINTS]) =
         (std::array::from_fn(|l| points[l].x), std::array::from_fn(|l| points[l].y));
-    let mut best = [f64::INFINITY; FIT_POINTS];
-    for a in reference {
-        for l in 0..FIT_POINTS {
-            let d2 = distance2(*a, qx[l], qy[l]);
-            best[l] = if d2 < best[l] { d2 } else { best[l] };
-        }
-    }
-    best
+    block_nearest(reference, &qx, &qy).0
 }
 
 /// Two alignments farther apart than this place the neighbour in different places [m].

@@ -61,18 +61,32 @@ pub(super) fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &
         for (l, q) in chunk.iter().enumerate() {
             (qx[l], qy[l]) = (q.x, q.y);
         }
-        let mut best = [f64::INFINITY; BLOCK];
-        let mut at = [0usize; BLOCK];
-        for (r, a) in reference.iter().enumerate() {
-            for l in 0..BLOCK {
-                let d2 = distance2(*a, qx[l], qy[l]);
-                let closer = d2 < best[l];
-                best[l] = if closer { d2 } else { best[l] };
-                at[l] = if closer { r } else { at[l] };
-            }
-        }
+        let (best, at) = block_nearest(reference, &qx, &qy);
         out.extend((0..chunk.len()).map(|l| Pair { d2: best[l], s: b * BLOCK + l, r: at[l] }));
     }
+}
+
+/// Each lane's nearest reference point to (`qx[l]`, `qy[l]`): its squared distance (+∞ with
+/// none) and the index of the first reference point of least distance, one block of lanes
+/// searched against every point ([`pair_into`]'s search, and the localization budget's check in
+/// `alignment`, which reads only the distances).
+#[inline(always)]
+pub(super) fn block_nearest(
+    reference: &[Point2<f64>],
+    qx: &[f64; BLOCK],
+    qy: &[f64; BLOCK],
+) -> ([f64; BLOCK], [usize; BLOCK]) {
+    let mut best = [f64::INFINITY; BLOCK];
+    let mut at = [0usize; BLOCK];
+    for (r, a) in reference.iter().enumerate() {
+        for l in 0..BLOCK {
+            let d2 = distance2(*a, qx[l], qy[l]);
+            let closer = d2 < best[l];
+            best[l] = if closer { d2 } else { best[l] };
+            at[l] = if closer { r } else { at[l] };
+        }
+    }
+    (best, at)
 }
 
 /// seed 000, eq. 3.17 squared: d² = ‖p − µ(p)‖², from reference point `a` to (`qx`, `qy`). The
