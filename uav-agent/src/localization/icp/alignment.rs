@@ -544,7 +544,7 @@ fn near_middle(source: &[Point2<f64>], t: &AgentFromNeighbour) -> Option<NearMid
 
 /// Each of `points`' squared distance to its nearest `reference` point (+∞ with none), the
 /// pairing's search over one block of lanes.
-#[multiversion::multiversion(targets("x86_64+avx2"))]
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2"))]
 fn nearest_d2(reference: &[Point2<f64>], points: &[Point2<f64>; FIT_POINTS]) -> [f64; FIT_POINTS] {
     let (qx, qy): ([f64; FIT_POINTS], [f64; FIT_POINTS]) =
         (std::array::from_fn(|l| points[l].x), std::array::from_fn(|l| points[l].y));

@@ -49,7 +49,7 @@ const SAFE_MARGIN: f64 = 1e-6;
 /// Pairs every moved source point with its nearest reference point (seed 000, Algorithm 1
 /// `pairing`), in source order: `out[s]` is source point s's pair, and the nearest is the first
 /// reference point of least distance. [`order_pairs`] sorts them.
-#[multiversion::multiversion(targets("x86_64+avx2"))]
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2"))]
 pub(super) fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &mut Vec<Pair>) {
     out.clear();
     // Source points in blocks of BLOCK lanes (the last block padded with copies of the last
