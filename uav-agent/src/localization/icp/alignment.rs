@@ -548,7 +548,9 @@ fn near_middle(source: &[Point2<f64>], t: &AgentFromNeighbour) -> Option<NearMid
 fn nearest_d2(reference: &[Point2<f64>], points: &[Point2<f64>; FIT_POINTS]) -> [f64; FIT_POINTS] {
     let (qx, qy): ([f64; FIT_POINTS], [f64; FIT_POINTS]) =
         (std::array::from_fn(|l| points[l].x), std::array::from_fn(|l| points[l].y));
-    block_nearest(reference, &qx, &qy).0
+    let mut best = [f64::INFINITY; FIT_POINTS];
+    block_nearest(reference, &qx, &qy, &mut best, &mut [0; FIT_POINTS]);
+    best
 }
 
 /// Two alignments farther apart than this place the neighbour in different places [m].
