@@ -5,12 +5,11 @@
 //! Why a module of its own: nearly all of a full grid's time goes to its first pass, which scores
 //! every start and is written for speed (eight starts at once on SIMD lanes, compiled for AVX2
 //! and AVX-512 too and picked at run time by `multiversion`, a table of candidate points, a
-//! sorting network)
-//! under one rule: every score is bit for bit what a start-by-start loop gives. That code
-//! changes for speed and is tested by bit equality with the plain loop; the ICP iteration it
-//! hands its best starts to ([`super::alignment`]) is a numerical method, changed for accuracy
-//! and tested by properties of rigid motions. Apart, each stays readable, and the imports run one
-//! way: this module uses the alignment, never the reverse.
+//! sorting network) under one rule: every score is bit for bit what a start-by-start loop gives.
+//! That code changes for speed and is tested by bit equality with the plain loop; the ICP
+//! iteration it hands its best starts to ([`super::alignment`]) is a numerical method, changed
+//! for accuracy and tested by properties of rigid motions. Apart, each stays readable, and the
+//! imports run one way: this module uses the alignment, never the reverse.
 //!
 //! - [`initial_icp`] is the initial estimate of seed 000 5.1: ICP from every point of a
 //!   (2·h+1)² grid around the agent at every one of `grid_headings` relative headings, keeping
