@@ -6,6 +6,7 @@
 /// session (`swarm scale`), open-1000 ran at 3.08x and 3.01x against 2.83x and 2.62x, for about
 /// twice the resident memory (447 against 200 MiB); docs/performance.md, "The allocator".
 /// Allocation never changes a result, so flights stay byte for byte the same.
+#[cfg(feature = "mimalloc")]
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
