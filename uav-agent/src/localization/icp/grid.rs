@@ -101,7 +101,7 @@ fn offer(list: &mut Vec<Start>, cap: usize, suppress2: f64, s: Start) {
 /// AVX2 (four lanes) and AVX-512 (all eight in one register) and pick the widest version the CPU
 /// has at run time (`multiversion`): the same operations in the same order per lane (Rust never
 /// fuses a multiply and an add on its own), so the distances are bit for bit those of the
-/// baseline build. AVX-512 made the full grid 12–22 % and the short ICP 13–31 % faster on a Zen 4
+/// baseline build. AVX-512 made the full grid 13–21 % and the short ICP 12–33 % faster on a Zen 4
 /// (12 to 45 points). The first pass's blocks are then scored lane by lane too
 /// ([`super::network`], which stays at AVX2: see [`block_scores`]).
 const BLOCK: usize = LANES;
