@@ -13,7 +13,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use std::hint::black_box;
 use swarm_types::UavId;
 use swarm_wire::{Gnss, ObstacleShare, Odom, PoseShare, Scan};
-use uav_agent::{Agent, Controllers, SensorFrame, Share};
+use uav_agent::{Agent, Controllers, ObstacleSet, SensorFrame, Share};
 
 /// About 5 trees per 100 m² in a 24 m square around the origin, ≥ 2.5 m apart, none within
 /// 1.5 m of the origin (deterministic: a small LCG).
@@ -118,14 +118,14 @@ fn share_in(trees: &[(f64, f64, f64)], j: UavId, pose: (f64, f64, f64), tick: u6
         let (dx, dy) = (t.0 - pose.0, t.1 - pose.1);
         [c * dx + s * dy, -s * dx + c * dy]
     });
-    Share::Obstacles(ObstacleShare {
+    Share::Obstacles(ObstacleSet::new(ObstacleShare {
         from: j,
         tick,
         t_s: tick as f64 * 0.1,
         centres_cm: ObstacleShare::quantize(pts),
         hops: 0,
         arrival: 0,
-    })
+    }))
 }
 
 fn bench_icp_step(c: &mut Criterion) {

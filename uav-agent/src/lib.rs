@@ -57,7 +57,7 @@ mod world_model;
 pub use agent::{Agent, LinkReport, Perceived, StepOutput, StepReport};
 pub use control::{Command, Controller, Controllers, MakeController, UnknownController, View};
 pub use localization::icp;
-pub use localization::Share;
+pub use localization::{ObstacleSet, Share};
 pub use net::{run, run_host, AgentError, AgentExit, AgentOptions, HostOptions, Sensors};
 pub use onboard::{Onboard, OnboardError, Outgoing};
 pub use sensing::{MalformedFrame, Needs, SensorFrame};

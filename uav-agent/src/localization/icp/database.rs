@@ -208,6 +208,7 @@ use crate::world_model::Estimate;
 use nalgebra::{Point2, Vector2};
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use swarm_config::{CrowdRechecks, IcpParams, Identify};
 use swarm_types::UavId;
 
@@ -255,8 +256,9 @@ pub struct Received {
     pub from: UavId,
     /// When the sender produced the set (sim time) [s].
     pub t_s: f64,
-    /// The sender's obstacle centres, in its body frame [m].
-    pub points: Vec<Point2<f64>>,
+    /// The sender's obstacle centres, in its body frame [m]: the share's decoded set, shared
+    /// by every agent of a host that received it.
+    pub points: Arc<[Point2<f64>]>,
 }
 
 /// One neighbour as the database places it: the localization [`Estimate`] (what it
@@ -340,7 +342,7 @@ struct Entry {
     /// Algorithm 5 `last long`: last successful full-grid ICP; −∞ if never.
     last_long: f64,
     /// Algorithm 5 `ID`: the obstacle set received last, used to recognise the next one.
-    id_set: Vec<Point2<f64>>,
+    id_set: Arc<[Point2<f64>]>,
     /// Algorithm 5 `suspended`: the last ICP could not place the neighbour.
     suspended: bool,
     /// Algorithm 5 `suspension time`.
@@ -598,7 +600,7 @@ impl Database {
                 }
             };
             let e = &mut self.entries[idx];
-            e.id_set.clone_from(&set.points);
+            e.id_set = Arc::clone(&set.points);
             e.prev_sender = e.sender;
             e.sender = set.from;
             e.last_used = now;
@@ -884,7 +886,7 @@ impl Database {
             key: self.next_key,
             agent_from_neighbour: None,
             last_long: f64::NEG_INFINITY,
-            id_set: Vec::new(),
+            id_set: Arc::from([]),
             suspended: false,
             suspension_time: f64::NEG_INFINITY,
             last_used: now,
@@ -1276,7 +1278,7 @@ mod tests {
     }
 
     fn recv(from: UavId, k: u32, t: f64) -> Received {
-        Received { from, t_s: t, points: set_of(k, t) }
+        Received { from, t_s: t, points: set_of(k, t).into() }
     }
 
     #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1948,7 +1950,7 @@ mod tests {
     #[test]
     fn newest_set_per_sender_is_used_and_old_or_small_sets_are_ignored() {
         let (mut d, mut m) = (db(), Scripted::default());
-        let small = Received { from: UavId::new(3), t_s: 1.0, points: set_of(3, 1.0)[..2].to_vec() };
+        let small = Received { from: UavId::new(3), t_s: 1.0, points: set_of(3, 1.0)[..2].into() };
         let c = step(
             &mut d,
             &mut m,

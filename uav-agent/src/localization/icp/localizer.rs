@@ -11,10 +11,11 @@
 use super::alignment::{fit_near_middle, icp, AgentFromNeighbour, Match};
 use super::database::{Database, Matcher, Received};
 use super::grid::{initial_icp, initial_icp_ranked, initial_icp_ranked_near, Ranked};
-use crate::localization::Share;
+use crate::localization::{ObstacleSet, Share};
 use crate::sensing::SensorFrame;
 use crate::world_model::{Circle, Estimate};
 use nalgebra::Point2;
+use std::sync::Arc;
 use std::time::Instant;
 use swarm_config::IcpParams;
 use swarm_types::UavId;
@@ -47,21 +48,20 @@ impl IcpLocalizer {
     /// are ignored).
     pub(crate) fn receive(&mut self, share: &Share) {
         let Share::Obstacles(o) = share else { return };
-        if o.from == self.id {
+        let (from, t_s) = (o.wire.from, o.wire.t_s);
+        if from == self.id {
             return;
         }
-        let centres = o.centres_m().map(|c| Point2::new(c[0], c[1]));
-        // Held by sender, found by bisection: a crowd's agent takes dozens of sets a step, and
-        // the held set's buffer is refilled rather than replaced.
-        match self.received.binary_search_by_key(&o.from, |r| r.from) {
-            Ok(i) if o.t_s > self.received[i].t_s => {
+        // Held by sender, found by bisection: a crowd's agent takes dozens of sets a step, each
+        // the decoded set the share arrived with, shared rather than copied.
+        match self.received.binary_search_by_key(&from, |r| r.from) {
+            Ok(i) if t_s > self.received[i].t_s => {
                 let held = &mut self.received[i];
-                held.t_s = o.t_s;
-                held.points.clear();
-                held.points.extend(centres);
+                held.t_s = t_s;
+                held.points = Arc::clone(&o.centres_m);
             }
             Ok(_) => {}
-            Err(i) => self.received.insert(i, Received { from: o.from, t_s: o.t_s, points: centres.collect() }),
+            Err(i) => self.received.insert(i, Received { from, t_s, points: Arc::clone(&o.centres_m) }),
         }
     }
 
@@ -105,14 +105,14 @@ impl IcpLocalizer {
 
     /// seed 000 3.2: the obstacle set is what an agent shares, in its body frame.
     pub(crate) fn share(&self, frame: &SensorFrame, circles: &[Circle]) -> Share {
-        Share::Obstacles(ObstacleShare {
+        Share::Obstacles(ObstacleSet::new(ObstacleShare {
             from: self.id,
             tick: frame.scan.tick,
             t_s: frame.scan.t_s,
             centres_cm: ObstacleShare::quantize(circles.iter().map(|c| [c.center.x, c.center.y])),
             hops: swarm_wire::NO_PATH,
             arrival: swarm_wire::NO_PATH,
-        })
+        }))
     }
 }
 
