@@ -4,7 +4,8 @@
 //! `Msg::Senses` to its agent's channel, where a frame on the agent's own `uav/{id}/sense` would
 //! have gone. Out, in a lockstep run: the agents' commands and states of a tick go as one
 //! `Msg::Cmds` on `host/{ids}/cmd` and one `Msg::States` on `host/{ids}/state` once every agent
-//! that took its frame from the host's message has stepped ([`crate::outbox`]).
+//! that took its frame from the host's message has stepped, each agent's share of the tick put
+//! on its own key just before them ([`crate::outbox`]).
 //!
 //! Why: a frame, a command and a state a UAV cost a put, a route and a delivery each; at 500
 //! agents a host that is 1500 of each a tick, three here. What the agents see does not
@@ -39,9 +40,12 @@ struct Inbox {
     awaited: bool,
 }
 
-/// The host's commands and states out, in a lockstep run.
+/// A share held back for the host's messages of its tick: its agent's writer and bytes.
+pub(crate) type HeldShare = (Arc<Writer>, Vec<u8>);
+
+/// The host's shares, commands and states out, in a lockstep run.
 struct Out {
-    outbox: Mutex<Outbox>,
+    outbox: Mutex<Outbox<HeldShare>>,
     cmds: Writer,
     states: Writer,
 }
@@ -108,18 +112,19 @@ impl HostFrames {
         Registered { frames: self.clone(), id }
     }
 
-    /// Agent `id`'s command and state of a step: taken into the host's messages (and those
-    /// now complete put), or handed back to be put alone.
+    /// Agent `id`'s share (if it sends one), command and state of a step: taken into the host's
+    /// messages (and those now complete put), or handed back to be put alone.
     pub(crate) async fn offer(
         &self,
         id: UavId,
+        share: Option<HeldShare>,
         cmd: Cmd,
         state: Box<AgentState>,
-    ) -> Result<Option<(Cmd, Box<AgentState>)>, AgentError> {
-        let Some(out) = &self.out else { return Ok(Some((cmd, state))) };
-        let offered = out.outbox.lock().unwrap_or_else(PoisonError::into_inner).offer(id, cmd, state);
+    ) -> Result<Option<Alone>, AgentError> {
+        let Some(out) = &self.out else { return Ok(Some((share, cmd, state))) };
+        let offered = out.outbox.lock().unwrap_or_else(PoisonError::into_inner).offer(id, share, cmd, state);
         match offered {
-            Offered::Alone(cmd, state) => Ok(Some((cmd, state))),
+            Offered::Alone(share, cmd, state) => Ok(Some((share, cmd, state))),
             Offered::Taken(done) => {
                 out.put(done).await?;
                 Ok(None)
@@ -135,10 +140,17 @@ impl HostFrames {
     }
 }
 
+/// A step the host's messages do not take: its share, command and state, to put alone.
+pub(crate) type Alone = (Option<HeldShare>, Cmd, Box<AgentState>);
+
 impl Out {
-    /// Puts each complete tick's commands, then its states.
-    async fn put(&self, done: Vec<Batch>) -> Result<(), AgentError> {
+    /// Puts each complete tick's shares (each on its sender's key), then its commands, then its
+    /// states.
+    async fn put(&self, done: Vec<Batch<HeldShare>>) -> Result<(), AgentError> {
         for b in done {
+            for (writer, bytes) in b.shares {
+                writer.put(bytes).await?;
+            }
             self.cmds.put(Msg::Cmds(b.cmds).encode()?).await?;
             self.states.put(Msg::States(b.states).encode()?).await?;
         }
@@ -153,7 +165,7 @@ impl Out {
 /// message, as a malformed frame of its own would.
 fn deliver(
     inboxes: &Mutex<HashMap<UavId, Inbox>>,
-    outbox: Option<&Mutex<Outbox>>,
+    outbox: Option<&Mutex<Outbox<HeldShare>>>,
     msg: Result<Msg, WireError>,
     len: usize,
 ) {
@@ -241,7 +253,7 @@ mod tests {
         let (mut rx1, bytes1) = inbox(&inboxes, 1);
         let (mut rx2, _) = inbox(&inboxes, 2);
         let frames = [1, 2, 9].map(|id| UavSense { id: UavId::new(id), frame: frame(id) }).to_vec();
-        let outbox = Mutex::new(Outbox::default());
+        let outbox: Mutex<Outbox<HeldShare>> = Mutex::new(Outbox::default());
         deliver(&inboxes, Some(&outbox), Ok(Msg::Senses(frames)), 300);
         for (rx, id) in [(&mut rx1, 1), (&mut rx2, 2)] {
             let got = rx.try_recv().expect("a frame");
@@ -252,8 +264,10 @@ mod tests {
         // The tick waits for UAV 1 alone: UAV 2's steps are not awaited, UAV 9 flies elsewhere.
         let mut outbox = outbox.into_inner().expect("lock");
         let state = |id: u32| Box::new(AgentState { id: UavId::new(id), tick: 3, ..AgentState::default() });
-        assert!(matches!(outbox.offer(UavId::new(2), Cmd::hover(3), state(2)), Offered::Alone(..)));
-        let Offered::Taken(done) = outbox.offer(UavId::new(1), Cmd::hover(3), state(1)) else { panic!("awaited") };
+        assert!(matches!(outbox.offer(UavId::new(2), None, Cmd::hover(3), state(2)), Offered::Alone(..)));
+        let Offered::Taken(done) = outbox.offer(UavId::new(1), None, Cmd::hover(3), state(1)) else {
+            panic!("awaited")
+        };
         assert_eq!(done.len(), 1, "complete with UAV 1's step");
         let outbox = Mutex::new(outbox);
         deliver(&inboxes, Some(&outbox), Err(WireError::BadKey("x".into())), 10);

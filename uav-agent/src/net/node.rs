@@ -161,7 +161,8 @@ struct Inputs {
 struct Outputs {
     /// The command to the hub (none for an agent on ROS topics: its commands go to `ros`).
     cmd: Option<Writer>,
-    share: Writer,
+    /// Shared with the host's messages, which may put a share held back (see [`super::frames`]).
+    share: Arc<Writer>,
     state: Writer,
 }
 
@@ -286,10 +287,10 @@ async fn declare_outputs(
     let cc = swarm_wire::session::congestion(sc.time.mode);
     // The share key as the session declared it (once, for every agent of the session). `uvdar`
     // never shares (no communication): its writer is on the pose key, and stays silent.
-    let share = match shared.feed.key(id)? {
+    let share = Arc::new(match shared.feed.key(id)? {
         Some(key) => Writer::new(s, key, cc).await?,
         None => Writer::new(s, keys.share_pose(id), cc).await?,
-    };
+    });
     Ok(Outputs {
         cmd: match to_hub {
             true => Some(Writer::new(s, keys.cmd(id), CongestionControl::Block).await?),
@@ -521,27 +522,31 @@ impl Node {
     }
 
     /// Publishes a step's share (through the link), command and state, in that order; in an
-    /// agent host, the command and state into the host's messages of the tick when they wait
-    /// for this step ([`super::frames`]).
+    /// agent host, the three into the host's messages of the tick when they wait for this step
+    /// ([`super::frames`]).
     async fn publish_step(&mut self, out: StepOutput, t_s: f64) -> Result<(), AgentError> {
-        if let Some(share) = out.share {
-            let bytes = share.into_msg().encode()?;
-            if self.admission.on_send(bytes.len()) {
-                self.publish.share.put(bytes).await?;
-                if let Some(ros) = &self.ros {
-                    ros.order_after_share().await?;
-                }
+        let share = match out.share {
+            Some(share) => {
+                let bytes = share.into_msg().encode()?;
+                self.admission.on_send(bytes.len()).then(|| (self.publish.share.clone(), bytes))
             }
-        }
+            None => None,
+        };
         let mut link = self.admission.report();
         let own = (self.arrived.0, self.arrived.1 + self.own_bytes.load(Ordering::Relaxed));
         link.traffic = self.shared.feed.traffic().snapshot(&self.shared.zid, own);
         let state = Box::new(out.report.into_state(link));
         let alone = match (&self.shared.frames, self.ros.is_none()) {
-            (Some(frames), true) => frames.offer(self.id, out.cmd, state).await?,
-            _ => Some((out.cmd, state)),
+            (Some(frames), true) => frames.offer(self.id, share, out.cmd, state).await?,
+            _ => Some((share, out.cmd, state)),
         };
-        if let Some((cmd, state)) = alone {
+        if let Some((share, cmd, state)) = alone {
+            if let Some((writer, bytes)) = share {
+                writer.put(bytes).await?;
+                if let Some(ros) = &self.ros {
+                    ros.order_after_share().await?;
+                }
+            }
             self.command(&cmd, t_s).await?;
             self.publish.state.put(Msg::State(state).encode()?).await?;
         }
