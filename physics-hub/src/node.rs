@@ -116,8 +116,9 @@ struct Net {
     /// only when this moved, so its cost per command does not grow with the agents.
     alive_gen: Arc<AtomicU64>,
     alive_changed: Arc<Notify>,
-    /// Each command with the wall instant it arrived.
-    cmds: mpsc::UnboundedReceiver<(UavId, Cmd, Instant)>,
+    /// The commands of each message (one, or an agent host's), each with the wall instant it
+    /// arrived.
+    cmds: mpsc::UnboundedReceiver<Vec<Incoming>>,
     lateness: Lateness,
     malformed: Arc<AtomicU64>,
     ignored: Arc<AtomicU64>,
@@ -227,24 +228,29 @@ fn from_the_future(ignored: &AtomicU64, tick: u64, c: &Cmd) -> bool {
 /// A command, its UAV and when it came.
 type Incoming = (UavId, Cmd, Instant);
 
-/// Every agent's commands, decoded, into one channel: each UAV's alone (`uav/*/cmd`) and an
-/// agent host's in one message (`host/*/cmd`). Malformed messages are counted in `bad`; commands
-/// for UAVs outside the scenario, or in a host's message for a UAV its key does not name, in
-/// `ignored`.
+/// Every agent's commands, decoded, into one channel, a message's at once: each UAV's alone
+/// (`uav/*/cmd`) and an agent host's in one message (`host/*/cmd`). Malformed messages are
+/// counted in `bad`; commands for UAVs outside the scenario, or in a host's message for a UAV
+/// its key does not name, in `ignored`.
+///
+/// Why a host's commands go as one item: sent one by one, each send could wake the tick's
+/// barrier ([`Net::collect_lockstep`]) parked on the channel, which took them one or a few at a
+/// time while the receiving thread went on sending (forest-1000-icp: about 280 wake-ups of the
+/// hub's main thread a tick, most of them from Zenoh's receiving threads).
 async fn subscribe_cmds(
     s: &zenoh::Session,
     keys: &Keys,
     count: usize,
     bad: Arc<AtomicU64>,
     ignored: Arc<AtomicU64>,
-) -> Result<([Subscription; 2], mpsc::UnboundedReceiver<Incoming>), WireError> {
+) -> Result<([Subscription; 2], mpsc::UnboundedReceiver<Vec<Incoming>>), WireError> {
     let (cmd_tx, cmds) = mpsc::unbounded_channel();
     let k = keys.clone();
     let (bad2, ignored2, tx2) = (bad.clone(), ignored.clone(), cmd_tx.clone());
     let alone = plumbing::subscribe(s, keys.cmd_any(), cmd_tx, move |sample| {
         let id = valid_id(&k, count, sample.key_expr().as_str());
         match (id, plumbing::decode(sample)) {
-            (Some(id), Ok(Msg::Cmd(c))) => Some((id, c, Instant::now())),
+            (Some(id), Ok(Msg::Cmd(c))) => Some(vec![(id, c, Instant::now())]),
             (None, _) => {
                 ignored.fetch_add(1, Ordering::Relaxed);
                 debug!(key = %sample.key_expr(), "command for a UAV not in this scenario ignored");
@@ -266,13 +272,17 @@ async fn subscribe_cmds(
             let ids = k.host_ids_of(sample.key_expr().as_str());
             match (ids, plumbing::decode(&sample)) {
                 (Some(ids), Ok(Msg::Cmds(cmds))) => {
+                    let mut taken = Vec::with_capacity(cmds.len());
                     for u in cmds {
                         if u.id.within(count) && ids.binary_search(&u.id).is_ok() {
-                            let _ = tx2.send((u.id, u.cmd, at));
+                            taken.push((u.id, u.cmd, at));
                         } else {
                             ignored2.fetch_add(1, Ordering::Relaxed);
                             debug!(key = %sample.key_expr(), uav_id = %u.id, "a host's command for a UAV it does not fly ignored");
                         }
+                    }
+                    if !taken.is_empty() {
+                        let _ = tx2.send(taken);
                     }
                 }
                 (ids, other) => {
@@ -629,8 +639,10 @@ impl Net {
             }
         };
         loop {
-            while let Ok(m) = self.cmds.try_recv() {
-                take(&mut got, &mut waiting, &mut self.lateness, m);
+            while let Ok(ms) = self.cmds.try_recv() {
+                for m in ms {
+                    take(&mut got, &mut waiting, &mut self.lateness, m);
+                }
             }
             let generation = self.alive_gen.load(Ordering::SeqCst);
             if seen_gen != Some(generation) {
@@ -643,8 +655,12 @@ impl Net {
                 return got;
             }
             tokio::select! {
-                m = self.cmds.recv() => match m {
-                    Some(m) => take(&mut got, &mut waiting, &mut self.lateness, m),
+                ms = self.cmds.recv() => match ms {
+                    Some(ms) => {
+                        for m in ms {
+                            take(&mut got, &mut waiting, &mut self.lateness, m);
+                        }
+                    }
                     None => return got,
                 },
                 _ = self.alive_changed.notified() => {},
@@ -660,12 +676,14 @@ impl Net {
     /// is used too, and counted by [`Lateness`]).
     fn collect_available(&mut self, tick: u64) -> BTreeMap<UavId, Cmd> {
         let mut got = BTreeMap::new();
-        while let Ok((id, c, at)) = self.cmds.try_recv() {
-            if from_the_future(&self.ignored, tick, &c) {
-                continue;
+        while let Ok(ms) = self.cmds.try_recv() {
+            for (id, c, at) in ms {
+                if from_the_future(&self.ignored, tick, &c) {
+                    continue;
+                }
+                self.lateness.command(c.tick, at);
+                got.insert(id, c);
             }
-            self.lateness.command(c.tick, at);
-            got.insert(id, c);
         }
         got
     }
