@@ -38,12 +38,16 @@ pub enum Share {
 /// forest-1000-icp), and each of them keeps the set; they now hold the one decoded set rather
 /// than each dividing its centimetres by 100 into a copy of its own (seed 000 3.2's set, as the
 /// ICP takes it).
+///
+/// Built only by [`ObstacleSet::new`], so the centres are always `wire`'s (outside the crate its
+/// fields are out of reach; inside, only the hop counts of `wire` change, which the centres do
+/// not depend on).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObstacleSet {
     /// The share as it goes on the wire.
-    pub wire: ObstacleShare,
+    pub(crate) wire: ObstacleShare,
     /// `wire`'s centres in metres ([`ObstacleShare::centres_m`]), sender's body frame.
-    pub centres_m: Arc<[Point2<f64>]>,
+    pub(crate) centres_m: Arc<[Point2<f64>]>,
 }
 
 impl ObstacleSet {
