@@ -45,7 +45,15 @@ pub async fn dispatch(cmd: NodeCmd, controllers: Controllers) -> anyhow::Result<
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     zenoh_threads(&cli.cmd);
-    process::run(dispatch(cli.cmd, Controllers::builtin()))
+    process::run_on(workers(&cli.cmd), dispatch(cli.cmd, Controllers::builtin()))
+}
+
+/// The runtime's worker threads for this process: an agent's `--workers`, else the default.
+pub fn workers(cmd: &NodeCmd) -> usize {
+    match cmd {
+        NodeCmd::Agent(pieces::AgentArgs { workers: Some(n), .. }) => usize::from(*n),
+        _ => process::DEFAULT_WORKERS,
+    }
 }
 
 /// Zenoh's threads for this process, chosen before its first session opens: a process that runs

@@ -77,6 +77,12 @@ pub struct AgentArgs {
     /// default, best effort (ROS's sensor-data QoS), matches every writer, a vehicle's drivers too.
     #[arg(long, requires = "sensors")]
     pub reliable_sensors: bool,
+    /// Worker threads of this process's runtime, where its agents step (default 2). `swarm run`
+    /// gives each agent process its share of the machine's cores: one worker when it starts as
+    /// many agent processes as there are cores, or more (docs/performance.md, "One worker per
+    /// agent host").
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub workers: Option<u16>,
 }
 
 /// Where an agent's sensors come from.

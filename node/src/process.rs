@@ -1,9 +1,10 @@
 //! What every binary of the workspace does around its command, in one place so `swarm` and
 //! `swarm-node` log and fail alike: tracing to standard error (`RUST_LOG`, Zenoh's own chatter at
 //! warn by default, RustDDS's off: it logs a peer's every coming and going as an error; ask for
-//! it with `RUST_LOG=info,rustdds=warn`), a two-thread Tokio runtime whose error ends the
-//! process with a message, and [`out`]: a line to standard output that a closed pipe
-//! (`swarm run | head`) ends quietly instead of panicking as `println!` does.
+//! it with `RUST_LOG=info,rustdds=warn`), a Tokio runtime (two worker threads unless the
+//! command asks otherwise, see [`run_on`]) whose error ends the process with a message, and
+//! [`out`]: a line to standard output that a closed pipe (`swarm run | head`) ends quietly
+//! instead of panicking as `println!` does.
 
 use std::future::Future;
 use std::process::ExitCode;
@@ -19,14 +20,25 @@ pub fn out(line: &str) {
     }
 }
 
-/// Sets up logging, runs `command` on a two-worker runtime, prints its error as `error: …` and
-/// turns it into a failing exit code.
+/// The runtime's worker threads unless the command asks otherwise.
+pub const DEFAULT_WORKERS: usize = 2;
+
+/// [`run_on`] with [`DEFAULT_WORKERS`].
 pub fn run<F>(command: F) -> ExitCode
 where
     F: Future<Output = anyhow::Result<ExitCode>>,
 {
+    run_on(DEFAULT_WORKERS, command)
+}
+
+/// Sets up logging, runs `command` on a runtime of `workers` worker threads (at least one),
+/// prints its error as `error: …` and turns it into a failing exit code.
+pub fn run_on<F>(workers: usize, command: F) -> ExitCode
+where
+    F: Future<Output = anyhow::Result<ExitCode>>,
+{
     init_tracing();
-    let rt = match tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build() {
+    let rt = match tokio::runtime::Builder::new_multi_thread().worker_threads(workers.max(1)).enable_all().build() {
         Ok(rt) => rt,
         Err(e) => {
             eprintln!("error: cannot start the async runtime: {e}");

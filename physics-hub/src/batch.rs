@@ -4,9 +4,9 @@
 //! Why: a frame a UAV costs a put and a route each, the hub's largest share of a tick at 1000
 //! UAVs (docs/performance.md, "The hub's tick"). An agent host that holds the token
 //! `alive/host/{ids}` takes its UAVs' frames in one `Msg::Senses` on `host/{ids}/sense`
-//! instead; every other UAV's frame still goes alone on `uav/{id}/sense`. The frames come in id
-//! order from the sensor workers, so a host's message goes out as soon as its last frame is
-//! encoded, while the workers go on with the next ones.
+//! instead; every other UAV's frame still goes alone on `uav/{id}/sense`. The frames come from
+//! the sensor workers in the order [`Batches::order`] picks (the hosts' UAVs in turn), and a
+//! host's message goes out as soon as its last frame is encoded.
 
 use std::collections::HashMap;
 use swarm_types::UavId;
@@ -59,6 +59,32 @@ impl Batches {
         Batches { host_of, pending }
     }
 
+    /// The order to compute the sensors of `sent` (the UAVs given to [`Batches::new`]) in: the
+    /// frames that go alone first, in the order given, then the hosts' UAVs in turn, each host's
+    /// first, then each host's second, and so on, so that every host's message is complete at
+    /// about the same moment, near the end of the tick's sensors.
+    ///
+    /// Why: in id order, the first host's message went out halfway through the sensors. With one
+    /// runtime worker per host (one host per core), that host then finished its agents' steps
+    /// first and left its core idle while the last host, started later, finished its own; with
+    /// the messages complete together, the sensor threads have both cores until then and the
+    /// hosts end their steps together. Each UAV draws from its own streams, so the order changes
+    /// no frame.
+    pub fn order(&self, sent: &[UavId]) -> Vec<UavId> {
+        let mut out: Vec<UavId> = sent.iter().copied().filter(|id| !self.host_of.contains_key(id)).collect();
+        let mut per_host: Vec<Vec<UavId>> = self.pending.iter().map(|p| Vec::with_capacity(p.expected)).collect();
+        for id in sent {
+            if let Some(&h) = self.host_of.get(id) {
+                per_host[h].push(*id);
+            }
+        }
+        let longest = per_host.iter().map(Vec::len).max().unwrap_or(0);
+        for k in 0..longest {
+            out.extend(per_host.iter().filter_map(|ids| ids.get(k)));
+        }
+        out
+    }
+
     /// Takes UAV `id`'s encoded frame.
     pub fn take(&mut self, id: UavId, frame: Vec<u8>) -> Route {
         let Some(&h) = self.host_of.get(&id) else { return Route::Alone(frame) };
@@ -96,6 +122,21 @@ mod tests {
             b.take(UavId::new(6), vec![6]),
             Route::Complete(1, vec![(UavId::new(5), vec![5]), (UavId::new(6), vec![6])])
         );
+    }
+
+    #[test]
+    fn the_alone_go_first_then_the_hosts_in_turn_so_their_messages_end_together() {
+        let hosts = vec![ids(&[1, 2, 3]), ids(&[5, 6])];
+        let sent = ids(&[1, 2, 3, 4, 5, 6, 7]);
+        let mut b = Batches::new(&hosts, &sent);
+        let order = b.order(&sent);
+        assert_eq!(order, ids(&[4, 7, 1, 5, 2, 6, 3]));
+        // Taken in that order, both hosts' messages complete in the last three frames.
+        let routes: Vec<Route> = order.iter().map(|&id| b.take(id, vec![id.get() as u8])).collect();
+        let complete: Vec<usize> =
+            routes.iter().enumerate().filter(|(_, r)| matches!(r, Route::Complete(..))).map(|(i, _)| i).collect();
+        assert_eq!(complete, vec![5, 6]);
+        assert!(matches!(&routes[6], Route::Complete(0, f) if f.iter().map(|(id, _)| id.get()).eq([1, 2, 3])));
     }
 
     #[test]

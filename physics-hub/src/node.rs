@@ -577,8 +577,9 @@ impl Net {
         put(&self.netem_rules, &Msg::NetemRules(json)).await
     }
 
-    /// Step 1 of a tick: the clock, then every live UAV's sensors in id order, an agent host's
-    /// in one message ([`crate::batch`]). The sensors are computed and encoded on worker threads
+    /// Step 1 of a tick: the clock, then every live UAV's sensors, an agent host's in one
+    /// message ([`crate::batch`]): those that go alone first, then the hosts' UAVs in turn
+    /// ([`Batches::order`]). The sensors are computed and encoded on worker threads
     /// while this thread publishes the UAVs already done ([`Sim::sensors_each`]); the puts are
     /// synchronous, inside `block_in_place`, so the runtime's other worker keeps taking commands
     /// meanwhile.
@@ -594,10 +595,11 @@ impl Net {
             }
         }
         let mut batches = Batches::new(&hosts, &ids);
+        let order = batches.order(&ids);
         let this = &*self;
         tokio::task::block_in_place(|| {
             sim.sensors_each(
-                &ids,
+                &order,
                 |_, s| Msg::Sense(Box::new(s)).encode(),
                 |id, e| match batches.take(id, e?) {
                     // Blocking puts (the caller is inside `block_in_place`), unlike `put` above.

@@ -103,10 +103,14 @@ pub fn main_with(controllers: Controllers) -> ExitCode {
     if std::env::var_os(PARSE_ONLY).is_some() {
         return ExitCode::SUCCESS;
     }
-    if let Cmd::Node(c) = &cli.cmd {
-        swarm_node::command::zenoh_threads(c);
-    }
-    swarm_node::process::run(dispatch(cli, controllers))
+    let workers = match &cli.cmd {
+        Cmd::Node(c) => {
+            swarm_node::command::zenoh_threads(c);
+            swarm_node::command::workers(c)
+        }
+        _ => swarm_node::process::DEFAULT_WORKERS,
+    };
+    swarm_node::process::run_on(workers, dispatch(cli, controllers))
 }
 
 async fn dispatch(cli: Cli, controllers: Controllers) -> anyhow::Result<ExitCode> {

@@ -3,10 +3,10 @@
 //! worker threads. A module of its own so that the threads, chunks and channel stay apart from the
 //! pure step in [`super`].
 //!
-//! The sensors of a large swarm are computed on every core, in chunks handed over in id order as
-//! they are done, so the hub publishes the first chunks while the next are computed
+//! The sensors of a large swarm are computed on every core, in chunks handed over in the order
+//! asked as they are done, so the hub publishes the first chunks while the next are computed
 //! ([`Sim::sensors_each`]). Each UAV draws only from its own seeded streams and the results are
-//! taken in id order, so nothing depends on the number of threads.
+//! taken in the order asked, so nothing depends on the number of threads or on that order.
 
 use super::Sim;
 use crate::body::wrap_angle;
@@ -90,7 +90,7 @@ impl Sim {
     /// of [`CHUNK_UAVS`] while the calling thread sinks the chunks already done, so the sink's
     /// work (the hub's publication) overlaps the computation instead of waiting for all of it,
     /// and the first agents get their sensors early. Each UAV draws only from its own streams
-    /// and the sink sees id order whatever the threads do, so nothing depends on the split. The
+    /// and the sink sees the order of `ids` whatever the threads do, so nothing depends on the split. The
     /// first error of `sink` stops the sinking and is returned (the workers finish their chunks).
     pub fn sensors_each<T: Send, E>(
         &mut self,
