@@ -22,19 +22,17 @@ import tempfile
 import time
 
 from proc_cpu import TICK, tree  # the same /proc walk, beside this file
+from proc_cpu import role as proc_role
 
 
 def role(pid):
-    """`hub`, `agent` or `launcher` for a swarm process, else None."""
-    try:
-        argv = open(f'/proc/{pid}/cmdline').read().split('\0')
-    except OSError:
+    """`hub`, `agent` or `launcher` (`swarm scale` or `swarm run`) for a swarm process, else None:
+    `proc_cpu.py`'s role without its scenario."""
+    r = proc_role(pid)
+    if r is None:
         return None
-    if len(argv) > 1 and argv[1] in ('hub', 'agent'):
-        return argv[1]
-    if 'swarm' in os.path.basename(argv[0]):
-        return 'launcher'
-    return None
+    kind = r.split()[0]
+    return kind if kind in ('hub', 'agent') else 'launcher'
 
 
 def last_time(folder):

@@ -71,11 +71,12 @@ impl Batches {
     /// hosts end their steps together. Each UAV draws from its own streams, so the order changes
     /// no frame.
     pub fn order(&self, sent: &[UavId]) -> Vec<UavId> {
-        let mut out: Vec<UavId> = sent.iter().copied().filter(|id| !self.host_of.contains_key(id)).collect();
+        let mut out = Vec::with_capacity(sent.len());
         let mut per_host: Vec<Vec<UavId>> = self.pending.iter().map(|p| Vec::with_capacity(p.expected)).collect();
-        for id in sent {
-            if let Some(&h) = self.host_of.get(id) {
-                per_host[h].push(*id);
+        for &id in sent {
+            match self.host_of.get(&id) {
+                Some(&h) => per_host[h].push(id),
+                None => out.push(id),
             }
         }
         let longest = per_host.iter().map(Vec::len).max().unwrap_or(0);

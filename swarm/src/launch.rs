@@ -182,8 +182,9 @@ fn per_process(uavs: usize, cores: u32, asked: Option<u32>) -> u32 {
 /// Why: one host per core, each on the default two workers, put two busy threads on every core.
 /// A host's agents then moved between cores, and each share's reference count crossed between
 /// them. With one worker per host, and the hub completing every host's frames together
-/// (`Batches::order`), forest-1000-icp ran 3 % faster on 5 % less CPU (docs/performance.md, "One
-/// worker per agent host").
+/// (`Batches::order`), forest-1000-icp ran 3 % faster on 5 % less CPU over sim s 20–120, and its
+/// whole flight at the same speed on 2.4 % less (docs/performance.md, "One worker per agent
+/// host").
 fn workers_per_agent_process(processes: usize, cores: u32) -> u16 {
     let processes = u32::try_from(processes.max(1)).unwrap_or(u32::MAX);
     u16::try_from((cores / processes).max(1)).unwrap_or(u16::MAX)

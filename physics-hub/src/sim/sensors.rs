@@ -90,8 +90,9 @@ impl Sim {
     /// of [`CHUNK_UAVS`] while the calling thread sinks the chunks already done, so the sink's
     /// work (the hub's publication) overlaps the computation instead of waiting for all of it,
     /// and the first agents get their sensors early. Each UAV draws only from its own streams
-    /// and the sink sees the order of `ids` whatever the threads do, so nothing depends on the split. The
-    /// first error of `sink` stops the sinking and is returned (the workers finish their chunks).
+    /// and the sink sees the order of `ids` whatever the threads do, so nothing depends on the
+    /// split. The first error of `sink` stops the sinking and is returned (the workers finish
+    /// their chunks).
     pub fn sensors_each<T: Send, E>(
         &mut self,
         ids: &[UavId],
