@@ -496,12 +496,35 @@ pub fn fit_near_middle(
     let near = near_middle(source, &t).ok_or(NoEstimate::NonFinite)?;
     let mut d2 = nearest_d2(reference, &near.points);
     let d2 = &mut d2[..near.len];
-    d2.sort_unstable_by(f64::total_cmp);
-    let weights = frmsd_weights(near.len, p.lambda);
-    match best_prefix(d2.iter().copied(), &weights, k_min) {
+    // Squared distances are ≥ +0 or +∞ (a NaN reference point is never the nearest), so their
+    // bit patterns sort as `f64::total_cmp` does.
+    d2.sort_unstable_by_key(|d| d.to_bits());
+    match best_prefix(d2.iter().copied(), &fit_weights(near.len, p.lambda), k_min) {
         (0, _) => Err(NoEstimate::TooFewPoints),
         (_, f2) => Ok(f2.sqrt()),
     }
+}
+
+/// [`frmsd_weights`] for a check of `len` ≤ [`FIT_POINTS`] points, the first `len` entries
+/// (the rest unused), from a table per thread by `len` that holds the last λ's: the check runs
+/// dozens of times per agent and step, between ICPs whose tables are of other sizes, and the
+/// lookup in [`frmsd_weights`]'s map was a tenth of the check's time (`cargo bench -p uav-agent
+/// --bench icp -- fit_near_middle`). The same table, so the same bits.
+fn fit_weights(len: usize, lambda: f64) -> [f64; FIT_POINTS] {
+    type Table = [Option<(u64, [f64; FIT_POINTS])>; FIT_POINTS + 1];
+    thread_local! {
+        static TABLE: std::cell::RefCell<Table> = const { std::cell::RefCell::new([None; FIT_POINTS + 1]) };
+    }
+    debug_assert!(len <= FIT_POINTS, "a check of at most FIT_POINTS points");
+    TABLE.with_borrow_mut(|table| match table[len] {
+        Some((bits, w)) if bits == lambda.to_bits() => w,
+        _ => {
+            let mut w = [0.0; FIT_POINTS];
+            w[..len].copy_from_slice(&frmsd_weights(len, lambda));
+            table[len] = Some((lambda.to_bits(), w));
+            w
+        }
+    })
 }
 
 /// Up to [`FIT_POINTS`] source points moved by `t`, the nearest the middle first.
@@ -513,33 +536,72 @@ struct NearMiddle {
 
 /// The [`FIT_POINTS`] points of `source` that `t` puts nearest the middle of the two UAVs (ties:
 /// the lower index), moved; `None` when a point is not finite.
+///
+/// In two passes over blocks of [`MIDDLE_BLOCK`] points: every point's squared distance to the
+/// middle (a loop with no branch, in vectors), then the insertion of those that beat the eighth
+/// best so far into a list of distances and indices. Only the chosen points are moved again for
+/// the check, by the same operations, so they are the same bits. Why: the check was 11 % of
+/// forest-1000-icp's floor after the placements (`perf`, 2026-12-08), nearly all of it this
+/// function's one pass that moved every point and inserted whole points.
 fn near_middle(source: &[Point2<f64>], t: &AgentFromNeighbour) -> Option<NearMiddle> {
     let r = rot(t.rotation_rad);
     let middle = t.translation_m / 2.0;
     // Kept sorted by (distance², index): an insertion per point that makes it.
-    let mut best = [(f64::INFINITY, Point2::origin()); FIT_POINTS];
+    let mut best = [(f64::INFINITY, 0usize); FIT_POINTS];
     let mut len = 0;
-    for q in source {
-        // seed 000, eq. 3.12 form (tranSource): p_R = Rot(rotation_rad) · p_S + translation_m.
-        let moved = Point2::from(r * q.coords + t.translation_m);
-        let d2 = (moved.coords - middle).norm_squared();
-        if !d2.is_finite() {
+    let mut d2 = [0.0; MIDDLE_BLOCK];
+    for (b, block) in source.chunks(MIDDLE_BLOCK).enumerate() {
+        if !middle_distances2(block, &r, &t.translation_m, &middle, &mut d2) {
             return None;
         }
-        if len == FIT_POINTS && d2 >= best[len - 1].0 {
-            continue;
+        for (k, &d) in d2[..block.len()].iter().enumerate() {
+            if len == FIT_POINTS && d >= best[len - 1].0 {
+                continue;
+            }
+            let mut at = len.min(FIT_POINTS - 1);
+            while at > 0 && best[at - 1].0 > d {
+                best[at] = best[at - 1];
+                at -= 1;
+            }
+            best[at] = (d, b * MIDDLE_BLOCK + k);
+            len = (len + 1).min(FIT_POINTS);
         }
-        let mut k = len.min(FIT_POINTS - 1);
-        while k > 0 && best[k - 1].0 > d2 {
-            best[k] = best[k - 1];
-            k -= 1;
-        }
-        best[k] = (d2, moved);
-        len = (len + 1).min(FIT_POINTS);
     }
-    let last = best[len.max(1) - 1].1;
-    let points = std::array::from_fn(|k| if k < len { best[k].1 } else { last });
+    let moved = |k: usize| {
+        let q = source.get(best[k.min(len.max(1) - 1)].1).copied().unwrap_or_else(Point2::origin);
+        move_by(&r, &t.translation_m, q)
+    };
+    let points = std::array::from_fn(moved);
     Some(NearMiddle { points, len })
+}
+
+/// Points of `source` whose distances to the middle [`near_middle`] computes at a time.
+const MIDDLE_BLOCK: usize = 64;
+
+/// seed 000, eq. 3.12 form (tranSource): p_R = Rot(rotation_rad) · p_S + translation_m, as
+/// `r · q + t` with the rotation matrix `r`.
+#[inline(always)]
+fn move_by(r: &Matrix2<f64>, t: &Vector2<f64>, q: Point2<f64>) -> Point2<f64> {
+    Point2::from(r * q.coords + t)
+}
+
+/// Each point of `block` moved by (`r`, `t`) ([`move_by`]): its squared distance to `middle`,
+/// into `out`; false when one is not finite.
+#[multiversion::multiversion(targets("x86_64+avx512f+avx512vl", "x86_64+avx2"))]
+fn middle_distances2(
+    block: &[Point2<f64>],
+    r: &Matrix2<f64>,
+    t: &Vector2<f64>,
+    middle: &Vector2<f64>,
+    out: &mut [f64; MIDDLE_BLOCK],
+) -> bool {
+    let mut finite = true;
+    for (q, d2) in block.iter().zip(out.iter_mut()) {
+        let d = (move_by(r, t, *q).coords - middle).norm_squared();
+        finite &= d.is_finite();
+        *d2 = d;
+    }
+    finite
 }
 
 /// Each of `points`' squared distance to its nearest `reference` point (+∞ with none), the
@@ -994,6 +1056,36 @@ pub(super) mod tests {
 
     proptest! {
         #![proptest_config(config(256))]
+
+        /// The points near the middle are those of a sort of every moved point by (distance² to
+        /// the middle, index), bit for bit and in that order: sets of up to three blocks, and
+        /// on a grid of whole metres, full of ties and repeated points.
+        #[test]
+        fn prop_near_middle_is_the_sort_of_every_point(seed in any::<u64>(), n in 1usize..200, grid in any::<bool>()) {
+            let mut rng = Rng(seed);
+            let source: Vec<Point2<f64>> = (0..n)
+                .map(|_| {
+                    let (x, y) = (rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
+                    if grid { Point2::new(x.round(), y.round()) } else { Point2::new(x, y) }
+                })
+                .collect();
+            let t = if grid {
+                AgentFromNeighbour { rotation_rad: 0.0, translation_m: Vector2::new(rng.range(-4.0, 4.0).round() * 2.0, 0.0) }
+            } else {
+                random_transform(&mut rng, 5.0)
+            };
+            let r = rot(t.rotation_rad);
+            let moved: Vec<Point2<f64>> = source.iter().map(|q| Point2::from(r * q.coords + t.translation_m)).collect();
+            let mut order: Vec<usize> = (0..n).collect();
+            let d2 = |k: usize| (moved[k].coords - t.translation_m / 2.0).norm_squared();
+            order.sort_by(|&a, &b| d2(a).total_cmp(&d2(b)).then(a.cmp(&b)));
+            let near = near_middle(&source, &t).expect("finite points");
+            let bits = |q: &Point2<f64>| (q.x.to_bits(), q.y.to_bits());
+            prop_assert_eq!(near.len, n.min(FIT_POINTS));
+            let want: Vec<_> = order[..near.len].iter().map(|&k| bits(&moved[k])).collect();
+            let got: Vec<_> = near.points[..near.len].iter().map(bits).collect();
+            prop_assert_eq!(got, want);
+        }
 
         /// Whatever comes in, ICP returns an error or a finite, sane match; it never panics.
         #[test]

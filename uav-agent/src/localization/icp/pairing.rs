@@ -71,7 +71,8 @@ pub(super) fn pair_into(reference: &[Point2<f64>], moved: &[Point2<f64>], out: &
 /// Each lane's nearest reference point to (`qx[l]`, `qy[l]`): its squared distance (+∞ with
 /// none) and the index of the first reference point of least distance, one block of lanes
 /// searched against every point ([`pair_into`]'s search, and the localization budget's check in
-/// `alignment`, which reads only the distances), into `best` and `at` (given as +∞ and 0).
+/// `alignment`, which reads only the distances), into `best` and `at` (given as +∞, and
+/// overwritten: 0 where no distance is below +∞).
 /// Written into the caller's arrays rather than returned as a pair: returned, the AVX2 build of
 /// the short ICP took 4.67 µs instead of 3.78 at 45 points (3.65 with this loop written out in
 /// `pair_into`; `cargo bench -p uav-agent --bench icp -- short`).
@@ -83,14 +84,19 @@ pub(super) fn block_nearest(
     best: &mut [f64; BLOCK],
     at: &mut [usize; BLOCK],
 ) {
+    // The index kept as a float, exact below 2^53, so that a lane's pick is one blend of
+    // vectors: kept as integers, the compiler tested the lanes one by one.
+    let mut found = [0.0; BLOCK];
     for (r, a) in reference.iter().enumerate() {
+        let rf = r as f64;
         for l in 0..BLOCK {
             let d2 = distance2(*a, qx[l], qy[l]);
             let closer = d2 < best[l];
             best[l] = if closer { d2 } else { best[l] };
-            at[l] = if closer { r } else { at[l] };
+            found[l] = if closer { rf } else { found[l] };
         }
     }
+    *at = found.map(|r| r as usize);
 }
 
 /// seed 000, eq. 3.17 squared: d² = ‖p − µ(p)‖², from reference point `a` to (`qx`, `qy`). The
