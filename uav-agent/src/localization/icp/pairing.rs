@@ -109,9 +109,12 @@ pub(super) fn distance2(a: Point2<f64>, qx: f64, qy: f64) -> f64 {
 }
 
 /// The order of a pairing (seed 000, Algorithm 3 `QuickSort(D)`): by distance, ties by source
-/// index. Squared distances are ≥ +0, so their bit patterns sort as `f64::total_cmp` does.
-pub(super) fn pair_order(q: &Pair) -> (u64, usize) {
-    (q.d2.to_bits(), q.s)
+/// index. Squared distances are ≥ +0, so their bit patterns sort as `f64::total_cmp` does. As
+/// one 128-bit number (the bits, then the index), compared without a branch: as a pair of
+/// integers, the short ICP took 2.85 and 2.83 µs against 2.64 and 2.76, alternated (`cargo bench
+/// -p uav-agent --bench icp -- short_45`).
+pub(super) fn pair_order(q: &Pair) -> u128 {
+    (u128::from(q.d2.to_bits()) << 64) | q.s as u128
 }
 
 /// Sorts the pairing `by_source` (in source order) into `out` by [`pair_order`]. When `hint` is
