@@ -1058,8 +1058,9 @@ pub(super) mod tests {
         #![proptest_config(config(256))]
 
         /// The points near the middle are those of a sort of every moved point by (distance² to
-        /// the middle, index), bit for bit and in that order: sets of up to three blocks, and
-        /// on a grid of whole metres, full of ties and repeated points.
+        /// the middle, index), bit for bit and in that order, padded with the last: sets of up
+        /// to four blocks, and on a grid of whole metres, full of ties and repeated points. A NaN
+        /// anywhere leaves none.
         #[test]
         fn prop_near_middle_is_the_sort_of_every_point(seed in any::<u64>(), n in 1usize..200, grid in any::<bool>()) {
             let mut rng = Rng(seed);
@@ -1085,6 +1086,12 @@ pub(super) mod tests {
             let want: Vec<_> = order[..near.len].iter().map(|&k| bits(&moved[k])).collect();
             let got: Vec<_> = near.points[..near.len].iter().map(bits).collect();
             prop_assert_eq!(got, want);
+            let last = bits(&near.points[near.len - 1]);
+            prop_assert!(near.points[near.len..].iter().all(|q| bits(q) == last), "padded with the last point");
+            // A point that is not finite, in any block, leaves no choice.
+            let mut bad = source.clone();
+            bad[(seed % n as u64) as usize].y = f64::NAN;
+            prop_assert!(near_middle(&bad, &t).is_none());
         }
 
         /// Whatever comes in, ICP returns an error or a finite, sane match; it never panics.
