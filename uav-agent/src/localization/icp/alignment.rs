@@ -254,8 +254,7 @@ fn degenerate(points: impl Iterator<Item = Point2<f64>> + Clone) -> bool {
 fn apply(t: &AgentFromNeighbour, source: &[Point2<f64>], moved: &mut Vec<Point2<f64>>) {
     let r = rot(t.rotation_rad);
     moved.clear();
-    // seed 000, eq. 3.12 form (tranSource): p_R = Rot(rotation_rad) · p_S + translation_m.
-    moved.extend(source.iter().map(|q| Point2::from(r * q.coords + t.translation_m)));
+    moved.extend(source.iter().map(|q| move_by(&r, &t.translation_m, *q)));
 }
 
 /// FRMSD outlier rejection on squared distances sorted ascending (seed 000, Algorithm 3): the
@@ -579,7 +578,8 @@ fn near_middle(source: &[Point2<f64>], t: &AgentFromNeighbour) -> Option<NearMid
 const MIDDLE_BLOCK: usize = 64;
 
 /// seed 000, eq. 3.12 form (tranSource): p_R = Rot(rotation_rad) · p_S + translation_m, as
-/// `r · q + t` with the rotation matrix `r`.
+/// `r · q + t` with the rotation matrix `r`. The one formula of every moved source point (the
+/// ICP's [`apply`] and the check's [`near_middle`]), so both give the same bits.
 #[inline(always)]
 fn move_by(r: &Matrix2<f64>, t: &Vector2<f64>, q: Point2<f64>) -> Point2<f64> {
     Point2::from(r * q.coords + t)
