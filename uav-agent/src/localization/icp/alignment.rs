@@ -176,30 +176,39 @@ impl Workspace {
 
 /// The FRMSD² weight table of [`Workspace::weights`] for `n_source` points and `lambda`.
 ///
-/// Each thread keeps the tables it made, by set size and λ, and hands out shared references to
-/// them: every ICP needs one, a crowd's short ICPs run by the hundred per step on sets of a few
-/// dozen sizes, and `powf` per entry was 2 % of an agent host's CPU at 100 UAVs (`perf`). The
-/// same calls on the same values, so the same bits.
+/// Each thread keeps the tables it made, one per set size (for the last λ asked at that size),
+/// and hands out shared references to them: every ICP needs one, a crowd's short ICPs run by
+/// the hundred per step on sets of a few dozen sizes, and `powf` per entry was 2 % of an agent
+/// host's CPU at 100 UAVs (`perf`). Looked up by size in a list rather than hashed: the
+/// localization budget's check asks for the table of its eight points dozens of times per agent
+/// and step, and a hashed map's lookup was a tenth of the check's time (`cargo bench -p
+/// uav-agent --bench icp -- fit_near_middle`). The same calls on the same values, so the same
+/// bits.
 fn frmsd_weights(n_source: usize, lambda: f64) -> Rc<[f64]> {
-    /// Tables by (set size, λ's bits).
-    type Tables = std::collections::HashMap<(usize, u64), Rc<[f64]>>;
+    /// Per set size, λ's bits and its table.
+    type Tables = Vec<Option<(u64, Rc<[f64]>)>>;
     thread_local! {
-        static TABLES: std::cell::RefCell<Tables> = std::cell::RefCell::new(Tables::new());
+        static TABLES: std::cell::RefCell<Tables> = const { std::cell::RefCell::new(Vec::new()) };
     }
     TABLES.with_borrow_mut(|tables| {
-        tables
-            .entry((n_source, lambda.to_bits()))
-            .or_insert_with(|| {
+        if tables.len() <= n_source {
+            tables.resize(n_source + 1, None);
+        }
+        match &tables[n_source] {
+            Some((bits, w)) if *bits == lambda.to_bits() => Rc::clone(w),
+            _ => {
                 let n = n_source as f64;
-                (1..=n_source)
+                let w: Rc<[f64]> = (1..=n_source)
                     .map(|i| {
                         let i = i as f64;
                         // seed 000, eq. 3.16 squared: FRMSD_i² = f^(−2λ) · (1/|D_f|) Σ d², f = i/|D|, |D_f| = i.
                         (i / n).powf(-2.0 * lambda) / i
                     })
-                    .collect()
-            })
-            .clone()
+                    .collect();
+                tables[n_source] = Some((lambda.to_bits(), Rc::clone(&w)));
+                w
+            }
+        }
     })
 }
 
@@ -498,32 +507,10 @@ pub fn fit_near_middle(
     // Squared distances are ≥ +0 or +∞ (a NaN reference point is never the nearest), so their
     // bit patterns sort as `f64::total_cmp` does.
     d2.sort_unstable_by_key(|d| d.to_bits());
-    match best_prefix(d2.iter().copied(), &fit_weights(near.len, p.lambda), k_min) {
+    match best_prefix(d2.iter().copied(), &frmsd_weights(near.len, p.lambda), k_min) {
         (0, _) => Err(NoEstimate::TooFewPoints),
         (_, f2) => Ok(f2.sqrt()),
     }
-}
-
-/// [`frmsd_weights`] for a check of `len` ≤ [`FIT_POINTS`] points, the first `len` entries
-/// (the rest unused), from a table per thread by `len` that holds the last λ's: the check runs
-/// dozens of times per agent and step, between ICPs whose tables are of other sizes, and the
-/// lookup in [`frmsd_weights`]'s map was a tenth of the check's time (`cargo bench -p uav-agent
-/// --bench icp -- fit_near_middle`). The same table, so the same bits.
-fn fit_weights(len: usize, lambda: f64) -> [f64; FIT_POINTS] {
-    type Table = [Option<(u64, [f64; FIT_POINTS])>; FIT_POINTS + 1];
-    thread_local! {
-        static TABLE: std::cell::RefCell<Table> = const { std::cell::RefCell::new([None; FIT_POINTS + 1]) };
-    }
-    debug_assert!(len <= FIT_POINTS, "a check of at most FIT_POINTS points");
-    TABLE.with_borrow_mut(|table| match table[len] {
-        Some((bits, w)) if bits == lambda.to_bits() => w,
-        _ => {
-            let mut w = [0.0; FIT_POINTS];
-            w[..len].copy_from_slice(&frmsd_weights(len, lambda));
-            table[len] = Some((lambda.to_bits(), w));
-            w
-        }
-    })
 }
 
 /// Up to [`FIT_POINTS`] source points moved by `t`, the nearest the middle first.
